@@ -1,0 +1,89 @@
+# poolreps — see README.md. `make reproduce` and `make check` are the two entry points.
+CC      ?= cc
+CFLAGS  ?= -O2 -g
+PREFIX  ?= /usr/local
+PYTHON  ?= $(shell for p in /usr/bin/python3 python3; do $$p -c 'import matplotlib' 2>/dev/null && { command -v $$p; break; }; done)
+OUT     ?= results
+
+VERSION := $(shell git describe --always --dirty --tags 2>/dev/null || cat VERSION 2>/dev/null || echo 0.1.0)
+WARN    := -std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes
+DEFS    := -D_POSIX_C_SOURCE=200809L -DPR_VERSION_STR='"$(VERSION)"'
+PKGS    := gsl nlopt
+ifeq ($(SAN),1)
+  CFLAGS += -O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
+  LDFLAGS += -fsanitize=address,undefined
+  BUILD := build/san
+else
+  BUILD := build/rel
+endif
+ALL_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc $(shell pkg-config --cflags $(PKGS)) $(CFLAGS) -MMD -MP
+LIBS    := $(shell pkg-config --libs $(PKGS)) -lcsv -linih -lpthread -lm
+
+LIB_SRC := $(filter-out src/main.c,$(wildcard src/*.c))
+LIB_OBJ := $(LIB_SRC:src/%.c=$(BUILD)/%.o)
+LIB     := $(BUILD)/libpoolreps.a
+TEST_SRC := $(wildcard tests/test_*.c)
+TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
+
+.PHONY: all lib check check-c check-py bench reproduce deps install clean fuzz valgrind
+
+all: poolreps
+
+lib: $(LIB)
+
+$(BUILD)/%.o: src/%.c | $(BUILD)
+	$(CC) $(ALL_CFLAGS) -c $< -o $@
+
+$(BUILD):
+	mkdir -p $(BUILD)/tests
+
+$(LIB): $(LIB_OBJ)
+	rm -f $@
+	ar rcs $@ $^
+
+$(BUILD)/poolreps: $(BUILD)/main.o $(LIB)
+	$(CC) $(LDFLAGS) $^ $(LIBS) -o $@
+
+poolreps: $(BUILD)/poolreps
+	cp $< $@
+
+$(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)
+	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(LIB) $(LIBS) -lcmocka -o $@
+
+check: check-c check-py
+
+check-c: $(TEST_BIN)
+	@fail=0; for t in $(TEST_BIN); do echo "== $$t"; $$t || fail=1; done; exit $$fail
+
+check-py: $(BUILD)/poolreps
+	LC_ALL=C POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q tests
+
+bench: all
+	@for b in scripts/bench_*.sh; do echo "== $$b"; CC="$(CC)" PYTHON="$(PYTHON)" sh $$b || exit 1; done
+
+FUZZ_SECONDS ?= 20
+fuzz:
+	sh scripts/fuzz.sh $(FUZZ_SECONDS)
+
+valgrind: $(BUILD)/poolreps
+	sh scripts/valgrind.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"
+
+deps:
+	sh scripts/install-deps.sh
+
+reproduce: deps
+	$(MAKE) all
+	sh scripts/reproduce.sh "$(OUT)" "$(PYTHON)" "$(QUICK)"
+
+install: all
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/poolreps/data \
+	  $(DESTDIR)$(PREFIX)/share/poolreps/scripts $(DESTDIR)$(PREFIX)/share/man/man1
+	install -m 755 poolreps $(DESTDIR)$(PREFIX)/bin/poolreps
+	install -m 644 data/*.ini $(DESTDIR)$(PREFIX)/share/poolreps/data
+	install -m 644 scripts/*.py scripts/*.sh $(DESTDIR)$(PREFIX)/share/poolreps/scripts
+	if [ -f docs/poolreps.1 ]; then install -m 644 docs/poolreps.1 $(DESTDIR)$(PREFIX)/share/man/man1; fi
+
+clean:
+	rm -rf build poolreps
+
+-include $(LIB_OBJ:.o=.d) $(BUILD)/main.d

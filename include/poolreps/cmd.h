@@ -1,0 +1,43 @@
+/* cmd.h — the component commands behind the CLI (SPEC.md §6).
+ * main.c parses the command line into pr_cmd_args and a pr_config, then
+ * calls one of these. They read and write CSV; they never print to stdout
+ * except CSV data when the output is "-", and never exit. */
+#ifndef POOLREPS_CMD_H
+#define POOLREPS_CMD_H
+
+#include "poolreps/common.h"
+#include "poolreps/config.h"
+
+typedef struct {
+	const char *command;   /* "run", "shoot", "forest", "reps", "policy", "merge" */
+	const char *input;     /* -i, NULL = stdin */
+	const char *output;    /* -o, NULL = stdout (a directory for run) */
+	int quiet;             /* -q */
+	/* shoot */
+	const char *trace;     /* --trace FILE */
+	/* forest */
+	const char *train, *test, *target, *weight, *leaves;
+	/* reps */
+	const char *ret, *features, *base, *summary;
+	double epsilon;        /* --epsilon, used when epsilon_set */
+	int epsilon_set;
+	/* policy */
+	const char *state, *action;
+	long sample;           /* --sample N, 0 = none */
+	/* merge: the input directories */
+	int ninputs;
+	char **inputs;
+	pr_progress progress;  /* set by main unless -q */
+	/* provenance */
+	int argc;
+	char **argv;
+} pr_cmd_args;
+
+int pr_cmd_run(const pr_config *cfg, const pr_cmd_args *a, char *err);
+int pr_cmd_shoot(const pr_config *cfg, const pr_cmd_args *a, char *err);
+int pr_cmd_forest(const pr_config *cfg, const pr_cmd_args *a, char *err);
+int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err);
+int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err);
+int pr_cmd_merge(const pr_config *cfg, const pr_cmd_args *a, char *err);
+
+#endif

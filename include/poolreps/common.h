@@ -1,0 +1,41 @@
+/* common.h — status codes and error-buffer helpers shared by every module.
+ *
+ * Library functions that can fail return an int status (PR_OK or a negative
+ * PR_E* code) and write a one-line message into a caller-owned buffer of
+ * PR_ERRLEN bytes. Constructors return NULL on failure and fill the buffer.
+ * The library never prints and never exits; only main() does.
+ */
+#ifndef POOLREPS_COMMON_H
+#define POOLREPS_COMMON_H
+
+#include <signal.h>
+#include <stddef.h>
+
+#define PR_ERRLEN 512
+
+enum {
+	PR_OK = 0,
+	PR_EINVAL = -1,   /* bad parameter or input value   -> exit 1 */
+	PR_EIO = -2,      /* file missing, unreadable, malformed CSV -> exit 2 */
+	PR_ENUM = -3,     /* numerical failure (solver, event limit) -> exit 3 */
+	PR_ENOMEM = -4,   /* allocation failed               -> exit 4 */
+	PR_EINTR = -5     /* interrupted by SIGINT/SIGTERM   -> exit 130 */
+};
+
+/* printf into err (may be NULL); returns status, so `return pr_err(...)` works. */
+int pr_err(char *err, int status, const char *fmt, ...)
+#if defined(__GNUC__)
+	__attribute__((format(printf, 3, 4)))
+#endif
+	;
+
+/* The exit code main() uses for a status (0, 1, 2, 3, 4 or 130). */
+int pr_exit_code(int status);
+
+/* The version string: git describe at build time, or the tarball version. */
+const char *pr_version(void);
+
+/* Set by the CLI's signal handler; long loops poll it and return PR_EINTR. */
+extern volatile sig_atomic_t pr_interrupted;
+
+#endif

@@ -1,0 +1,53 @@
+/* csvio.h — CSV in and out through libcsv, with line-numbered errors and
+ * atomic writes (temporary file renamed on success). */
+#ifndef POOLREPS_CSVIO_H
+#define POOLREPS_CSVIO_H
+
+#include "poolreps/common.h"
+
+/* A numeric table with a header row. Rows are stored row-major. */
+typedef struct pr_csv pr_csv;
+
+/* New empty table with ncols named columns (names are copied). */
+pr_csv *pr_csv_new(int ncols, const char *const *names, char *err);
+void pr_csv_free(pr_csv *t);
+
+/* Read path (NULL or "-" = stdin). The first row is the header; every other
+ * field must be a finite number. Errors name file, line and column:
+ * "in.csv:7: column 'vx': not a number: 'abc'". *out is owned by the caller. */
+int pr_csv_read(const char *path, pr_csv **out, char *err);
+
+int pr_csv_ncols(const pr_csv *t);
+long pr_csv_nrows(const pr_csv *t);
+const char *pr_csv_name(const pr_csv *t, int j);
+int pr_csv_find(const pr_csv *t, const char *name); /* column index or -1 */
+double pr_csv_get(const pr_csv *t, long i, int j);
+const double *pr_csv_row(const pr_csv *t, long i);
+/* The source line of data row i (1-based file line), for error messages. */
+long pr_csv_line(const pr_csv *t, long i);
+const char *pr_csv_path(const pr_csv *t); /* "<stdin>" for stdin */
+
+/* Append a row of ncols values; non-finite values are refused. */
+int pr_csv_add_row(pr_csv *t, const double *row, char *err);
+
+/* Resolve a column list: "a,b,c" or a prefix ending in '*' ("phi*").
+ * Fills cols (capacity maxcols) and returns the count, or a negative status. */
+int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, char *err);
+
+/* Write the table (NULL or "-" = stdout; otherwise atomically). */
+int pr_csv_write(const pr_csv *t, const char *path, char *err);
+
+/* Streaming writer for mixed text and number rows, "%.17g", C locale.
+ * Writes to "<path>.tmp.<pid>" and renames on pr_csvw_close. */
+typedef struct pr_csvw pr_csvw;
+pr_csvw *pr_csvw_open(const char *path, char *err); /* NULL or "-" = stdout */
+int pr_csvw_str(pr_csvw *w, const char *s);
+int pr_csvw_num(pr_csvw *w, double v);  /* PR_ENUM for NaN or inf: never written */
+int pr_csvw_int(pr_csvw *w, long v);
+int pr_csvw_endrow(pr_csvw *w);
+/* Flush, check for write errors, rename into place, free. */
+int pr_csvw_close(pr_csvw *w, char *err);
+/* Remove the temporary file and free (after an error). NULL is a no-op. */
+void pr_csvw_abort(pr_csvw *w);
+
+#endif

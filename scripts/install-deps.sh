@@ -1,0 +1,20 @@
+#!/bin/sh
+# Install the Debian 12 packages poolreps needs. As root it runs apt-get;
+# otherwise it prints the exact command and stops if anything is missing.
+set -e
+PKGS="build-essential pkg-config git libgsl-dev libnlopt-dev libcsv-dev libinih-dev \
+libcmocka-dev python3 python3-matplotlib python3-pytest python3-venv parallel valgrind clang"
+missing=""
+for p in $PKGS; do
+	dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
+done
+[ -z "$missing" ] && { echo "install-deps: all Debian packages present"; exit 0; }
+if [ "$(id -u)" = 0 ]; then
+	export DEBIAN_FRONTEND=noninteractive
+	apt-get update -qq
+	apt-get install -y -qq --no-install-recommends $missing
+else
+	echo "install-deps: missing Debian packages:$missing" >&2
+	echo "install-deps: run as root:  apt-get update && apt-get install -y$missing" >&2
+	exit 1
+fi

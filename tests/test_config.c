@@ -1,0 +1,191 @@
+/* test_config.c — parameter files, --set and validation. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "poolreps/config.h"
+
+static char path[64];
+
+static const char *write_ini(const char *text)
+{
+	FILE *fp;
+
+	snprintf(path, sizeof path, "/tmp/pr_test_config_%ld.ini", (long)getpid());
+	fp = fopen(path, "w");
+	assert_non_null(fp);
+	fputs(text, fp);
+	fclose(fp);
+	return path;
+}
+
+static int load(const char *text, pr_config *c, char *err)
+{
+	pr_config_init(c);
+	return pr_config_load(c, write_ini(text), err);
+}
+
+static void test_defaults_match_spec(void **state)
+{
+	pr_config c;
+
+	(void)state;
+	pr_config_init(&c);
+	assert_float_equal(c.table.length, 1.0, 0);
+	assert_float_equal(c.table.width, 0.5, 0);
+	assert_float_equal(c.table.ball_radius, 0.015, 0);
+	assert_float_equal(c.table.pocket_radius, 0.03, 0);
+	assert_float_equal(c.table.restitution, 0.8, 0);
+	assert_float_equal(c.table.friction, 0.25, 0);
+	assert_float_equal(c.table.stop_speed, 0.002, 0);
+	assert_int_equal(c.table.reward_balls, 1);
+	assert_int_equal(c.sim.mode, PR_SIM_EVENT);
+	assert_float_equal(c.sim.dt, 0.001, 0);
+	assert_float_equal(c.sim.max_time, 120, 0);
+	assert_int_equal(c.sim.max_events, 10000);
+	assert_int_equal(c.reward.ntargets, 2);
+	assert_int_equal(c.reward.targets[0], 2);
+	assert_int_equal(c.reward.targets[1], 5);
+	assert_float_equal(c.reward.miss_penalty, 10, 0);
+	assert_float_equal(c.reward.scratch_penalty, 0, 0);
+	assert_float_equal(c.expert.aim_speed, 0.4, 0);
+	assert_float_equal(c.expert.arrival_speed, 0.05, 0);
+	assert_float_equal(c.reps.epsilon, 0.5, 0);
+	assert_float_equal(c.policy.lambda, 1e-10, 0);
+	assert_int_equal(pr_config_validate(&c, NULL), PR_OK);
+}
+
+static void test_load_values(void **state)
+{
+	pr_config c;
+	char err[PR_ERRLEN];
+
+	(void)state;
+	assert_int_equal(load("; comment\n# another\n[table]\nfriction = 0.5 ; inline\r\n"
+	                      "[sim]\nmode = stepped\ndt=0.0005\n[reward]\ntargets = 0, 3\n"
+	                      "[start]\nreward_box = 0.05,0.15,-0.1,0.1\n", &c, err), PR_OK);
+	assert_float_equal(c.table.friction, 0.5, 0);
+	assert_int_equal(c.sim.mode, PR_SIM_STEPPED);
+	assert_float_equal(c.sim.dt, 0.0005, 0);
+	assert_int_equal(c.reward.ntargets, 2);
+	assert_int_equal(c.reward.targets[1], 3);
+	assert_float_equal(c.start.reward_box[1], 0.15, 0);
+}
+
+static void expect_error(const char *text, int status, const char *needle)
+{
+	pr_config c;
+	char err[PR_ERRLEN] = "";
+
+	assert_int_equal(load(text, &c, err), status);
+	if (!strstr(err, needle))
+		fail_msg("error '%s' lacks '%s'", err, needle);
+	assert_null(strchr(err, '\n'));
+}
+
+static void test_errors_name_line_and_key(void **state)
+{
+	(void)state;
+	expect_error("[table]\nfriction = 0.5\nfrictoin = 1\n", PR_EINVAL, ":3: table.frictoin: unknown key");
+	expect_error("[tabel]\nfriction = 0.5\n", PR_EINVAL, ":1: [tabel]: unknown section");
+	expect_error("[table]\n\nfriction = abc\n", PR_EINVAL, ":3: table.friction: not a finite number");
+	expect_error("[table]\nfriction = nan\n", PR_EINVAL, ":2: table.friction");
+	expect_error("[table]\nfriction = inf\n", PR_EINVAL, ":2: table.friction");
+	expect_error("[table]\nfriction = 1e999\n", PR_EINVAL, ":2: table.friction");
+	expect_error("[table]\nfriction = -1\n", PR_EINVAL, ":2: table.friction: -1 out of range");
+	expect_error("[forest]\ntrees = 1000000000000\n", PR_EINVAL, ":2: forest.trees");
+	expect_error("[forest]\ntrees = 3.5\n", PR_EINVAL, ":2: forest.trees: not an integer");
+	expect_error("[table]\nfriction = 0.3\nfriction = 0.4\n", PR_EINVAL,
+	             ":3: table.friction: duplicate key (first set on line 2)");
+	expect_error("friction = 0.3\n", PR_EINVAL, ":1: friction: key outside any [section]");
+	expect_error("[table]\njust some words\n", PR_EINVAL, ":2: syntax error");
+	expect_error("[sim]\nmode = fast\n", PR_EINVAL, ":2: sim.mode: 'fast' is not one of event|stepped");
+	expect_error("[reward]\ntargets = 2,7\n", PR_EINVAL, ":2: reward.targets");
+	expect_error("[start]\nreward_box = 0.1,0.05,0,0\n", PR_EINVAL, ":2: start.reward_box");
+}
+
+static void test_long_line_and_missing_file(void **state)
+{
+	pr_config c;
+	char err[PR_ERRLEN], *text = malloc(10000);
+
+	(void)state;
+	assert_non_null(text);
+	strcpy(text, "[table]\nfriction = 0.");
+	memset(text + strlen(text), '1', 8000);
+	strcpy(text + strlen("[table]\nfriction = 0.") + 8000, "\n");
+	expect_error(text, PR_EINVAL, ":2: line longer than");
+	free(text);
+	pr_config_init(&c);
+	assert_int_equal(pr_config_load(&c, "/nonexistent/x.ini", err), PR_EIO);
+	assert_non_null(strstr(err, "/nonexistent/x.ini: cannot open"));
+	assert_int_equal(pr_config_load(&c, "/tmp", err), PR_EIO);
+	assert_non_null(strstr(err, "is a directory"));
+}
+
+static void test_set_and_validate(void **state)
+{
+	pr_config c;
+	char err[PR_ERRLEN];
+
+	(void)state;
+	pr_config_init(&c);
+	assert_int_equal(pr_config_set(&c, "reps.epsilon=0.25", err), PR_OK);
+	assert_float_equal(c.reps.epsilon, 0.25, 0);
+	assert_int_equal(pr_config_set(&c, "reps.epsilon=0", err), PR_EINVAL);
+	assert_non_null(strstr(err, "--set: reps.epsilon"));
+	assert_int_equal(pr_config_set(&c, "reps.epsilonx=1", err), PR_EINVAL);
+	assert_int_equal(pr_config_set(&c, "noequals", err), PR_EINVAL);
+	assert_int_equal(pr_config_set(&c, "table.reward_balls=2", err), PR_OK);
+	assert_int_equal(pr_config_validate(&c, err), PR_EINVAL);
+	assert_non_null(strstr(err, "table.reward_balls"));
+	pr_config_init(&c);
+	assert_int_equal(pr_config_set(&c, "start.reward_box=0.4,0.6,0,0.1", err), PR_OK);
+	assert_int_equal(pr_config_validate(&c, err), PR_EINVAL);
+	assert_non_null(strstr(err, "start.reward_box"));
+}
+
+static void test_write_round_trip(void **state)
+{
+	pr_config a, b;
+	char err[PR_ERRLEN];
+	FILE *fp;
+
+	(void)state;
+	pr_config_init(&a);
+	assert_int_equal(pr_config_set(&a, "table.friction=0.123456789012345", err), PR_OK);
+	assert_int_equal(pr_config_set(&a, "policy.target=reward_state", err), PR_OK);
+	snprintf(path, sizeof path, "/tmp/pr_test_config_rt_%ld.ini", (long)getpid());
+	fp = fopen(path, "w");
+	assert_non_null(fp);
+	assert_int_equal(pr_config_write(&a, fp), PR_OK);
+	fclose(fp);
+	pr_config_init(&b);
+	assert_int_equal(pr_config_load(&b, path, err), PR_OK);
+	unlink(path);
+	assert_float_equal(b.table.friction, 0.123456789012345, 0);
+	assert_int_equal(b.policy.target, PR_TARGET_REWARD_STATE);
+	assert_memory_equal(&a.reward, &b.reward, sizeof a.reward);
+	assert_memory_equal(&a.start, &b.start, sizeof a.start);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_defaults_match_spec),
+		cmocka_unit_test(test_load_values),
+		cmocka_unit_test(test_errors_name_line_and_key),
+		cmocka_unit_test(test_long_line_and_missing_file),
+		cmocka_unit_test(test_set_and_validate),
+		cmocka_unit_test(test_write_round_trip),
+	};
+	int rc = cmocka_run_group_tests(tests, NULL, NULL);
+	unlink(path);
+	return rc;
+}
