@@ -25,7 +25,7 @@ LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
-.PHONY: all lib check check-c check-py bench reproduce deps install clean fuzz valgrind
+.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind
 
 all: poolreps
 
@@ -71,8 +71,12 @@ valgrind: $(BUILD)/poolreps
 deps:
 	sh scripts/install-deps.sh
 
+# a sub-make, so that PYTHON and pkg-config are looked up after deps installed them
 reproduce: deps
 	$(MAKE) all
+	$(MAKE) reproduce-run
+
+reproduce-run:
 	sh scripts/reproduce.sh "$(OUT)" "$(PYTHON)" "$(QUICK)"
 
 install: all

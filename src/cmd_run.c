@@ -29,6 +29,8 @@ static int mkdir_p(const char *dir, char *err)
 	char *p;
 	struct stat st;
 
+	if (!*dir)
+		return pr_err(err, PR_EINVAL, "output folder name is empty");
 	if (snprintf(buf, sizeof buf, "%s", dir) >= (int)sizeof buf)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
 	for (p = buf + 1; ; ++p) {
@@ -58,8 +60,8 @@ static void remove_tree(const char *dir)
 	while ((e = readdir(d))) {
 		if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
 			continue;
-		snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-		unlink(path);
+		if (snprintf(path, sizeof path, "%s/%s", dir, e->d_name) < (int)sizeof path)
+			unlink(path);
 	}
 	closedir(d);
 	rmdir(dir);
@@ -78,9 +80,10 @@ static int publish(const char *staging, const char *dir, char *err)
 	while (rc == PR_OK && (e = readdir(d))) {
 		if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
 			continue;
-		snprintf(from, sizeof from, "%s/%s", staging, e->d_name);
-		snprintf(to, sizeof to, "%s/%s", dir, e->d_name);
-		if (rename(from, to) != 0)
+		if (snprintf(from, sizeof from, "%s/%s", staging, e->d_name) >= (int)sizeof from ||
+		    snprintf(to, sizeof to, "%s/%s", dir, e->d_name) >= (int)sizeof to)
+			rc = pr_err(err, PR_EINVAL, "%.100s.../%.100s: path too long", dir, e->d_name);
+		else if (rename(from, to) != 0)
 			rc = pr_err(err, PR_EIO, "%s: cannot move into place: %s", to, strerror(errno));
 	}
 	closedir(d);
@@ -109,6 +112,27 @@ int pr_run_write_config(const pr_config *cfg, const char *dir, char *err)
 	return PR_OK;
 }
 
+/* Write arg so that a POSIX shell reads it back as one word: provenance's
+ * command line can be pasted to repeat the run. */
+static void write_shell_word(FILE *fp, const char *arg)
+{
+	const char *c;
+
+	if (*arg && strspn(arg, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+	                        "0123456789_@%+=:,./-") == strlen(arg)) {
+		fputs(arg, fp);
+		return;
+	}
+	fputc('\'', fp);
+	for (c = arg; *c; ++c) {
+		if (*c == '\'')
+			fputs("'\\''", fp);
+		else
+			fputc(*c, fp);
+	}
+	fputc('\'', fp);
+}
+
 int pr_run_write_provenance(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
                             double wall, char *err)
 {
@@ -129,8 +153,10 @@ int pr_run_write_provenance(const pr_config *cfg, const pr_cmd_args *a, const ch
 	getrusage(RUSAGE_SELF, &ru);
 	fprintf(fp, "version: %s\n", pr_version());
 	fprintf(fp, "command:");
-	for (i = 0; i < a->argc; ++i)
-		fprintf(fp, " %s", a->argv[i]);
+	for (i = 0; i < a->argc; ++i) {
+		fputc(' ', fp);
+		write_shell_word(fp, a->argv[i]);
+	}
 	fprintf(fp, "\nexperiment: %s\nseed: %lu\nrepetition: %d\nparameter_file: %s\n",
 	        cfg->run.name, cfg->run.seed, cfg->run.repetition,
 	        cfg->source[0] ? cfg->source : "(none)");
@@ -166,7 +192,8 @@ int pr_run_staged(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 {
 	char staging[PATHLEN];
 	struct timespec t0;
-	int rc;
+	struct stat st;
+	int rc, existed = stat(dir, &st) == 0;
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
 	if ((rc = mkdir_p(dir, err)))
@@ -177,14 +204,22 @@ int pr_run_staged(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	if (mkdir(staging, 0777) != 0)
 		return pr_err(err, PR_EIO, "%s: cannot create folder: %s", staging, strerror(errno));
 	rc = work(cfg, staging, a, err);
-	if (rc == PR_OK && pr_interrupted)
-		rc = pr_err(err, PR_EINTR, "interrupted: %s left unchanged", dir);
 	if (rc == PR_OK)
 		rc = pr_run_write_config(cfg, staging, err);
 	if (rc == PR_OK)
 		rc = pr_run_write_provenance(cfg, a, staging, seconds_since(&t0), err);
-	if (rc != PR_OK) {
+	if (rc != PR_OK || pr_interrupted) {
 		remove_tree(staging);
+		/* a failed run leaves no trace: drop the folder if we made it (and it is empty) */
+		if (!existed)
+			rmdir(dir);
+		/* after a signal every failure is its echo (a fit cut short may report
+		 * itself as a numerical failure): say what the user is left with */
+		if (pr_interrupted)
+			rc = pr_err(err, PR_EINTR, existed ?
+			            "interrupted: no output written; partial files removed, %s left as it was" :
+			            "interrupted: no output written; partial files and the new folder %s removed",
+			            dir);
 		return rc;
 	}
 	return publish(staging, dir, err);
@@ -208,9 +243,9 @@ int pr_cmd_run(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	char dir[PATHLEN];
 
-	if (a->output)
-		snprintf(dir, sizeof dir, "%s", a->output);
-	else
+	if (a->output && snprintf(dir, sizeof dir, "%s", a->output) >= (int)sizeof dir)
+		return pr_err(err, PR_EINVAL, "%.100s...: path too long", a->output);
+	if (!a->output)
 		snprintf(dir, sizeof dir, "results/%s", cfg->run.name);
 	return pr_run_staged(cfg, a, dir, run_work, err);
 }
@@ -294,7 +329,8 @@ static int merge_csv(const pr_cmd_args *a, const char *name, const char *outdir,
 		fclose(fp);
 	}
 	if (rc == PR_OK) {
-		qsort(rows, (size_t)n, sizeof *rows, cmp_row);
+		if (n > 0)
+			qsort(rows, (size_t)n, sizeof *rows, cmp_row);
 		for (i = 1; i < n; ++i)
 			if (rows[i].rep == rows[i - 1].rep && rows[i].src != rows[i - 1].src) {
 				rc = pr_err(err, PR_EINVAL, "%s/%s and %s/%s both hold repetition %ld",

@@ -15,10 +15,11 @@
 
 #include <ini.h>
 
+#include "poolreps/bench.h"
 #include "poolreps/config.h"
 #include "csvio_priv.h"
 
-enum { K_DOUBLE, K_INT, K_LONG, K_ULONG, K_ENUM, K_NAME, K_POCKETS, K_BOX, K_LIST };
+enum { K_DOUBLE, K_INT, K_LONG, K_ULONG, K_ENUM, K_NAME, K_NAMES, K_POCKETS, K_BOX, K_LIST };
 
 typedef struct {
 	const char *section, *key;
@@ -56,6 +57,7 @@ static const key_def keys[] = {
 	{"sim", "dt", K_DOUBLE, F(sim.dt), 1e-7, 0.1, 0, "s", "stepped mode: time step"},
 	{"sim", "max_time", K_DOUBLE, F(sim.max_time), 0, 1e6, 1, "s", "simulated time limit of a shot"},
 	{"sim", "max_events", K_LONG, F(sim.max_events), 1, 1e9, 0, "", "event mode: events before a shot fails"},
+	{"sim", "trace_dt", K_DOUBLE, F(sim.trace_dt), 0, 10, 1, "s", "stepped mode: trace interval (--trace)"},
 	{"sim", "max_speed", K_DOUBLE, F(sim.max_speed), 0, 1000, 1, "m/s", "faster actions are refused"},
 
 	{"reward", "targets", K_POCKETS, F(reward.targets), 0, 5, 0, "", "target pocket ids, e.g. 2,5"},
@@ -73,6 +75,29 @@ static const key_def keys[] = {
 	 "ghost-ball expert: reward ball speed at the aim point"},
 	{"exp1", "aim_speed", K_DOUBLE, F(expert.aim_speed), 0, 100, 1, "m/s",
 	 "Experiment 1 data policy: cue speed aimed at the reward ball"},
+	{"exp1", "train", K_INT, F(exp1.train), 1, 10000000, 0, "", "training shots"},
+	{"exp1", "test", K_INT, F(exp1.test), 1, 10000000, 0, "", "test shots"},
+	{"exp1", "subset", K_INT, F(exp1.subset), 1, 10000000, 0, "", "training samples per forest"},
+	{"exp1", "test_subset", K_INT, F(exp1.test_subset), 1, 10000000, 0, "", "test samples per forest"},
+	{"exp1", "n_min_list", K_LIST, F(exp1.n_min_list), 1, 10000000, 0, "", "n_min sweep (Fig. 7.4a)"},
+	{"exp1", "trees_list", K_LIST, F(exp1.trees_list), 1, 10000, 0, "", "M sweep (Fig. 7.4b)"},
+	{"exp1", "cuts_list", K_LIST, F(exp1.cuts_list), 1, 10000, 0, "", "K sweep (Fig. 7.4c)"},
+	{"exp1", "map_grid", K_INT, F(exp1.map_grid), 2, 1000, 0, "", "reward map grid points per side"},
+
+	{"exp2", "sizes", K_LIST, F(exp2.sizes), 2, 10000000, 0, "", "training-set sizes"},
+	{"exp2", "test", K_INT, F(exp2.test), 1, 10000000, 0, "", "test shots per size and policy"},
+	{"exp2", "n_min_frac", K_DOUBLE, F(exp2.n_min_frac), 0, 1, 1, "", "tree policies: n_min = frac * size"},
+
+	{"exp3", "init_samples", K_INT, F(exp3.init_samples), 1, 10000000, 0, "", "samples of the initial policy"},
+	{"exp3", "init_std", K_DOUBLE, F(exp3.init_std), 0, 100, 1, "m/s", "initial policy N(0, init_std^2 I)"},
+	{"exp3", "iterations", K_INT, F(exp3.iterations), 0, 1000000, 0, "", "REPS iterations"},
+	{"exp3", "samples", K_INT, F(exp3.samples), 1, 10000000, 0, "", "new samples per iteration"},
+	{"exp3", "window", K_INT, F(exp3.window), 1, 10000000, 0, "", "latest samples REPS reuses"},
+	{"exp3", "policies", K_NAMES, F(exp3.policies), 0, 0, 0,
+	 "nrvr_rs|rvr_rs|nrvr_a|rvr_a|baseline|handcrafted", "comma list of variants to run"},
+	{"exp3", "baseline_n_min", K_INT, F(exp3.baseline_n_min), 1, 100000000, 0, "", "n_min of the baseline policy"},
+	{"exp3", "final_episodes", K_INT, F(exp3.final_episodes), 1, 100000000, 0, "",
+	 "Figs. 7.8-7.10: each run's last episodes"},
 
 	{"forest", "trees", K_INT, F(forest.trees), 1, 10000, 0, "", "M trees"},
 	{"forest", "cuts", K_INT, F(forest.cuts), 1, 10000, 0, "", "K random tests per node"},
@@ -93,17 +118,33 @@ static const key_def keys[] = {
 
 	{"reps", "epsilon", K_DOUBLE, F(reps.epsilon), 0, 1e6, 1, "nats", "KL bound (eq. 3.2)"},
 	{"reps", "ridge", K_DOUBLE, F(reps.ridge), 0, 1e12, 0, "", "ridge on theta in the dual"},
+	{"reps", "eta_min", K_DOUBLE, F(reps.eta_min), 0, 1, 1, "",
+	 "lower bound on eta in return standard deviations (below 1)"},
 	{"reps", "max_iter", K_INT, F(reps.max_iter), 1, 10000000, 0, "", "dual solver evaluations"},
 
 	{"policy", "target", K_ENUM, F(policy.target), 0, 0, 0, "action|reward_state", "policy forest output"},
 	{"policy", "lambda", K_DOUBLE, F(policy.lambda), 0, 1e12, 0, "", "ridge of eq. 6.6"},
-	{"policy", "min_std", K_DOUBLE, F(policy.min_std), 0, 100, 0, "m/s", "floor on action standard deviations"},
+	{"policy", "min_std", K_DOUBLE, F(policy.min_std), 0, 100, 1, "m/s", "floor on action standard deviations"},
 	{"policy", "trees", K_INT, F(policy.forest.trees), 1, 10000, 0, "", "policy forest: M"},
 	{"policy", "cuts", K_INT, F(policy.forest.cuts), 1, 10000, 0, "", "policy forest: K"},
 	{"policy", "n_min", K_INT, F(policy.forest.n_min), 1, 100000000, 0, "", "policy forest: n_min"},
 	{"policy", "n_c", K_INT, F(policy.forest.n_c), 1, 100000000, 0, "", "policy forest: n_c"},
 	{"policy", "score", K_ENUM, F(policy.forest.score), 0, 0, 0, "rvr|nrvr", "policy forest score"},
 	{"policy", "replacement", K_ENUM, F(policy.forest.with_replacement), 0, 0, 0, "without|with", "policy forest cut draws"},
+	{"policy", "cov", K_ENUM, F(policy.cov), 0, 0, 0, "query|residual",
+	 "eq. 6.8 centred on the query mean (as printed) or on each sample's own fit"},
+
+	/* defaults of bench.* depend on experiment.name (pr_bench_opts_init) */
+	{"bench", "iterations", K_INT, F(bench.iterations), 1, 1000000, 0, "", "REPS iterations"},
+	{"bench", "samples", K_INT, F(bench.samples), 2, 10000000, 0, "", "episodes per iteration"},
+	{"bench", "dims", K_INT, F(bench.dims), 1, 10000, 0, "", "action (parameter) dimensions"},
+	{"bench", "context_dims", K_INT, F(bench.context_dims), 1, 100, 0, "", "context dimensions k"},
+	{"bench", "init_std", K_DOUBLE, F(bench.init_std), 0, 1e6, 1, "", "initial policy standard deviation"},
+	{"bench", "min_std", K_DOUBLE, F(bench.min_std), 0, 1e6, 1, "", "floor on policy standard deviations"},
+	{"bench", "value_degree", K_INT, F(bench.value_degree), 1, 2, 0, "",
+	 "REPS value features: 1 = s, 2 = s and its products"},
+	{"bench", "test_contexts", K_INT, F(bench.test_contexts), 1, 1000000, 0, "",
+	 "fixed contexts scoring the policy mean"},
 };
 
 #define NKEYS (sizeof keys / sizeof keys[0])
@@ -122,6 +163,30 @@ void pr_config_init(pr_config *c)
 	pr_policy_opts_init(&c->policy);
 	pr_forest_opts_init(&c->value);
 	snprintf(c->value_features, sizeof c->value_features, "leaves");
+	pr_exp1_opts_init(&c->exp1);
+	pr_exp2_opts_init(&c->exp2);
+	pr_exp3_opts_init(&c->exp3);
+	pr_bench_opts_init(&c->bench, c->run.name);
+}
+
+static int is_bench(const key_def *k);
+
+/* bench.* defaults follow experiment.name; keys set explicitly stay. */
+static void bench_defaults(pr_config *c)
+{
+	pr_config d;
+	unsigned bit = 1;
+	size_t i;
+
+	pr_bench_opts_init(&d.bench, c->run.name);
+	for (i = 0; i < NKEYS; ++i) {
+		if (!is_bench(&keys[i]))
+			continue;
+		if (!(c->bench_given & bit))
+			memcpy((char *)c + keys[i].off, (const char *)&d + keys[i].off,
+			       keys[i].type == K_INT ? sizeof(int) : sizeof(double));
+		bit <<= 1;
+	}
 }
 
 void pr_run_opts_init(pr_run_opts *o)
@@ -174,6 +239,23 @@ static int choice_index(const char *choices, const char *value)
 	return -1;
 }
 
+static int is_bench(const key_def *k)
+{
+	return strcmp(k->section, "bench") == 0;
+}
+
+/* Bit of a bench.* key in pr_config.bench_given. */
+static unsigned bench_bit(const key_def *k)
+{
+	unsigned bit = 1;
+	size_t i;
+
+	for (i = 0; i < NKEYS && &keys[i] != k; ++i)
+		if (is_bench(&keys[i]))
+			bit <<= 1;
+	return bit;
+}
+
 static int in_range(const key_def *k, double v)
 {
 	return (k->lo_open ? v > k->lo : v >= k->lo) && v <= k->hi;
@@ -210,7 +292,24 @@ static int parse_numbers(const char *s, double *v, int cap)
 	}
 }
 
+static char *trim(char *s);
+
+static int set_value_raw(pr_config *c, const key_def *k, const char *value, const char *where, char *err);
+
 static int set_value(pr_config *c, const key_def *k, const char *value, const char *where, char *err)
+{
+	int rc = set_value_raw(c, k, value, where, err);
+
+	if (rc)
+		return rc;
+	if (is_bench(k))
+		c->bench_given |= bench_bit(k);
+	else if (k->off == F(run.name))
+		bench_defaults(c);
+	return PR_OK;
+}
+
+static int set_value_raw(pr_config *c, const key_def *k, const char *value, const char *where, char *err)
 {
 	char *base = (char *)c + k->off;
 	double v, list[PR_LIST_MAX];
@@ -260,6 +359,22 @@ static int set_value(pr_config *c, const key_def *k, const char *value, const ch
 			              where, k->section, k->key, value, k->unit);
 		snprintf(base, 32, "%s", value);
 		return PR_OK;
+	case K_NAMES: {
+		char item[64];
+		const char *p = value;
+		if (strlen(value) >= 128)
+			return pr_err(err, PR_EINVAL, "%s%s.%s: list too long", where, k->section, k->key);
+		do {
+			size_t len = strcspn(p, ",");
+			snprintf(item, sizeof item, "%.*s", (int)(len < 63 ? len : 63), p);
+			if (choice_index(k->unit, trim(item)) < 0)
+				return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' is not one of %s",
+				              where, k->section, k->key, trim(item), k->unit);
+			p += len;
+		} while (*p++ == ',');
+		snprintf(base, 128, "%s", value);
+		return PR_OK;
+	}
 	case K_POCKETS: {
 		pr_reward_opts *r = &c->reward;
 		n = parse_numbers(value, list, PR_SIM_POCKETS);
@@ -357,6 +472,14 @@ static char *read_line(char *str, int num, void *stream)
 		                   L->path, L->line);
 		return NULL;
 	}
+	/* binary junk, and a control character would break the one-line message */
+	for (s = L->buf; *s && strcmp(s, "\n") != 0 && strcmp(s, "\r\n") != 0 && strcmp(s, "\r") != 0; ++s) {
+		if (((unsigned char)*s < 0x20 && *s != '\t') || *s == 0x7f) {
+			L->status = pr_err(L->err, PR_EINVAL, "%s:%ld: control character 0x%02x in parameter file",
+			                   L->path, L->line, (unsigned)(unsigned char)*s);
+			return NULL;
+		}
+	}
 	s = trim(L->buf);
 	if (*s == '[') {
 		char *e = strchr(s, ']');
@@ -381,15 +504,19 @@ static char *read_line(char *str, int num, void *stream)
 	return str;
 }
 
-static int on_pair(void *user, const char *section, const char *name, const char *value)
+static int on_pair(void *user, const char *section_raw, const char *name, const char *value)
 {
 	loader *L = user;
-	char where[320];
+	char where[320], buf[64];
+	const char *section;
 	const key_def *k;
 	size_t i;
 
 	if (L->status)
 		return 0;
+	/* inih keeps the blanks of "[ table ]"; read_line accepted it trimmed */
+	snprintf(buf, sizeof buf, "%s", section_raw);
+	section = trim(buf);
 	snprintf(where, sizeof where, "%s:%ld: ", L->path, L->line);
 	if (!*section) {
 		L->status = pr_err(L->err, PR_EINVAL, "%s%s: key outside any [section]", where, name);
@@ -431,7 +558,9 @@ int pr_config_load(pr_config *c, const char *path, char *err)
 	}
 	ini_allow_multiline = false;
 	ini_stop_on_first_error = true;
-	ini_use_stack = false;
+	/* Debian's libinih: a stack line buffer of ini_max_line bytes; the heap
+	 * buffer without realloc would stay at 200 bytes */
+	ini_use_stack = true;
 	ini_allow_realloc = false;
 	ini_max_line = 4096;
 	rc = ini_parse_stream(read_line, &L, on_pair, &L);
@@ -448,6 +577,8 @@ int pr_config_load(pr_config *c, const char *path, char *err)
 		              path, rc);
 	if (rc < 0)
 		return pr_err(err, PR_EIO, "%s: cannot read parameter file", path);
+	if (!memchr(L.seen, 1, sizeof L.seen))
+		return pr_err(err, PR_EINVAL, "%s: no parameters: the file sets no key (empty or truncated?)", path);
 	snprintf(c->source, sizeof c->source, "%s", path);
 	return PR_OK;
 }
@@ -459,6 +590,11 @@ int pr_config_set(pr_config *c, const char *assignment, char *err)
 	const key_def *k;
 	size_t n;
 
+	/* the messages quote the argument: keep them one line */
+	for (n = 0; assignment[n]; ++n)
+		if (((unsigned char)assignment[n] < 0x20 && assignment[n] != '\t') || assignment[n] == 0x7f)
+			return pr_err(err, PR_EINVAL, "--set %.*s: control character 0x%02x",
+			              (int)(n < 80 ? n : 80), assignment, (unsigned)(unsigned char)assignment[n]);
 	if (!eq || !dot || dot > eq || dot == assignment)
 		return pr_err(err, PR_EINVAL, "--set %.80s: expected section.key=value", assignment);
 	n = (size_t)(dot - assignment);
@@ -503,6 +639,10 @@ int pr_config_validate(const pr_config *c, char *err)
 		return rc;
 	if (c->sim.mode == PR_SIM_STEPPED && c->sim.dt >= c->sim.max_time)
 		return pr_err(err, PR_EINVAL, "%s: sim.dt: must be smaller than sim.max_time", src);
+	/* resource limit, refused up front: past 1e9 steps one shot runs for minutes to days */
+	if (c->sim.mode == PR_SIM_STEPPED && c->sim.max_time / c->sim.dt > 1e9)
+		return pr_err(err, PR_EINVAL, "%s: sim.dt: sim.max_time / sim.dt = %.3g steps per shot, "
+		              "at most 1e9", src, c->sim.max_time / c->sim.dt);
 	if (c->run.repetition >= c->run.repetitions)
 		return pr_err(err, PR_EINVAL, "%s: experiment.repetition: %d, but there are only %d repetitions",
 		              src, c->run.repetition, c->run.repetitions);
@@ -534,7 +674,8 @@ static void write_value(const pr_config *c, const key_def *k, FILE *fp)
 			fprintf(fp, "%.*s", (int)strcspn(p, "|"), p);
 		break;
 	}
-	case K_NAME: fputs(base, fp); break;
+	case K_NAME:
+	case K_NAMES: fputs(base, fp); break;
 	case K_POCKETS:
 		for (i = 0; i < c->reward.ntargets; ++i)
 			fprintf(fp, "%s%d", i ? "," : "", c->reward.targets[i]);
@@ -587,7 +728,7 @@ void pr_config_help(FILE *fp)
 		snprintf(name, sizeof name, "%s.%s", k->section, k->key);
 		fprintf(fp, "  %-26s = ", name);
 		write_value(&c, k, fp);
-		if (k->type == K_ENUM || k->type == K_NAME) {
+		if (k->type == K_ENUM || k->type == K_NAME || k->type == K_NAMES) {
 			fprintf(fp, "  {%s}", k->unit);
 		} else if (k->type != K_POCKETS && k->type != K_BOX) {
 			pr_csv_format_double(k->lo, lo, sizeof lo);

@@ -134,9 +134,28 @@ int pr_csv_parse_double(const char *s, double *v)
 	*v = strtod(s, &end);
 	while (*end == ' ' || *end == '\t' || *end == '\r')
 		++end;
-	if (end == s || *end || errno == ERANGE || !isfinite(*v))
+	/* ERANGE also flags subnormal results, which are exact enough to keep
+	 * (the writer may print them); only overflow and underflow to 0 fail */
+	if (end == s || *end || !isfinite(*v) || (errno == ERANGE && *v == 0))
 		return PR_EINVAL;
 	return PR_OK;
+}
+
+/* Control characters in a quoted field would break a one-line error message:
+ * header names may not hold them, and rejected values show them as '?'. */
+static int has_control(const char *s)
+{
+	for (; *s; ++s)
+		if ((unsigned char)*s < 0x20 || *s == 0x7f)
+			return 1;
+	return 0;
+}
+
+static void visible(char *s)
+{
+	for (; *s; ++s)
+		if ((unsigned char)*s < 0x20 || *s == 0x7f)
+			*s = '?';
 }
 
 /* State shared with the libcsv callbacks. */
@@ -201,6 +220,7 @@ static void on_field(void *s, size_t len, void *data)
 		return;
 	}
 	if (pr_csv_parse_double(buf, &v)) {
+		visible(buf);
 		r->status = pr_err(r->err, PR_EIO, "%s:%ld: column '%s': not a finite number: '%.40s'",
 		                   r->path, r->line, r->t->names[r->nfield], buf);
 		return;
@@ -220,6 +240,9 @@ static int start_table(reader *r)
 			h[--n] = '\0';
 		if (!n)
 			return pr_err(r->err, PR_EIO, "%s:%ld: header column %d is empty",
+			              r->path, r->line, j + 1);
+		if (has_control(h))
+			return pr_err(r->err, PR_EIO, "%s:%ld: header column %d contains a control character",
 			              r->path, r->line, j + 1);
 		for (k = 0; k < j; ++k)
 			if (strcmp(r->hdr[k], h) == 0)
@@ -278,26 +301,34 @@ int pr_csv_read(const char *path, pr_csv **out, char *err)
 			fclose(fp);
 		return pr_err(err, PR_EIO, "%s: is a directory, not a CSV file", r.path);
 	}
-	if (csv_init(&p, CSV_APPEND_NULL) != 0) {
+	/* strict: a stray quote or an unterminated quoted field is an error, not data */
+	if (csv_init(&p, CSV_APPEND_NULL | CSV_STRICT | CSV_STRICT_FINI) != 0) {
 		if (!std)
 			fclose(fp);
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	}
 	while (!r.status && (len = getline(&line, &cap, fp)) != -1) {
+		char *s = line;
 		r.line++;
 		if (len > MAX_LINE) {
 			r.status = pr_err(err, PR_EIO, "%s:%ld: line longer than %ld bytes",
 			                  r.path, r.line, MAX_LINE);
 			break;
 		}
-		if (csv_parse(&p, line, (size_t)len, on_field, on_row, &r) != (size_t)len && !r.status)
+		/* a UTF-8 byte-order mark (spreadsheet exports) is not part of the header */
+		if (r.line == 1 && len >= 3 && memcmp(s, "\xEF\xBB\xBF", 3) == 0) {
+			s += 3;
+			len -= 3;
+		}
+		if (csv_parse(&p, s, (size_t)len, on_field, on_row, &r) != (size_t)len && !r.status)
 			r.status = pr_err(err, PR_EIO, "%s:%ld: malformed CSV: %s", r.path, r.line,
 			                  csv_strerror(csv_error(&p)));
 	}
 	if (!r.status && ferror(fp))
 		r.status = pr_err(err, PR_EIO, "%s: read error: %s", r.path, strerror(errno));
-	if (!r.status)
-		csv_fini(&p, on_field, on_row, &r);
+	if (!r.status && csv_fini(&p, on_field, on_row, &r) != 0 && !r.status)
+		r.status = pr_err(err, PR_EIO, "%s:%ld: malformed CSV: unterminated quoted field",
+		                  r.path, r.line);
 	if (!r.status && !r.header_done)
 		r.status = pr_err(err, PR_EIO, "%s: empty file: no header row", r.path);
 	csv_free(&p);
@@ -390,6 +421,17 @@ static void track(const char *tmp, int add)
 	}
 }
 
+/* 1 if tmp belongs to a writer still open (two outputs named alike). */
+static int tracked(const char *tmp)
+{
+	int i;
+
+	for (i = 0; i < MAX_OPEN; ++i)
+		if (open_tmp[i][0] && strcmp(open_tmp[i], tmp) == 0)
+			return 1;
+	return 0;
+}
+
 int pr_csvw_cleanup(void)
 {
 	int i, n = 0;
@@ -425,6 +467,11 @@ pr_csvw *pr_csvw_open(const char *path, char *err)
 	}
 	snprintf(w->path, sizeof w->path, "%s", path);
 	snprintf(w->tmp, sizeof w->tmp, "%s.tmp.%ld", path, (long)getpid());
+	if (tracked(w->tmp)) {
+		pr_err(err, PR_EINVAL, "%s: named twice as an output", path);
+		free(w);
+		return NULL;
+	}
 	w->fp = fopen(w->tmp, "wb");
 	if (!w->fp) {
 		pr_err(err, PR_EIO, "%s: cannot write: %s", path, strerror(errno));

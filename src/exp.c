@@ -1,14 +1,27 @@
 /* exp.c — the experiment registry and per-repetition random streams. */
 #include <string.h>
 
+#include "poolreps/bench.h"
 #include "poolreps/config.h"
+#include "poolreps/figures.h"
 #include "poolreps/exp.h"
+#include "exp_priv.h"
+
+/* The simulator figures have no repetitions and no progress to report. */
+static int figures_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err)
+{
+	(void)prog;
+	return pr_exp_figures(cfg, dir, err);
+}
 
 static const pr_experiment experiments[] = {
-	{"figures", pr_exp_figures_run, NULL},
-	{"quadratic", pr_exp_benchmark_run, NULL},
-	{"sphere", pr_exp_benchmark_run, NULL},
-	{"rosenbrock", pr_exp_benchmark_run, NULL},
+	{"figures", figures_run, NULL},
+	{"exp1", pr_exp1_run, pr_exp1_summarize},
+	{"exp2", pr_exp2_run, pr_exp2_summarize},
+	{"exp3", pr_exp3_run, pr_exp3_summarize},
+	{"quadratic", pr_exp_benchmark_run, pr_exp_benchmark_summarize},
+	{"sphere", pr_exp_benchmark_run, pr_exp_benchmark_summarize},
+	{"rosenbrock", pr_exp_benchmark_run, pr_exp_benchmark_summarize},
 };
 
 const pr_experiment *pr_exp_find(const char *name)

@@ -70,11 +70,15 @@ static const command commands[] = {
 	 "              [--summary FILE] [-i IN.csv] [-o OUT.csv]\n"
 	 "  REPS weights p for every input row; LIST is a comma list of columns or a\n"
 	 "  prefix ending in '*'. --summary writes eta,dual,kl,ess,bound."},
-	{"policy", "train,state,action,weight,sample", pr_cmd_policy,
+	{"policy", "train,state,action,weight,sample,target", pr_cmd_policy,
 	 "poolreps policy --train FILE --state COLS --action COLS --weight COL [--sample N]\n"
-	 "                [-i STATES.csv] [-o OUT.csv] [--set policy.key=value]...\n"
+	 "                [--target COLS] [-i STATES.csv] [-o OUT.csv] [--set policy.key=value]...\n"
 	 "  Fit the tree-LWR Gaussian policy; write mean and covariance (and N samples)\n"
-	 "  for every state row of the input."},
+	 "  for every state row of the input. policy.target = reward_state needs --target\n"
+	 "  (the training rows' final reward-ball positions)."},
+	{"config", "", NULL,
+	 "poolreps config [-c FILE] [--set section.key=value]... [--seed N]\n"
+	 "  Write the effective configuration (defaults, file, overrides) as INI to stdout."},
 	{"merge", "", pr_cmd_merge,
 	 "poolreps merge -o DIR RUN_DIR...\n"
 	 "  Combine single-repetition or single-setting outputs into what one process\n"
@@ -132,6 +136,7 @@ static void on_signal(int sig)
 typedef struct {
 	struct timespec t0;
 	int tty, last_decile;
+	int open; /* a bar is drawn and its line not ended */
 	double last_draw;
 } progress_state;
 
@@ -154,7 +159,8 @@ static void on_progress(void *user, long done, long total, const char *what)
 		for (i = 0; i < 30; ++i)
 			fputc(i < fill ? '#' : ' ', stderr);
 		fprintf(stderr, "] %3.0f%% %s, %.0f s, ETA %.0f s  ", 100 * frac, what, el, eta);
-		if (done >= total)
+		p->open = done < total;
+		if (!p->open)
 			fputc('\n', stderr);
 	} else if (decile > p->last_decile) {
 		p->last_decile = decile;
@@ -185,7 +191,7 @@ int main(int argc, char **argv)
 	const command *cmd = NULL;
 	const char *config_path = NULL, *seed = NULL, *used[32];
 	char err[PR_ERRLEN], msg[PR_ERRLEN + 64];
-	char **sets;
+	char **orig, **sets;
 	int nsets = 0, nused = 0, help = 0, c, rc, i;
 	struct timespec t0, t1;
 	clock_t c0 = clock();
@@ -196,11 +202,14 @@ int main(int argc, char **argv)
 	signal(SIGINT, on_signal);
 	signal(SIGTERM, on_signal);
 	memset(&a, 0, sizeof a);
-	a.argc = argc;
-	a.argv = argv;
-	sets = calloc((size_t)argc + 1, sizeof *sets);
-	if (!sets)
+	/* getopt_long permutes argv: provenance records the order as typed */
+	orig = calloc(2 * ((size_t)argc + 1), sizeof *orig);
+	if (!orig)
 		return fail("out of memory");
+	memcpy(orig, argv, (size_t)argc * sizeof *orig);
+	sets = orig + argc + 1;
+	a.argc = argc;
+	a.argv = orig;
 	opterr = 0;
 	while ((c = getopt_long(argc, argv, ":c:i:o:qh", longopts, NULL)) != -1) {
 		const char *name = NULL;
@@ -210,7 +219,7 @@ int main(int argc, char **argv)
 		case 'o': a.output = optarg; break;
 		case 'q': a.quiet = 1; break;
 		case 'h': help = 1; break;
-		case O_VERSION: printf("poolreps %s\n", pr_version()); free(sets); return 0;
+		case O_VERSION: printf("poolreps %s\n", pr_version()); free(orig); return 0;
 		case O_SET: sets[nsets++] = optarg; break;
 		case O_SEED: seed = optarg; break;
 		case O_TRACE: a.trace = optarg; name = "trace"; break;
@@ -230,7 +239,7 @@ int main(int argc, char **argv)
 			a.epsilon = strtod(optarg, &end);
 			if (end == optarg || *end || !(a.epsilon > 0) || a.epsilon > 1e6) {
 				snprintf(msg, sizeof msg, "--epsilon %.40s: must be a number > 0 and <= 1e6", optarg);
-				free(sets);
+				free(orig);
 				return fail(msg);
 			}
 			a.epsilon_set = 1;
@@ -242,7 +251,7 @@ int main(int argc, char **argv)
 			a.sample = strtol(optarg, &end, 10);
 			if (end == optarg || *end || a.sample < 1 || a.sample > 1000000) {
 				snprintf(msg, sizeof msg, "--sample %.40s: must be an integer in 1..1000000", optarg);
-				free(sets);
+				free(orig);
 				return fail(msg);
 			}
 			name = "sample";
@@ -250,11 +259,15 @@ int main(int argc, char **argv)
 		}
 		case ':':
 			snprintf(msg, sizeof msg, "option %s needs a value (see poolreps --help)", argv[optind - 1]);
-			free(sets);
+			free(orig);
 			return fail(msg);
 		default:
-			snprintf(msg, sizeof msg, "unknown option %s (see poolreps --help)", argv[optind - 1]);
-			free(sets);
+			/* in a group such as -qZ, optind may not have moved past it yet */
+			if (optopt)
+				snprintf(msg, sizeof msg, "unknown option -%c (see poolreps --help)", optopt);
+			else
+				snprintf(msg, sizeof msg, "unknown option %s (see poolreps --help)", argv[optind - 1]);
+			free(orig);
 			return fail(msg);
 		}
 		if (name && nused < 32)
@@ -273,14 +286,14 @@ int main(int argc, char **argv)
 	}
 	if (help || !cmd) {
 		usage(help ? stdout : stderr, cmd);
-		free(sets);
+		free(orig);
 		return help ? 0 : 1;
 	}
 	if (cmd->fn == pr_cmd_run) {
 		if (optind < argc)
 			config_path = argv[optind++];
 		if (!config_path) {
-			free(sets);
+			free(orig);
 			return fail("run: no parameter file given (poolreps CONFIG)");
 		}
 	} else if (cmd->fn == pr_cmd_merge) {
@@ -290,14 +303,14 @@ int main(int argc, char **argv)
 	}
 	if (optind < argc) {
 		snprintf(msg, sizeof msg, "%s: unexpected argument '%.60s'", cmd->name, argv[optind]);
-		free(sets);
+		free(orig);
 		return fail(msg);
 	}
 	for (i = 0; i < nused; ++i) {
 		if (!option_allowed(cmd, used[i])) {
 			snprintf(msg, sizeof msg, "%s: option --%s does not apply (see poolreps %s --help)",
 			         cmd->name, used[i], cmd->name);
-			free(sets);
+			free(orig);
 			return fail(msg);
 		}
 	}
@@ -327,9 +340,19 @@ int main(int argc, char **argv)
 	}
 	if (rc == PR_OK)
 		rc = pr_config_validate(&cfg, err);
-	free(sets);
-	if (rc == PR_OK)
+	if (rc == PR_OK && !cmd->fn) {
+		rc = pr_config_write(&cfg, stdout);
+		if (rc == PR_OK && fflush(stdout))
+			rc = PR_EIO;
+		if (rc)
+			snprintf(err, sizeof err, "<stdout>: write error");
+	} else if (rc == PR_OK) {
 		rc = cmd->fn(&cfg, &a, err);
+	}
+	free(orig);
+	/* an error must not land at the end of an unfinished bar */
+	if (!a.quiet && prog.open)
+		fputc('\n', stderr);
 	if (rc != PR_OK) {
 		fprintf(stderr, "poolreps: %s\n", err);
 		return pr_exit_code(rc);

@@ -27,6 +27,11 @@ typedef struct pr_config {
 	pr_policy_opts policy;    /* policy.* */
 	pr_forest_opts value;     /* value.*: forests for REPS value features */
 	char value_features[16];  /* value.features: leaves | samples */
+	pr_exp1_opts exp1;        /* exp1.* */
+	pr_exp2_opts exp2;        /* exp2.* */
+	pr_exp3_opts exp3;        /* exp3.* */
+	pr_bench_opts bench;      /* bench.*: defaults follow experiment.name */
+	unsigned bench_given;     /* bench.* keys set explicitly (bit per key) */
 	char source[256];         /* the parameter file, or "" */
 } pr_config;
 

@@ -23,6 +23,54 @@ typedef struct {
 } pr_run_opts;
 void pr_run_opts_init(pr_run_opts *o);
 
+/* Experiment 1 (thesis 7.3, keys exp1.*). Forests per setting =
+ * experiment.repetitions; repetition k trains on training rows
+ * [k*subset, (k+1)*subset) and tests on test rows [k*test_subset, ...). */
+typedef struct {
+	int train, test;       /* shots simulated for training and testing */
+	int subset;            /* training samples per forest */
+	int test_subset;       /* test samples per forest */
+	pr_list n_min_list;    /* Fig. 7.4a sweep (K, M at forest.* values) */
+	pr_list trees_list;    /* Fig. 7.4b sweep */
+	pr_list cuts_list;     /* Fig. 7.4c sweep */
+	int map_grid;          /* predicted-vs-simulated reward map: grid points per side */
+} pr_exp1_opts;
+void pr_exp1_opts_init(pr_exp1_opts *o);
+
+/* Experiment 2 (thesis 7.4, keys exp2.*). */
+typedef struct {
+	pr_list sizes;         /* training-set sizes */
+	int test;              /* test shots per size and policy */
+	double n_min_frac;     /* tree policies: n_min = frac * training size */
+} pr_exp2_opts;
+void pr_exp2_opts_init(pr_exp2_opts *o);
+
+/* Experiment 3 (thesis 7.5, keys exp3.*). */
+typedef struct {
+	int init_samples;      /* samples of the initial policy */
+	double init_std;       /* initial policy N(0, init_std^2 I), m/s */
+	int iterations;        /* REPS iterations */
+	int samples;           /* new samples per iteration */
+	int window;            /* samples REPS reuses, importance weighted */
+	char policies[128];    /* comma list of variants */
+	int baseline_n_min;    /* n_min of the single-node baseline policy */
+	int final_episodes;    /* Figs. 7.8-7.10 use each run's last episodes */
+} pr_exp3_opts;
+void pr_exp3_opts_init(pr_exp3_opts *o);
+
+/* REPS validation problems (bench.h), keys bench.*; quadratic ignores dims
+ * and context_dims: both are 1. */
+typedef struct {
+	int iterations;     /* REPS iterations */
+	int samples;        /* episodes per iteration (>= 2) */
+	int dims;           /* action (parameter) dimensions */
+	int context_dims;   /* k */
+	double init_std;    /* initial policy standard deviation */
+	double min_std;     /* eigenvalue floor of the policy covariance (as a std) */
+	int value_degree;   /* REPS value features: 1 = s, 2 = s and s_j s_k */
+	int test_contexts;  /* fixed contexts on which the policy mean is scored */
+} pr_bench_opts;
+
 /* Progress callback: `done` of `total` units of `what` finished. The CLI
  * draws it; the library only calls it (it may be NULL). */
 typedef struct {

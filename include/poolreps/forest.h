@@ -17,5 +17,68 @@ typedef struct {
 	int with_replacement; /* 1: cut dimensions drawn with replacement */
 } pr_forest_opts;
 void pr_forest_opts_init(pr_forest_opts *o);
+/* Check the options; messages name "<prefix>.<key>" (prefix NULL: the bare
+ * key), e.g. "forest.cuts: must be >= 1 (got 0)". */
+int pr_forest_opts_check(const pr_forest_opts *o, const char *prefix, char *err);
+
+typedef struct pr_forest pr_forest;
+
+/* Fit M trees on n samples: X is n x dx and Y n x dy, row-major; w holds n
+ * non-negative weights (eq. 6.2-6.3) or is NULL for unit weights. The forest
+ * keeps sample indices per leaf, not copies of X. One draw from rng seeds the
+ * forest; tree t's stream derives from (that draw, t). Caller frees.
+ * NULL with a message in err for bad options or data (non-finite values,
+ * negative weights or weights summing to 0, n < n_c), out of memory, or
+ * when pr_interrupted is set. Safe to call from several threads. */
+pr_forest *pr_forest_fit(const pr_forest_opts *o, const double *X, int n, int dx,
+                         const double *Y, int dy, const double *w, gsl_rng *rng,
+                         char *err);
+void pr_forest_free(pr_forest *f);
+
+int pr_forest_ntrees(const pr_forest *f);
+int pr_forest_nleaves(const pr_forest *f);   /* n_F, all trees */
+int pr_forest_nsamples(const pr_forest *f);
+int pr_forest_dx(const pr_forest *f);
+int pr_forest_dy(const pr_forest *f);
+
+/* Forest prediction, eq. 4.2-4.3: y (dy values) = mean over trees of leaf means. */
+void pr_forest_predict(const pr_forest *f, const double *x, double *y);
+/* The same for nq row-major inputs X (nq x dx) into Y (nq x dy); faster
+ * than nq single calls (tree-major order keeps each tree in cache). */
+void pr_forest_predict_many(const pr_forest *f, const double *X, int nq, double *Y);
+
+/* Active leaves (eq. 5.1-5.4) of an input with dq <= dx leading dimensions;
+ * a test on a dimension >= dq sends x down both branches (state-only query
+ * of a state-action forest). Writes global leaf ids (0..n_F-1, tree-major)
+ * into leaves (capacity cap) and returns their count, or a negative status
+ * (PR_EINVAL for dq outside 0..dx or more than cap active leaves, PR_ENOMEM
+ * for a stack deeper than 64 levels that cannot be allocated; cap =
+ * pr_forest_nleaves always suffices, and M when dq = dx). Within a tree the
+ * ids come in increasing order. */
+int pr_forest_active(const pr_forest *f, const double *x, int dq, int *leaves, int cap);
+
+/* Training samples in global leaf `leaf`: returns the count and points *idx
+ * at the forest's own index array (valid until pr_forest_free). */
+int pr_forest_leaf_samples(const pr_forest *f, int leaf, const int **idx);
+
+/* Active samples, eq. 5.6: phi (n values) = Phi^T phi(x) / M, i.e. phi[i] is
+ * the fraction of trees in which sample i shares an active leaf with x.
+ * Returns PR_OK, PR_EINVAL (bad dq) or PR_ENOMEM. */
+int pr_forest_active_samples(const pr_forest *f, const double *x, int dq, double *phi);
+
+/* Inspection. Tree t owns global leaves pr_forest_tree_leaf0(f, t) up to
+ * pr_forest_tree_leaf0(f, t + 1) - 1 (t = M gives n_F), numbered left to
+ * right; the local leaf index is the global id minus the first. */
+int pr_forest_tree_leaf0(const pr_forest *f, int t);
+/* The dy leaf values of a global leaf (eq. 4.2; weighted mean when fitted
+ * with weights). Owned by the forest. */
+const double *pr_forest_leaf_mean(const pr_forest *f, int leaf);
+/* Nodes of all trees in preorder; tree t's root is node pr_forest_tree_node0(f, t).
+ * pr_forest_node gives an internal node's test [x_dim < thr] and its right
+ * child (the left child is node + 1), or for a leaf dim = -1, thr = 0 and
+ * right = its global leaf id. Returns PR_OK or PR_EINVAL for a bad node. */
+int pr_forest_nnodes(const pr_forest *f);
+int pr_forest_tree_node0(const pr_forest *f, int t);
+int pr_forest_node(const pr_forest *f, int node, int *dim, double *thr, int *right);
 
 #endif

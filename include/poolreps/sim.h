@@ -36,6 +36,7 @@ typedef struct {
 	double max_time;   /* s of simulated time */
 	long max_events;   /* event mode: past this the shot fails */
 	double max_speed;  /* m/s; faster actions are rejected */
+	double trace_dt;   /* s, stepped mode: trace interval (events are always traced) */
 } pr_sim_opts;
 void pr_sim_opts_init(pr_sim_opts *o);
 
@@ -63,5 +64,103 @@ typedef struct {
 	double aim_speed;     /* m/s, Experiment 1's aim-at-ball data policy */
 } pr_expert_opts;
 void pr_expert_opts_init(pr_expert_opts *o);
+
+/* ---- Simulator --------------------------------------------------------- */
+
+#define PR_SIM_MAX_BALLS 10000
+
+/* A simulator: a copy of the table and options plus a workspace that grows
+ * with the largest ball count seen (no allocation per shot after that).
+ * Not thread-safe; use one per thread. No global mutable state. */
+typedef struct pr_sim pr_sim;
+
+/* Validates t and o (positive sizes, friction > 0, stop speed > 0, the ball
+ * fits on the table, ...). Returns NULL and fills err on failure. */
+pr_sim *pr_sim_new(const pr_table *t, const pr_sim_opts *o, char *err);
+void pr_sim_free(pr_sim *s);
+
+/* Outcome of one shot. final and pocket point into the pr_sim's workspace
+ * and stay valid until the next pr_sim_shoot on it or pr_sim_free. */
+typedef struct {
+	int nballs;
+	const double *final;  /* 2*nballs: final x,y; a pocketed ball's pocket centre */
+	const int *pocket;    /* nballs: pocket id (0..5) or -1 */
+	int hit;              /* 1 if the cue ball touched a reward ball */
+	double min_gap;       /* m, smallest centre distance - 2R between the cue ball and a
+	                       * reward ball over the trajectory (0 after a hit) */
+	double t_end;         /* s, when the last ball stopped or fell (or sim.max_time) */
+	long events;          /* event mode: events processed; stepped mode: steps */
+} pr_shot;
+
+/* A trajectory record: one row per ball at the start, at every event (event
+ * mode) or every sim.trace_dt and every step with a collision (stepped mode),
+ * and at the end. vx,vy are the velocities just after that moment; a
+ * pocketed ball's last row is its pocket centre with zero velocity. */
+typedef struct {
+	double t, x, y, vx, vy;
+	int ball;
+} pr_sim_trace_row;
+typedef struct pr_sim_trace pr_sim_trace;
+pr_sim_trace *pr_sim_trace_new(char *err);
+void pr_sim_trace_free(pr_sim_trace *tr);
+long pr_sim_trace_len(const pr_sim_trace *tr);
+/* The rows, owned by tr, valid until its next use or free. */
+const pr_sim_trace_row *pr_sim_trace_rows(const pr_sim_trace *tr);
+
+/* Pocket centre of pocket id (0..5), SPEC.md §1 numbering. */
+void pr_sim_pocket_xy(const pr_table *t, int id, double xy[2]);
+
+/* PR_OK if nballs is in 1..PR_SIM_MAX_BALLS and every ball is finite, on the
+ * table (centre at least R from every cushion line, 1e-12 m slack), outside
+ * every pocket (centre farther than the pocket radius) and not overlapping
+ * another (centre distance at least 2R, 1e-12 m slack); else PR_EINVAL and a
+ * message naming the ball(s). */
+int pr_sim_check_state(const pr_table *t, const double *state, int nballs, char *err);
+/* PR_OK if the action is finite and no faster than o->max_speed. */
+int pr_sim_check_action(const pr_sim_opts *o, const double action[2], char *err);
+
+/* Simulate one shot: state holds 2*nballs positions, action the cue ball's
+ * initial velocity. Needs nballs >= 1 + table.reward_balls. Fills *res; if
+ * trace is not NULL it is cleared and filled. Returns PR_OK, PR_EINVAL (bad
+ * state or action, see the checks above), PR_ENUM (event mode: more than
+ * sim.max_events events) or PR_ENOMEM. */
+int pr_sim_shoot(pr_sim *s, const double *state, int nballs, const double action[2],
+                 pr_shot *res, pr_sim_trace *trace, char *err);
+
+/* Return of SPEC.md §2 (eq. 7.7): 0 if a reward ball fell into a target
+ * pocket, else minus the smallest distance from a reward ball's final
+ * position to a target pocket centre; minus miss_penalty * min_gap if the cue
+ * ball touched no reward ball; minus scratch_penalty if the cue ball fell. */
+double pr_sim_reward(const pr_table *t, const pr_reward_opts *o, const pr_shot *r);
+
+/* Draw a start state (eq. 7.2): ball 0 uniform in cue_box, balls
+ * 1..reward_balls in reward_box, the rest in obstacle_box; redraw the whole
+ * state while pr_sim_check_state fails, at most o->max_tries times. */
+int pr_sim_sample_start(const pr_table *t, const pr_start_opts *o, int nballs, gsl_rng *rng,
+                        double *state, char *err);
+
+/* Experiment 1's data policy: the cue ball aimed at reward ball 1's centre
+ * at e->aim_speed. */
+int pr_sim_aim_action(const pr_expert_opts *e, const double *state, double action[2], char *err);
+
+/* Geometry of a ghost-ball shot (thesis Fig. 7.5). */
+typedef struct {
+	int target;        /* pocket id */
+	double aim[2];     /* aim point: the target pocket centre */
+	double ghost[2];   /* cue centre at contact: r - 2R u */
+	double dir[2];     /* u, unit vector reward ball -> aim point */
+	double cut;        /* rad, cut angle between cue direction and u */
+	double v_contact;  /* m/s, cue speed at contact */
+	double v0;         /* m/s, cue speed at the start */
+} pr_sim_ghost;
+
+/* Ghost-ball expert of SPEC.md §3 (thesis 7.4.1): target = the target pocket
+ * nearest reward ball 1; speed from v = v0 - c s so that the reward ball
+ * arrives at the aim point at e->arrival_speed. PR_EINVAL if the cut is 90
+ * degrees or more (no contact at the ghost position) or the speed exceeds
+ * o->max_speed. geom may be NULL. */
+int pr_sim_ghost_action(const pr_table *t, const pr_sim_opts *o, const pr_reward_opts *ro,
+                        const pr_expert_opts *e, const double *state, double action[2],
+                        pr_sim_ghost *geom, char *err);
 
 #endif

@@ -1,0 +1,77 @@
+#!/bin/sh
+# valgrind.sh POOLREPS [PYTHON] — run the end-to-end pytest suite with every
+# poolreps process under valgrind memcheck, and fail on any report.
+#
+# POOLREPS must be a build without sanitizers (make's build/rel/poolreps).
+# A wrapper script in build/valgrind/ runs
+#   valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite
+# with one log per process; the tests see it as env POOLREPS. Any non-empty
+# log (or exit code 99, which fails the test that saw it) fails this script.
+#
+# Environment: VALGRIND_PYTEST_ARGS, passed to pytest; the default,
+#   -m "not slow" --ignore=tests/test_exp3.py
+# skips tests marked slow and Experiment 3's (minutes each under valgrind),
+# which keeps the run near 4 minutes on 2 cores. E.g.
+# VALGRIND_PYTEST_ARGS='-k badinput' runs the bad-input suite alone.
+set -u
+if [ $# -lt 1 ] || [ -z "$1" ]; then
+	echo "usage: valgrind.sh POOLREPS [PYTHON]" >&2
+	exit 1
+fi
+bin=$1
+py=${2:-}
+[ -n "$py" ] || py=python3
+cd "$(dirname "$0")/.." || exit 1
+case $bin in
+	/*) ;;
+	*) bin=$(pwd)/$bin ;;
+esac
+if [ ! -x "$bin" ]; then
+	echo "valgrind.sh: $bin is not an executable" >&2
+	exit 1
+fi
+if ! command -v valgrind >/dev/null 2>&1; then
+	echo "valgrind.sh: valgrind not found (Debian: apt-get install valgrind)" >&2
+	exit 1
+fi
+if nm "$bin" 2>/dev/null | grep -q __asan_init; then
+	echo "valgrind.sh: $bin is built with AddressSanitizer; use a plain build (make valgrind without SAN=1)" >&2
+	exit 1
+fi
+
+logs=$(pwd)/build/valgrind
+rm -rf "$logs"
+mkdir -p "$logs" || exit 1
+wrapper=$logs/poolreps
+cat >"$wrapper" <<EOF
+#!/bin/sh
+exec valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite \\
+	--show-leak-kinds=definite --track-origins=yes --log-file="$logs/vg.%p.log" "$bin" "\$@"
+EOF
+chmod +x "$wrapper" || exit 1
+
+if [ -n "${VALGRIND_PYTEST_ARGS+set}" ]; then
+	eval "set -- $VALGRIND_PYTEST_ARGS"
+else
+	set -- -m "not slow" --ignore=tests/test_exp3.py
+fi
+export LC_ALL=C POOLREPS="$wrapper" POOLREPS_TIMEOUT_SCALE=30 PYTHON="$py"
+start=$(date +%s)
+"$py" -m pytest -q -p no:cacheprovider "$@" tests
+rc=$?
+runs=$(find "$logs" -name 'vg.*.log' | wc -l)
+reports=$(find "$logs" -name 'vg.*.log' -size +0c)
+echo "valgrind.sh: $runs poolreps runs under valgrind in $(( $(date +%s) - start )) s"
+if [ -n "$reports" ]; then
+	echo "valgrind.sh: valgrind reported errors:" >&2
+	for f in $reports; do
+		echo "== $f" >&2
+		head -40 "$f" >&2
+	done
+	exit 1
+fi
+if [ $rc -ne 0 ]; then
+	echo "valgrind.sh: the test suite failed under valgrind (exit $rc)" >&2
+	exit 1
+fi
+echo "valgrind.sh: OK, no reports"

@@ -1,0 +1,208 @@
+/* cmd_shoot.c — `poolreps shoot` (SPEC.md §6): one shot per input row.
+ *
+ * Input columns x0,y0,...,x{n-1},y{n-1},vx,vy (any order, no others); the
+ * ball count n comes from them. Every row is checked before anything is
+ * written, so a bad row leaves no output. Output columns x0,y0,... (final),
+ * pocket0,..., hit, min_gap, reward, t_end, events; --trace FILE writes
+ * shot,t,ball,x,y,vx,vy.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "poolreps/cmd.h"
+#include "poolreps/csvio.h"
+#include "poolreps/sim.h"
+
+/* Column of each expected name, or an error naming the first missing one. */
+static int map_columns(const pr_csv *in, int n, int *col, char *err)
+{
+	char name[32];
+	int i;
+
+	for (i = 0; i < 2 * n + 2; ++i) {
+		if (i < 2 * n)
+			snprintf(name, sizeof name, "%c%d", i % 2 ? 'y' : 'x', i / 2);
+		else
+			snprintf(name, sizeof name, "%s", i == 2 * n ? "vx" : "vy");
+		col[i] = pr_csv_find(in, name);
+		if (col[i] < 0)
+			return pr_err(err, PR_EIO, "%s:1: missing column '%s': expected x0,y0,...,x%d,y%d,vx,vy",
+			              pr_csv_path(in), name, n - 1, n - 1);
+	}
+	return PR_OK;
+}
+
+static void get_row(const pr_csv *in, long r, int n, const int *col, double *state, double *act)
+{
+	const double *row = pr_csv_row(in, r);
+	int i;
+
+	for (i = 0; i < 2 * n; ++i)
+		state[i] = row[col[i]];
+	act[0] = row[col[2 * n]];
+	act[1] = row[col[2 * n + 1]];
+}
+
+static int write_header(pr_csvw *w, int n)
+{
+	char name[32];
+	int i, rc = 0;
+	static const char *const tail[] = {"hit", "min_gap", "reward", "t_end", "events"};
+
+	for (i = 0; i < 2 * n && !rc; ++i) {
+		snprintf(name, sizeof name, "%c%d", i % 2 ? 'y' : 'x', i / 2);
+		rc = pr_csvw_str(w, name);
+	}
+	for (i = 0; i < n && !rc; ++i) {
+		snprintf(name, sizeof name, "pocket%d", i);
+		rc = pr_csvw_str(w, name);
+	}
+	for (i = 0; i < 5 && !rc; ++i)
+		rc = pr_csvw_str(w, tail[i]);
+	return rc ? rc : pr_csvw_endrow(w);
+}
+
+static int write_shot(pr_csvw *w, const pr_shot *r, double reward)
+{
+	int i, rc = 0;
+
+	for (i = 0; i < 2 * r->nballs && !rc; ++i)
+		rc = pr_csvw_num(w, r->final[i]);
+	for (i = 0; i < r->nballs && !rc; ++i)
+		rc = pr_csvw_int(w, r->pocket[i]);
+	if (!rc)
+		rc = pr_csvw_int(w, r->hit);
+	if (!rc)
+		rc = pr_csvw_num(w, r->min_gap);
+	if (!rc)
+		rc = pr_csvw_num(w, reward);
+	if (!rc)
+		rc = pr_csvw_num(w, r->t_end);
+	if (!rc)
+		rc = pr_csvw_int(w, r->events);
+	return rc ? rc : pr_csvw_endrow(w);
+}
+
+static int write_trace(pr_csvw *w, long shot, const pr_sim_trace *tr)
+{
+	const pr_sim_trace_row *row = pr_sim_trace_rows(tr);
+	long k, len = pr_sim_trace_len(tr);
+	int rc = 0;
+
+	for (k = 0; k < len && !rc; ++k) {
+		rc = pr_csvw_int(w, shot);
+		if (!rc)
+			rc = pr_csvw_num(w, row[k].t);
+		if (!rc)
+			rc = pr_csvw_int(w, row[k].ball);
+		if (!rc)
+			rc = pr_csvw_num(w, row[k].x);
+		if (!rc)
+			rc = pr_csvw_num(w, row[k].y);
+		if (!rc)
+			rc = pr_csvw_num(w, row[k].vx);
+		if (!rc)
+			rc = pr_csvw_num(w, row[k].vy);
+		if (!rc)
+			rc = pr_csvw_endrow(w);
+	}
+	return rc;
+}
+
+int pr_cmd_shoot(const pr_config *cfg, const pr_cmd_args *a, char *err)
+{
+	static const char *const trace_cols[] = {"shot", "t", "ball", "x", "y", "vx", "vy"};
+	pr_csv *in = NULL;
+	pr_sim *sim = NULL;
+	pr_sim_trace *tr = NULL;
+	pr_csvw *w = NULL, *tw = NULL;
+	double *state = NULL, act[2];
+	int *col = NULL, n, i, rc;
+	char why[PR_ERRLEN];
+	long r, nrows;
+
+	if ((rc = pr_csv_read(a->input, &in, err)))
+		return rc;
+	n = (pr_csv_ncols(in) - 2) / 2;
+	if (pr_csv_ncols(in) < 4 || pr_csv_ncols(in) % 2) {
+		rc = pr_err(err, PR_EIO, "%s:1: %d columns: expected x0,y0,...,vx,vy (2 per ball plus 2)",
+		            pr_csv_path(in), pr_csv_ncols(in));
+		goto done;
+	}
+	if (n > PR_SIM_MAX_BALLS || n < 1 + cfg->table.reward_balls) {
+		rc = pr_err(err, PR_EINVAL, "%s:1: %d balls: need 1 + table.reward_balls (%d) to %d",
+		            pr_csv_path(in), n, cfg->table.reward_balls, PR_SIM_MAX_BALLS);
+		goto done;
+	}
+	state = malloc((size_t)n * 2 * sizeof *state);
+	col = malloc((size_t)(2 * n + 2) * sizeof *col);
+	if (!state || !col) {
+		rc = pr_err(err, PR_ENOMEM, "shoot: out of memory");
+		goto done;
+	}
+	if ((rc = map_columns(in, n, col, err)))
+		goto done;
+	/* check every row before writing anything */
+	nrows = pr_csv_nrows(in);
+	for (r = 0; r < nrows; ++r) {
+		get_row(in, r, n, col, state, act);
+		if ((rc = pr_sim_check_state(&cfg->table, state, n, why)) ||
+		    (rc = pr_sim_check_action(&cfg->sim, act, why))) {
+			rc = pr_err(err, rc, "%s:%ld: %s", pr_csv_path(in), pr_csv_line(in, r), why);
+			goto done;
+		}
+	}
+	if (!(sim = pr_sim_new(&cfg->table, &cfg->sim, err))) {
+		rc = PR_EINVAL;
+		goto done;
+	}
+	if (a->trace && !(tr = pr_sim_trace_new(err))) {
+		rc = PR_ENOMEM;
+		goto done;
+	}
+	if (!(w = pr_csvw_open(a->output, err)) || (a->trace && !(tw = pr_csvw_open(a->trace, err)))) {
+		rc = PR_EIO;
+		goto done;
+	}
+	if ((rc = write_header(w, n)))
+		goto write_failed;
+	for (i = 0; tw && i < 7 && !rc; ++i)
+		rc = pr_csvw_str(tw, trace_cols[i]);
+	if (tw && (rc || (rc = pr_csvw_endrow(tw))))
+		goto write_failed;
+	for (r = 0; r < nrows; ++r) {
+		pr_shot res;
+		if (pr_interrupted) {
+			rc = pr_err(err, PR_EINTR, "shoot: interrupted");
+			goto done;
+		}
+		get_row(in, r, n, col, state, act);
+		if ((rc = pr_sim_shoot(sim, state, n, act, &res, tr, why))) {
+			rc = pr_err(err, rc, "%s:%ld: %s", pr_csv_path(in), pr_csv_line(in, r), why);
+			goto done;
+		}
+		if ((rc = write_shot(w, &res, pr_sim_reward(&cfg->table, &cfg->reward, &res))) ||
+		    (tw && (rc = write_trace(tw, r, tr))))
+			goto write_failed;
+	}
+	if (tw) {
+		rc = pr_csvw_close(tw, err);
+		tw = NULL;
+		if (rc)
+			goto done;
+	}
+	rc = pr_csvw_close(w, err);
+	w = NULL;
+	goto done;
+write_failed:
+	rc = pr_err(err, rc, "shoot: writing %s failed", a->trace ? "the output or trace" : "the output");
+done:
+	pr_csvw_abort(tw);
+	pr_csvw_abort(w);
+	pr_sim_trace_free(tr);
+	pr_sim_free(sim);
+	free(state);
+	free(col);
+	pr_csv_free(in);
+	return rc;
+}

@@ -1,0 +1,487 @@
+/* exp1.c — Experiment 1 (thesis 7.3): how well extra-trees forests represent
+ * the reward function.
+ *
+ * Data: cue ball at the cue box (default (-0.25, 0)), reward ball uniform in
+ * start.reward_box, the cue aimed at the reward ball's centre at
+ * exp1.aim_speed (SPEC.md §3); the target is the return of eq. 7.7. The
+ * exp1.train training and exp1.test test shots come from streams that do not
+ * depend on the repetition, so every process regenerates them identically.
+ *
+ * Repetition k is forest k of every setting: it trains on training rows
+ * [k*subset, (k+1)*subset) and is scored on test rows [k*test_subset, ...).
+ * Inputs are the full state (x0,y0,x1,y1); the cue ball's fixed coordinates
+ * are constant, and the forest never cuts a constant dimension.
+ *
+ * Outputs (raw, first column `repetition`):
+ *   exp1_mse.csv  repetition,sweep,n_min,trees,cuts,mse — one row per setting
+ *                 of the n_min, trees and cuts sweeps (the other two
+ *                 parameters at forest.*), in list order.
+ *   exp1_map.csv  repetition,x1,y1,reward,pred — the simulated return on an
+ *                 exp1.map_grid^2 grid of reward-ball positions over
+ *                 start.reward_box and the prediction of a forest with the
+ *                 forest.* parameters trained on repetition k's subset.
+ * Derived (summarize, from exp1_mse.csv alone):
+ *   exp1_summary.csv  sweep,value,mean_mse,std_mse,forests — std is the
+ *                 sample standard deviation over the forests (0 for one).
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "poolreps/csvio.h"
+#include "poolreps/forest.h"
+#include "poolreps/sim.h"
+#include "exp_priv.h"
+
+#define PATHLEN 1024
+#define DX 4 /* state: cue ball and reward ball */
+
+/* Random streams of pr_exp_rng (seed, stream, index). */
+enum {
+	STREAM_TRAIN = 0x1e101,   /* index 0: the training shots */
+	STREAM_TEST = 0x1e102,    /* index 0: the test shots */
+	STREAM_FOREST = 0x1e103,  /* index k: repetition k's sweep forests */
+	STREAM_MAP = 0x1e104      /* index k: repetition k's map forest */
+};
+
+enum { SWEEP_NMIN, SWEEP_TREES, SWEEP_CUTS, NSWEEPS };
+static const char *const sweep_name[NSWEEPS] = {"n_min", "trees", "cuts"};
+
+void pr_exp1_opts_init(pr_exp1_opts *o)
+{
+	static const double nmin[] = {2, 5, 10, 20, 40, 60, 80, 100, 120, 140, 160, 180, 200};
+	static const double trees[] = {1, 2, 5, 10, 15, 20, 30, 40, 50};
+	static const double cuts[] = {1, 2, 3, 4, 5, 7, 10, 15, 20};
+
+	memset(o, 0, sizeof *o);
+	o->train = 1000;
+	o->test = 1000;
+	o->subset = 200;
+	o->test_subset = 200;
+	o->n_min_list.n = (int)(sizeof nmin / sizeof nmin[0]);
+	memcpy(o->n_min_list.v, nmin, sizeof nmin);
+	o->trees_list.n = (int)(sizeof trees / sizeof trees[0]);
+	memcpy(o->trees_list.v, trees, sizeof trees);
+	o->cuts_list.n = (int)(sizeof cuts / sizeof cuts[0]);
+	memcpy(o->cuts_list.v, cuts, sizeof cuts);
+	o->map_grid = 41;
+}
+
+/* One forest setting of a sweep. */
+typedef struct {
+	int sweep;
+	pr_forest_opts fo;
+} setting;
+
+typedef struct {
+	const pr_config *cfg;
+	const double *xtr, *ytr, *xte, *yte;  /* shared shots: states and returns */
+	setting set[NSWEEPS * PR_LIST_MAX];
+	int nset;
+	double cue[2];                        /* the map's cue ball position */
+	const double *grid;                   /* ngrid x 3: x1, y1, simulated return */
+	int ngrid;
+	int lo;
+	double *mse;                          /* (hi - lo) x nset */
+	double *pred;                         /* (hi - lo) x ngrid */
+	pr_exp_ticker tick;
+} job_ctx;
+
+/* The first n aim-at-ball shots of stream (seed, stream, 0): states and returns. */
+static int make_shots(const pr_config *cfg, pr_sim *sim, unsigned long stream, int n,
+                      double *x, double *y, char *err)
+{
+	gsl_rng *rng = pr_exp_rng(cfg->run.seed, stream, 0);
+	int i, rc = PR_OK;
+
+	if (!rng)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	for (i = 0; i < n && rc == PR_OK; ++i) {
+		double a[2];
+		pr_shot shot;
+		if (pr_interrupted) {
+			rc = pr_err(err, PR_EINTR, "interrupted");
+			break;
+		}
+		if ((rc = pr_sim_sample_start(&cfg->table, &cfg->start, 2, rng, x + DX * i, err)) ||
+		    (rc = pr_sim_aim_action(&cfg->expert, x + DX * i, a, err)) ||
+		    (rc = pr_sim_shoot(sim, x + DX * i, 2, a, &shot, NULL, err)))
+			break;
+		y[i] = pr_sim_reward(&cfg->table, &cfg->reward, &shot);
+	}
+	gsl_rng_free(rng);
+	return rc;
+}
+
+/* The reward map's grid over start.reward_box with the simulated return;
+ * positions the simulator refuses (inside a pocket, on the cue ball) are left out. */
+static int make_grid(const pr_config *cfg, pr_sim *sim, const double cue[2], double *grid,
+                     int *ngrid, char *err)
+{
+	const double *b = cfg->start.reward_box;
+	int g = cfg->exp1.map_grid, i, j, n = 0, rc;
+
+	for (j = 0; j < g; ++j)
+		for (i = 0; i < g; ++i) {
+			double s[DX], a[2];
+			pr_shot shot;
+			s[0] = cue[0];
+			s[1] = cue[1];
+			s[2] = b[0] + (b[1] - b[0]) * i / (g - 1);
+			s[3] = b[2] + (b[3] - b[2]) * j / (g - 1);
+			if (pr_sim_check_state(&cfg->table, s, 2, NULL) != PR_OK)
+				continue;
+			if (pr_interrupted)
+				return pr_err(err, PR_EINTR, "interrupted");
+			if ((rc = pr_sim_aim_action(&cfg->expert, s, a, err)) ||
+			    (rc = pr_sim_shoot(sim, s, 2, a, &shot, NULL, err)))
+				return rc;
+			grid[3 * n] = s[2];
+			grid[3 * n + 1] = s[3];
+			grid[3 * n + 2] = pr_sim_reward(&cfg->table, &cfg->reward, &shot);
+			++n;
+		}
+	*ngrid = n;
+	return PR_OK;
+}
+
+static double test_mse(const pr_forest *f, const double *x, const double *y, int n)
+{
+	double sum = 0;
+	int i;
+
+	for (i = 0; i < n; ++i) {
+		double p;
+		pr_forest_predict(f, x + DX * i, &p);
+		sum += (p - y[i]) * (p - y[i]);
+	}
+	return sum / n;
+}
+
+/* Repetition k: forest k of every setting, then the map forest. */
+static int run_rep(void *arg, int k, char *err)
+{
+	job_ctx *c = arg;
+	const pr_exp1_opts *o = &c->cfg->exp1;
+	const double *xtr = c->xtr + (size_t)DX * k * o->subset, *ytr = c->ytr + (size_t)k * o->subset;
+	const double *xte = c->xte + (size_t)DX * k * o->test_subset;
+	const double *yte = c->yte + (size_t)k * o->test_subset;
+	double *mse = c->mse + (size_t)(k - c->lo) * c->nset;
+	double *pred = c->pred + (size_t)(k - c->lo) * c->ngrid;
+	gsl_rng *rng = pr_exp_rng(c->cfg->run.seed, STREAM_FOREST, (unsigned long)k);
+	pr_forest *f;
+	int s, i, rc = PR_OK;
+
+	if (!rng)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	for (s = 0; s < c->nset && rc == PR_OK; ++s) {
+		if (pr_interrupted) {
+			rc = pr_err(err, PR_EINTR, "interrupted");
+			break;
+		}
+		f = pr_forest_fit(&c->set[s].fo, xtr, o->subset, DX, ytr, 1, NULL, rng, err);
+		if (!f) {
+			rc = PR_EINVAL;
+			break;
+		}
+		mse[s] = test_mse(f, xte, yte, o->test_subset);
+		pr_forest_free(f);
+		pr_exp_ticker_add(&c->tick, 1);
+	}
+	gsl_rng_free(rng);
+	if (rc)
+		return rc;
+	rng = pr_exp_rng(c->cfg->run.seed, STREAM_MAP, (unsigned long)k);
+	if (!rng)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	f = pr_forest_fit(&c->cfg->forest, xtr, o->subset, DX, ytr, 1, NULL, rng, err);
+	gsl_rng_free(rng);
+	if (!f)
+		return PR_EINVAL;
+	for (i = 0; i < c->ngrid; ++i) {
+		double s4[DX] = {c->cue[0], c->cue[1], c->grid[3 * i], c->grid[3 * i + 1]};
+		pr_forest_predict(f, s4, &pred[i]);
+	}
+	pr_forest_free(f);
+	pr_exp_ticker_add(&c->tick, 1);
+	return PR_OK;
+}
+
+/* The settings of the three sweeps, each varying one forest.* parameter. */
+static int make_settings(const pr_config *cfg, job_ctx *c, char *err)
+{
+	const pr_list *lists[NSWEEPS] = {&cfg->exp1.n_min_list, &cfg->exp1.trees_list,
+	                                 &cfg->exp1.cuts_list};
+	static const char *const keys[NSWEEPS] = {"exp1.n_min_list", "exp1.trees_list",
+	                                          "exp1.cuts_list"};
+	int v[PR_LIST_MAX], s, i, rc;
+
+	c->nset = 0;
+	for (s = 0; s < NSWEEPS; ++s) {
+		if ((rc = pr_exp_int_list(lists[s], keys[s], v, err)))
+			return rc;
+		for (i = 0; i < lists[s]->n; ++i) {
+			setting *t = &c->set[c->nset++];
+			t->sweep = s;
+			t->fo = cfg->forest;
+			if (s == SWEEP_NMIN)
+				t->fo.n_min = v[i];
+			else if (s == SWEEP_TREES)
+				t->fo.trees = v[i];
+			else
+				t->fo.cuts = v[i];
+			if ((rc = pr_forest_opts_check(&t->fo, keys[s], err)))
+				return rc;
+		}
+	}
+	return PR_OK;
+}
+
+static int check_opts(const pr_config *cfg, char *err)
+{
+	const pr_exp1_opts *o = &cfg->exp1;
+	const char *src = cfg->source[0] ? cfg->source : "parameters";
+	long r = cfg->run.repetitions;
+
+	if (cfg->table.balls != 2)
+		return pr_err(err, PR_EINVAL, "%s: table.balls: Experiment 1 uses 2 balls (got %d)",
+		              src, cfg->table.balls);
+	if (r * o->subset > o->train)
+		return pr_err(err, PR_EINVAL, "%s: exp1.train: %d shots, but %ld repetitions x "
+		              "exp1.subset %d need %ld", src, o->train, r, o->subset, r * o->subset);
+	if (r * o->test_subset > o->test)
+		return pr_err(err, PR_EINVAL, "%s: exp1.test: %d shots, but %ld repetitions x "
+		              "exp1.test_subset %d need %ld", src, o->test, r, o->test_subset,
+		              r * o->test_subset);
+	return pr_forest_opts_check(&cfg->forest, "forest", err);
+}
+
+static int write_mse(const char *dir, const job_ctx *c, int lo, int hi, char *err)
+{
+	char path[PATHLEN];
+	pr_csvw *w;
+	int k, s;
+
+	snprintf(path, sizeof path, "%s/exp1_mse.csv", dir);
+	if (!(w = pr_csvw_open(path, err)))
+		return PR_EIO;
+	pr_csvw_str(w, "repetition");
+	pr_csvw_str(w, "sweep");
+	pr_csvw_str(w, "n_min");
+	pr_csvw_str(w, "trees");
+	pr_csvw_str(w, "cuts");
+	pr_csvw_str(w, "mse");
+	pr_csvw_endrow(w);
+	for (k = lo; k < hi; ++k)
+		for (s = 0; s < c->nset; ++s) {
+			const setting *t = &c->set[s];
+			pr_csvw_int(w, k);
+			pr_csvw_str(w, sweep_name[t->sweep]);
+			pr_csvw_int(w, t->fo.n_min);
+			pr_csvw_int(w, t->fo.trees);
+			pr_csvw_int(w, t->fo.cuts);
+			pr_csvw_num(w, c->mse[(size_t)(k - lo) * c->nset + s]);
+			pr_csvw_endrow(w);
+		}
+	return pr_csvw_close(w, err);
+}
+
+static int write_map(const char *dir, const job_ctx *c, int lo, int hi, char *err)
+{
+	char path[PATHLEN];
+	pr_csvw *w;
+	int k, i;
+
+	snprintf(path, sizeof path, "%s/exp1_map.csv", dir);
+	if (!(w = pr_csvw_open(path, err)))
+		return PR_EIO;
+	pr_csvw_str(w, "repetition");
+	pr_csvw_str(w, "x1");
+	pr_csvw_str(w, "y1");
+	pr_csvw_str(w, "reward");
+	pr_csvw_str(w, "pred");
+	pr_csvw_endrow(w);
+	for (k = lo; k < hi; ++k)
+		for (i = 0; i < c->ngrid; ++i) {
+			pr_csvw_int(w, k);
+			pr_csvw_num(w, c->grid[3 * i]);
+			pr_csvw_num(w, c->grid[3 * i + 1]);
+			pr_csvw_num(w, c->grid[3 * i + 2]);
+			pr_csvw_num(w, c->pred[(size_t)(k - lo) * c->ngrid + i]);
+			pr_csvw_endrow(w);
+		}
+	return pr_csvw_close(w, err);
+}
+
+int pr_exp1_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err)
+{
+	const pr_exp1_opts *o = &cfg->exp1;
+	job_ctx *c;
+	pr_sim *sim = NULL;
+	double *xtr = NULL, *ytr = NULL, *xte = NULL, *yte = NULL, *grid = NULL;
+	int lo, hi, rc;
+
+	if ((rc = check_opts(cfg, err)))
+		return rc;
+	pr_exp_reps(cfg, &lo, &hi);
+	c = calloc(1, sizeof *c);
+	if (!c)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	if ((rc = make_settings(cfg, c, err)))
+		goto done;
+	xtr = malloc((size_t)o->train * DX * sizeof *xtr);
+	ytr = malloc((size_t)o->train * sizeof *ytr);
+	xte = malloc((size_t)o->test * DX * sizeof *xte);
+	yte = malloc((size_t)o->test * sizeof *yte);
+	grid = malloc((size_t)o->map_grid * o->map_grid * 3 * sizeof *grid);
+	if (!xtr || !ytr || !xte || !yte || !grid) {
+		rc = pr_err(err, PR_ENOMEM, "out of memory");
+		goto done;
+	}
+	/* the map's cue ball sits at the centre of the cue box (a point by default) */
+	c->cue[0] = 0.5 * (cfg->start.cue_box[0] + cfg->start.cue_box[1]);
+	c->cue[1] = 0.5 * (cfg->start.cue_box[2] + cfg->start.cue_box[3]);
+	if (!(sim = pr_sim_new(&cfg->table, &cfg->sim, err))) {
+		rc = PR_EINVAL;
+		goto done;
+	}
+	if ((rc = make_shots(cfg, sim, STREAM_TRAIN, o->train, xtr, ytr, err)) ||
+	    (rc = make_shots(cfg, sim, STREAM_TEST, o->test, xte, yte, err)) ||
+	    (rc = make_grid(cfg, sim, c->cue, grid, &c->ngrid, err)))
+		goto done;
+	c->cfg = cfg;
+	c->xtr = xtr;
+	c->ytr = ytr;
+	c->xte = xte;
+	c->yte = yte;
+	c->grid = grid;
+	c->lo = lo;
+	c->mse = malloc(((size_t)(hi - lo) * c->nset + 1) * sizeof *c->mse);
+	c->pred = malloc(((size_t)(hi - lo) * c->ngrid + 1) * sizeof *c->pred);
+	if (!c->mse || !c->pred) {
+		rc = pr_err(err, PR_ENOMEM, "out of memory");
+		goto done;
+	}
+	pr_exp_ticker_init(&c->tick, prog, (long)(hi - lo) * (c->nset + 1), "exp1");
+	rc = pr_exp_parallel(lo, hi, cfg->run.threads, run_rep, c, err);
+	pr_exp_ticker_destroy(&c->tick);
+	if (rc == PR_OK)
+		rc = write_mse(dir, c, lo, hi, err);
+	if (rc == PR_OK)
+		rc = write_map(dir, c, lo, hi, err);
+done:
+	pr_sim_free(sim);
+	free(xtr);
+	free(ytr);
+	free(xte);
+	free(yte);
+	free(grid);
+	free(c->mse);
+	free(c->pred);
+	free(c);
+	return rc;
+}
+
+/* ---- summary ---- */
+
+typedef struct {
+	int sweep;
+	long value;
+	int n;
+	double sum, ss;
+} group;
+
+static int find_group(group *g, int *ng, int sweep, long value)
+{
+	int i;
+
+	for (i = 0; i < *ng; ++i)
+		if (g[i].sweep == sweep && g[i].value == value)
+			return i;
+	if (*ng == NSWEEPS * PR_LIST_MAX)
+		return -1;
+	memset(&g[*ng], 0, sizeof g[*ng]);
+	g[*ng].sweep = sweep;
+	g[*ng].value = value;
+	return (*ng)++;
+}
+
+/* Accumulate exp1_mse.csv into groups (sweep, value), in order of first
+ * appearance: pass 0 sums, pass 1 squared deviations from the means. */
+static int accumulate(const pr_exp_table *t, int pass, group *g, int *ng, char *err)
+{
+	int col[NSWEEPS], csweep, cmse, i;
+	long r;
+
+	for (i = 0; i < NSWEEPS; ++i)
+		if ((col[i] = pr_exp_table_col(t, sweep_name[i], err)) < 0)
+			return col[i];
+	if ((csweep = pr_exp_table_col(t, "sweep", err)) < 0)
+		return csweep;
+	if ((cmse = pr_exp_table_col(t, "mse", err)) < 0)
+		return cmse;
+	for (r = 0; r < pr_exp_table_nrows(t); ++r) {
+		const char *s = pr_exp_table_str(t, r, csweep);
+		long value;
+		double mse;
+		int sw, k, rc;
+		for (sw = 0; sw < NSWEEPS && strcmp(s, sweep_name[sw]) != 0; ++sw)
+			;
+		if (sw == NSWEEPS)
+			return pr_err(err, PR_EIO, "%s:%ld: column 'sweep': '%.40s' is not n_min, trees or cuts",
+			              pr_exp_table_path(t), pr_exp_table_line(t, r), s);
+		if ((rc = pr_exp_table_int(t, r, col[sw], 1, 100000000, &value, err)) ||
+		    (rc = pr_exp_table_num(t, r, cmse, &mse, err)))
+			return rc;
+		if ((k = find_group(g, ng, sw, value)) < 0)
+			return pr_err(err, PR_EIO, "%s: more than %d settings", pr_exp_table_path(t),
+			              NSWEEPS * PR_LIST_MAX);
+		if (pass == 0) {
+			g[k].n++;
+			g[k].sum += mse;
+		} else {
+			double d = mse - g[k].sum / g[k].n;
+			g[k].ss += d * d;
+		}
+	}
+	return PR_OK;
+}
+
+int pr_exp1_summarize(const pr_config *cfg, const char *dir, char *err)
+{
+	char path[PATHLEN];
+	pr_exp_table *t = NULL;
+	group g[NSWEEPS * PR_LIST_MAX];
+	int ng = 0, i, rc;
+	pr_csvw *w;
+
+	(void)cfg;
+	snprintf(path, sizeof path, "%s/exp1_mse.csv", dir);
+	if ((rc = pr_exp_table_read(path, &t, err)))
+		return rc;
+	rc = accumulate(t, 0, g, &ng, err);
+	if (rc == PR_OK)
+		rc = accumulate(t, 1, g, &ng, err);
+	pr_exp_table_free(t);
+	if (rc)
+		return rc;
+	snprintf(path, sizeof path, "%s/exp1_summary.csv", dir);
+	if (!(w = pr_csvw_open(path, err)))
+		return PR_EIO;
+	pr_csvw_str(w, "sweep");
+	pr_csvw_str(w, "value");
+	pr_csvw_str(w, "mean_mse");
+	pr_csvw_str(w, "std_mse");
+	pr_csvw_str(w, "forests");
+	pr_csvw_endrow(w);
+	for (i = 0; i < ng; ++i) {
+		pr_csvw_str(w, sweep_name[g[i].sweep]);
+		pr_csvw_int(w, g[i].value);
+		pr_csvw_num(w, g[i].sum / g[i].n);
+		pr_csvw_num(w, g[i].n > 1 ? sqrt(g[i].ss / (g[i].n - 1)) : 0.0);
+		pr_csvw_int(w, g[i].n);
+		pr_csvw_endrow(w);
+	}
+	return pr_csvw_close(w, err);
+}

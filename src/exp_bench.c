@@ -1,0 +1,461 @@
+/* exp_bench.c — REPS validation problems: the 1-D contextual quadratic and
+ * the contextual sphere and Rosenbrock functions of Abdolmaleki et al.,
+ * "Contextual Covariance Matrix Adaptation Evolutionary Strategies", IJCAI
+ * 2017, §6.1 (see bench.h for the definitions used). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <gsl/gsl_randist.h>
+#include <gsl/gsl_rng.h>
+
+#include "poolreps/bench.h"
+#include "poolreps/csvio.h"
+#include "poolreps/policy.h"
+#include "poolreps/reps.h"
+#include "exp_priv.h"
+
+#define PATHLEN 1024
+/* Stream id of the benchmarks for pr_exp_rng. */
+#define STREAM_BENCH 0xbe4c4UL
+
+enum { P_QUADRATIC, P_SPHERE, P_ROSENBROCK };
+
+/* Per-row metrics after repetition and iteration, in file order. */
+enum { M_SAMPLES, M_RETURN, M_TEST_RETURN, M_TEST_ERROR, M_STD, M_ETA, M_KL, M_ESS, M_BOUND, NMET };
+static const char *const met_name[NMET] = {
+	"samples", "mean_return", "test_return", "test_error", "mean_std", "eta", "kl", "ess", "bound"
+};
+
+void pr_bench_opts_init(pr_bench_opts *o, const char *name)
+{
+	o->iterations = 200;
+	o->samples = 50;
+	o->dims = 20;
+	o->context_dims = 2;
+	o->init_std = 1.0;
+	o->min_std = 1e-12;
+	o->value_degree = 1;
+	o->test_contexts = 100;
+	if (name && strcmp(name, "quadratic") == 0) {
+		o->iterations = 40;
+		o->dims = 1;
+		o->context_dims = 1;
+		o->value_degree = 2;
+	} else if (name && strcmp(name, "rosenbrock") == 0) {
+		o->context_dims = 1;
+	}
+}
+
+int pr_bench_opts_check(const pr_bench_opts *o, char *err)
+{
+	if (o->iterations < 1 || o->iterations > 1000000)
+		return pr_err(err, PR_EINVAL, "bench.iterations: must be in 1..1000000 (got %d)", o->iterations);
+	if (o->samples < 2 || o->samples > 10000000)
+		return pr_err(err, PR_EINVAL, "bench.samples: must be in 2..10000000 (got %d)", o->samples);
+	if (o->dims < 1 || o->dims > 10000)
+		return pr_err(err, PR_EINVAL, "bench.dims: must be in 1..10000 (got %d)", o->dims);
+	if (o->context_dims < 1 || o->context_dims > 100)
+		return pr_err(err, PR_EINVAL, "bench.context_dims: must be in 1..100 (got %d)",
+		              o->context_dims);
+	if (!(o->init_std > 0.0) || !isfinite(o->init_std))
+		return pr_err(err, PR_EINVAL, "bench.init_std: must be > 0 (got %g)", o->init_std);
+	if (!(o->min_std > 0.0) || !isfinite(o->min_std))
+		return pr_err(err, PR_EINVAL, "bench.min_std: must be > 0 (got %g)", o->min_std);
+	if (o->value_degree != 1 && o->value_degree != 2)
+		return pr_err(err, PR_EINVAL, "bench.value_degree: must be 1 or 2 (got %d)", o->value_degree);
+	if (o->test_contexts < 1 || o->test_contexts > 1000000)
+		return pr_err(err, PR_EINVAL, "bench.test_contexts: must be in 1..1000000 (got %d)",
+		              o->test_contexts);
+	return PR_OK;
+}
+
+typedef struct {
+	const pr_config *cfg;
+	const pr_bench_opts *b;
+	int problem, dims, k, lo;
+	double *res;          /* (hi - lo) x iterations x NMET */
+	pr_exp_ticker tick;
+} bench_ctx;
+
+/* Return of action x in context s; y is dims scratch. */
+static double objective(const bench_ctx *c, const double *G, const double *x, const double *s,
+                        double *y)
+{
+	double f = 0.0;
+	int i, j;
+
+	if (c->problem == P_QUADRATIC)
+		return -(x[0] - s[0]) * (x[0] - s[0]);
+	for (i = 0; i < c->dims; i++) {
+		y[i] = x[i];
+		for (j = 0; j < c->k; j++)
+			y[i] += G[i * c->k + j] * s[j];
+	}
+	if (c->problem == P_SPHERE) {
+		for (i = 0; i < c->dims; i++)
+			f += y[i] * y[i];
+		return -f;
+	}
+	for (i = 0; i + 1 < c->dims; i++)
+		f += 100.0 * (y[i + 1] - y[i] * y[i]) * (y[i + 1] - y[i] * y[i]) +
+		     (1.0 - y[i]) * (1.0 - y[i]);
+	return -f;
+}
+
+/* The optimal action x*(s). */
+static void optimum(const bench_ctx *c, const double *G, const double *s, double *x)
+{
+	int i, j;
+
+	if (c->problem == P_QUADRATIC) {
+		x[0] = s[0];
+		return;
+	}
+	for (i = 0; i < c->dims; i++) {
+		x[i] = c->problem == P_ROSENBROCK ? 1.0 : 0.0;
+		for (j = 0; j < c->k; j++)
+			x[i] -= G[i * c->k + j] * s[j];
+	}
+}
+
+static void draw_context(const bench_ctx *c, gsl_rng *rng, double *s)
+{
+	int j;
+
+	for (j = 0; j < c->k; j++)
+		s[j] = c->problem == P_QUADRATIC ? 2.0 * gsl_rng_uniform(rng) - 1.0
+		                                 : 1.0 + gsl_rng_uniform(rng);
+}
+
+/* Score the policy mean on the test contexts: mean return, RMS distance to
+ * x*(s), and the root mean variance of the (state-independent) covariance. */
+static int score(const bench_ctx *c, const pr_policy *p, const double *G, const double *tc,
+                 pr_policy_work *ws, double *buf, double *m, char *err)
+{
+	const int da = c->dims;
+	double *mean = buf, *cov = mean + da, *xs = cov + (size_t)da * da, *y = xs + da;
+	double ret = 0.0, e2 = 0.0, tr = 0.0;
+	int t, j, rc;
+
+	for (t = 0; t < c->b->test_contexts; t++) {
+		const double *s = tc + (size_t)t * c->k;
+
+		if ((rc = pr_policy_eval(p, s, mean, cov, NULL, ws, err)))
+			return rc;
+		ret += objective(c, G, mean, s, y);
+		optimum(c, G, s, xs);
+		for (j = 0; j < da; j++)
+			e2 += (mean[j] - xs[j]) * (mean[j] - xs[j]);
+	}
+	for (j = 0; j < da; j++)
+		tr += cov[j * da + j];
+	m[M_TEST_RETURN] = ret / c->b->test_contexts;
+	m[M_TEST_ERROR] = sqrt(e2 / c->b->test_contexts);
+	m[M_STD] = sqrt(tr / da);
+	return PR_OK;
+}
+
+static int run_rep(void *ctx, int rep, char *err)
+{
+	bench_ctx *c = ctx;
+	const pr_bench_opts *b = c->b;
+	const int n = b->samples, k = c->k, da = c->dims;
+	const int dv = b->value_degree == 1 ? k : k + k * (k + 1) / 2;
+	gsl_rng *rng = pr_exp_rng(c->cfg->run.seed, STREAM_BENCH, (unsigned long)rep);
+	pr_policy *pol = NULL, *next;
+	pr_policy_work *ws = NULL;
+	pr_reps_result *r = NULL;
+	double *G = NULL, *tc = NULL, *S = NULL, *X = NULL, *R = NULL, *phi = NULL, *psi = NULL;
+	double *buf = NULL;
+	int it, i, j, rc = PR_OK;
+
+	G = malloc((size_t)da * k * sizeof *G);
+	tc = malloc((size_t)b->test_contexts * k * sizeof *tc);
+	S = malloc((size_t)n * k * sizeof *S);
+	X = malloc((size_t)n * da * sizeof *X);
+	R = malloc((size_t)n * sizeof *R);
+	phi = malloc((size_t)n * dv * sizeof *phi);
+	psi = malloc((size_t)(1 + k + k * (k + 1) / 2) * sizeof *psi);
+	buf = malloc(((size_t)da * da + 4 * (size_t)da) * sizeof *buf);
+	if (!rng || !G || !tc || !S || !X || !R || !phi || !psi || !buf) {
+		rc = pr_err(err, PR_ENOMEM, "bench: out of memory");
+		goto done;
+	}
+	/* problem and initial policy (as in the IJCAI 2017 setup: G and the
+	 * initial mean have N(0, 1) entries, initial covariance init_std^2 I) */
+	for (i = 0; i < da * k; i++)
+		G[i] = c->problem == P_QUADRATIC ? 0.0 : gsl_ran_gaussian(rng, 1.0);
+	for (i = 0; i < da; i++)
+		buf[i] = c->problem == P_QUADRATIC ? 0.0 : gsl_ran_gaussian(rng, 1.0);
+	for (i = 0; i < da * da; i++)
+		buf[da + i] = i % (da + 1) == 0 ? b->init_std * b->init_std : 0.0;
+	for (i = 0; i < b->test_contexts; i++)
+		draw_context(c, rng, tc + (size_t)i * k);
+	if (!(pol = pr_policy_gaussian_new(k, da, buf, buf + da, err)) ||
+	    !(ws = pr_policy_work_new(pol, err))) {
+		rc = PR_ENOMEM;
+		goto done;
+	}
+	for (it = 0; it < b->iterations; it++) {
+		double *m = c->res + ((size_t)(rep - c->lo) * b->iterations + it) * NMET;
+		pr_reps_problem pb = { n, dv, R, NULL, phi, NULL, NULL, NULL };
+		pr_policy_data d = { n, k, da, 0, S, X, NULL, NULL };
+
+		if (pr_interrupted) {
+			rc = pr_err(err, PR_EINTR, "bench: interrupted");
+			goto done;
+		}
+		m[M_RETURN] = 0.0;
+		for (i = 0; i < n; i++) {
+			double *s = S + (size_t)i * k, *x = X + (size_t)i * da;
+
+			draw_context(c, rng, s);
+			if ((rc = pr_policy_sample(pol, s, 1, rng, x, NULL, ws, err)))
+				goto done;
+			R[i] = objective(c, G, x, s, buf);
+			m[M_RETURN] += R[i] / n;
+			/* value features: s, or s and s_j s_k (eq. 3.4 with hand-made phi) */
+			pr_policy_features_quadratic(s, k, psi);
+			for (j = 0; j < dv; j++)
+				phi[(size_t)i * dv + j] = psi[1 + j];
+		}
+		m[M_SAMPLES] = (double)(it + 1) * n;
+		if ((rc = score(c, pol, G, tc, ws, buf, m, err)))
+			goto done;
+		if ((rc = pr_reps_solve(&c->cfg->reps, &pb, &r, err)))
+			goto done;
+		m[M_ETA] = r->eta;
+		m[M_KL] = r->kl;
+		m[M_ESS] = r->ess;
+		m[M_BOUND] = r->bound;
+		/* eq. 3.10: the REPS weights already contain the (uniform) q */
+		d.w = r->p;
+		next = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, c->cfg->policy.lambda, b->min_std,
+		                            NULL, err);
+		pr_reps_result_free(r);
+		r = NULL;
+		if (!next) {
+			rc = PR_ENUM;
+			goto done;
+		}
+		pr_policy_free(pol);
+		pol = next;
+		pr_exp_ticker_add(&c->tick, 1);
+	}
+done:
+	pr_reps_result_free(r);
+	pr_policy_work_free(ws);
+	pr_policy_free(pol);
+	if (rng)
+		gsl_rng_free(rng);
+	free(G);
+	free(tc);
+	free(S);
+	free(X);
+	free(R);
+	free(phi);
+	free(psi);
+	free(buf);
+	return rc;
+}
+
+static int write_curve(const char *dir, const bench_ctx *c, int lo, int hi, char *err)
+{
+	char path[PATHLEN];
+	pr_csvw *w;
+	int rep, it, j, rc = 0;
+
+	snprintf(path, sizeof path, "%s/bench_curve.csv", dir);
+	if (!(w = pr_csvw_open(path, err)))
+		return PR_EIO;
+	rc = pr_csvw_str(w, "repetition");
+	if (!rc)
+		rc = pr_csvw_str(w, "iteration");
+	for (j = 0; j < NMET && !rc; j++)
+		rc = pr_csvw_str(w, met_name[j]);
+	if (!rc)
+		rc = pr_csvw_endrow(w);
+	for (rep = lo; rep < hi && !rc; rep++)
+		for (it = 0; it < c->b->iterations && !rc; it++) {
+			const double *m = c->res + ((size_t)(rep - lo) * c->b->iterations + it) * NMET;
+
+			rc = pr_csvw_int(w, rep);
+			if (!rc)
+				rc = pr_csvw_int(w, it);
+			for (j = 0; j < NMET && !rc; j++)
+				rc = j == M_SAMPLES || j == M_BOUND ? pr_csvw_int(w, (long)m[j])
+				                                    : pr_csvw_num(w, m[j]);
+			if (!rc)
+				rc = pr_csvw_endrow(w);
+		}
+	if (rc) {
+		pr_csvw_abort(w);
+		return pr_err(err, PR_EIO, "%s: write error", path);
+	}
+	return pr_csvw_close(w, err);
+}
+
+int pr_bench_run(const pr_config *cfg, const pr_bench_opts *b, const char *dir,
+                 const pr_progress *prog, char *err)
+{
+	bench_ctx c;
+	int lo, hi, rc;
+
+	if ((rc = pr_bench_opts_check(b, err)))
+		return rc;
+	memset(&c, 0, sizeof c);
+	c.cfg = cfg;
+	c.b = b;
+	if (strcmp(cfg->run.name, "quadratic") == 0) {
+		c.problem = P_QUADRATIC;
+		c.dims = 1;
+		c.k = 1;
+	} else if (strcmp(cfg->run.name, "sphere") == 0 || strcmp(cfg->run.name, "rosenbrock") == 0) {
+		c.problem = cfg->run.name[0] == 's' ? P_SPHERE : P_ROSENBROCK;
+		c.dims = b->dims;
+		c.k = b->context_dims;
+		if (c.problem == P_ROSENBROCK && c.dims < 2)
+			return pr_err(err, PR_EINVAL, "bench.dims: rosenbrock needs >= 2 (got %d)", c.dims);
+	} else {
+		return pr_err(err, PR_EINVAL, "experiment.name: '%s' is not a benchmark "
+		              "(quadratic, sphere, rosenbrock)", cfg->run.name);
+	}
+	pr_exp_reps(cfg, &lo, &hi);
+	c.lo = lo;
+	c.res = calloc((size_t)(hi - lo) * b->iterations * NMET, sizeof *c.res);
+	if (!c.res)
+		return pr_err(err, PR_ENOMEM, "bench: out of memory");
+	pr_exp_ticker_init(&c.tick, prog, (long)(hi - lo) * b->iterations, cfg->run.name);
+	rc = pr_exp_parallel(lo, hi, cfg->run.threads, run_rep, &c, err);
+	pr_exp_ticker_destroy(&c.tick);
+	if (rc == PR_OK)
+		rc = write_curve(dir, &c, lo, hi, err);
+	free(c.res);
+	return rc;
+}
+
+int pr_exp_benchmark_run(const pr_config *cfg, const char *dir, const pr_progress *prog,
+                         char *err)
+{
+	return pr_bench_run(cfg, &cfg->bench, dir, prog, err);
+}
+
+/* Mean and standard deviation over repetitions, per iteration, of the
+ * returns, test error and bound activity, from bench_curve.csv alone. */
+int pr_exp_benchmark_summarize(const pr_config *cfg, const char *dir, char *err)
+{
+	enum { S_RET, S_TRET, S_TERR, S_BOUND, NS };
+	static const int src[NS] = { M_RETURN, M_TEST_RETURN, M_TEST_ERROR, M_BOUND };
+	char path[PATHLEN];
+	pr_csv *t = NULL;
+	pr_csvw *w = NULL;
+	double *sum = NULL, *ss = NULL, *samples = NULL;
+	long *cnt = NULL, i, nrow, niter = 0;
+	int col[2 + NMET], j, rc, pass;
+
+	(void)cfg;
+	snprintf(path, sizeof path, "%s/bench_curve.csv", dir);
+	if ((rc = pr_csv_read(path, &t, err)))
+		return rc;
+	for (j = 0; j < 2 + NMET; j++) {
+		const char *name = j == 0 ? "repetition" : j == 1 ? "iteration" : met_name[j - 2];
+
+		if ((col[j] = pr_csv_find(t, name)) < 0) {
+			rc = pr_err(err, PR_EIO, "%s:1: missing column '%s'", path, name);
+			goto done;
+		}
+	}
+	nrow = pr_csv_nrows(t);
+	for (i = 0; i < nrow; i++) {
+		double v = pr_csv_get(t, i, col[1]);
+
+		if (v < 0 || v > 1e7 || v != floor(v)) {
+			rc = pr_err(err, PR_EIO, "%s:%ld: bad iteration %g", path, pr_csv_line(t, i), v);
+			goto done;
+		}
+		if ((long)v + 1 > niter)
+			niter = (long)v + 1;
+	}
+	sum = calloc((size_t)(niter > 0 ? niter : 1) * NS, sizeof *sum);
+	ss = calloc((size_t)(niter > 0 ? niter : 1) * NS, sizeof *ss);
+	samples = calloc((size_t)(niter > 0 ? niter : 1), sizeof *samples);
+	cnt = calloc((size_t)(niter > 0 ? niter : 1), sizeof *cnt);
+	if (!sum || !ss || !samples || !cnt) {
+		rc = pr_err(err, PR_ENOMEM, "bench: out of memory");
+		goto done;
+	}
+	/* pass 0: sums; pass 1: squared deviations from the means */
+	for (pass = 0; pass < 2; pass++)
+		for (i = 0; i < nrow; i++) {
+			long it = (long)pr_csv_get(t, i, col[1]);
+
+			if (pass == 0) {
+				cnt[it]++;
+				samples[it] = pr_csv_get(t, i, col[2 + M_SAMPLES]);
+			}
+			for (j = 0; j < NS; j++) {
+				double v = pr_csv_get(t, i, col[2 + src[j]]);
+
+				if (pass == 0)
+					sum[it * NS + j] += v;
+				else
+					ss[it * NS + j] += (v - sum[it * NS + j] / cnt[it]) *
+					                   (v - sum[it * NS + j] / cnt[it]);
+			}
+		}
+	snprintf(path, sizeof path, "%s/bench_summary.csv", dir);
+	if (!(w = pr_csvw_open(path, err))) {
+		rc = PR_EIO;
+		goto done;
+	}
+	{
+		static const char *const head[] = {
+			"iteration", "samples", "repetitions", "mean_return_mean", "mean_return_std",
+			"test_return_mean", "test_return_std", "test_error_mean", "test_error_std",
+			"bound_frac"
+		};
+		for (j = 0; j < 10 && !rc; j++)
+			rc = pr_csvw_str(w, head[j]);
+		if (!rc)
+			rc = pr_csvw_endrow(w);
+	}
+	for (i = 0; i < niter && !rc; i++) {
+		if (!cnt[i])
+			continue;
+		rc = pr_csvw_int(w, i);
+		if (!rc)
+			rc = pr_csvw_int(w, (long)samples[i]);
+		if (!rc)
+			rc = pr_csvw_int(w, cnt[i]);
+		for (j = 0; j < NS && !rc; j++) {
+			rc = pr_csvw_num(w, sum[i * NS + j] / cnt[i]);
+			if (!rc && j != S_BOUND)
+				rc = pr_csvw_num(w, cnt[i] > 1 ? sqrt(ss[i * NS + j] / (cnt[i] - 1)) : 0.0);
+		}
+		if (!rc)
+			rc = pr_csvw_endrow(w);
+	}
+	if (rc) {
+		rc = pr_err(err, PR_EIO, "%s: write error", path);
+		goto done;
+	}
+	rc = pr_csvw_close(w, err);
+	w = NULL;
+done:
+	pr_csvw_abort(w);
+	pr_csv_free(t);
+	free(sum);
+	free(ss);
+	free(samples);
+	free(cnt);
+	return rc;
+}
+
+int pr_exp_benchmark(const pr_config *cfg, const char *dir, char *err)
+{
+	int rc = pr_exp_benchmark_run(cfg, dir, NULL, err);
+
+	return rc ? rc : pr_exp_benchmark_summarize(cfg, dir, err);
+}

@@ -1,0 +1,940 @@
+/* forest.c — extremely randomized trees (thesis ch. 4, 5.2 and 6.1).
+ *
+ * Layout. All trees share flat arrays. Nodes are stored in preorder, so an
+ * internal node's left child is the node after it and only the right child
+ * is recorded; for a leaf the same slot holds its global leaf id. Leaves are
+ * numbered left to right, tree after tree. Each tree owns one permutation of
+ * the sample indices 0..n-1 in which every leaf's samples form a contiguous
+ * slice, in leaf order: global leaf g holds perm[leaf_start[g] ..
+ * leaf_start[g + 1]). No input or output values are copied into the forest.
+ *
+ * Fitting (4.2.1). Depth first from an explicit stack. A node is a range
+ * [lo, hi) of one of two buffers that hold its samples contiguously: sample
+ * indices, inputs column by column, outputs and weights. It is split while
+ * it holds more than n_min samples: K tests [x_d < t] are drawn, each scored
+ * in one pass over the node's column d (branch-free for one unweighted
+ * output), and the best is applied
+ * by a stable, branch-free partition into the same range of the other
+ * buffer (so pending nodes are never overwritten). A leaf copies its indices
+ * into the tree's permutation.
+ *
+ * For a test the weighted sum of squares within the children falls by
+ *     red = S_l^2 / W_l + S_r^2 / W_r - S^2 / W
+ * with W the weight sums and S the sums of w * (y - node mean): outputs are
+ * centred on the node's weighted mean first, so no squares of raw outputs
+ * are subtracted and red is clamped at 0 only against rounding. With one
+ * output and no weights (the common case) the same quantity is
+ * m / (nl nr) * (S_l - nl mean)^2 from the plain left sum S_l of y, and the
+ * node mean comes from the parent's split: no centring pass.
+ *
+ * Score. SSE_k = sum of w (y_k - mean_k)^2 over the node, for each output k
+ * that varies in the node. We maximise
+ *     rvr = sum_k red_k / SSE_k,
+ * the relative variance reduction of Geurts et al., summed over outputs
+ * (eq. 6.1) and weighted (eq. 6.2-6.3) when weights are given. Eq. 4.1's
+ * score for output k is -(SSE_k - red_k) / W, so rvr_k = 1 + W * score_k /
+ * SSE_k: the same best test for one output; with several outputs each one
+ * counts relative to its own node variance, so units do not matter.
+ * score = nrvr maximises -rvr exactly (section 7.5.1).
+ */
+#include <limits.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <gsl/gsl_rng.h>
+
+#include "poolreps/forest.h"
+
+/* One node in 16 bytes, so a descent touches one cache line per level. */
+typedef struct {
+	double thr;  /* threshold t of [x_dim < t] */
+	int dim;     /* test dimension, -1 for a leaf */
+	int right;   /* right child, or the global leaf id for a leaf */
+} pr_node;
+
+struct pr_forest {
+	int M, n, dx, dy;
+	int nnodes, nleaves, max_depth;
+	int cap_nodes, cap_leaves;
+	int *tree_node0;  /* M + 1: first node of each tree */
+	int *tree_leaf0;  /* M + 1: first global leaf of each tree */
+	pr_node *node;    /* all nodes, preorder within each tree */
+	int *leaf_start;  /* nleaves + 1 offsets into perm */
+	double *mean;     /* nleaves x dy leaf values (eq. 4.2) */
+	int *perm;        /* M x n: one sample permutation per tree */
+};
+
+void pr_forest_opts_init(pr_forest_opts *o)
+{
+	o->trees = 30;
+	o->cuts = 10;
+	o->n_min = 20;
+	o->n_c = 1;
+	o->score = PR_SCORE_RVR;
+	o->with_replacement = 1;
+}
+
+int pr_forest_opts_check(const pr_forest_opts *o, const char *prefix, char *err)
+{
+	const char *p = prefix ? prefix : "", *dot = prefix ? "." : "";
+
+	if (o->trees < 1)
+		return pr_err(err, PR_EINVAL, "%s%strees: must be >= 1 (got %d)", p, dot, o->trees);
+	if (o->cuts < 1)
+		return pr_err(err, PR_EINVAL, "%s%scuts: must be >= 1 (got %d)", p, dot, o->cuts);
+	if (o->n_min < 1)
+		return pr_err(err, PR_EINVAL, "%s%sn_min: must be >= 1 (got %d)", p, dot, o->n_min);
+	if (o->n_c < 1)
+		return pr_err(err, PR_EINVAL, "%s%sn_c: must be >= 1 (got %d)", p, dot, o->n_c);
+	if (o->score != PR_SCORE_RVR && o->score != PR_SCORE_NRVR)
+		return pr_err(err, PR_EINVAL, "%s%sscore: must be rvr or nrvr", p, dot);
+	if (o->with_replacement != 0 && o->with_replacement != 1)
+		return pr_err(err, PR_EINVAL, "%s%swith_replacement: must be 0 or 1 (got %d)",
+		              p, dot, o->with_replacement);
+	return PR_OK;
+}
+
+void pr_forest_free(pr_forest *f)
+{
+	if (!f)
+		return;
+	free(f->tree_node0);
+	free(f->tree_leaf0);
+	free(f->node);
+	free(f->leaf_start);
+	free(f->mean);
+	free(f->perm);
+	free(f);
+}
+
+/* ---- fitting ---------------------------------------------------------- */
+
+typedef struct {
+	int lo, hi, depth;
+	int parent;  /* the node whose right child this is, or -1 */
+	double sum;  /* unweighted single output: the sum of the node's y */
+} span;
+
+/* The samples of the nodes at one depth parity, in node order: a node is a
+ * range [lo, hi) of every array. Children are written into the other
+ * buffer's copy of the same range, so pending nodes are never overwritten. */
+typedef struct {
+	int *idx;   /* n sample indices */
+	double *x;  /* dx x n inputs, column-major */
+	double *y;  /* n x dy outputs */
+	double *w;  /* n weights (weighted fits only) */
+} nodebuf;
+
+/* Nodes with more values than this (samples x (inputs + 2)) are
+ * partitioned column by column; smaller ones in one fused pass. */
+#define LARGE_NODE ((size_t)1 << 20)
+
+/* Workspace of one fit, reused by every node of every tree. */
+typedef struct {
+	const pr_forest_opts *o;
+	int n, dx, dy, weighted;
+	nodebuf buf[2];
+	int *pos;             /* n: destinations in a large node's partition */
+	double *wyc;          /* n x dy: w * (y - node mean) of the current node */
+	double *lo, *hi;      /* dx: the node's range of each examined dimension */
+	unsigned char *seen;  /* dx: 0 not examined in this node, 1 varies, 2 constant */
+	int *cand, *pool;     /* dx: drawable dimensions; without-replacement pool */
+	double *sse, *sl, *sr, *ym;  /* dy each */
+	span *stk;
+	int stk_cap;
+	gsl_rng *r;
+} builder;
+
+static void builder_free(builder *b)
+{
+	for (int i = 0; i < 2; i++) {
+		free(b->buf[i].idx);
+		free(b->buf[i].x);
+		free(b->buf[i].y);
+		free(b->buf[i].w);
+	}
+	free(b->wyc);
+	free(b->pos);
+	free(b->lo);
+	free(b->hi);
+	free(b->seen);
+	free(b->cand);
+	free(b->pool);
+	free(b->sse);
+	free(b->sl);
+	free(b->sr);
+	free(b->ym);
+	free(b->stk);
+	gsl_rng_free(b->r);
+}
+
+static int builder_alloc(builder *b)
+{
+	size_t n = (size_t)b->n, dx = (size_t)b->dx, dy = (size_t)b->dy;
+	int ok = 1;
+
+	for (int i = 0; i < 2; i++) {
+		nodebuf *nb = b->buf + i;
+		nb->idx = malloc(n * sizeof *nb->idx);
+		nb->x = malloc(dx * n * sizeof *nb->x);
+		nb->y = malloc(n * dy * sizeof *nb->y);
+		nb->w = b->weighted ? malloc(n * sizeof *nb->w) : NULL;
+		ok = ok && nb->idx && nb->x && nb->y && (nb->w || !b->weighted);
+	}
+	b->wyc = b->weighted || dy > 1 ? malloc(n * dy * sizeof *b->wyc) : NULL;
+	b->pos = malloc(n * sizeof *b->pos);
+	b->lo = malloc(dx * sizeof *b->lo);
+	b->hi = malloc(dx * sizeof *b->hi);
+	b->seen = malloc(dx);
+	b->cand = malloc(dx * sizeof *b->cand);
+	b->pool = malloc(dx * sizeof *b->pool);
+	b->sse = malloc(dy * sizeof(double));
+	b->sl = malloc(dy * sizeof(double));
+	b->sr = malloc(dy * sizeof(double));
+	b->ym = malloc(dy * sizeof(double));
+	b->stk_cap = 64;
+	b->stk = malloc((size_t)b->stk_cap * sizeof *b->stk);
+	b->r = gsl_rng_alloc(gsl_rng_mt19937);
+	return ok && (b->wyc || (!b->weighted && dy == 1)) && b->pos && b->lo && b->hi
+	       && b->seen && b->cand && b->pool
+	       && b->sse && b->sl && b->sr && b->ym && b->stk && b->r;
+}
+
+/* splitmix64: a tree's seed from (forest seed, tree index), independent of
+ * the order in which trees are grown. */
+static unsigned long tree_seed(uint64_t seed, int t)
+{
+	uint64_t z = seed + 0x9E3779B97F4A7C15ULL * (uint64_t)(t + 1);
+
+	z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+	z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+	return (unsigned long)(z ^ (z >> 31));
+}
+
+/* The node's range of dimension d, computed once per node and dimension.
+ * Four scalar accumulator pairs: no loop-carried latency chain, and the
+ * compiler keeps them in registers (arrays would round-trip through memory). */
+static void examine(builder *b, const double *x, int m, int d)
+{
+	double l0 = x[0], l1 = x[0], l2 = x[0], l3 = x[0];
+	double h0 = x[0], h1 = x[0], h2 = x[0], h3 = x[0];
+	int j;
+
+	for (j = 0; j + 4 <= m; j += 4) {
+		l0 = x[j] < l0 ? x[j] : l0;
+		l1 = x[j + 1] < l1 ? x[j + 1] : l1;
+		l2 = x[j + 2] < l2 ? x[j + 2] : l2;
+		l3 = x[j + 3] < l3 ? x[j + 3] : l3;
+		h0 = x[j] > h0 ? x[j] : h0;
+		h1 = x[j + 1] > h1 ? x[j + 1] : h1;
+		h2 = x[j + 2] > h2 ? x[j + 2] : h2;
+		h3 = x[j + 3] > h3 ? x[j + 3] : h3;
+	}
+	for (; j < m; j++) {
+		l0 = x[j] < l0 ? x[j] : l0;
+		h0 = x[j] > h0 ? x[j] : h0;
+	}
+	l0 = l1 < l0 ? l1 : l0;
+	l2 = l3 < l2 ? l3 : l2;
+	l0 = l2 < l0 ? l2 : l0;
+	h0 = h1 > h0 ? h1 : h0;
+	h2 = h3 > h2 ? h3 : h2;
+	h0 = h2 > h0 ? h2 : h0;
+	b->lo[d] = l0;
+	b->hi[d] = h0;
+	b->seen[d] = h0 > l0 ? 1 : 2;
+}
+
+/* Draw a test dimension uniformly among those not constant in the node
+ * (rejection: a constant one leaves the candidates and we draw again), with
+ * replacement or from a pool refilled once exhausted. -1 if all are constant.
+ * xn is the node's first input column; columns are n apart. */
+static int draw_dim(builder *b, const double *xn, int m, int *nc, int *np)
+{
+	for (;;) {
+		int d, u;
+
+		if (*nc == 0)
+			return -1;
+		if (b->o->with_replacement) {
+			d = b->cand[gsl_rng_uniform_int(b->r, (unsigned long)*nc)];
+		} else {
+			if (*np == 0) {
+				memcpy(b->pool, b->cand, (size_t)*nc * sizeof *b->pool);
+				*np = *nc;
+			}
+			u = (int)gsl_rng_uniform_int(b->r, (unsigned long)*np);
+			d = b->pool[u];
+			b->pool[u] = b->pool[--*np];
+		}
+		if (!b->seen[d])
+			examine(b, xn + (size_t)d * b->n, m, d);
+		if (b->seen[d] == 1)
+			return d;
+		for (u = 0; b->cand[u] != d; u++)
+			;
+		b->cand[u] = b->cand[--*nc];
+	}
+}
+
+/* Unweighted single output: count and sum of y left of t. The
+ * comparison is used as a 0/1 factor, with four independent accumulators,
+ * so the loop has no branches and the compiler can vectorise it. */
+static int scan_u1(const double *x, const double *y, int m, double t, double *sl)
+{
+	double s0 = 0, s1 = 0, s2 = 0, s3 = 0, c0 = 0, c1 = 0, c2 = 0, c3 = 0;
+	int j;
+
+	for (j = 0; j + 4 <= m; j += 4) {
+		double a0 = x[j] < t, a1 = x[j + 1] < t, a2 = x[j + 2] < t, a3 = x[j + 3] < t;
+		c0 += a0;
+		c1 += a1;
+		c2 += a2;
+		c3 += a3;
+		s0 += a0 * y[j];
+		s1 += a1 * y[j + 1];
+		s2 += a2 * y[j + 2];
+		s3 += a3 * y[j + 3];
+	}
+	for (; j < m; j++) {
+		double a = x[j] < t;
+		c0 += a;
+		s0 += a * y[j];
+	}
+	*sl = (s0 + s1) + (s2 + s3);
+	return (int)((c0 + c1) + (c2 + c3));
+}
+
+/* Whether y varies in the node: stops at the first differing value, so it
+ * costs a few reads except in the (cheap) constant case. */
+static int varies(const double *y, int m)
+{
+	for (int j = 1; j < m; j++)
+		if (y[j] != y[0])
+			return 1;
+	return 0;
+}
+
+/* General case: left and right weight sums and sums of w * (y - mean), both
+ * accumulated, so a light child's sums carry no cancellation error. */
+static int scan_gen(builder *b, const double *x, const double *w, int m, double t,
+                    double *wl, double *wr)
+{
+	int dy = b->dy, nl = 0;
+	double a = 0, c = 0;
+
+	for (int k = 0; k < dy; k++)
+		b->sl[k] = b->sr[k] = 0;
+	for (int j = 0; j < m; j++) {
+		const double *v = b->wyc + (size_t)j * dy;
+		double wj = w ? w[j] : 1.0;
+		if (x[j] < t) {
+			nl++;
+			a += wj;
+			for (int k = 0; k < dy; k++)
+				b->sl[k] += v[k];
+		} else {
+			c += wj;
+			for (int k = 0; k < dy; k++)
+				b->sr[k] += v[k];
+		}
+	}
+	*wl = a;
+	*wr = c;
+	return nl;
+}
+
+/* Fall of the weighted sum of squares from parent to children. */
+static double reduction(double sl, double sr, double wl, double wr)
+{
+	double s = sl + sr, red;
+
+	if (wl <= 0 || wr <= 0)
+		return 0;
+	red = sl * sl / wl + sr * sr / wr - s * s / (wl + wr);
+	return red > 0 ? red : 0;
+}
+
+/* Centre the node's outputs on their weighted mean, into wyc (times w), with
+ * the weighted SSE per output. The mean is taken relative to the first
+ * sample, so an output constant in the node gets SSE exactly 0 and takes no
+ * part in the score. */
+static void centre(builder *b, const double *y, const double *w, int m)
+{
+	int dy = b->dy;
+	double W = 0;
+
+	for (int k = 0; k < dy; k++)
+		b->ym[k] = b->sse[k] = 0;
+	for (int j = 0; j < m; j++) {
+		double wj = w ? w[j] : 1.0;
+		W += wj;
+		for (int k = 0; k < dy; k++)
+			b->ym[k] += wj * (y[(size_t)j * dy + k] - y[k]);
+	}
+	for (int k = 0; k < dy; k++)
+		b->ym[k] = y[k] + (W > 0 ? b->ym[k] / W : 0);
+	for (int j = 0; j < m; j++) {
+		double *v = b->wyc + (size_t)j * dy, wj = w ? w[j] : 1.0;
+		for (int k = 0; k < dy; k++) {
+			double e = y[(size_t)j * dy + k] - b->ym[k];
+			v[k] = wj * e;
+			b->sse[k] += v[k] * e;
+		}
+	}
+}
+
+/* Draw K tests for the node [lo, lo + m) of buffer nb and pick the best
+ * scoring one whose children both hold at least n_c samples (ties, e.g. all
+ * 0 when the outputs are constant in the node: the first drawn). Returns 0
+ * for a leaf. */
+static int choose_split(builder *b, const nodebuf *nb, int lo, int m, double sum, int *bd,
+                        double *bt, int *bnl, double *bsl)
+{
+	const pr_forest_opts *o = b->o;
+	const double *xn = nb->x + lo, *w = nb->w ? nb->w + lo : NULL;
+	const double *y = nb->y + (size_t)lo * b->dy;
+	double best = -INFINITY, mean = sum / m;
+	int nc = b->dx, np = 0, found = 0, fast = !w && b->dy == 1, vary = 1;
+
+	if (fast)
+		vary = varies(y, m);
+	else
+		centre(b, y, w, m);
+	for (int d = 0; d < b->dx; d++) {
+		b->cand[d] = d;
+		b->seen[d] = 0;
+	}
+	for (int k = 0; k < o->cuts; k++) {
+		int d = draw_dim(b, xn, m, &nc, &np), nl;
+		double t, sc = 0, wl, wr, sl = 0;
+		const double *x;
+
+		if (d < 0)
+			break;
+		t = b->lo[d] + (b->hi[d] - b->lo[d]) * gsl_rng_uniform(b->r);
+		x = xn + (size_t)d * b->n;
+		if (fast) {
+			/* One output, no weights: the node SSE is a positive constant
+			 * factor of rvr, so the reduction itself ranks the tests. It is
+			 * m/(nl nr) (S_l - nl mean)^2, from the left sum of raw y: the
+			 * one subtraction loses only eps |mean| nl against S_l - nl mean.
+			 * A constant output scores 0 exactly, as in the general path. */
+			double dl;
+			nl = scan_u1(x, y, m, t, &sl);
+			dl = sl - nl * mean;
+			if (vary && nl > 0 && nl < m)
+				sc = dl * dl * ((double)m / ((double)nl * (m - nl)));
+		} else {
+			nl = scan_gen(b, x, w, m, t, &wl, &wr);
+			for (int q = 0; q < b->dy; q++)
+				if (b->sse[q] > 0)
+					sc += reduction(b->sl[q], b->sr[q], wl, wr) / b->sse[q];
+		}
+		if (nl < o->n_c || m - nl < o->n_c)
+			continue;
+		if (o->score == PR_SCORE_NRVR)
+			sc = -sc;
+		if (!found || sc > best) {
+			found = 1;
+			best = sc;
+			*bd = d;
+			*bt = t;
+			*bnl = nl;
+			*bsl = sl;
+		}
+	}
+	return found;
+}
+
+/* The one-pass partition loop over idx, y (dy = 1, no weights) and the
+ * first dx columns. Called with constant dx so that, inlined, each case is
+ * a straight loop with no per-element switch. */
+static inline void part_u1(int m, const double *x, double thr, int nl, const int *si,
+                           const double *sy, const double *sx, int *ti, double *ty,
+                           double *tx, size_t n, int dx)
+{
+	int cl = 0, cr = nl;
+
+	for (int j = 0; j < m; j++) {
+		int a = x[j] < thr, msk = -a, p = (cl & msk) | (cr & ~msk);
+		cl += a;
+		cr += 1 - a;
+		ti[p] = si[j];
+		ty[p] = sy[j];
+		for (int c = 0; c < dx; c++)
+			tx[c * n + p] = sx[c * n + j];
+	}
+}
+
+/* Stable partition of the node [lo, lo + m) from buffer s into the same range
+ * of buffer t: samples with x_d < thr first (nl of them), then the others.
+ * Branch-free, one pass: each sample's destination is selected by mask
+ * arithmetic (compilers turn ?: into branches, which mispredict half the
+ * time on a random split). Children that will be leaves need no inputs. */
+static void partition(builder *b, const nodebuf *s, nodebuf *t, int lo, int m, int d,
+                      double thr, int nl)
+{
+	size_t n = (size_t)b->n;
+	int dx = b->dx, dy = b->dy, cl = 0, cr = nl;
+	const double *x = s->x + d * n + lo, *sx = s->x + lo, *sy = s->y + (size_t)lo * dy;
+	const int *si = s->idx + lo;
+	double *tx = t->x + lo, *ty = t->y + (size_t)lo * dy;
+	int *ti = t->idx + lo;
+
+	if (nl <= b->o->n_min && m - nl <= b->o->n_min)
+		dx = 0;
+	if (dy == 1 && !s->w && (size_t)m * (dx + 2) > LARGE_NODE) {
+		/* a large node: too many streams at once thrash the caches and
+		 * TLB, so record destinations and move one column at a time */
+		int *pos = b->pos;
+		for (int j = 0; j < m; j++) {
+			int a = x[j] < thr, msk = -a, p = (cl & msk) | (cr & ~msk);
+			cl += a;
+			cr += 1 - a;
+			pos[j] = p;
+			ti[p] = si[j];
+			ty[p] = sy[j];
+		}
+		for (int c = 0; c < dx; c++) {
+			const double *sc = sx + c * n;
+			double *tc = tx + c * n;
+			for (int j = 0; j < m; j++)
+				tc[pos[j]] = sc[j];
+		}
+		return;
+	}
+	if (dy == 1 && !s->w) {
+		switch (dx) {
+		case 0: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 0); return;
+		case 1: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 1); return;
+		case 2: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 2); return;
+		case 3: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 3); return;
+		case 4: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 4); return;
+		default: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, dx); return;
+		}
+	}
+	for (int j = 0; j < m; j++) {
+		int a = x[j] < thr, msk = -a, p = (cl & msk) | (cr & ~msk);
+		cl += a;
+		cr += 1 - a;
+		ti[p] = si[j];
+		for (int k = 0; k < dy; k++)
+			ty[(size_t)p * dy + k] = sy[(size_t)j * dy + k];
+		for (int c = 0; c < dx; c++)
+			tx[c * n + p] = sx[c * n + j];
+		if (s->w)
+			t->w[lo + p] = s->w[lo + j];
+	}
+}
+
+static int grow_nodes(pr_forest *f)
+{
+	int cap = f->cap_nodes ? 2 * f->cap_nodes : 1024;
+	pr_node *p = realloc(f->node, (size_t)cap * sizeof *p);
+
+	if (!p)
+		return PR_ENOMEM;
+	f->node = p;
+	f->cap_nodes = cap;
+	return PR_OK;
+}
+
+static int grow_leaves(pr_forest *f)
+{
+	int cap = f->cap_leaves ? 2 * f->cap_leaves : 512;
+	int *s = realloc(f->leaf_start, ((size_t)cap + 1) * sizeof *s);
+	double *m;
+
+	if (!s)
+		return PR_ENOMEM;
+	f->leaf_start = s;
+	m = realloc(f->mean, (size_t)cap * f->dy * sizeof *m);
+	if (!m)
+		return PR_ENOMEM;
+	f->mean = m;
+	f->cap_leaves = cap;
+	return PR_OK;
+}
+
+/* Leaf value, eq. 4.2: the mean of the leaf's outputs, weighted when the
+ * forest is fitted with weights (the centre the weighted score of eq. 6.3
+ * measures spread around); the plain mean if the leaf's weights are all 0. */
+static void leaf_mean(int dy, const double *y, const double *w, int m, double *out)
+{
+	double W = 0;
+
+	if (w)
+		for (int j = 0; j < m; j++)
+			W += w[j];
+	for (int k = 0; k < dy; k++) {
+		double s = 0;
+		for (int j = 0; j < m; j++)
+			s += (W > 0 ? w[j] : 1.0) * y[(size_t)j * dy + k];
+		out[k] = s / (W > 0 ? W : m);
+	}
+}
+
+/* Grow tree t depth first from an explicit stack (right child pushed first,
+ * so nodes come out in preorder and leaves left to right). */
+static int grow_tree(pr_forest *f, builder *b, const double *X, const double *Y,
+                     const double *w, int t)
+{
+	int n = b->n, dx = b->dx, dy = b->dy, sp = 0;
+	nodebuf *b0 = b->buf;
+	int *perm = f->perm + (size_t)t * n;
+
+	for (int i = 0; i < n; i++) {
+		b0->idx[i] = i;
+		for (int d = 0; d < dx; d++)
+			b0->x[(size_t)d * n + i] = X[(size_t)i * dx + d];
+	}
+	memcpy(b0->y, Y, (size_t)n * dy * sizeof *b0->y);
+	if (w)
+		memcpy(b0->w, w, (size_t)n * sizeof *b0->w);
+	f->tree_node0[t] = f->nnodes;
+	f->tree_leaf0[t] = f->nleaves;
+	b->stk[sp++] = (span){ 0, n, 0, -1, 0 };
+	if (dy == 1 && !w)
+		for (int i = 0; i < n; i++)
+			b->stk[0].sum += Y[i];
+	while (sp > 0) {
+		span s = b->stk[--sp];
+		nodebuf *nb = b->buf + (s.depth & 1);
+		int id = f->nnodes, m = s.hi - s.lo, d = 0, nl = 0;
+		double thr = 0, suml = 0;
+		pr_node *nd;
+
+		if (id == f->cap_nodes && grow_nodes(f))
+			return PR_ENOMEM;
+		f->nnodes++;
+		nd = f->node + id;
+		if (s.parent >= 0)
+			f->node[s.parent].right = id;
+		if (s.depth > f->max_depth)
+			f->max_depth = s.depth;
+		if (m > b->o->n_min && choose_split(b, nb, s.lo, m, s.sum, &d, &thr, &nl, &suml)) {
+			partition(b, nb, b->buf + !(s.depth & 1), s.lo, m, d, thr, nl);
+			if (sp + 2 > b->stk_cap) {
+				span *ns = realloc(b->stk, 2 * (size_t)b->stk_cap * sizeof *ns);
+				if (!ns)
+					return PR_ENOMEM;
+				b->stk = ns;
+				b->stk_cap *= 2;
+			}
+			nd->dim = d;
+			nd->thr = thr;
+			/* the children's sums of y (fast path): the left one is the
+			 * chosen test's S_l; drift in the right one moves only the
+			 * centring of S_l - nl mean, never a leaf value */
+			b->stk[sp++] = (span){ s.lo + nl, s.hi, s.depth + 1, id, s.sum - suml };
+			b->stk[sp++] = (span){ s.lo, s.lo + nl, s.depth + 1, -1, suml };
+		} else {
+			int leaf = f->nleaves;
+			if (leaf == f->cap_leaves && grow_leaves(f))
+				return PR_ENOMEM;
+			nd->dim = -1;
+			nd->thr = 0;
+			nd->right = leaf;
+			f->leaf_start[leaf] = t * n + s.lo;
+			memcpy(perm + s.lo, nb->idx + s.lo, (size_t)m * sizeof *perm);
+			leaf_mean(dy, nb->y + (size_t)s.lo * dy, nb->w ? nb->w + s.lo : NULL, m,
+			          f->mean + (size_t)leaf * dy);
+			f->nleaves++;
+		}
+	}
+	return PR_OK;
+}
+
+static int check_data(const double *X, int n, int dx, const double *Y, int dy,
+                      const double *w, char *err)
+{
+	double W = 0;
+
+	for (size_t i = 0; i < (size_t)n * dx; i++)
+		if (!isfinite(X[i]))
+			return pr_err(err, PR_EINVAL, "forest: input row %zu column %zu is not finite",
+			              i / dx, i % dx);
+	for (size_t i = 0; i < (size_t)n * dy; i++)
+		if (!isfinite(Y[i]))
+			return pr_err(err, PR_EINVAL, "forest: output row %zu column %zu is not finite",
+			              i / dy, i % dy);
+	if (!w)
+		return PR_OK;
+	for (int i = 0; i < n; i++) {
+		if (!isfinite(w[i]) || w[i] < 0)
+			return pr_err(err, PR_EINVAL, "forest: weight %d must be finite and >= 0 (got %g)",
+			              i, w[i]);
+		W += w[i];
+	}
+	if (!(W > 0))
+		return pr_err(err, PR_EINVAL, "forest: the weights sum to 0");
+	return PR_OK;
+}
+
+pr_forest *pr_forest_fit(const pr_forest_opts *o, const double *X, int n, int dx,
+                         const double *Y, int dy, const double *w, gsl_rng *rng,
+                         char *err)
+{
+	builder b = { 0 };
+	pr_forest *f;
+	uint64_t seed;
+	int st = PR_ENOMEM;
+
+	if (!o || !X || !Y || !rng) {
+		pr_err(err, PR_EINVAL, "forest: missing options, data or generator");
+		return NULL;
+	}
+	if (pr_forest_opts_check(o, NULL, err))
+		return NULL;
+	if (n < 1 || dx < 1 || dy < 1) {
+		pr_err(err, PR_EINVAL, "forest: need n, dx, dy >= 1 (got %d, %d, %d)", n, dx, dy);
+		return NULL;
+	}
+	if (n < o->n_c) {
+		pr_err(err, PR_EINVAL, "forest: %d samples, fewer than n_c = %d", n, o->n_c);
+		return NULL;
+	}
+	if ((long long)n * o->trees >= INT_MAX) {
+		pr_err(err, PR_EINVAL, "forest: trees x samples = %lld is too large",
+		       (long long)n * o->trees);
+		return NULL;
+	}
+	if (check_data(X, n, dx, Y, dy, w, err))
+		return NULL;
+	f = calloc(1, sizeof *f);
+	if (!f) {
+		pr_err(err, PR_ENOMEM, "forest: out of memory");
+		return NULL;
+	}
+	f->M = o->trees;
+	f->n = n;
+	f->dx = dx;
+	f->dy = dy;
+	f->tree_node0 = malloc(((size_t)f->M + 1) * sizeof *f->tree_node0);
+	f->tree_leaf0 = malloc(((size_t)f->M + 1) * sizeof *f->tree_leaf0);
+	f->perm = malloc((size_t)f->M * n * sizeof *f->perm);
+	b.o = o;
+	b.n = n;
+	b.dx = dx;
+	b.dy = dy;
+	b.weighted = w != NULL;
+	if (!f->tree_node0 || !f->tree_leaf0 || !f->perm || !builder_alloc(&b)
+	    || grow_nodes(f) || grow_leaves(f))
+		goto fail;
+	seed = gsl_rng_get(rng) - gsl_rng_min(rng);
+	for (int t = 0; t < f->M; t++) {
+		if (pr_interrupted) {
+			st = PR_EINTR;
+			goto fail;
+		}
+		gsl_rng_set(b.r, tree_seed(seed, t));
+		st = grow_tree(f, &b, X, Y, w, t);
+		if (st)
+			goto fail;
+	}
+	f->tree_node0[f->M] = f->nnodes;
+	f->tree_leaf0[f->M] = f->nleaves;
+	f->leaf_start[f->nleaves] = f->M * n;
+	builder_free(&b);
+	return f;
+fail:
+	builder_free(&b);
+	pr_forest_free(f);
+	if (st == PR_EINTR)
+		pr_err(err, st, "forest: interrupted");
+	else
+		pr_err(err, PR_ENOMEM, "forest: out of memory");
+	return NULL;
+}
+
+/* ---- queries ---------------------------------------------------------- */
+
+int pr_forest_ntrees(const pr_forest *f) { return f->M; }
+int pr_forest_nleaves(const pr_forest *f) { return f->nleaves; }
+int pr_forest_nsamples(const pr_forest *f) { return f->n; }
+int pr_forest_dx(const pr_forest *f) { return f->dx; }
+int pr_forest_dy(const pr_forest *f) { return f->dy; }
+int pr_forest_nnodes(const pr_forest *f) { return f->nnodes; }
+
+int pr_forest_tree_leaf0(const pr_forest *f, int t)
+{
+	return t >= 0 && t <= f->M ? f->tree_leaf0[t] : PR_EINVAL;
+}
+
+int pr_forest_tree_node0(const pr_forest *f, int t)
+{
+	return t >= 0 && t <= f->M ? f->tree_node0[t] : PR_EINVAL;
+}
+
+const double *pr_forest_leaf_mean(const pr_forest *f, int leaf)
+{
+	return leaf >= 0 && leaf < f->nleaves ? f->mean + (size_t)leaf * f->dy : NULL;
+}
+
+int pr_forest_node(const pr_forest *f, int node, int *dim, double *thr, int *right)
+{
+	if (node < 0 || node >= f->nnodes)
+		return PR_EINVAL;
+	if (dim)
+		*dim = f->node[node].dim;
+	if (thr)
+		*thr = f->node[node].thr;
+	if (right)
+		*right = f->node[node].right;
+	return PR_OK;
+}
+
+/* eq. 4.2-4.3 */
+void pr_forest_predict(const pr_forest *f, const double *x, double *y)
+{
+	int dy = f->dy;
+
+	for (int k = 0; k < dy; k++)
+		y[k] = 0;
+	for (int t = 0; t < f->M; t++) {
+		const pr_node *nd = f->node + f->tree_node0[t];
+		const double *v;
+
+		while (nd->dim >= 0)
+			nd = x[nd->dim] < nd->thr ? nd + 1 : f->node + nd->right;
+		v = f->mean + (size_t)nd->right * dy;
+		for (int k = 0; k < dy; k++)
+			y[k] += v[k];
+	}
+	for (int k = 0; k < dy; k++)
+		y[k] /= f->M;
+}
+
+/* Tree by tree over all queries, so one tree's nodes stay in cache. Eight
+ * queries descend together with branch-free steps: their loads overlap
+ * instead of waiting on each other, and random tests cannot mispredict. */
+void pr_forest_predict_many(const pr_forest *f, const double *X, int nq, double *Y)
+{
+	enum { G = 8 };
+	int dx = f->dx, dy = f->dy;
+
+	for (size_t i = 0; i < (size_t)nq * dy; i++)
+		Y[i] = 0;
+	for (int t = 0; t < f->M; t++) {
+		int root = f->tree_node0[t];
+		for (int i0 = 0; i0 < nq; i0 += G) {
+			int g = nq - i0 < G ? nq - i0 : G, cur[G], live = g;
+			for (int q = 0; q < g; q++)
+				cur[q] = root;
+			while (live > 0) {
+				live = 0;
+				for (int q = 0; q < g; q++) {
+					const pr_node *nd = f->node + cur[q];
+					int in = nd->dim >= 0, dim = in ? nd->dim : 0;
+					int a = X[(size_t)(i0 + q) * dx + dim] < nd->thr, msk = -(a & in);
+					int next = ((cur[q] + 1) & msk) | (nd->right & ~msk);
+					cur[q] = in ? next : cur[q];
+					live += in;
+				}
+			}
+			for (int q = 0; q < g; q++) {
+				const double *v = f->mean + (size_t)f->node[cur[q]].right * dy;
+				for (int k = 0; k < dy; k++)
+					Y[(size_t)(i0 + q) * dy + k] += v[k];
+			}
+		}
+	}
+	for (size_t i = 0; i < (size_t)nq * dy; i++)
+		Y[i] /= f->M;
+}
+
+typedef int (*leaf_fn)(const pr_forest *f, int leaf, void *ctx);
+
+/* Visit every leaf active for x, tree by tree, left to right. A test on a
+ * dimension >= dq (an action, for a state-only query) sends x down both
+ * branches (section 5.2.1). Pending right children are at most one per level,
+ * so a stack of max_depth + 1 entries suffices. */
+static int walk(const pr_forest *f, const double *x, int dq, leaf_fn fn, void *ctx)
+{
+	int local[64], *stk = local, st = PR_OK;
+
+	if (f->max_depth + 1 > 64) {
+		stk = malloc(((size_t)f->max_depth + 1) * sizeof *stk);
+		if (!stk)
+			return PR_ENOMEM;
+	}
+	for (int t = 0; t < f->M && st == PR_OK; t++) {
+		int sp = 0;
+		stk[sp++] = f->tree_node0[t];
+		while (sp > 0 && st == PR_OK) {
+			int node = stk[--sp];
+			for (;;) {
+				const pr_node *nd = f->node + node;
+				if (nd->dim < 0)
+					break;
+				if (nd->dim >= dq) {
+					stk[sp++] = nd->right;
+					node++;
+				} else {
+					node = x[nd->dim] < nd->thr ? node + 1 : nd->right;
+				}
+			}
+			st = fn(f, f->node[node].right, ctx);
+		}
+	}
+	if (stk != local)
+		free(stk);
+	return st;
+}
+
+typedef struct {
+	int *leaves;
+	int cap, count;
+} leaf_list;
+
+static int add_leaf(const pr_forest *f, int leaf, void *ctx)
+{
+	leaf_list *l = ctx;
+
+	(void)f;
+	if (l->count >= l->cap)
+		return PR_EINVAL;
+	l->leaves[l->count++] = leaf;
+	return PR_OK;
+}
+
+int pr_forest_active(const pr_forest *f, const double *x, int dq, int *leaves, int cap)
+{
+	leaf_list l = { leaves, cap, 0 };
+	int st;
+
+	if (dq < 0 || dq > f->dx || (dq > 0 && !x) || cap < 0)
+		return PR_EINVAL;
+	st = walk(f, x, dq, add_leaf, &l);
+	return st ? st : l.count;
+}
+
+int pr_forest_leaf_samples(const pr_forest *f, int leaf, const int **idx)
+{
+	if (leaf < 0 || leaf >= f->nleaves)
+		return PR_EINVAL;
+	*idx = f->perm + f->leaf_start[leaf];
+	return f->leaf_start[leaf + 1] - f->leaf_start[leaf];
+}
+
+static int add_samples(const pr_forest *f, int leaf, void *ctx)
+{
+	double *phi = ctx, inc = 1.0 / f->M;
+
+	for (int j = f->leaf_start[leaf]; j < f->leaf_start[leaf + 1]; j++)
+		phi[f->perm[j]] += inc;
+	return PR_OK;
+}
+
+/* eq. 5.5-5.6: row i of Phi^T phi(x) counts the active leaves holding sample i. */
+int pr_forest_active_samples(const pr_forest *f, const double *x, int dq, double *phi)
+{
+	if (dq < 0 || dq > f->dx || (dq > 0 && !x) || !phi)
+		return PR_EINVAL;
+	for (int i = 0; i < f->n; i++)
+		phi[i] = 0;
+	return walk(f, x, dq, add_samples, phi);
+}

@@ -1,0 +1,367 @@
+/* sim_event.c — exact event-driven time advance (SPEC.md §1, sim.mode = event).
+ *
+ * Invariant. Every moving ball decays at the same rate, v(t) = v(t0) e^{-c(t-t0)},
+ * so with tau = (1 - e^{-ct})/c a moving ball's velocity is u e^{-ct} for a
+ * constant u (its velocity rescaled to t = 0) and its position is linear in
+ * tau: p(tau) = p(tr) + u (tau - tr). Balls at rest have u = 0. The collision
+ * laws (eq. 7.4-7.6) are linear in the velocities, so they act on u directly.
+ * Hence contact, cushion and pocket-entry times are roots of linear or
+ * quadratic equations in tau, and a ball stops at the closed-form tau where
+ * |u| e^{-ct} = |u| (1 - c tau) = stop_speed. A ball can never travel farther
+ * than |u|/c.
+ *
+ * Each ball caches the earliest event it takes part in; after an event only
+ * the balls involved are re-predicted in full, the others are checked
+ * against them (or re-predicted when their cached partner was involved).
+ * Positions are advanced lazily: a ball's (x,y,tr) change only when its
+ * velocity does. Ties: pocket < stop < cushion < ball collision, then by
+ * ball index.
+ */
+#include <math.h>
+
+#include "sim_priv.h"
+
+#define MIN_CLOSING 1e-9 /* m/s: slower approaches are not collisions */
+
+static int earlier(double t1, int k1, double t2, int k2)
+{
+	return t1 < t2 || (t1 == t2 && k1 < k2);
+}
+
+static void advance(pr_sim_ball *b, double tau)
+{
+	b->x += b->ux * (tau - b->tr);
+	b->y += b->uy * (tau - b->tr);
+	b->tr = tau;
+}
+
+/* The ball's own next event: stop, cushion or pocket entry. */
+static void predict_own(const pr_sim *s, pr_sim_ball *b)
+{
+	const double c = s->t.friction, rp = s->t.pocket_radius;
+	double best, sc, sy;
+	int type, other = -1, j;
+
+	b->et = HUGE_VAL;
+	b->etype = PR_EV_NONE;
+	b->eother = -1;
+	if (b->st != PR_BALL_MOVING)
+		return;
+	/* |u| (1 - c tau) = stop_speed */
+	best = fmax(b->tr, (1 - s->t.stop_speed / b->sp) / c);
+	type = PR_EV_STOP;
+	/* cushions: 0 x = -hx, 1 x = +hx, 2 y = -hy, 3 y = +hy (centre lines) */
+	sc = HUGE_VAL;
+	if (b->ux > 0) {
+		sc = (s->hx - b->x) / b->ux;
+		other = 1;
+	} else if (b->ux < 0) {
+		sc = (-s->hx - b->x) / b->ux;
+		other = 0;
+	}
+	sy = HUGE_VAL;
+	if (b->uy > 0)
+		sy = (s->hy - b->y) / b->uy;
+	else if (b->uy < 0)
+		sy = (-s->hy - b->y) / b->uy;
+	if (sy < sc) {
+		sc = sy;
+		other = b->uy > 0 ? 3 : 2;
+	}
+	if (sc < HUGE_VAL && earlier(b->tr + fmax(sc, 0), PR_EV_CUSHION, best, type)) {
+		best = b->tr + fmax(sc, 0);
+		type = PR_EV_CUSHION;
+	} else {
+		other = -1;
+	}
+	/* pockets: |d + u s| = rp, entering (d.u < 0); discriminant via the
+	 * Lagrange identity b^2 - a c = a rp^2 - (d x u)^2 to avoid cancellation */
+	for (j = 0; j < PR_SIM_POCKETS; ++j) {
+		double dx = b->x - s->px[j], dy = b->y - s->py[j];
+		double bq = dx * b->ux + dy * b->uy, cc, cr, disc, t;
+		if (bq >= 0)
+			continue;
+		cr = dx * b->uy - dy * b->ux;
+		disc = rp * rp * b->sp * b->sp - cr * cr;
+		if (disc < 0)
+			continue;
+		cc = dx * dx + dy * dy - rp * rp;
+		t = b->tr + (cc <= 0 ? 0 : cc / (-bq + sqrt(disc)));
+		if (earlier(t, PR_EV_POCKET, best, type)) {
+			best = t;
+			type = PR_EV_POCKET;
+			other = j;
+		}
+	}
+	b->et = best;
+	b->etype = type;
+	b->eother = other;
+}
+
+/* Contact time (absolute tau) of balls i and j, both on the table, seen
+ * from tau: |d + w s| = 2R while approaching; HUGE_VAL if none. */
+static double pair_time(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj, double tau)
+{
+	const double r2 = 2 * s->t.ball_radius;
+	double dx, dy, wx, wy, bq, a, cc, cr, disc, t, close;
+
+	if (bi->st != PR_BALL_MOVING && bj->st != PR_BALL_MOVING)
+		return HUGE_VAL;
+	wx = bj->ux - bi->ux;
+	wy = bj->uy - bi->uy;
+	dx = (bj->x + bj->ux * (tau - bj->tr)) - (bi->x + bi->ux * (tau - bi->tr));
+	dy = (bj->y + bj->uy * (tau - bj->tr)) - (bi->y + bi->uy * (tau - bi->tr));
+	bq = dx * wx + dy * wy;
+	if (bq >= 0)
+		return HUGE_VAL;
+	a = wx * wx + wy * wy;
+	cr = dx * wy - dy * wx;
+	disc = a * r2 * r2 - cr * cr;
+	if (disc <= 0)
+		return HUGE_VAL;
+	cc = dx * dx + dy * dy - r2 * r2;
+	if (cc <= 0) { /* touching or overlapping by rounding, and approaching */
+		t = tau;
+		close = -bq / sqrt(dx * dx + dy * dy);
+	} else {
+		double sq = sqrt(disc);
+		t = tau + cc / (-bq + sq); /* stable form of the smaller root */
+		close = sq / r2;           /* -(d + w s).w / 2R at contact */
+	}
+	if (close * (1 - s->t.friction * t) < MIN_CLOSING)
+		return HUGE_VAL;
+	return t;
+}
+
+/* Re-predict ball i in full: own events and every pair with it. */
+static void predict_full(pr_sim *s, int n, int i, double tau)
+{
+	pr_sim_ball *b = s->b, *bi = &b[i];
+	int j;
+
+	predict_own(s, bi);
+	if (bi->st == PR_BALL_POCKETED)
+		return;
+	for (j = 0; j < n; ++j) {
+		double t;
+		if (j == i || b[j].st == PR_BALL_POCKETED)
+			continue;
+		t = pair_time(s, bi, &b[j], tau);
+		if (t < HUGE_VAL && earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
+			bi->et = t;
+			bi->etype = PR_EV_BALL;
+			bi->eother = j;
+		}
+	}
+}
+
+typedef struct {
+	int nr;         /* reward balls 1..nr */
+	int hit;
+	double gap;     /* smallest centre distance so far */
+} gap_state;
+
+/* Smallest distance between the cue ball and reward ball i over the last
+ * linear piece [max(tr0, tri), tau] of both paths. */
+static void gap_piece(const pr_sim *s, gap_state *g, int i, double tau)
+{
+	const pr_sim_ball *c = &s->b[0], *r = &s->b[i];
+	double t0, dx, dy, wx, wy, a, sm, d;
+
+	if (c->st == PR_BALL_POCKETED || r->st == PR_BALL_POCKETED)
+		return;
+	t0 = fmax(c->tr, r->tr);
+	dx = (r->x + r->ux * (t0 - r->tr)) - (c->x + c->ux * (t0 - c->tr));
+	dy = (r->y + r->uy * (t0 - r->tr)) - (c->y + c->uy * (t0 - c->tr));
+	wx = r->ux - c->ux;
+	wy = r->uy - c->uy;
+	a = wx * wx + wy * wy;
+	sm = a > 0 ? -(dx * wx + dy * wy) / a : 0;
+	if (sm <= 0) {
+		d = hypot(dx, dy);
+	} else if (sm >= tau - t0) {
+		d = hypot(dx + wx * (tau - t0), dy + wy * (tau - t0));
+	} else {
+		d = fabs(dx * wy - dy * wx) / sqrt(a); /* interior minimum: distance to the line */
+	}
+	if (d < g->gap)
+		g->gap = d;
+}
+
+/* Before ball k's velocity changes: close its pieces with the cue/reward balls. */
+static void gap_close(const pr_sim *s, gap_state *g, int k, double tau)
+{
+	int i;
+
+	if (g->hit || k > g->nr)
+		return;
+	if (k > 0) {
+		gap_piece(s, g, k, tau);
+		return;
+	}
+	for (i = 1; i <= g->nr; ++i)
+		gap_piece(s, g, i, tau);
+}
+
+static int trace_all(const pr_sim *s, int n, pr_sim_trace *tr, double tau, double t)
+{
+	double f = 1 - s->t.friction * tau; /* e^{-ct} */
+	int i;
+
+	for (i = 0; i < n; ++i) {
+		const pr_sim_ball *b = &s->b[i];
+		if (b->st == PR_BALL_POCKETED)
+			continue;
+		if (pr_sim_trace_add(tr, t, i, b->x + b->ux * (tau - b->tr), b->y + b->uy * (tau - b->tr),
+		                     b->ux * f, b->uy * f))
+			return PR_ENOMEM;
+	}
+	return PR_OK;
+}
+
+static double time_of(double c, double tau)
+{
+	return -log1p(-c * tau) / c;
+}
+
+int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err)
+{
+	const double c = s->t.friction, kappa = s->t.restitution;
+	const double tmax = -expm1(-c * s->o.max_time) / c; /* tau at sim.max_time */
+	pr_sim_ball *b = s->b;
+	gap_state g;
+	double tau = 0;
+	long events = 0;
+	int i, k, timeout = 0;
+
+	g.nr = s->t.reward_balls;
+	g.hit = 0;
+	g.gap = HUGE_VAL;
+	for (i = 0; i < n; ++i)
+		predict_full(s, n, i, 0);
+	if (tr && trace_all(s, n, tr, 0, 0))
+		return pr_err(err, PR_ENOMEM, "trace: out of memory");
+	for (;;) {
+		int part[2], np = 1, j;
+		pr_sim_ball *bk;
+
+		k = -1;
+		for (i = 0; i < n; ++i)
+			if (b[i].etype != PR_EV_NONE &&
+			    (k < 0 || earlier(b[i].et, b[i].etype, b[k].et, b[k].etype)))
+				k = i;
+		if (k < 0)
+			break;
+		if (b[k].et > tmax) {
+			tau = tmax;
+			timeout = 1;
+			break;
+		}
+		if (++events > s->o.max_events)
+			return pr_err(err, PR_ENUM, "shot needs more than sim.max_events = %ld events",
+			              s->o.max_events);
+		bk = &b[k];
+		tau = bk->et;
+		part[0] = k;
+		gap_close(s, &g, k, tau);
+		advance(bk, tau);
+		switch (bk->etype) {
+		case PR_EV_STOP:
+			bk->ux = bk->uy = bk->sp = 0;
+			bk->st = PR_BALL_REST;
+			break;
+		case PR_EV_POCKET:
+			if (tr && pr_sim_trace_add(tr, time_of(c, tau), k, bk->x, bk->y,
+			                           bk->ux * (1 - c * tau), bk->uy * (1 - c * tau)))
+				return pr_err(err, PR_ENOMEM, "trace: out of memory");
+			s->pocket[k] = bk->eother;
+			bk->x = s->px[bk->eother];
+			bk->y = s->py[bk->eother];
+			bk->ux = bk->uy = bk->sp = 0;
+			bk->st = PR_BALL_POCKETED;
+			if (tr && pr_sim_trace_add(tr, time_of(c, tau), k, bk->x, bk->y, 0, 0))
+				return pr_err(err, PR_ENOMEM, "trace: out of memory");
+			break;
+		case PR_EV_CUSHION: /* eq. 7.4; the centre sits exactly on its line */
+			if (bk->eother < 2) {
+				bk->x = bk->eother ? s->hx : -s->hx;
+				bk->ux = -kappa * bk->ux;
+			} else {
+				bk->y = bk->eother == 3 ? s->hy : -s->hy;
+				bk->uy = -kappa * bk->uy;
+			}
+			bk->sp = hypot(bk->ux, bk->uy);
+			if (bk->sp == 0)
+				bk->st = PR_BALL_REST;
+			break;
+		default: { /* PR_EV_BALL: eq. 7.5-7.6, normal components exchanged */
+			pr_sim_ball *bj = &b[bk->eother];
+			double nx, ny, d, dv;
+			j = bk->eother;
+			part[np++] = j;
+			gap_close(s, &g, j, tau);
+			advance(bj, tau);
+			nx = bj->x - bk->x;
+			ny = bj->y - bk->y;
+			d = hypot(nx, ny);
+			nx /= d;
+			ny /= d;
+			dv = (bj->ux - bk->ux) * nx + (bj->uy - bk->uy) * ny;
+			bk->ux += dv * nx;
+			bk->uy += dv * ny;
+			bj->ux -= dv * nx;
+			bj->uy -= dv * ny;
+			bk->sp = hypot(bk->ux, bk->uy);
+			bj->sp = hypot(bj->ux, bj->uy);
+			bk->st = bk->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
+			bj->st = bj->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
+			if ((k == 0 && j <= g.nr) || (j == 0 && k <= g.nr)) {
+				g.hit = 1;
+				g.gap = 2 * s->t.ball_radius; /* contact: gap 0 */
+			}
+			break;
+		}
+		}
+		if (tr && trace_all(s, n, tr, tau, time_of(c, tau)))
+			return pr_err(err, PR_ENOMEM, "trace: out of memory");
+		/* re-predict: the balls involved in full, the others against them */
+		for (j = 0; j < np; ++j)
+			predict_full(s, n, part[j], tau);
+		for (i = 0; i < n; ++i) {
+			pr_sim_ball *bi = &b[i];
+			if (i == part[0] || (np == 2 && i == part[1]) || bi->st == PR_BALL_POCKETED)
+				continue;
+			if (bi->etype == PR_EV_BALL && (bi->eother == part[0] || (np == 2 && bi->eother == part[1]))) {
+				predict_full(s, n, i, tau);
+				continue;
+			}
+			for (j = 0; j < np; ++j) {
+				double t;
+				if (b[part[j]].st == PR_BALL_POCKETED)
+					continue;
+				t = pair_time(s, bi, &b[part[j]], tau);
+				if (t < HUGE_VAL && earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
+					bi->et = t;
+					bi->etype = PR_EV_BALL;
+					bi->eother = part[j];
+				}
+			}
+		}
+	}
+	if (!g.hit)
+		for (i = 1; i <= g.nr; ++i)
+			gap_piece(s, &g, i, tau);
+	for (i = 0; i < n; ++i) {
+		if (b[i].st != PR_BALL_POCKETED)
+			advance(&b[i], tau);
+		s->final[2 * i] = b[i].x;
+		s->final[2 * i + 1] = b[i].y;
+	}
+	res->hit = g.hit;
+	res->min_gap = g.nr < 1 ? 0 : fmax(0, g.gap - 2 * s->t.ball_radius);
+	res->t_end = timeout ? s->o.max_time : time_of(c, tau);
+	res->events = events;
+	if (tr && trace_all(s, n, tr, tau, res->t_end))
+		return pr_err(err, PR_ENOMEM, "trace: out of memory");
+	return PR_OK;
+}

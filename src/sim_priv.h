@@ -1,0 +1,56 @@
+/* sim_priv.h — internals shared by sim.c, sim_event.c and sim_stepped.c. */
+#ifndef POOLREPS_SIM_PRIV_H
+#define POOLREPS_SIM_PRIV_H
+
+#include "poolreps/sim.h"
+
+/* Ball states. */
+enum { PR_BALL_MOVING = 0, PR_BALL_REST = 1, PR_BALL_POCKETED = 2 };
+
+/* Event-mode event types, in tie-break order (SPEC.md §1: pocket and stop
+ * before collisions, then by ball index). */
+enum { PR_EV_POCKET = 0, PR_EV_STOP = 1, PR_EV_CUSHION = 2, PR_EV_BALL = 3, PR_EV_NONE = 4 };
+
+/* One ball. Event mode: (x,y) is the position at reference tau tr and (ux,uy)
+ * the velocity rescaled to t = 0, so between events the position is
+ * (x,y) + u (tau - tr) (see sim_event.c). Stepped mode: (x,y) and (ux,uy) are
+ * the current position and real velocity; tr, sp and the event cache are unused. */
+typedef struct {
+	double x, y, ux, uy;
+	double tr;       /* reference tau of (x,y) */
+	double sp;       /* |u| */
+	double et;       /* cached earliest event involving this ball (absolute tau) */
+	int etype;       /* PR_EV_* */
+	int eother;      /* partner ball, cushion (0..3) or pocket (0..5) */
+	int st;          /* PR_BALL_* */
+} pr_sim_ball;
+
+struct pr_sim {
+	pr_table t;
+	pr_sim_opts o;
+	double hx, hy;           /* |x| <= hx, |y| <= hy: the centre's free region */
+	double px[PR_SIM_POCKETS], py[PR_SIM_POCKETS];
+	int cap;                 /* balls the workspace holds */
+	pr_sim_ball *b;
+	double *final;
+	int *pocket;
+	int *idx;                /* cap ints of scratch (stepped mode) */
+	double *scr;             /* 2*cap doubles of scratch (stepped mode) */
+};
+
+struct pr_sim_trace {
+	long n, cap;
+	pr_sim_trace_row *rows;
+};
+
+/* Append a row; PR_ENOMEM if the trace cannot grow. */
+int pr_sim_trace_add(pr_sim_trace *tr, double t, int ball, double x, double y,
+                     double vx, double vy);
+
+/* The two time-advance schemes. They start from s->b[0..n-1] set up by
+ * pr_sim_shoot (positions, cue velocity, states) and fill res except nballs,
+ * final and pocket, which they leave in s->final and s->pocket. */
+int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err);
+int pr_sim_run_stepped(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err);
+
+#endif

@@ -1,0 +1,381 @@
+/* sim_stepped.c — the thesis's fixed-step scheme (7.1.2, sim.mode = stepped).
+ *
+ * Per step of dt: move every moving ball by v dt; pocket test (centre within
+ * the pocket radius); cushions (centre beyond its line and moving outwards:
+ * eq. 7.4); ball pairs that overlap and approach exchange their normal
+ * velocity components (eq. 7.5-7.6); friction multiplies every velocity by
+ * 1 - f with f = 1 - e^{-c dt}, the same c as event mode; a ball slower than
+ * the stop speed stops. Positions are not corrected after a bounce, as in
+ * the thesis, so the scheme converges to event mode at first order in dt.
+ */
+#include <math.h>
+
+#include "sim_priv.h"
+
+static int trace_all(const pr_sim *s, int n, pr_sim_trace *tr, double t)
+{
+	int i;
+
+	for (i = 0; i < n; ++i) {
+		const pr_sim_ball *b = &s->b[i];
+		if (b->st != PR_BALL_POCKETED && pr_sim_trace_add(tr, t, i, b->x, b->y, b->ux, b->uy))
+			return PR_ENOMEM;
+	}
+	return PR_OK;
+}
+
+static double gap2(const pr_sim *s, int nr, double best)
+{
+	const pr_sim_ball *c = &s->b[0];
+	int i;
+
+	if (c->st == PR_BALL_POCKETED)
+		return best;
+	for (i = 1; i <= nr; ++i) {
+		const pr_sim_ball *r = &s->b[i];
+		double dx = r->x - c->x, dy = r->y - c->y;
+		if (r->st != PR_BALL_POCKETED && dx * dx + dy * dy < best)
+			best = dx * dx + dy * dy;
+	}
+	return best;
+}
+
+typedef struct {
+	double dt, kappa, decay, vs2, r2, rp2, ypk, hx, hy;
+	int n, nr, nmov, hit;
+	long step;
+	double g2;           /* smallest squared cue-reward centre distance */
+	pr_sim_trace *tr;
+} stepper;
+
+static int pocket_of(const pr_sim *s, double rp2, double x, double y)
+{
+	int j;
+
+	for (j = 0; j < PR_SIM_POCKETS; ++j) {
+		double dx = x - s->px[j], dy = y - s->py[j];
+		if (dx * dx + dy * dy <= rp2)
+			return j;
+	}
+	return -1;
+}
+
+/* Move, pocket test and cushions for every moving ball. Returns 1 if
+ * something happened, PR_ENOMEM if the trace cannot grow. */
+static int phase_move(pr_sim *s, stepper *k)
+{
+	int i, j, ev = 0;
+
+	for (i = 0; i < k->n; ++i) {
+		pr_sim_ball *bi = &s->b[i];
+		if (bi->st != PR_BALL_MOVING)
+			continue;
+		bi->x += bi->ux * k->dt;
+		bi->y += bi->uy * k->dt;
+		if (fabs(bi->y) >= k->ypk && (j = pocket_of(s, k->rp2, bi->x, bi->y)) >= 0) {
+			double t = k->step * k->dt;
+			if (k->tr && pr_sim_trace_add(k->tr, t, i, bi->x, bi->y, bi->ux, bi->uy))
+				return PR_ENOMEM;
+			s->pocket[i] = j;
+			bi->x = s->px[j];
+			bi->y = s->py[j];
+			bi->ux = bi->uy = 0;
+			bi->st = PR_BALL_POCKETED;
+			if (k->tr && pr_sim_trace_add(k->tr, t, i, bi->x, bi->y, 0, 0))
+				return PR_ENOMEM;
+			--k->nmov;
+			ev = 1;
+			continue;
+		}
+		if ((bi->x > k->hx && bi->ux > 0) || (bi->x < -k->hx && bi->ux < 0)) {
+			bi->ux = -k->kappa * bi->ux;
+			ev = 1;
+		}
+		if ((bi->y > k->hy && bi->uy > 0) || (bi->y < -k->hy && bi->uy < 0)) {
+			bi->uy = -k->kappa * bi->uy;
+			ev = 1;
+		}
+	}
+	return ev;
+}
+
+/* Overlapping, approaching pairs exchange normal components. */
+static int phase_pairs(pr_sim *s, stepper *k)
+{
+	int i, j, ev = 0;
+
+	for (i = 0; i < k->n; ++i) {
+		pr_sim_ball *bi = &s->b[i];
+		if (bi->st == PR_BALL_POCKETED)
+			continue;
+		for (j = i + 1; j < k->n; ++j) {
+			pr_sim_ball *bj = &s->b[j];
+			double dx, dy, d2, wx, wy, dv;
+			if (bj->st == PR_BALL_POCKETED || (bi->st != PR_BALL_MOVING && bj->st != PR_BALL_MOVING))
+				continue;
+			dx = bj->x - bi->x;
+			dy = bj->y - bi->y;
+			d2 = dx * dx + dy * dy;
+			wx = bj->ux - bi->ux;
+			wy = bj->uy - bi->uy;
+			if (d2 >= k->r2 || dx * wx + dy * wy >= 0)
+				continue;
+			dv = (wx * dx + wy * dy) / d2;
+			bi->ux += dv * dx;
+			bi->uy += dv * dy;
+			bj->ux -= dv * dx;
+			bj->uy -= dv * dy;
+			k->nmov += (bi->st != PR_BALL_MOVING) + (bj->st != PR_BALL_MOVING);
+			bi->st = bj->st = PR_BALL_MOVING;
+			if (i == 0 && j <= k->nr)
+				k->hit = 1;
+			ev = 1;
+		}
+	}
+	return ev;
+}
+
+/* Friction factor 1 - f = e^{-c dt}, then the stop threshold. */
+static int phase_friction(pr_sim *s, stepper *k)
+{
+	int i, ev = 0;
+
+	for (i = 0; i < k->n; ++i) {
+		pr_sim_ball *bi = &s->b[i];
+		if (bi->st != PR_BALL_MOVING)
+			continue;
+		bi->ux *= k->decay;
+		bi->uy *= k->decay;
+		if (bi->ux * bi->ux + bi->uy * bi->uy < k->vs2) {
+			bi->ux = bi->uy = 0;
+			bi->st = PR_BALL_REST;
+			--k->nmov;
+			ev = 1;
+		}
+	}
+	return ev;
+}
+
+/* The same step as phase_move, phase_pairs and phase_friction, specialised
+ * to one moving ball among resting ones and kept in registers: it runs
+ * until that ball stops, falls, reaches the step limit (returns 0: the
+ * steps are complete) or overlaps an approaching ball (returns 1: that
+ * step's move is done and the caller continues it from phase_pairs). */
+static int run_single(pr_sim *s, stepper *k, long maxsteps)
+{
+	const double dt = k->dt, hx = k->hx, hy = k->hy, kappa = k->kappa, decay = k->decay;
+	const double vs2 = k->vs2, r2 = k->r2, ypk = k->ypk;
+	pr_sim_ball *b = s->b, *bm;
+	double *ox = s->scr, *oy = s->scr + s->cap;
+	int *partner = s->idx;
+	double x, y, vx, vy, g2 = k->g2;
+	long step = k->step;
+	int m, j, q, no = 0, ret = 0;
+
+	for (m = 0; b[m].st != PR_BALL_MOVING; ++m)
+		;
+	bm = &b[m];
+	/* the resting balls on the table, and whether each one's distance to
+	 * the mover is a cue-reward gap still to track */
+	for (j = 0; j < k->n; ++j)
+		if (j != m && b[j].st != PR_BALL_POCKETED) {
+			ox[no] = b[j].x;
+			oy[no] = b[j].y;
+			partner[no++] = !k->hit && (m == 0 ? j <= k->nr : m <= k->nr && j == 0);
+		}
+	x = bm->x;
+	y = bm->y;
+	vx = bm->ux;
+	vy = bm->uy;
+	while (step < maxsteps) {
+		++step;
+		x += vx * dt;
+		y += vy * dt;
+		if (fabs(y) >= ypk && (j = pocket_of(s, k->rp2, x, y)) >= 0) {
+			s->pocket[m] = j;
+			x = s->px[j];
+			y = s->py[j];
+			vx = vy = 0;
+			bm->st = PR_BALL_POCKETED;
+			k->nmov = 0;
+			goto out;
+		}
+		if ((x > hx && vx > 0) || (x < -hx && vx < 0))
+			vx = -kappa * vx;
+		if ((y > hy && vy > 0) || (y < -hy && vy < 0))
+			vy = -kappa * vy;
+		/* (p_j - p_m).(v_j - v_m) < 0 with v_j = 0; the distance is also the
+		 * gap the general loop would measure after friction (which moves nothing) */
+		for (q = 0; q < no; ++q) {
+			double ex = ox[q] - x, ey = oy[q] - y, d2 = ex * ex + ey * ey;
+			if (d2 < r2 && ex * vx + ey * vy > 0) {
+				ret = 1;
+				goto out;
+			}
+			if (partner[q] && d2 < g2)
+				g2 = d2;
+		}
+		vx *= decay;
+		vy *= decay;
+		if (vx * vx + vy * vy < vs2) {
+			vx = vy = 0;
+			bm->st = PR_BALL_REST;
+			k->nmov = 0;
+			break;
+		}
+	}
+out:
+	bm->x = x;
+	bm->y = y;
+	bm->ux = vx;
+	bm->uy = vy;
+	k->g2 = g2;
+	k->step = step;
+	return ret;
+}
+
+/* The same step for exactly two balls, both moving, in registers. A step
+ * that brings a ball near a pocket's cushion line is left to the general
+ * phases (returns before starting it); otherwise it runs until a ball stops
+ * or the step limit. */
+static void run_pair(pr_sim *s, stepper *k, long maxsteps)
+{
+	pr_sim_ball *b0 = &s->b[0], *b1 = &s->b[1];
+	double x0 = b0->x, y0 = b0->y, vx0 = b0->ux, vy0 = b0->uy;
+	double x1 = b1->x, y1 = b1->y, vx1 = b1->ux, vy1 = b1->uy;
+	const double dt = k->dt, hx = k->hx, hy = k->hy, kappa = k->kappa, decay = k->decay;
+	const double vs2 = k->vs2, r2 = k->r2, ypk = k->ypk;
+	const int gap = k->nr >= 1;
+	double g2 = k->g2;
+	long step = k->step;
+	int hit = k->hit, nmov = 2;
+
+	while (step < maxsteps) {
+		double nx0 = x0 + vx0 * dt, ny0 = y0 + vy0 * dt;
+		double nx1 = x1 + vx1 * dt, ny1 = y1 + vy1 * dt;
+		double dx, dy, d2, wx, wy;
+		if (fabs(ny0) >= ypk || fabs(ny1) >= ypk)
+			break;
+		++step;
+		x0 = nx0;
+		y0 = ny0;
+		x1 = nx1;
+		y1 = ny1;
+		if ((x0 > hx && vx0 > 0) || (x0 < -hx && vx0 < 0))
+			vx0 = -kappa * vx0;
+		if ((y0 > hy && vy0 > 0) || (y0 < -hy && vy0 < 0))
+			vy0 = -kappa * vy0;
+		if ((x1 > hx && vx1 > 0) || (x1 < -hx && vx1 < 0))
+			vx1 = -kappa * vx1;
+		if ((y1 > hy && vy1 > 0) || (y1 < -hy && vy1 < 0))
+			vy1 = -kappa * vy1;
+		dx = x1 - x0;
+		dy = y1 - y0;
+		d2 = dx * dx + dy * dy;
+		wx = vx1 - vx0;
+		wy = vy1 - vy0;
+		if (d2 < r2 && dx * wx + dy * wy < 0) {
+			double dv = (wx * dx + wy * dy) / d2;
+			vx0 += dv * dx;
+			vy0 += dv * dy;
+			vx1 -= dv * dx;
+			vy1 -= dv * dy;
+			hit |= gap;
+		}
+		vx0 *= decay;
+		vy0 *= decay;
+		vx1 *= decay;
+		vy1 *= decay;
+		if (vx0 * vx0 + vy0 * vy0 < vs2) {
+			vx0 = vy0 = 0;
+			b0->st = PR_BALL_REST;
+			--nmov;
+		}
+		if (vx1 * vx1 + vy1 * vy1 < vs2) {
+			vx1 = vy1 = 0;
+			b1->st = PR_BALL_REST;
+			--nmov;
+		}
+		if (!hit && gap && d2 < g2)
+			g2 = d2;
+		if (nmov < 2)
+			break;
+	}
+	b0->x = x0;
+	b0->y = y0;
+	b0->ux = vx0;
+	b0->uy = vy0;
+	b1->x = x1;
+	b1->y = y1;
+	b1->ux = vx1;
+	b1->uy = vy1;
+	k->g2 = g2;
+	k->step = step;
+	k->hit = hit;
+	k->nmov = nmov;
+}
+
+int pr_sim_run_stepped(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err)
+{
+	const long maxsteps = (long)ceil(s->o.max_time / s->o.dt - 1e-9);
+	const long tk = lround(s->o.trace_dt / s->o.dt) > 1 ? lround(s->o.trace_dt / s->o.dt) : 1;
+	pr_sim_ball *b = s->b;
+	stepper k;
+	int i;
+
+	k.dt = s->o.dt;
+	k.kappa = s->t.restitution;
+	k.decay = exp(-s->t.friction * s->o.dt);
+	k.vs2 = s->t.stop_speed * s->t.stop_speed;
+	k.r2 = 4 * s->t.ball_radius * s->t.ball_radius;
+	k.rp2 = s->t.pocket_radius * s->t.pocket_radius;
+	k.ypk = s->t.width / 2 - s->t.pocket_radius; /* every pocket lies on y = +-W/2 */
+	k.hx = s->hx;
+	k.hy = s->hy;
+	k.n = n;
+	k.nr = s->t.reward_balls;
+	k.nmov = 0;
+	k.hit = 0;
+	k.step = 0;
+	k.tr = tr;
+	for (i = 0; i < n; ++i)
+		k.nmov += b[i].st == PR_BALL_MOVING;
+	k.g2 = gap2(s, k.nr, HUGE_VAL);
+	if (tr && trace_all(s, n, tr, 0))
+		return pr_err(err, PR_ENOMEM, "trace: out of memory");
+	while (k.nmov > 0 && k.step < maxsteps) {
+		int ev;
+		if (k.nmov == 1 && !tr) {
+			if (!run_single(s, &k, maxsteps))
+				continue;
+			ev = 0;
+		} else {
+			if (n == 2 && k.nmov == 2 && !tr) {
+				long before = k.step;
+				run_pair(s, &k, maxsteps);
+				if (k.step > before)
+					continue;
+			}
+			++k.step;
+			if ((ev = phase_move(s, &k)) < 0)
+				return pr_err(err, PR_ENOMEM, "trace: out of memory");
+		}
+		ev |= phase_pairs(s, &k);
+		ev |= phase_friction(s, &k);
+		if (!k.hit)
+			k.g2 = gap2(s, k.nr, k.g2);
+		if (tr && (ev || k.step % tk == 0) && trace_all(s, n, tr, k.step * k.dt))
+			return pr_err(err, PR_ENOMEM, "trace: out of memory");
+	}
+	for (i = 0; i < n; ++i) {
+		s->final[2 * i] = b[i].x;
+		s->final[2 * i + 1] = b[i].y;
+	}
+	res->hit = k.hit;
+	res->min_gap = k.hit || k.nr < 1 ? 0 : fmax(0, sqrt(k.g2) - 2 * s->t.ball_radius);
+	res->t_end = k.step * k.dt;
+	res->events = k.step;
+	if (tr && trace_all(s, n, tr, res->t_end))
+		return pr_err(err, PR_ENOMEM, "trace: out of memory");
+	return PR_OK;
+}

@@ -1,0 +1,395 @@
+/* test_policy.c — fixed, linear and tree-LWR Gaussian policies. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_multifit.h>
+#include <gsl/gsl_randist.h>
+#include <gsl/gsl_rng.h>
+
+#include "poolreps/policy.h"
+
+static gsl_rng *new_rng(unsigned long seed)
+{
+	gsl_rng *r = gsl_rng_alloc(gsl_rng_mt19937);
+
+	gsl_rng_set(r, seed);
+	return r;
+}
+
+static void test_gaussian_logpdf_sample(void **state)
+{
+	double mu[2] = { 0.3, -0.2 }, cov[4] = { 0.04, 0.012, 0.012, 0.09 };
+	double a[2] = { 0.1, 0.05 }, lp, want, s[1] = { 0.0 };
+	double *draws, m0 = 0, m1 = 0, c00 = 0, c01 = 0, c11 = 0;
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(1);
+	pr_policy *p;
+	int k, K = 100000;
+
+	(void)state;
+	p = pr_policy_gaussian_new(1, 2, mu, cov, err);
+	assert_non_null(p);
+	assert_int_equal(pr_policy_logpdf(p, s, a, &lp, NULL, NULL, err), PR_OK);
+	want = log(gsl_ran_bivariate_gaussian_pdf(a[0] - mu[0], a[1] - mu[1], 0.2, 0.3,
+	                                          0.012 / (0.2 * 0.3)));
+	assert_true(fabs(lp - want) <= 1e-12);
+	draws = malloc(2 * (size_t)K * sizeof *draws);
+	assert_int_equal(pr_policy_sample(p, s, K, rng, draws, NULL, NULL, err), PR_OK);
+	for (k = 0; k < K; k++) {
+		m0 += draws[2 * k] / K;
+		m1 += draws[2 * k + 1] / K;
+	}
+	for (k = 0; k < K; k++) {
+		double d0 = draws[2 * k] - m0, d1 = draws[2 * k + 1] - m1;
+
+		c00 += d0 * d0 / K;
+		c01 += d0 * d1 / K;
+		c11 += d1 * d1 / K;
+	}
+	/* standard errors: sd/sqrt(K) ~ 1e-3 for means, ~2e-4 for covariances */
+	assert_true(fabs(m0 - mu[0]) < 4e-3 && fabs(m1 - mu[1]) < 4e-3);
+	assert_true(fabs(c00 - 0.04) < 1e-3 && fabs(c01 - 0.012) < 1e-3 && fabs(c11 - 0.09) < 2e-3);
+	free(draws);
+	cov[1] = 0.5; /* not symmetric */
+	assert_null(pr_policy_gaussian_new(1, 2, mu, cov, err));
+	cov[1] = cov[2] = 0.5; /* not positive definite */
+	assert_null(pr_policy_gaussian_new(1, 2, mu, cov, err));
+	pr_policy_free(p);
+	gsl_rng_free(rng);
+}
+
+/* Weighted ML on data from a known linear-Gaussian policy recovers it, with
+ * weights that do not depend on the actions (so they do not bias it). */
+static void test_linear_ml_recovers(void **state)
+{
+	enum { N = 20000 };
+	const double W[2][3] = { { 0.1, 1.0, -0.5 }, { -0.3, 0.2, 0.7 } };
+	const double Lc[2][2] = { { 0.2, 0.0 }, { 0.1, 0.15 } };
+	double *S = malloc(2 * N * sizeof *S), *A = malloc(2 * N * sizeof *A), *w = malloc(N * sizeof *w);
+	double mean[2], cov[4], s[2] = { 0.4, -0.6 };
+	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w };
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(2);
+	pr_policy *p;
+	int i, flags;
+
+	(void)state;
+	for (i = 0; i < N; i++) {
+		double z0 = gsl_ran_gaussian(rng, 1.0), z1 = gsl_ran_gaussian(rng, 1.0);
+
+		S[2 * i] = gsl_rng_uniform(rng) * 2 - 1;
+		S[2 * i + 1] = gsl_rng_uniform(rng) * 2 - 1;
+		A[2 * i] = W[0][0] + W[0][1] * S[2 * i] + W[0][2] * S[2 * i + 1] + Lc[0][0] * z0;
+		A[2 * i + 1] = W[1][0] + W[1][1] * S[2 * i] + W[1][2] * S[2 * i + 1] +
+		               Lc[1][0] * z0 + Lc[1][1] * z1;
+		w[i] = 0.1 + S[2 * i] * S[2 * i]; /* depends on the state only */
+	}
+	p = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, 1e-10, 1e-6, &flags, err);
+	assert_non_null(p);
+	assert_int_equal(flags, 0);
+	assert_int_equal(pr_policy_eval(p, s, mean, cov, NULL, NULL, err), PR_OK);
+	assert_true(fabs(mean[0] - (0.1 + 0.4 + 0.3)) < 0.01);
+	assert_true(fabs(mean[1] - (-0.3 + 0.08 - 0.42)) < 0.01);
+	assert_true(fabs(cov[0] - 0.04) < 0.002);
+	assert_true(fabs(cov[1] - 0.02) < 0.002 && cov[1] == cov[2]);
+	assert_true(fabs(cov[3] - (0.01 + 0.0225)) < 0.002);
+	pr_policy_free(p);
+	/* quadratic features contain the affine ones: same answer */
+	p = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &d, 1e-10, 1e-6, &flags, err);
+	assert_non_null(p);
+	assert_int_equal(pr_policy_eval(p, s, mean, cov, NULL, NULL, err), PR_OK);
+	assert_true(fabs(mean[0] - 0.8) < 0.01);
+	assert_true(fabs(cov[0] - 0.04) < 0.002);
+	pr_policy_free(p);
+	free(S);
+	free(A);
+	free(w);
+	gsl_rng_free(rng);
+}
+
+static void test_quadratic_features(void **state)
+{
+	double s[3] = { 2.0, -1.0, 0.5 }, psi[10];
+	double want[10] = { 1, 2, -1, 0.5, 4, -2, 1, 1, -0.5, 0.25 };
+	int j;
+
+	(void)state;
+	assert_int_equal(pr_policy_features_count(PR_FEATURES_QUADRATIC, 3), 10);
+	assert_int_equal(pr_policy_features_count(PR_FEATURES_AFFINE, 3), 4);
+	pr_policy_features_quadratic(s, 3, psi);
+	for (j = 0; j < 10; j++)
+		assert_true(psi[j] == want[j]);
+}
+
+/* A forest whose n_min exceeds n has one node per tree: the tree-LWR mean
+ * is the global weighted linear regression (gsl_multifit_wlinear here), and
+ * the covariance is eq. 6.8-6.9 with the global weights. */
+static void test_single_node_is_global(void **state)
+{
+	enum { N = 40, DS = 2, DA = 2 };
+	double S[N * DS], A[N * DA], w[N], s[DS] = { 0.2, -0.1 }, mean[DA], cov[DA * DA];
+	double want_cov[DA * DA] = { 0 }, sw = 0, sw2 = 0, mu[DA];
+	pr_policy_data d = { N, DS, DA, 0, S, A, NULL, w };
+	pr_policy_opts o;
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(3);
+	gsl_matrix *X = gsl_matrix_alloc(N, DS + 1), *C = gsl_matrix_alloc(DS + 1, DS + 1);
+	gsl_vector *y = gsl_vector_alloc(N), *wv = gsl_vector_alloc(N), *c = gsl_vector_alloc(DS + 1);
+	gsl_multifit_linear_workspace *mw = gsl_multifit_linear_alloc(N, DS + 1);
+	pr_policy *p;
+	double chisq;
+	int i, j, l, flags;
+
+	(void)state;
+	for (i = 0; i < N; i++) {
+		S[i * DS] = gsl_rng_uniform(rng);
+		S[i * DS + 1] = gsl_rng_uniform(rng) - 0.5;
+		A[i * DA] = sin(3 * S[i * DS]) + S[i * DS + 1] + 0.1 * gsl_ran_gaussian(rng, 1);
+		A[i * DA + 1] = S[i * DS] * S[i * DS + 1] + 0.1 * gsl_ran_gaussian(rng, 1);
+		w[i] = gsl_rng_uniform(rng);
+		gsl_matrix_set(X, i, 0, 1.0);
+		gsl_matrix_set(X, i, 1, S[i * DS]);
+		gsl_matrix_set(X, i, 2, S[i * DS + 1]);
+		gsl_vector_set(wv, i, w[i]);
+		sw += w[i];
+		sw2 += w[i] * w[i];
+	}
+	pr_policy_opts_init(&o);
+	o.forest.n_min = N + 1;
+	o.forest.trees = 3;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	assert_int_equal(pr_forest_nleaves(pr_policy_forest(p)), 3);
+	assert_int_equal(pr_policy_eval(p, s, mean, cov, &flags, NULL, err), PR_OK);
+	assert_int_equal(flags, 0);
+	for (j = 0; j < DA; j++) {
+		for (i = 0; i < N; i++)
+			gsl_vector_set(y, i, A[i * DA + j]);
+		assert_int_equal(gsl_multifit_wlinear(X, wv, y, c, C, &chisq, mw), GSL_SUCCESS);
+		mu[j] = gsl_vector_get(c, 0) + gsl_vector_get(c, 1) * s[0] + gsl_vector_get(c, 2) * s[1];
+		assert_true(fabs(mean[j] - mu[j]) <= 1e-8);
+	}
+	/* eq. 6.8-6.9 with unnormalised weights, centred on mu(s_hat) */
+	for (i = 0; i < N; i++)
+		for (j = 0; j < DA; j++)
+			for (l = 0; l < DA; l++)
+				want_cov[j * DA + l] += w[i] * (A[i * DA + j] - mu[j]) * (A[i * DA + l] - mu[l]);
+	for (j = 0; j < DA * DA; j++)
+		assert_true(fabs(cov[j] - want_cov[j] / ((sw * sw - sw2) / sw)) <= 1e-9);
+	pr_policy_free(p);
+	gsl_matrix_free(X);
+	gsl_matrix_free(C);
+	gsl_vector_free(y);
+	gsl_vector_free(wv);
+	gsl_vector_free(c);
+	gsl_multifit_linear_free(mw);
+	gsl_rng_free(rng);
+}
+
+/* Hand-checked eq. 6.6-6.9: s = 0, 1, 2; a = 0, 1, 3; w = 1, 1, 2; query 1.
+ * Weighted LS: alpha = -2/11, beta = 17/11, mu(1) = 15/11.
+ * sum w (a - mu)^2 = (225 + 16 + 648)/121 = 889/121; Z = (16 - 6)/4 = 2.5;
+ * Sigma = 889/302.5. Residual centring: (4 + 16 + 2)/121 / 2.5 = 22/302.5. */
+static void test_covariance_hand(void **state)
+{
+	double S[3] = { 0, 1, 2 }, A[3] = { 0, 1, 3 }, w[3] = { 1, 1, 2 }, s = 1.0, mean, cov;
+	pr_policy_data d = { 3, 1, 1, 0, S, A, NULL, w };
+	pr_policy_opts o;
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(4);
+	pr_policy *p;
+	int flags;
+
+	(void)state;
+	pr_policy_opts_init(&o);
+	o.forest.n_min = 10;
+	o.min_std = 1e-9;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	assert_int_equal(pr_policy_eval(p, &s, &mean, &cov, &flags, NULL, err), PR_OK);
+	assert_int_equal(flags, 0);
+	assert_true(fabs(mean - 15.0 / 11.0) <= 1e-9);
+	assert_true(fabs(cov - 889.0 / 302.5) <= 1e-9);
+	pr_policy_free(p);
+	o.cov = PR_COV_RESIDUAL;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	assert_int_equal(pr_policy_eval(p, &s, &mean, &cov, &flags, NULL, err), PR_OK);
+	assert_true(fabs(mean - 15.0 / 11.0) <= 1e-9);
+	assert_true(fabs(cov - 22.0 / 302.5) <= 1e-9);
+	pr_policy_free(p);
+	gsl_rng_free(rng);
+}
+
+/* A step in the actions: tree-LWR follows it, the global policy cannot. */
+static void test_tree_is_local(void **state)
+{
+	enum { N = 400 };
+	double S[N], A[N], mean, cov, lo = -0.6, hi = 0.6, lp;
+	pr_policy_data d = { N, 1, 1, 0, S, A, NULL, NULL };
+	pr_policy_opts o;
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(5);
+	pr_policy *p;
+	pr_policy_work *ws;
+	int i, flags;
+
+	(void)state;
+	for (i = 0; i < N; i++) {
+		S[i] = gsl_rng_uniform(rng) * 2 - 1;
+		A[i] = (S[i] < 0 ? 1.0 : -1.0) + 0.05 * gsl_ran_gaussian(rng, 1);
+	}
+	pr_policy_opts_init(&o);
+	o.forest.trees = 10;
+	o.forest.n_min = 40;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	ws = pr_policy_work_new(p, err);
+	assert_non_null(ws);
+	assert_int_equal(pr_policy_eval(p, &lo, &mean, &cov, &flags, ws, err), PR_OK);
+	assert_true(fabs(mean - 1.0) < 0.05 && cov < 0.01);
+	assert_int_equal(pr_policy_eval(p, &hi, &mean, &cov, &flags, ws, err), PR_OK);
+	assert_true(fabs(mean + 1.0) < 0.05 && cov < 0.01);
+	/* log-density agrees with the Gaussian of eval */
+	assert_int_equal(pr_policy_logpdf(p, &hi, &mean, &lp, NULL, ws, err), PR_OK);
+	assert_true(fabs(lp + 0.5 * log(2 * 3.14159265358979323846 * cov)) <= 1e-9);
+	pr_policy_work_free(ws);
+	pr_policy_free(p);
+	/* the global linear fit has slope about -1.5: mean(-0.1) about 0.15 */
+	o.forest.n_min = N;
+	lo = -0.1;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_int_equal(pr_policy_eval(p, &lo, &mean, &cov, &flags, NULL, err), PR_OK);
+	assert_true(fabs(mean - 0.15) < 0.1 && cov > 0.2);
+	pr_policy_free(p);
+	gsl_rng_free(rng);
+}
+
+static int finite_all(const double *x, int n)
+{
+	int i;
+
+	for (i = 0; i < n; i++)
+		if (!isfinite(x[i]))
+			return 0;
+	return 1;
+}
+
+static void test_degenerate(void **state)
+{
+	enum { N = 30 };
+	double S[N * 2], A[N * 2], w[N], mean[2], cov[4], s[2], Y[N * 2];
+	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w };
+	pr_policy_opts o;
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(6);
+	pr_policy *p;
+	int i, flags;
+
+	(void)state;
+	for (i = 0; i < N; i++) {
+		S[2 * i] = gsl_rng_uniform(rng);
+		S[2 * i + 1] = gsl_rng_uniform(rng);
+		A[2 * i] = S[2 * i];
+		A[2 * i + 1] = -S[2 * i + 1];
+		w[i] = 1.0;
+	}
+	pr_policy_opts_init(&o);
+	/* leaves of one sample, one tree: a training state has a single weighted
+	 * neighbour -> mean only, Z = 0 -> global covariance */
+	o.forest.trees = 1;
+	o.forest.n_min = 1;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	assert_int_equal(pr_policy_eval(p, S + 10, mean, cov, &flags, NULL, err), PR_OK);
+	assert_true(flags & PR_POLICY_MEANONLY);
+	assert_true(flags & PR_POLICY_COVFALL);
+	assert_true(fabs(mean[0] - A[10]) < 1e-12 && fabs(mean[1] - A[11]) < 1e-12);
+	assert_true(finite_all(cov, 4) && cov[0] > 0 && cov[3] > 0);
+	pr_policy_free(p);
+
+	/* zero REPS weight on the half x < 0.5; with leaves of one sample, a
+	 * query at such a sample has no weight around it and falls back to the
+	 * global weighted fit */
+	for (i = 0; i < N; i++)
+		w[i] = S[2 * i] < 0.5 ? 0.0 : 1.0;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	for (i = 0; w[i] > 0.0; i++)
+		;
+	s[0] = S[2 * i];
+	s[1] = S[2 * i + 1];
+	assert_int_equal(pr_policy_eval(p, s, mean, cov, &flags, NULL, err), PR_OK);
+	assert_true(flags & PR_POLICY_GLOBAL);
+	/* the weighted samples have a = (s0, -s1) exactly */
+	assert_true(fabs(mean[0] - s[0]) < 1e-8 && fabs(mean[1] + s[1]) < 1e-8);
+	assert_true(finite_all(cov, 4));
+	pr_policy_free(p);
+
+	/* every weight on one sample: Z = 0 everywhere -> min_std^2 I */
+	memset(w, 0, sizeof w);
+	w[7] = 1.0;
+	o.forest.n_min = N + 1;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	assert_int_equal(pr_policy_eval(p, S, mean, cov, &flags, NULL, err), PR_OK);
+	assert_true((flags & PR_POLICY_COVFALL) && (flags & PR_POLICY_FLOOR));
+	assert_true(fabs(mean[0] - A[14]) < 1e-12);
+	assert_true(fabs(cov[0] - o.min_std * o.min_std) < 1e-18 && fabs(cov[1]) < 1e-18);
+	pr_policy_free(p);
+
+	/* identical states and no ridge: singular design -> pseudo-inverse */
+	for (i = 0; i < N; i++) {
+		S[2 * i] = 0.3;
+		S[2 * i + 1] = 0.7;
+		w[i] = 1.0;
+	}
+	o.lambda = 0.0;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	assert_int_equal(pr_policy_eval(p, S, mean, cov, &flags, NULL, err), PR_OK);
+	assert_true(flags & PR_POLICY_PINV);
+	assert_true(finite_all(mean, 2) && finite_all(cov, 4));
+	pr_policy_free(p);
+
+	/* bad data */
+	memset(w, 0, sizeof w);
+	assert_null(pr_policy_tree_fit(&o, &d, rng, err));
+	w[0] = -1.0;
+	assert_null(pr_policy_tree_fit(&o, &d, rng, err));
+	w[0] = 1.0;
+	o.target = PR_TARGET_REWARD_STATE;
+	assert_null(pr_policy_tree_fit(&o, &d, rng, err));
+	for (i = 0; i < 2 * N; i++)
+		Y[i] = A[i] * 2;
+	d.Y = Y;
+	d.dy = 2;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	pr_policy_free(p);
+	gsl_rng_free(rng);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_gaussian_logpdf_sample),
+		cmocka_unit_test(test_linear_ml_recovers),
+		cmocka_unit_test(test_quadratic_features),
+		cmocka_unit_test(test_single_node_is_global),
+		cmocka_unit_test(test_covariance_hand),
+		cmocka_unit_test(test_tree_is_local),
+		cmocka_unit_test(test_degenerate),
+	};
+
+	gsl_set_error_handler_off();
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}
