@@ -25,7 +25,7 @@ LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
-.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind
+.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man FORCE
 
 all: poolreps
 
@@ -36,6 +36,12 @@ $(BUILD)/%.o: src/%.c | $(BUILD)
 
 $(BUILD):
 	mkdir -p $(BUILD)/tests
+
+# the version string is compiled into common.o: rebuild it when git describe changes
+$(BUILD)/version.stamp: FORCE | $(BUILD)
+	@echo '$(VERSION)' | cmp -s - $@ || echo '$(VERSION)' > $@
+$(BUILD)/common.o: $(BUILD)/version.stamp
+FORCE:
 
 $(LIB): $(LIB_OBJ)
 	rm -f $@
@@ -50,7 +56,10 @@ poolreps: $(BUILD)/poolreps
 $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)
 	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(LIB) $(LIBS) -lcmocka -o $@
 
-check: check-c check-py
+# deps first (a no-op when everything is installed), then a sub-make that
+# looks up PYTHON and pkg-config flags with the packages in place
+check: deps
+	$(MAKE) check-c check-py
 
 check-c: $(TEST_BIN)
 	@fail=0; for t in $(TEST_BIN); do echo "== $$t"; $$t || fail=1; done; exit $$fail
@@ -68,6 +77,12 @@ fuzz:
 valgrind: $(BUILD)/poolreps
 	sh scripts/valgrind.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"
 
+# docs/poolreps.1 and the README's key list from --help; tests/test_cli.py and
+# tests/test_readme.py fail until this is rerun after a help change
+man: $(BUILD)/poolreps
+	sh scripts/gen-man.sh $(BUILD)/poolreps docs/poolreps.1
+	sh scripts/gen-readme-keys.sh $(BUILD)/poolreps README.md
+
 deps:
 	sh scripts/install-deps.sh
 
@@ -84,8 +99,8 @@ install: all
 	  $(DESTDIR)$(PREFIX)/share/poolreps/scripts $(DESTDIR)$(PREFIX)/share/man/man1
 	install -m 755 poolreps $(DESTDIR)$(PREFIX)/bin/poolreps
 	install -m 644 data/*.ini $(DESTDIR)$(PREFIX)/share/poolreps/data
-	install -m 644 scripts/*.py scripts/*.sh $(DESTDIR)$(PREFIX)/share/poolreps/scripts
-	if [ -f docs/poolreps.1 ]; then install -m 644 docs/poolreps.1 $(DESTDIR)$(PREFIX)/share/man/man1; fi
+	install -m 755 scripts/*.py scripts/*.sh scripts/slurm.sbatch $(DESTDIR)$(PREFIX)/share/poolreps/scripts
+	install -m 644 docs/poolreps.1 $(DESTDIR)$(PREFIX)/share/man/man1
 
 clean:
 	rm -rf build poolreps

@@ -61,9 +61,9 @@ static const key_def keys[] = {
 	{"sim", "max_speed", K_DOUBLE, F(sim.max_speed), 0, 1000, 1, "m/s", "faster actions are refused"},
 
 	{"reward", "targets", K_POCKETS, F(reward.targets), 0, 5, 0, "", "target pocket ids, e.g. 2,5"},
-	{"reward", "miss_penalty", K_DOUBLE, F(reward.miss_penalty), 0, 1e6, 0, "1/m",
+	{"reward", "miss_penalty", K_DOUBLE, F(reward.miss_penalty), 0, 1e6, 0, "",
 	 "times the smallest cue-reward gap when the cue never hits a reward ball"},
-	{"reward", "scratch_penalty", K_DOUBLE, F(reward.scratch_penalty), 0, 1e6, 0, "",
+	{"reward", "scratch_penalty", K_DOUBLE, F(reward.scratch_penalty), 0, 1e6, 0, "m",
 	 "subtracted when the cue ball is pocketed"},
 
 	{"start", "cue_box", K_BOX, F(start.cue_box), -BIG, BIG, 0, "m", "cue ball box xmin,xmax,ymin,ymax"},

@@ -547,6 +547,19 @@ int pr_csvw_endrow(pr_csvw *w)
 	return w->status;
 }
 
+int pr_csvw_header(pr_csvw *w, const char *names)
+{
+	char name[256];
+
+	while (*names) {
+		size_t len = strcspn(names, ",");
+		snprintf(name, sizeof name, "%.*s", (int)(len < sizeof name - 1 ? len : sizeof name - 1), names);
+		pr_csvw_str(w, name);
+		names += len + (names[len] == ',');
+	}
+	return pr_csvw_endrow(w);
+}
+
 void pr_csvw_abort(pr_csvw *w)
 {
 	if (!w)

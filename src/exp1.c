@@ -266,13 +266,7 @@ static int write_mse(const char *dir, const job_ctx *c, int lo, int hi, char *er
 	snprintf(path, sizeof path, "%s/exp1_mse.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
-	pr_csvw_str(w, "repetition");
-	pr_csvw_str(w, "sweep");
-	pr_csvw_str(w, "n_min");
-	pr_csvw_str(w, "trees");
-	pr_csvw_str(w, "cuts");
-	pr_csvw_str(w, "mse");
-	pr_csvw_endrow(w);
+	pr_csvw_header(w, "repetition,sweep,n_min,trees,cuts,mse");
 	for (k = lo; k < hi; ++k)
 		for (s = 0; s < c->nset; ++s) {
 			const setting *t = &c->set[s];
@@ -296,12 +290,7 @@ static int write_map(const char *dir, const job_ctx *c, int lo, int hi, char *er
 	snprintf(path, sizeof path, "%s/exp1_map.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
-	pr_csvw_str(w, "repetition");
-	pr_csvw_str(w, "x1");
-	pr_csvw_str(w, "y1");
-	pr_csvw_str(w, "reward");
-	pr_csvw_str(w, "pred");
-	pr_csvw_endrow(w);
+	pr_csvw_header(w, "repetition,x1,y1,reward,pred");
 	for (k = lo; k < hi; ++k)
 		for (i = 0; i < c->ngrid; ++i) {
 			pr_csvw_int(w, k);
@@ -469,12 +458,7 @@ int pr_exp1_summarize(const pr_config *cfg, const char *dir, char *err)
 	snprintf(path, sizeof path, "%s/exp1_summary.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
-	pr_csvw_str(w, "sweep");
-	pr_csvw_str(w, "value");
-	pr_csvw_str(w, "mean_mse");
-	pr_csvw_str(w, "std_mse");
-	pr_csvw_str(w, "forests");
-	pr_csvw_endrow(w);
+	pr_csvw_header(w, "sweep,value,mean_mse,std_mse,forests");
 	for (i = 0; i < ng; ++i) {
 		pr_csvw_str(w, sweep_name[g[i].sweep]);
 		pr_csvw_int(w, g[i].value);

@@ -1094,12 +1094,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 		free(hist);
 		return PR_EIO;
 	}
-	pr_csvw_str(w, "policy");
-	pr_csvw_str(w, "pocket");
-	pr_csvw_str(w, "target");
-	pr_csvw_str(w, "count");
-	pr_csvw_str(w, "fraction");
-	rc = pr_csvw_endrow(w);
+	rc = pr_csvw_header(w, "policy,pocket,target,count,fraction");
 	for (v = 0; rc == PR_OK && v < E->nv; ++v) {
 		memset(pk, 0, sizeof pk);
 		for (i = 0, tot = 0; i < E->n; ++i)
@@ -1131,12 +1126,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 		free(hist);
 		return PR_EIO;
 	}
-	pr_csvw_str(w, "policy");
-	pr_csvw_str(w, "bin_lo");
-	pr_csvw_str(w, "bin_hi");
-	pr_csvw_str(w, "count");
-	pr_csvw_str(w, "fraction");
-	rc = pr_csvw_endrow(w);
+	rc = pr_csvw_header(w, "policy,bin_lo,bin_hi,count,fraction");
 	for (v = 0; rc == PR_OK && v < E->nv; ++v) {
 		memset(hist, 0, ((size_t)nbins + 1) * sizeof *hist);
 		for (i = 0, tot = 0; i < E->n; ++i)

@@ -104,7 +104,8 @@ static void usage(FILE *fp, const command *cmd)
 	        "  --seed N             master seed (experiment.seed)\n"
 	        "  -i FILE, -o FILE     input (default stdin) and output (default stdout)\n"
 	        "  -q                   quiet: no progress, no summary line\n"
-	        "  -h, --help           this help; --version\n"
+	        "  -h, --help           this help; after a COMMAND, that command's usage\n"
+	        "  --version            print the version and exit\n"
 	        "\nExit codes: 0 ok, 1 bad usage or parameter, 2 I/O or malformed CSV,\n"
 	        "  3 numerical failure, 4 out of memory, 130 interrupted.\n\n");
 	pr_config_help(fp);

@@ -9,6 +9,7 @@ reading os.environ["POOLREPS"] directly; the `poolreps` fixture below adds:
     (multiplied by env POOLREPS_TIMEOUT_SCALE, which scripts/valgrind.sh sets).
 Mark long experiment tests @pytest.mark.slow: scripts/valgrind.sh skips them.
 """
+import csv
 import os
 import shlex
 import subprocess
@@ -48,3 +49,28 @@ def run_poolreps(args, *, input=None, cwd=None, timeout=120, env=None):
 def poolreps():
     """Call as poolreps([args...], input=b"...", cwd=path)."""
     return run_poolreps
+
+
+def run_experiment(ini, out, sets=(), check=True, extra=()):
+    """Run `poolreps data/INI -q -o OUT --set S...` with text output; with
+    check, assert success (showing stderr)."""
+    binary = poolreps_path()
+    if binary is None:
+        pytest.skip("no poolreps binary (set POOLREPS)")
+    cmd = [binary, str(ROOT / "data" / ini), "-q", "-o", str(out)]
+    for s in sets:
+        cmd += ["--set", s]
+    cmd += list(extra)
+    p = subprocess.run(cmd, capture_output=True, text=True, env=dict(os.environ, LC_ALL="C"),
+                       timeout=120 * float(os.environ.get("POOLREPS_TIMEOUT_SCALE", "1")))
+    if check:
+        assert p.returncode == 0, p.stderr
+    return p
+
+
+def csv_rows(path):
+    """(header, rows as dicts) of a CSV file."""
+    with open(path, newline="") as f:
+        r = csv.reader(f)
+        header = next(r)
+        return header, [dict(zip(header, x)) for x in r]

@@ -172,6 +172,33 @@ static void test_write_round_trip_and_atomic(void **state)
 	assert_non_null(strstr(err, "cannot write"));
 }
 
+/* A header row from a comma list: one field per name, then the row ends. */
+static void test_header(void **state)
+{
+	pr_csvw *w;
+	pr_csv *t;
+	char err[PR_ERRLEN];
+
+	(void)state;
+	snprintf(out, sizeof out, "/tmp/pr_test_csv_hdr_%ld.csv", (long)getpid());
+	w = pr_csvw_open(out, err);
+	assert_non_null(w);
+	assert_int_equal(pr_csvw_header(w, "policy,count,x_1"), PR_OK);
+	pr_csvw_int(w, 7);
+	pr_csvw_int(w, 3);
+	pr_csvw_num(w, 0.5);
+	pr_csvw_endrow(w);
+	assert_int_equal(pr_csvw_close(w, err), PR_OK);
+	assert_int_equal(pr_csv_read(out, &t, err), PR_OK);
+	assert_int_equal(pr_csv_ncols(t), 3);
+	assert_string_equal(pr_csv_name(t, 0), "policy");
+	assert_string_equal(pr_csv_name(t, 2), "x_1");
+	assert_int_equal(pr_csv_nrows(t), 1);
+	assert_true(pr_csv_get(t, 0, 2) == 0.5);
+	pr_csv_free(t);
+	unlink(out);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -179,6 +206,7 @@ int main(void)
 		cmocka_unit_test(test_read_errors),
 		cmocka_unit_test(test_select),
 		cmocka_unit_test(test_write_round_trip_and_atomic),
+		cmocka_unit_test(test_header),
 	};
 	int rc = cmocka_run_group_tests(tests, NULL, NULL);
 	unlink(path);

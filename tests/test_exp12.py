@@ -4,13 +4,13 @@ Run by `make check` with POOLREPS=<abs path to poolreps> and PYTHON=<python
 with matplotlib>. Each test runs the real executable on data/exp1.ini or
 data/exp2.ini with --set overrides that shrink it.
 """
-import csv
 import math
 import os
 import subprocess
 from pathlib import Path
 
 import pytest
+from conftest import csv_rows, run_experiment
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
@@ -24,22 +24,8 @@ EXP2_TINY = ["exp2.sizes=10,30", "exp2.test=40", "experiment.repetitions=2",
              "policy.trees=10"]
 
 
-def run(ini, out, sets=(), check=True, extra=()):
-    cmd = [BIN, str(ROOT / "data" / ini), "-q", "-o", str(out)]
-    for s in sets:
-        cmd += ["--set", s]
-    cmd += list(extra)
-    p = subprocess.run(cmd, capture_output=True, text=True, env=ENV, timeout=120)
-    if check:
-        assert p.returncode == 0, p.stderr
-    return p
-
-
-def rows(path):
-    with open(path, newline="") as f:
-        r = csv.reader(f)
-        header = next(r)
-        return header, [dict(zip(header, x)) for x in r]
+run = run_experiment
+rows = csv_rows
 
 
 def read(path):

@@ -4,13 +4,13 @@ Run by `make check` with POOLREPS=<abs path to poolreps> and PYTHON=<python
 with matplotlib>. Each test runs the real executable on data/exp3.ini with
 --set overrides that shrink it.
 """
-import csv
 import math
 import os
 import subprocess
 from pathlib import Path
 
 import pytest
+from conftest import csv_rows, run_experiment
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
@@ -29,21 +29,10 @@ TARGETS = {2: (0.5, -0.25), 5: (0.5, 0.25)}
 
 
 def run(out, sets=(), check=True, extra=()):
-    cmd = [BIN, str(ROOT / "data" / "exp3.ini"), "-q", "-o", str(out)]
-    for s in sets:
-        cmd += ["--set", s]
-    cmd += list(extra)
-    p = subprocess.run(cmd, capture_output=True, text=True, env=ENV, timeout=120)
-    if check:
-        assert p.returncode == 0, p.stderr
-    return p
+    return run_experiment("exp3.ini", out, sets, check, extra)
 
 
-def rows(path):
-    with open(path, newline="") as f:
-        r = csv.reader(f)
-        header = next(r)
-        return header, [dict(zip(header, x)) for x in r]
+rows = csv_rows
 
 
 def csv_bytes(d):

@@ -45,6 +45,8 @@ int pr_csvw_str(pr_csvw *w, const char *s);
 int pr_csvw_num(pr_csvw *w, double v);  /* PR_ENUM for NaN or inf: never written */
 int pr_csvw_int(pr_csvw *w, long v);
 int pr_csvw_endrow(pr_csvw *w);
+/* A whole header row from a comma list of names, e.g. "policy,count". */
+int pr_csvw_header(pr_csvw *w, const char *names);
 /* Flush, check for write errors, rename into place, free. */
 int pr_csvw_close(pr_csvw *w, char *err);
 /* Remove the temporary file and free (after an error). NULL is a no-op. */
