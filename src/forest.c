@@ -10,7 +10,8 @@
  *
  * Fitting (4.2.1). Depth first from an explicit stack. A node is a range
  * [lo, hi) of one of two buffers that hold its samples contiguously: sample
- * indices, inputs column by column, outputs and weights. It is split while
+ * indices, inputs column by column, outputs and weights (every tree's root
+ * reads one such copy of the data made once per fit). It is split while
  * it holds more than n_min samples: K tests [x_d < t] are drawn, each scored
  * in one pass over the node's column d (branch-free for one unweighted
  * output), and the best is applied
@@ -39,6 +40,7 @@
  */
 #include <limits.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -111,6 +113,12 @@ void pr_forest_free(pr_forest *f)
 
 /* ---- fitting ---------------------------------------------------------- */
 
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+
 typedef struct {
 	int lo, hi, depth;
 	int parent;  /* the node whose right child this is, or -1 */
@@ -135,6 +143,8 @@ typedef struct {
 typedef struct {
 	const pr_forest_opts *o;
 	int n, dx, dy, weighted;
+	nodebuf root;         /* every tree's root: the data, inputs by column */
+	double root_sum;      /* unweighted single output: the sum of y */
 	nodebuf buf[2];
 	int *pos;             /* n: destinations in a large node's partition */
 	double *wyc;          /* n x dy: w * (y - node mean) of the current node */
@@ -149,6 +159,8 @@ typedef struct {
 
 static void builder_free(builder *b)
 {
+	free(b->root.idx);
+	free(b->root.x);
 	for (int i = 0; i < 2; i++) {
 		free(b->buf[i].idx);
 		free(b->buf[i].x);
@@ -175,6 +187,9 @@ static int builder_alloc(builder *b)
 	size_t n = (size_t)b->n, dx = (size_t)b->dx, dy = (size_t)b->dy;
 	int ok = 1;
 
+	b->root.idx = malloc(n * sizeof *b->root.idx);
+	b->root.x = malloc(dx * n * sizeof *b->root.x);
+	ok = b->root.idx && b->root.x;
 	for (int i = 0; i < 2; i++) {
 		nodebuf *nb = b->buf + i;
 		nb->idx = malloc(n * sizeof *nb->idx);
@@ -202,6 +217,26 @@ static int builder_alloc(builder *b)
 	       && b->sse && b->sl && b->sr && b->ym && b->stk && b->r;
 }
 
+/* The root node of every tree, built once per fit: sample indices in order,
+ * the inputs column by column, and the caller's outputs and weights, which
+ * are only read (a split writes the children into buf[1]). */
+static void builder_root(builder *b, const double *X, const double *Y, const double *w)
+{
+	int n = b->n, dx = b->dx;
+
+	for (int i = 0; i < n; i++) {
+		b->root.idx[i] = i;
+		for (int d = 0; d < dx; d++)
+			b->root.x[(size_t)d * n + i] = X[(size_t)i * dx + d];
+	}
+	b->root.y = (double *)Y;
+	b->root.w = (double *)w;
+	b->root_sum = 0;
+	if (b->dy == 1 && !w)
+		for (int i = 0; i < n; i++)
+			b->root_sum += Y[i];
+}
+
 /* splitmix64: a tree's seed from (forest seed, tree index), independent of
  * the order in which trees are grown. */
 static unsigned long tree_seed(uint64_t seed, int t)
@@ -213,38 +248,48 @@ static unsigned long tree_seed(uint64_t seed, int t)
 	return (unsigned long)(z ^ (z >> 31));
 }
 
+/* Four lanes for the vectorisable loops below: gcc -O2 vectorises a loop
+ * over k < 4 on such a struct (a constant trip count, a multiple of the
+ * vector width) and keeps the struct in registers, while the same code with
+ * four scalar variables stays scalar (and longer structs spill). */
+typedef struct { double v[4]; } lanes4;
+
 /* The node's range of dimension d, computed once per node and dimension.
- * Four scalar accumulator pairs: no loop-carried latency chain, and the
- * compiler keeps them in registers (arrays would round-trip through memory). */
+ * Eight independent min/max accumulators (min and max are exact, so the
+ * grouping does not matter). */
 static void examine(builder *b, const double *x, int m, int d)
 {
-	double l0 = x[0], l1 = x[0], l2 = x[0], l3 = x[0];
-	double h0 = x[0], h1 = x[0], h2 = x[0], h3 = x[0];
+	lanes4 l0, l1, h0, h1;
+	double lo, hi;
 	int j;
 
-	for (j = 0; j + 4 <= m; j += 4) {
-		l0 = x[j] < l0 ? x[j] : l0;
-		l1 = x[j + 1] < l1 ? x[j + 1] : l1;
-		l2 = x[j + 2] < l2 ? x[j + 2] : l2;
-		l3 = x[j + 3] < l3 ? x[j + 3] : l3;
-		h0 = x[j] > h0 ? x[j] : h0;
-		h1 = x[j + 1] > h1 ? x[j + 1] : h1;
-		h2 = x[j + 2] > h2 ? x[j + 2] : h2;
-		h3 = x[j + 3] > h3 ? x[j + 3] : h3;
+	for (int k = 0; k < 4; k++)
+		l0.v[k] = l1.v[k] = h0.v[k] = h1.v[k] = x[0];
+	for (j = 0; j + 8 <= m; j += 8) {
+		for (int k = 0; k < 4; k++)
+			l0.v[k] = x[j + k] < l0.v[k] ? x[j + k] : l0.v[k];
+		for (int k = 0; k < 4; k++)
+			l1.v[k] = x[j + k + 4] < l1.v[k] ? x[j + k + 4] : l1.v[k];
+		for (int k = 0; k < 4; k++)
+			h0.v[k] = x[j + k] > h0.v[k] ? x[j + k] : h0.v[k];
+		for (int k = 0; k < 4; k++)
+			h1.v[k] = x[j + k + 4] > h1.v[k] ? x[j + k + 4] : h1.v[k];
 	}
+	lo = l0.v[0];
+	hi = h0.v[0];
 	for (; j < m; j++) {
-		l0 = x[j] < l0 ? x[j] : l0;
-		h0 = x[j] > h0 ? x[j] : h0;
+		lo = x[j] < lo ? x[j] : lo;
+		hi = x[j] > hi ? x[j] : hi;
 	}
-	l0 = l1 < l0 ? l1 : l0;
-	l2 = l3 < l2 ? l3 : l2;
-	l0 = l2 < l0 ? l2 : l0;
-	h0 = h1 > h0 ? h1 : h0;
-	h2 = h3 > h2 ? h3 : h2;
-	h0 = h2 > h0 ? h2 : h0;
-	b->lo[d] = l0;
-	b->hi[d] = h0;
-	b->seen[d] = h0 > l0 ? 1 : 2;
+	for (int k = 0; k < 4; k++) {
+		lo = l0.v[k] < lo ? l0.v[k] : lo;
+		lo = l1.v[k] < lo ? l1.v[k] : lo;
+		hi = h0.v[k] > hi ? h0.v[k] : hi;
+		hi = h1.v[k] > hi ? h1.v[k] : hi;
+	}
+	b->lo[d] = lo;
+	b->hi[d] = hi;
+	b->seen[d] = hi > lo ? 1 : 2;
 }
 
 /* Draw a test dimension uniformly among those not constant in the node
@@ -280,31 +325,81 @@ static int draw_dim(builder *b, const double *xn, int m, int *nc, int *np)
 }
 
 /* Unweighted single output: count and sum of y left of t. The
- * comparison is used as a 0/1 factor, with four independent accumulators,
- * so the loop has no branches and the compiler can vectorise it. */
+ * comparison is used as a 0/1 factor, with four independent accumulators
+ * (lane k sums the samples j = k mod 4 in order, then (0 + 1) + (2 + 3)), so
+ * the loop has no branches and is vectorised (two lanes per SSE2 register).
+ * The counts are exact whatever the grouping. */
 static int scan_u1(const double *x, const double *y, int m, double t, double *sl)
 {
-	double s0 = 0, s1 = 0, s2 = 0, s3 = 0, c0 = 0, c1 = 0, c2 = 0, c3 = 0;
+	lanes4 s = { { 0 } }, c0 = { { 0 } }, c1 = { { 0 } };
+	int j;
+
+	for (j = 0; j + 8 <= m; j += 8) {
+		lanes4 a0, a1;
+		for (int k = 0; k < 4; k++)
+			a0.v[k] = x[j + k] < t;
+		for (int k = 0; k < 4; k++)
+			a1.v[k] = x[j + k + 4] < t;
+		for (int k = 0; k < 4; k++)
+			c0.v[k] += a0.v[k];
+		for (int k = 0; k < 4; k++)
+			c1.v[k] += a1.v[k];
+		for (int k = 0; k < 4; k++)
+			s.v[k] += a0.v[k] * y[j + k];
+		for (int k = 0; k < 4; k++)
+			s.v[k] += a1.v[k] * y[j + k + 4];
+	}
+	for (; j + 4 <= m; j += 4)
+		for (int k = 0; k < 4; k++) {
+			double a = x[j + k] < t;
+			c0.v[k] += a;
+			s.v[k] += a * y[j + k];
+		}
+	for (; j < m; j++) {
+		double a = x[j] < t;
+		c0.v[0] += a;
+		s.v[0] += a * y[j];
+	}
+	*sl = (s.v[0] + s.v[1]) + (s.v[2] + s.v[3]);
+	return (int)(((c0.v[0] + c0.v[1]) + (c0.v[2] + c0.v[3]))
+	             + ((c1.v[0] + c1.v[1]) + (c1.v[2] + c1.v[3])));
+}
+
+/* scan_u1 for two tests at once (one pass over y): the same sums in the same
+ * order for each, but the two tests' addition chains interleave, so the loop
+ * is not bound by the latency of one chain. */
+static void scan_u1x2(const double *xa, double ta, const double *xb, double tb,
+                      const double *y, int m, int *nl, double *sl)
+{
+	lanes4 sa = { { 0 } }, sb = { { 0 } }, ca = { { 0 } }, cb = { { 0 } };
 	int j;
 
 	for (j = 0; j + 4 <= m; j += 4) {
-		double a0 = x[j] < t, a1 = x[j + 1] < t, a2 = x[j + 2] < t, a3 = x[j + 3] < t;
-		c0 += a0;
-		c1 += a1;
-		c2 += a2;
-		c3 += a3;
-		s0 += a0 * y[j];
-		s1 += a1 * y[j + 1];
-		s2 += a2 * y[j + 2];
-		s3 += a3 * y[j + 3];
+		lanes4 aa, ab;
+		for (int k = 0; k < 4; k++)
+			aa.v[k] = xa[j + k] < ta;
+		for (int k = 0; k < 4; k++)
+			ab.v[k] = xb[j + k] < tb;
+		for (int k = 0; k < 4; k++)
+			ca.v[k] += aa.v[k];
+		for (int k = 0; k < 4; k++)
+			cb.v[k] += ab.v[k];
+		for (int k = 0; k < 4; k++)
+			sa.v[k] += aa.v[k] * y[j + k];
+		for (int k = 0; k < 4; k++)
+			sb.v[k] += ab.v[k] * y[j + k];
 	}
 	for (; j < m; j++) {
-		double a = x[j] < t;
-		c0 += a;
-		s0 += a * y[j];
+		double a = xa[j] < ta, c = xb[j] < tb;
+		ca.v[0] += a;
+		sa.v[0] += a * y[j];
+		cb.v[0] += c;
+		sb.v[0] += c * y[j];
 	}
-	*sl = (s0 + s1) + (s2 + s3);
-	return (int)((c0 + c1) + (c2 + c3));
+	sl[0] = (sa.v[0] + sa.v[1]) + (sa.v[2] + sa.v[3]);
+	sl[1] = (sb.v[0] + sb.v[1]) + (sb.v[2] + sb.v[3]);
+	nl[0] = (int)((ca.v[0] + ca.v[1]) + (ca.v[2] + ca.v[3]));
+	nl[1] = (int)((cb.v[0] + cb.v[1]) + (cb.v[2] + cb.v[3]));
 }
 
 /* Whether y varies in the node: stops at the first differing value, so it
@@ -389,7 +484,9 @@ static void centre(builder *b, const double *y, const double *w, int m)
 /* Draw K tests for the node [lo, lo + m) of buffer nb and pick the best
  * scoring one whose children both hold at least n_c samples (ties, e.g. all
  * 0 when the outputs are constant in the node: the first drawn). Returns 0
- * for a leaf. */
+ * for a leaf. Tests are drawn two at a time and then scored: scoring draws
+ * no random numbers, so the draws and the choice are those of one test at a
+ * time, and in the common case one pass over y scores both. */
 static int choose_split(builder *b, const nodebuf *nb, int lo, int m, double sum, int *bd,
                         double *bt, int *bnl, double *bsl)
 {
@@ -397,7 +494,7 @@ static int choose_split(builder *b, const nodebuf *nb, int lo, int m, double sum
 	const double *xn = nb->x + lo, *w = nb->w ? nb->w + lo : NULL;
 	const double *y = nb->y + (size_t)lo * b->dy;
 	double best = -INFINITY, mean = sum / m;
-	int nc = b->dx, np = 0, found = 0, fast = !w && b->dy == 1, vary = 1;
+	int nc = b->dx, np = 0, found = 0, fast = !w && b->dy == 1, vary = 1, nt;
 
 	if (fast)
 		vary = varies(y, m);
@@ -407,59 +504,77 @@ static int choose_split(builder *b, const nodebuf *nb, int lo, int m, double sum
 		b->cand[d] = d;
 		b->seen[d] = 0;
 	}
-	for (int k = 0; k < o->cuts; k++) {
-		int d = draw_dim(b, xn, m, &nc, &np), nl;
-		double t, sc = 0, wl, wr, sl = 0;
-		const double *x;
+	for (int k = 0; k < o->cuts; k += nt) {
+		int dd[2], nn[2];
+		double tt[2], ss[2] = { 0, 0 };
 
-		if (d < 0)
+		for (nt = 0; nt < 2 && k + nt < o->cuts; nt++) {
+			int d = draw_dim(b, xn, m, &nc, &np);
+			if (d < 0)
+				break;
+			dd[nt] = d;
+			tt[nt] = b->lo[d] + (b->hi[d] - b->lo[d]) * gsl_rng_uniform(b->r);
+		}
+		if (nt == 0)
 			break;
-		t = b->lo[d] + (b->hi[d] - b->lo[d]) * gsl_rng_uniform(b->r);
-		x = xn + (size_t)d * b->n;
-		if (fast) {
-			/* One output, no weights: the node SSE is a positive constant
-			 * factor of rvr, so the reduction itself ranks the tests. It is
-			 * m/(nl nr) (S_l - nl mean)^2, from the left sum of raw y: the
-			 * one subtraction loses only eps |mean| nl against S_l - nl mean.
-			 * A constant output scores 0 exactly, as in the general path. */
-			double dl;
-			nl = scan_u1(x, y, m, t, &sl);
-			dl = sl - nl * mean;
-			if (vary && nl > 0 && nl < m)
-				sc = dl * dl * ((double)m / ((double)nl * (m - nl)));
-		} else {
-			nl = scan_gen(b, x, w, m, t, &wl, &wr);
-			for (int q = 0; q < b->dy; q++)
-				if (b->sse[q] > 0)
-					sc += reduction(b->sl[q], b->sr[q], wl, wr) / b->sse[q];
+		if (fast && nt == 2)
+			scan_u1x2(xn + (size_t)dd[0] * b->n, tt[0], xn + (size_t)dd[1] * b->n, tt[1], y,
+			          m, nn, ss);
+		else if (fast)
+			nn[0] = scan_u1(xn + (size_t)dd[0] * b->n, y, m, tt[0], ss);
+		for (int i = 0; i < nt; i++) {
+			int nl = nn[i];
+			double sc = 0, wl, wr;
+
+			if (fast) {
+				/* One output, no weights: the node SSE is a positive
+				 * constant factor of rvr, so the reduction itself ranks
+				 * the tests. It is m/(nl nr) (S_l - nl mean)^2, from the
+				 * left sum of raw y: the one subtraction loses only
+				 * eps |mean| nl against S_l - nl mean. A constant output
+				 * scores 0 exactly, as in the general path. */
+				double dl = ss[i] - nl * mean;
+				if (vary && nl > 0 && nl < m)
+					sc = dl * dl * ((double)m / ((double)nl * (m - nl)));
+			} else {
+				nl = scan_gen(b, xn + (size_t)dd[i] * b->n, w, m, tt[i], &wl, &wr);
+				for (int q = 0; q < b->dy; q++)
+					if (b->sse[q] > 0)
+						sc += reduction(b->sl[q], b->sr[q], wl, wr) / b->sse[q];
+			}
+			if (nl < o->n_c || m - nl < o->n_c)
+				continue;
+			if (o->score == PR_SCORE_NRVR)
+				sc = -sc;
+			if (!found || sc > best) {
+				found = 1;
+				best = sc;
+				*bd = dd[i];
+				*bt = tt[i];
+				*bnl = nl;
+				*bsl = ss[i];
+			}
 		}
-		if (nl < o->n_c || m - nl < o->n_c)
-			continue;
-		if (o->score == PR_SCORE_NRVR)
-			sc = -sc;
-		if (!found || sc > best) {
-			found = 1;
-			best = sc;
-			*bd = d;
-			*bt = t;
-			*bnl = nl;
-			*bsl = sl;
-		}
+		if (nt < 2 && k + nt < o->cuts)
+			break;  /* every dimension is constant in the node */
 	}
 	return found;
 }
 
 /* The one-pass partition loop over idx, y (dy = 1, no weights) and the
  * first dx columns. Called with constant dx so that, inlined, each case is
- * a straight loop with no per-element switch. */
-static inline void part_u1(int m, const double *x, double thr, int nl, const int *si,
-                           const double *sy, const double *sx, int *ti, double *ty,
-                           double *tx, size_t n, int dx)
+ * a straight loop with no per-element loop over columns. The destination is
+ * cl or cr selected by mask arithmetic, in pointer-sized integers (no sign
+ * extension per element). */
+static inline void part_u1(int m, const double *restrict x, double thr, int nl,
+                           const int *restrict si, const double *restrict sy,
+                           const double *restrict sx, int *restrict ti, double *restrict ty,
+                           double *restrict tx, size_t n, int dx)
 {
-	int cl = 0, cr = nl;
+	ptrdiff_t cl = 0, cr = nl;
 
-	for (int j = 0; j < m; j++) {
-		int a = x[j] < thr, msk = -a, p = (cl & msk) | (cr & ~msk);
+	for (ptrdiff_t j = 0; j < m; j++) {
+		ptrdiff_t a = x[j] < thr, p = cr ^ ((cl ^ cr) & -a);
 		cl += a;
 		cr += 1 - a;
 		ti[p] = si[j];
@@ -473,8 +588,10 @@ static inline void part_u1(int m, const double *x, double thr, int nl, const int
  * of buffer t: samples with x_d < thr first (nl of them), then the others.
  * Branch-free, one pass: each sample's destination is selected by mask
  * arithmetic (compilers turn ?: into branches, which mispredict half the
- * time on a random split). Children that will be leaves need no inputs. */
-static void partition(builder *b, const nodebuf *s, nodebuf *t, int lo, int m, int d,
+ * time on a random split). Children that will be leaves need no inputs.
+ * Kept out of line: inlined into the fitting loop, its loops ran short of
+ * registers and reloaded pointers from the stack on every element. */
+NOINLINE static void partition(builder *b, const nodebuf *s, nodebuf *t, int lo, int m, int d,
                       double thr, int nl)
 {
 	size_t n = (size_t)b->n;
@@ -513,6 +630,14 @@ static void partition(builder *b, const nodebuf *s, nodebuf *t, int lo, int m, i
 		case 2: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 2); return;
 		case 3: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 3); return;
 		case 4: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 4); return;
+		case 5: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 5); return;
+		case 6: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 6); return;
+		case 7: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 7); return;
+		case 8: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 8); return;
+		case 9: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 9); return;
+		case 10: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 10); return;
+		case 11: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 11); return;
+		case 12: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, 12); return;
 		default: part_u1(m, x, thr, nl, si, sy, sx, ti, ty, tx, n, dx); return;
 		}
 	}
@@ -579,30 +704,17 @@ static void leaf_mean(int dy, const double *y, const double *w, int m, double *o
 
 /* Grow tree t depth first from an explicit stack (right child pushed first,
  * so nodes come out in preorder and leaves left to right). */
-static int grow_tree(pr_forest *f, builder *b, const double *X, const double *Y,
-                     const double *w, int t)
+static int grow_tree(pr_forest *f, builder *b, int t)
 {
-	int n = b->n, dx = b->dx, dy = b->dy, sp = 0;
-	nodebuf *b0 = b->buf;
+	int n = b->n, dy = b->dy, sp = 0;
 	int *perm = f->perm + (size_t)t * n;
 
-	for (int i = 0; i < n; i++) {
-		b0->idx[i] = i;
-		for (int d = 0; d < dx; d++)
-			b0->x[(size_t)d * n + i] = X[(size_t)i * dx + d];
-	}
-	memcpy(b0->y, Y, (size_t)n * dy * sizeof *b0->y);
-	if (w)
-		memcpy(b0->w, w, (size_t)n * sizeof *b0->w);
 	f->tree_node0[t] = f->nnodes;
 	f->tree_leaf0[t] = f->nleaves;
-	b->stk[sp++] = (span){ 0, n, 0, -1, 0 };
-	if (dy == 1 && !w)
-		for (int i = 0; i < n; i++)
-			b->stk[0].sum += Y[i];
+	b->stk[sp++] = (span){ 0, n, 0, -1, b->root_sum };
 	while (sp > 0) {
 		span s = b->stk[--sp];
-		nodebuf *nb = b->buf + (s.depth & 1);
+		const nodebuf *nb = s.depth ? b->buf + (s.depth & 1) : &b->root;
 		int id = f->nnodes, m = s.hi - s.lo, d = 0, nl = 0;
 		double thr = 0, suml = 0;
 		pr_node *nd;
@@ -724,6 +836,7 @@ pr_forest *pr_forest_fit(const pr_forest_opts *o, const double *X, int n, int dx
 	if (!f->tree_node0 || !f->tree_leaf0 || !f->perm || !builder_alloc(&b)
 	    || grow_nodes(f) || grow_leaves(f))
 		goto fail;
+	builder_root(&b, X, Y, w);
 	seed = gsl_rng_get(rng) - gsl_rng_min(rng);
 	for (int t = 0; t < f->M; t++) {
 		if (pr_interrupted) {
@@ -731,7 +844,7 @@ pr_forest *pr_forest_fit(const pr_forest_opts *o, const double *X, int n, int dx
 			goto fail;
 		}
 		gsl_rng_set(b.r, tree_seed(seed, t));
-		st = grow_tree(f, &b, X, Y, w, t);
+		st = grow_tree(f, &b, t);
 		if (st)
 			goto fail;
 	}
