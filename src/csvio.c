@@ -397,6 +397,7 @@ int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, cha
 struct pr_csvw {
 	FILE *fp;
 	int std, nfield, status;
+	int direct;        /* a device, FIFO or other non-regular file: written in place */
 	char path[1024];
 	char tmp[1100];
 };
@@ -446,9 +447,48 @@ int pr_csvw_cleanup(void)
 	return n;
 }
 
+/* The file a chain of symlinks at path ends in, into out (size n); 0 when
+ * path is no symlink or the chain is too long or too deep to follow. */
+static int follow_links(const char *path, char *out, size_t n)
+{
+	char cur[1024], link[1024];
+	struct stat st;
+	int depth;
+
+	snprintf(cur, sizeof cur, "%s", path);
+	for (depth = 0; depth < 16; ++depth) {
+		ssize_t len;
+		const char *slash;
+
+		if (lstat(cur, &st) != 0 || !S_ISLNK(st.st_mode))
+			break;
+		len = readlink(cur, link, sizeof link - 1);
+		if (len < 0 || (size_t)len >= sizeof link - 1)
+			return 0;
+		link[len] = '\0';
+		slash = strrchr(cur, '/');
+		if (link[0] != '/' && slash) {
+			/* a relative target is relative to the link's folder */
+			char joined[2048];
+			snprintf(joined, sizeof joined, "%.*s/%s", (int)(slash - cur), cur, link);
+			if (strlen(joined) >= sizeof cur)
+				return 0;
+			memcpy(cur, joined, strlen(joined) + 1);
+		} else {
+			memcpy(cur, link, (size_t)len + 1);
+		}
+	}
+	if (depth == 0 || depth == 16 || strlen(cur) >= n)
+		return 0;
+	memcpy(out, cur, strlen(cur) + 1);
+	return 1;
+}
+
 pr_csvw *pr_csvw_open(const char *path, char *err)
 {
 	pr_csvw *w = calloc(1, sizeof *w);
+	char real[sizeof w->path];
+	struct stat st;
 
 	if (!w) {
 		pr_err(err, PR_ENOMEM, "out of memory");
@@ -465,7 +505,22 @@ pr_csvw *pr_csvw_open(const char *path, char *err)
 		pr_err(err, PR_EINVAL, "%.100s...: path too long", path);
 		return NULL;
 	}
+	/* renaming over a symlink would replace the link: write to its target */
+	if (follow_links(path, real, sizeof w->path))
+		path = real;
 	snprintf(w->path, sizeof w->path, "%s", path);
+	/* renaming over /dev/stdout or a FIFO would replace the device itself */
+	if (stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
+		w->fp = S_ISDIR(st.st_mode) ? NULL : fopen(path, "wb");
+		if (!w->fp) {
+			pr_err(err, PR_EIO, "%s: cannot write: %s", w->path,
+			       S_ISDIR(st.st_mode) ? "is a directory" : strerror(errno));
+			free(w);
+			return NULL;
+		}
+		w->direct = 1;
+		return w;
+	}
 	snprintf(w->tmp, sizeof w->tmp, "%s.tmp.%ld", path, (long)getpid());
 	if (tracked(w->tmp)) {
 		pr_err(err, PR_EINVAL, "%s: named twice as an output", path);
@@ -564,7 +619,9 @@ void pr_csvw_abort(pr_csvw *w)
 {
 	if (!w)
 		return;
-	if (!w->std) {
+	if (w->direct) {
+		fclose(w->fp);
+	} else if (!w->std) {
 		fclose(w->fp);
 		unlink(w->tmp);
 		track(w->tmp, 0);
@@ -593,6 +650,12 @@ int pr_csvw_close(pr_csvw *w, char *err)
 		pr_err(err, PR_EIO, "%s: write error: %s", w->path, strerror(errno));
 		pr_csvw_abort(w);
 		return PR_EIO;
+	}
+	if (w->direct) {
+		if (fclose(w->fp) != 0)
+			status = pr_err(err, PR_EIO, "%s: write error: %s", w->path, strerror(errno));
+		free(w);
+		return status;
 	}
 	if (fclose(w->fp) != 0) {
 		status = pr_err(err, PR_EIO, "%s: write error: %s", w->path, strerror(errno));
