@@ -7,6 +7,10 @@
  * 1 - f with f = 1 - e^{-c dt}, the same c as event mode; a ball slower than
  * the stop speed stops. Positions are not corrected after a bounce, as in
  * the thesis, so the scheme converges to event mode at first order in dt.
+ *
+ * Without a trace, stretches of steps in which no test can fire run without
+ * the tests (see "Event-free windows" below); the arithmetic of every step
+ * is unchanged, so the results are bit-identical.
  */
 #include <math.h>
 
@@ -315,6 +319,293 @@ static void run_pair(pr_sim *s, stepper *k, long maxsteps)
 	k->nmov = nmov;
 }
 
+/* ---- Event-free windows ------------------------------------------------
+ *
+ * Between a ball's events the step only moves and slows it. safe_steps()
+ * bounds, from the current positions and speeds, how many steps K surely
+ * contain no pocket test that can succeed, no cushion test that can fire and
+ * no ball pair that can overlap; the win* loops then run those K steps with
+ * the identical per-step arithmetic (x += v dt; v *= decay; stop test) and
+ * skip the tests. The bounds are conservative including rounding:
+ *
+ *  - during a window no velocity changes except by the factor decay < 1, so
+ *    every computed |vx|, |vy| is at most its value at the window's start,
+ *    each coordinate is monotone, and after K steps a coordinate has moved
+ *    by at most K (|vx| dt (1 + u) + u X), X bounding |x| on the way;
+ *  - the cushion test of x only fires while the ball moves towards that
+ *    line, so only the distance to the line ahead counts (likewise y);
+ *  - the pocket test only runs while |y| >= W/2 - r_p; past that gate, a
+ *    ball farther than r_p from every pocket centre by more than it can
+ *    travel cannot fall;
+ *  - two balls cannot overlap if their distance exceeds 2R by more than
+ *    both can travel.
+ *
+ * Per step each coordinate is given the rate |v| dt (1 + 1e-9) + 1e-15 S,
+ * with S = 1 + L + W + 2 sum over movers (|x| + |y|), so that 1e-15 S is at
+ * least 4u times any coordinate reached within the window (the cushion bound
+ * keeps |x| below |x0| + L). Every distance gets a relative margin of 1e-9
+ * and an absolute one of 1e-12 S. The smallest cue-reward gap stays exact: a pair
+ * whose distance cannot fall to the current smallest gap within the window
+ * is not measured (its gap cannot change the minimum); every other pair is
+ * measured at every step exactly as gap2() does. */
+#define WIN_MIN 8         /* shorter windows run the tested steps instead */
+#define WIN_CAP (1L << 24)
+
+/* Safe step count (0 if below WIN_MIN) for the moving balls. Sets *track
+ * to the number of cue-reward pairs whose gap must be measured per step;
+ * with a single mover their partner indices go to s->idx. */
+static long safe_steps(pr_sim *s, const stepper *k, long limit, int *track)
+{
+	const pr_sim_ball *b = s->b;
+	const double dt = k->dt, rel = 1 + 1e-9, lo = 1 - 1e-9, r2R = 2 * s->t.ball_radius * rel;
+	const double rp = s->t.pocket_radius * rel, hx = k->hx, hy = k->hy, ypk = k->ypk;
+	double *ae = s->scr, S = 1 + s->t.length + s->t.width, eps, mg, K = (double)limit;
+	int i, j, n = k->n, nt = 0;
+
+	for (i = 0; i < n; ++i)
+		if (b[i].st == PR_BALL_MOVING)
+			S += 2 * (fabs(b[i].x) + fabs(b[i].y));
+	eps = 1e-15 * S;
+	mg = 1e-12 * S;
+	for (i = 0; i < n; ++i) {
+		const double x = b[i].x, y = b[i].y, vx = b[i].ux, vy = b[i].uy;
+		double ax, ay, q;
+		if (b[i].st != PR_BALL_MOVING) {
+			ae[i] = 0;
+			continue;
+		}
+		ax = fabs(vx) * dt * rel + eps;
+		ay = fabs(vy) * dt * rel + eps;
+		ae[i] = sqrt(vx * vx + vy * vy) * dt * (1 + 1e-8) + 2 * eps;
+		if (vx != 0) {
+			q = ((vx > 0 ? hx - x : x + hx) - mg) / ax;
+			if (!(q >= K))
+				K = q;
+		}
+		if (vy != 0) {
+			q = ((vy > 0 ? hy - y : y + hy) - mg) / ay;
+			if (!(q >= K))
+				K = q;
+		}
+		/* pockets: steps before |y| can reach the gate ... */
+		q = 0;
+		if (fabs(y) < ypk)
+			q = vy == 0 ? K : ((vy > 0 ? ypk - y : y + ypk) - mg) / ay;
+		if (!(q >= K)) { /* ... or before the ball can reach a pocket */
+			double d2 = HUGE_VAL, qd;
+			for (j = 0; j < PR_SIM_POCKETS; ++j) {
+				double dx = x - s->px[j], dy = y - s->py[j];
+				if (!(dx * dx + dy * dy >= d2))
+					d2 = dx * dx + dy * dy;
+			}
+			qd = (sqrt(d2) * lo - rp - mg) / ae[i];
+			if (!(q >= qd))
+				q = qd;
+			if (!(q >= K))
+				K = q;
+		}
+		if (!(K >= WIN_MIN))
+			return 0;
+	}
+	for (i = 0; i < n; ++i) {
+		if (b[i].st == PR_BALL_POCKETED)
+			continue;
+		for (j = i + 1; j < n; ++j) {
+			double dx, dy, q;
+			if (b[j].st == PR_BALL_POCKETED || (ae[i] == 0 && ae[j] == 0))
+				continue;
+			dx = b[j].x - b[i].x;
+			dy = b[j].y - b[i].y;
+			q = (sqrt(dx * dx + dy * dy) * lo - r2R - mg) / (ae[i] + ae[j]);
+			if (!(q >= K))
+				K = q;
+		}
+		if (!(K >= WIN_MIN))
+			return 0;
+	}
+	K = floor(K);
+	if (K > WIN_CAP)
+		K = WIN_CAP;
+	if (!k->hit && b[0].st != PR_BALL_POCKETED) {
+		const double g = sqrt(k->g2) * rel + mg;
+		for (j = 1; j <= k->nr; ++j) {
+			double dx, dy;
+			if (b[j].st == PR_BALL_POCKETED || (ae[0] == 0 && ae[j] == 0))
+				continue;
+			dx = b[j].x - b[0].x;
+			dy = b[j].y - b[0].y;
+			if (!(sqrt(dx * dx + dy * dy) * lo - K * (ae[0] + ae[j]) >= g)) {
+				if (k->nmov == 1)
+					s->idx[nt] = ae[0] != 0 ? j : 0;
+				++nt;
+			}
+		}
+	}
+	*track = nt;
+	return (long)K;
+}
+
+/* K event-free steps of the single moving ball m, measuring its gap to the
+ * nt resting partners s->idx[0..nt-1]; stops after a step where it stops. */
+static void win_single(pr_sim *s, stepper *k, int m, long K, int nt)
+{
+	const double dt = k->dt, decay = k->decay, vs2 = k->vs2;
+	pr_sim_ball *bm = &s->b[m];
+	double *ox = s->scr, *oy = s->scr + s->cap;
+	double x = bm->x, y = bm->y, vx = bm->ux, vy = bm->uy, g2 = k->g2;
+	long i;
+	int q;
+
+	for (q = 0; q < nt; ++q) {
+		ox[q] = s->b[s->idx[q]].x;
+		oy[q] = s->b[s->idx[q]].y;
+	}
+	if (nt == 0) { /* the common case gets a loop of its own */
+		for (i = 0; i < K;) {
+			++i;
+			x += vx * dt;
+			y += vy * dt;
+			vx *= decay;
+			vy *= decay;
+			if (vx * vx + vy * vy < vs2)
+				break;
+		}
+	} else {
+		for (i = 0; i < K;) {
+			++i;
+			x += vx * dt;
+			y += vy * dt;
+			for (q = 0; q < nt; ++q) {
+				double ex = ox[q] - x, ey = oy[q] - y, d2 = ex * ex + ey * ey;
+				if (d2 < g2)
+					g2 = d2;
+			}
+			vx *= decay;
+			vy *= decay;
+			if (vx * vx + vy * vy < vs2)
+				break;
+		}
+	}
+	if (vx * vx + vy * vy < vs2) {
+		vx = vy = 0;
+		bm->st = PR_BALL_REST;
+		--k->nmov;
+	}
+	bm->x = x;
+	bm->y = y;
+	bm->ux = vx;
+	bm->uy = vy;
+	k->g2 = g2;
+	k->step += i;
+}
+
+/* K event-free steps of the two moving balls m0 < m1, no gap to measure;
+ * stops after a step where one stops. */
+static void win_two(pr_sim *s, stepper *k, int m0, int m1, long K)
+{
+	const double dt = k->dt, decay = k->decay, vs2 = k->vs2;
+	pr_sim_ball *b0 = &s->b[m0], *b1 = &s->b[m1];
+	double x0 = b0->x, y0 = b0->y, vx0 = b0->ux, vy0 = b0->uy;
+	double x1 = b1->x, y1 = b1->y, vx1 = b1->ux, vy1 = b1->uy;
+	long i;
+	int stop = 0;
+
+	for (i = 0; i < K && !stop;) {
+		++i;
+		x0 += vx0 * dt;
+		y0 += vy0 * dt;
+		x1 += vx1 * dt;
+		y1 += vy1 * dt;
+		vx0 *= decay;
+		vy0 *= decay;
+		vx1 *= decay;
+		vy1 *= decay;
+		if (vx0 * vx0 + vy0 * vy0 < vs2) {
+			vx0 = vy0 = 0;
+			b0->st = PR_BALL_REST;
+			--k->nmov;
+			stop = 1;
+		}
+		if (vx1 * vx1 + vy1 * vy1 < vs2) {
+			vx1 = vy1 = 0;
+			b1->st = PR_BALL_REST;
+			--k->nmov;
+			stop = 1;
+		}
+	}
+	b0->x = x0;
+	b0->y = y0;
+	b0->ux = vx0;
+	b0->uy = vy0;
+	b1->x = x1;
+	b1->y = y1;
+	b1->ux = vx1;
+	b1->uy = vy1;
+	k->step += i;
+}
+
+/* K event-free steps of any moving balls, in place; if track, every
+ * cue-reward gap is measured per step by gap2(). Stops after a step where
+ * a ball stops. */
+static void win_any(pr_sim *s, stepper *k, long K, int track)
+{
+	const double dt = k->dt, decay = k->decay, vs2 = k->vs2;
+	long i;
+	int j, stop = 0;
+
+	for (i = 0; i < K && !stop;) {
+		++i;
+		for (j = 0; j < k->n; ++j) {
+			pr_sim_ball *bj = &s->b[j];
+			if (bj->st != PR_BALL_MOVING)
+				continue;
+			bj->x += bj->ux * dt;
+			bj->y += bj->uy * dt;
+		}
+		for (j = 0; j < k->n; ++j) {
+			pr_sim_ball *bj = &s->b[j];
+			if (bj->st != PR_BALL_MOVING)
+				continue;
+			bj->ux *= decay;
+			bj->uy *= decay;
+			if (bj->ux * bj->ux + bj->uy * bj->uy < vs2) {
+				bj->ux = bj->uy = 0;
+				bj->st = PR_BALL_REST;
+				--k->nmov;
+				stop = 1;
+			}
+		}
+		if (track)
+			k->g2 = gap2(s, k->nr, k->g2);
+	}
+	k->step += i;
+}
+
+/* Runs one event-free window if one of at least WIN_MIN steps is known;
+ * returns 0 if not. */
+static int run_window(pr_sim *s, stepper *k, long maxsteps)
+{
+	int nt, m0, m1;
+	long K = safe_steps(s, k, maxsteps - k->step, &nt);
+
+	if (K < WIN_MIN)
+		return 0;
+	for (m0 = 0; s->b[m0].st != PR_BALL_MOVING; ++m0)
+		;
+	if (k->nmov == 1) {
+		win_single(s, k, m0, K, nt);
+		return 1;
+	}
+	if (k->nmov == 2 && nt == 0) {
+		for (m1 = m0 + 1; s->b[m1].st != PR_BALL_MOVING; ++m1)
+			;
+		win_two(s, k, m0, m1, K);
+		return 1;
+	}
+	win_any(s, k, K, nt > 0);
+	return 1;
+}
+
 int pr_sim_run_stepped(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err)
 {
 	const long maxsteps = (long)ceil(s->o.max_time / s->o.dt - 1e-9);
@@ -344,15 +635,22 @@ int pr_sim_run_stepped(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *e
 	if (tr && trace_all(s, n, tr, 0))
 		return pr_err(err, PR_ENOMEM, "trace: out of memory");
 	while (k.nmov > 0 && k.step < maxsteps) {
+		long lim = maxsteps;
 		int ev;
+		if (!tr) {
+			if (run_window(s, &k, maxsteps))
+				continue;
+			/* near an event: tested steps for a while */
+			lim = maxsteps - k.step > WIN_MIN ? k.step + WIN_MIN : maxsteps;
+		}
 		if (k.nmov == 1 && !tr) {
-			if (!run_single(s, &k, maxsteps))
+			if (!run_single(s, &k, lim))
 				continue;
 			ev = 0;
 		} else {
 			if (n == 2 && k.nmov == 2 && !tr) {
 				long before = k.step;
-				run_pair(s, &k, maxsteps);
+				run_pair(s, &k, lim);
 				if (k.step > before)
 					continue;
 			}

@@ -543,21 +543,23 @@ static void test_invariants(void **state)
 	destroy(f);
 }
 
-/* Stepped mode's register fast paths (one mover; two balls both moving)
- * run only without a trace; with a trace every step takes the general
- * phases. Both must give bit-identical shots. */
+/* Stepped mode's fast paths (event-free windows without the tests; one
+ * mover or two balls both moving in registers) run only without a trace;
+ * with a trace every step takes the general phases. Both must give
+ * bit-identical shots. 2 to 5 balls, so windows with one, two and more
+ * movers all run. */
 static void test_stepped_fast_paths(void **state)
 {
 	fixture *f = make(PR_SIM_STEPPED, 1);
 	gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
-	double st[6], a[2], fin[6], gap;
-	int i, b, n, pk[3], hit, hits = 0;
+	double st[10], a[2], fin[10], gap;
+	int i, b, n, pk[5], hit, hits = 0;
 	long steps;
 
 	(void)state;
 	gsl_rng_set(rng, 5);
-	for (i = 0; i < 200; ++i) {
-		n = 2 + i % 2;
+	for (i = 0; i < 400; ++i) {
+		n = 2 + i % 4;
 		random_shot(f, rng, n, st, a);
 		assert_int_equal(pr_sim_shoot(f->sim, st, n, a, &f->res, NULL, f->err), PR_OK);
 		memcpy(fin, f->res.final, 2 * n * sizeof *fin);
