@@ -228,11 +228,12 @@ int pr_run_staged(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 static int run_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a, char *err)
 {
 	const pr_experiment *e = pr_exp_find(cfg->run.name);
+	char at[320];
 	int rc;
 
 	if (!e)
 		return pr_err(err, PR_EINVAL, "%s: experiment.name: '%s' is not available",
-		              cfg->source[0] ? cfg->source : "parameters", cfg->run.name);
+		              pr_config_where(cfg, "experiment.name", at, sizeof at), cfg->run.name);
 	rc = e->run(cfg, dir, &a->progress, err);
 	if (rc == PR_OK && e->summarize)
 		rc = e->summarize(cfg, dir, err);

@@ -148,6 +148,7 @@ static const key_def keys[] = {
 };
 
 #define NKEYS (sizeof keys / sizeof keys[0])
+_Static_assert(NKEYS <= PR_CONFIG_MAXKEYS, "raise PR_CONFIG_MAXKEYS");
 
 void pr_config_init(pr_config *c)
 {
@@ -535,6 +536,7 @@ static int on_pair(void *user, const char *section_raw, const char *name, const 
 	}
 	L->seen[i] = 1;
 	L->seen_line[i] = L->line;
+	L->c->key_line[i] = L->line > INT_MAX ? INT_MAX : (int)L->line;
 	L->status = set_value(L->c, k, value, where, L->err);
 	return L->status == PR_OK;
 }
@@ -608,44 +610,70 @@ int pr_config_set(pr_config *c, const char *assignment, char *err)
 	k = find_key(trim(section), trim(key));
 	if (!k)
 		return pr_err(err, PR_EINVAL, "--set: %s.%s: unknown key", section, key);
+	c->key_line[k - keys] = -1;
 	return set_value(c, k, eq + 1, "--set: ", err);
+}
+
+const char *pr_config_where(const pr_config *c, const char *key, char *buf, size_t n)
+{
+	const char *src = c->source[0] ? c->source : "defaults";
+	const char *dot = strchr(key, '.');
+	char section[64];
+	const key_def *k = NULL;
+
+	if (dot && (size_t)(dot - key) < sizeof section) {
+		memcpy(section, key, (size_t)(dot - key));
+		section[dot - key] = '\0';
+		k = find_key(section, dot + 1);
+	}
+	if (k && c->key_line[k - keys] > 0)
+		snprintf(buf, n, "%s:%d", src, c->key_line[k - keys]);
+	else if (k && c->key_line[k - keys] < 0)
+		snprintf(buf, n, "--set");
+	else
+		snprintf(buf, n, "%s", src);
+	return buf;
 }
 
 static int box_inside(const pr_config *c, const double *b, const char *name, char *err)
 {
 	double hx = c->table.length / 2 - c->table.ball_radius;
 	double hy = c->table.width / 2 - c->table.ball_radius;
+	char key[32], at[320];
 
+	snprintf(key, sizeof key, "start.%s", name);
 	if (b[0] < -hx || b[1] > hx || b[2] < -hy || b[3] > hy)
-		return pr_err(err, PR_EINVAL, "%s: start.%s: box reaches beyond the cushions "
-		              "(|x| <= %g, |y| <= %g)", c->source[0] ? c->source : "parameters",
-		              name, hx, hy);
+		return pr_err(err, PR_EINVAL, "%s: %s: box reaches beyond the cushions "
+		              "(|x| <= %g, |y| <= %g)", pr_config_where(c, key, at, sizeof at), key, hx, hy);
 	return PR_OK;
 }
 
 int pr_config_validate(const pr_config *c, char *err)
 {
-	const char *src = c->source[0] ? c->source : "parameters";
+	char at[320];
 	int rc;
 
+#define AT(key) pr_config_where(c, key, at, sizeof at)
 	if (c->table.reward_balls > c->table.balls - 1)
 		return pr_err(err, PR_EINVAL, "%s: table.reward_balls: %d, but only %d balls besides the cue ball",
-		              src, c->table.reward_balls, c->table.balls - 1);
+		              AT("table.reward_balls"), c->table.reward_balls, c->table.balls - 1);
 	if (2 * c->table.ball_radius >= c->table.width || 2 * c->table.ball_radius >= c->table.length)
-		return pr_err(err, PR_EINVAL, "%s: table.ball_radius: the ball does not fit on the table", src);
+		return pr_err(err, PR_EINVAL, "%s: table.ball_radius: the ball does not fit on the table",
+		              AT("table.ball_radius"));
 	if ((rc = box_inside(c, c->start.cue_box, "cue_box", err)) ||
 	    (rc = box_inside(c, c->start.reward_box, "reward_box", err)) ||
 	    (rc = box_inside(c, c->start.obstacle_box, "obstacle_box", err)))
 		return rc;
 	if (c->sim.mode == PR_SIM_STEPPED && c->sim.dt >= c->sim.max_time)
-		return pr_err(err, PR_EINVAL, "%s: sim.dt: must be smaller than sim.max_time", src);
+		return pr_err(err, PR_EINVAL, "%s: sim.dt: must be smaller than sim.max_time", AT("sim.dt"));
 	/* resource limit, refused up front: past 1e9 steps one shot runs for minutes to days */
 	if (c->sim.mode == PR_SIM_STEPPED && c->sim.max_time / c->sim.dt > 1e9)
 		return pr_err(err, PR_EINVAL, "%s: sim.dt: sim.max_time / sim.dt = %.3g steps per shot, "
-		              "at most 1e9", src, c->sim.max_time / c->sim.dt);
+		              "at most 1e9", AT("sim.dt"), c->sim.max_time / c->sim.dt);
 	if (c->run.repetition >= c->run.repetitions)
 		return pr_err(err, PR_EINVAL, "%s: experiment.repetition: %d, but there are only %d repetitions",
-		              src, c->run.repetition, c->run.repetitions);
+		              AT("experiment.repetition"), c->run.repetition, c->run.repetitions);
+#undef AT
 	return PR_OK;
 }
 

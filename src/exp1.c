@@ -241,19 +241,20 @@ static int make_settings(const pr_config *cfg, job_ctx *c, char *err)
 static int check_opts(const pr_config *cfg, char *err)
 {
 	const pr_exp1_opts *o = &cfg->exp1;
-	const char *src = cfg->source[0] ? cfg->source : "parameters";
 	long r = cfg->run.repetitions;
+	char at[320];
 
 	if (cfg->table.balls != 2)
 		return pr_err(err, PR_EINVAL, "%s: table.balls: Experiment 1 uses 2 balls (got %d)",
-		              src, cfg->table.balls);
+		              pr_config_where(cfg, "table.balls", at, sizeof at), cfg->table.balls);
 	if (r * o->subset > o->train)
 		return pr_err(err, PR_EINVAL, "%s: exp1.train: %d shots, but %ld repetitions x "
-		              "exp1.subset %d need %ld", src, o->train, r, o->subset, r * o->subset);
+		              "exp1.subset %d need %ld", pr_config_where(cfg, "exp1.train", at, sizeof at),
+		              o->train, r, o->subset, r * o->subset);
 	if (r * o->test_subset > o->test)
 		return pr_err(err, PR_EINVAL, "%s: exp1.test: %d shots, but %ld repetitions x "
-		              "exp1.test_subset %d need %ld", src, o->test, r, o->test_subset,
-		              r * o->test_subset);
+		              "exp1.test_subset %d need %ld", pr_config_where(cfg, "exp1.test", at, sizeof at),
+		              o->test, r, o->test_subset, r * o->test_subset);
 	return pr_forest_opts_check(&cfg->forest, "forest", err);
 }
 

@@ -345,13 +345,13 @@ static int write_returns(const char *dir, const job_ctx *c, int lo, int hi, char
 
 int pr_exp2_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err)
 {
-	const char *src = cfg->source[0] ? cfg->source : "parameters";
+	char at[320];
 	job_ctx *c;
 	int lo, hi, j, rc;
 
 	if (cfg->table.balls != 2)
 		return pr_err(err, PR_EINVAL, "%s: table.balls: Experiment 2 uses 2 balls (got %d)",
-		              src, cfg->table.balls);
+		              pr_config_where(cfg, "table.balls", at, sizeof at), cfg->table.balls);
 	if ((rc = pr_policy_opts_check(&cfg->policy, err)))
 		return rc;
 	c = calloc(1, sizeof *c);
@@ -366,7 +366,8 @@ int pr_exp2_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 	for (j = 0; j < c->nsizes; ++j) {
 		if (c->sizes[j] < 2) {
 			rc = pr_err(err, PR_EINVAL, "%s: exp2.sizes: a training set needs at least 2 "
-			            "samples (got %d)", src, c->sizes[j]);
+			            "samples (got %d)", pr_config_where(cfg, "exp2.sizes", at, sizeof at),
+			            c->sizes[j]);
 			free(c);
 			return rc;
 		}

@@ -70,10 +70,11 @@ void pr_exp3_opts_init(pr_exp3_opts *o)
 	o->final_episodes = 500;
 }
 
-/* The variants of the comma list, in its order; a name twice is an error. */
-static int parse_variants(const char *list, int *var, int *nvar, char *err)
+/* The variants of exp3.policies, in its order; a name twice is an error. */
+static int parse_variants(const pr_config *cfg, int *var, int *nvar, char *err)
 {
-	const char *p = list;
+	const char *p = cfg->exp3.policies;
+	char at[320];
 
 	*nvar = 0;
 	do {
@@ -89,11 +90,13 @@ static int parse_variants(const char *list, int *var, int *nvar, char *err)
 		for (v = 0; v < NVAR && strcmp(var_name[v], item) != 0; ++v)
 			;
 		if (v == NVAR)
-			return pr_err(err, PR_EINVAL, "exp3.policies: '%s' is not one of "
-			              "nrvr_rs|rvr_rs|nrvr_a|rvr_a|baseline|handcrafted", item);
+			return pr_err(err, PR_EINVAL, "%s: exp3.policies: '%s' is not one of "
+			              "nrvr_rs|rvr_rs|nrvr_a|rvr_a|baseline|handcrafted",
+			              pr_config_where(cfg, "exp3.policies", at, sizeof at), item);
 		for (j = 0; j < *nvar; ++j)
 			if (var[j] == v)
-				return pr_err(err, PR_EINVAL, "exp3.policies: '%s' listed twice", item);
+				return pr_err(err, PR_EINVAL, "%s: exp3.policies: '%s' listed twice",
+				              pr_config_where(cfg, "exp3.policies", at, sizeof at), item);
 		var[(*nvar)++] = v;
 		p += len;
 	} while (*p++ == ',');
@@ -681,18 +684,22 @@ static int write_reps(const setup *su, const char *dir, char *err)
 static int check_setup(const pr_config *cfg, char *err)
 {
 	const pr_exp3_opts *e = &cfg->exp3;
+	char at[320];
 	int rc;
 
 	if (cfg->table.reward_balls != 1)
-		return pr_err(err, PR_EINVAL, "table.reward_balls: Experiment 3 has one reward ball (got %d)",
-		              cfg->table.reward_balls);
+		return pr_err(err, PR_EINVAL, "%s: table.reward_balls: Experiment 3 has one reward ball (got %d)",
+		              pr_config_where(cfg, "table.reward_balls", at, sizeof at), cfg->table.reward_balls);
 	if (e->window < 2)
-		return pr_err(err, PR_EINVAL, "exp3.window: must be >= 2 (got %d)", e->window);
+		return pr_err(err, PR_EINVAL, "%s: exp3.window: must be >= 2 (got %d)",
+		              pr_config_where(cfg, "exp3.window", at, sizeof at), e->window);
 	if (strcmp(cfg->value_features, "leaves") != 0 && strcmp(cfg->value_features, "samples") != 0)
-		return pr_err(err, PR_EINVAL, "value.features: '%s' is not one of leaves|samples",
-		              cfg->value_features);
+		return pr_err(err, PR_EINVAL, "%s: value.features: '%s' is not one of leaves|samples",
+		              pr_config_where(cfg, "value.features", at, sizeof at), cfg->value_features);
 	if ((long)e->iterations * e->samples + e->init_samples > 100000000L)
-		return pr_err(err, PR_EINVAL, "exp3: more than 1e8 episodes per run");
+		return pr_err(err, PR_EINVAL, "%s: exp3.iterations: %d iterations x exp3.samples %d: more "
+		              "than 1e8 episodes per run", pr_config_where(cfg, "exp3.iterations", at, sizeof at),
+		              e->iterations, e->samples);
 	if ((rc = pr_forest_opts_check(&cfg->value, "value", err)))
 		return rc;
 	return pr_policy_opts_check(&cfg->policy, err);
@@ -702,6 +709,7 @@ static int check_setup(const pr_config *cfg, char *err)
 static int learning_dims(setup *su, char *err)
 {
 	const pr_start_opts *so = &su->cfg->start;
+	char at[320];
 	int b, c;
 
 	su->xdim = malloc((size_t)su->ds * sizeof *su->xdim);
@@ -722,8 +730,9 @@ static int learning_dims(setup *su, char *err)
 			}
 	}
 	if (su->nx == 0)
-		return pr_err(err, PR_EINVAL, "start: every start box is a point: Experiment 3 "
-		              "needs varying start states");
+		return pr_err(err, PR_EINVAL, "%s: start.reward_box: every start box is a point: Experiment 3 "
+		              "needs varying start states",
+		              pr_config_where(su->cfg, "start.reward_box", at, sizeof at));
 	return PR_OK;
 }
 
@@ -742,7 +751,7 @@ int pr_exp3_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 	su.nrep = hi - su.lo;
 	rc = check_setup(cfg, err);
 	if (rc == PR_OK)
-		rc = parse_variants(e->policies, su.var, &su.nvar, err);
+		rc = parse_variants(cfg, su.var, &su.nvar, err);
 	if (rc == PR_OK)
 		rc = learning_dims(&su, err);
 	if (rc == PR_OK) {
@@ -1252,7 +1261,7 @@ int pr_exp3_summarize(const pr_config *cfg, const char *dir, char *err)
 	char *fin = NULL;
 	int var[NVAR], nvar, rc;
 
-	if ((rc = parse_variants(cfg->exp3.policies, var, &nvar, err)))
+	if ((rc = parse_variants(cfg, var, &nvar, err)))
 		return rc;
 	rc = read_episodes(cfg, dir, var, nvar, &E, err);
 	if (rc == PR_OK)

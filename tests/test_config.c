@@ -151,6 +151,36 @@ static void test_set_and_validate(void **state)
 	assert_non_null(strstr(err, "start.reward_box"));
 }
 
+/* Cross-key errors say where the offending key was set: a file line,
+ * --set, or for a default the file as a whole; bench.* defaults follow
+ * experiment.name unless a bench key was set. */
+static void test_where_and_bench_defaults(void **state)
+{
+	pr_config c;
+	char err[PR_ERRLEN], at[320], want[320];
+
+	(void)state;
+	assert_int_equal(load("[experiment]\nname = quadratic\n\n[table]\nreward_balls = 2\n", &c, err),
+	                 PR_OK);
+	assert_int_equal(c.bench.iterations, 40);
+	assert_int_equal(c.bench.dims, 1);
+	snprintf(want, sizeof want, "%s:5", path);
+	assert_string_equal(pr_config_where(&c, "table.reward_balls", at, sizeof at), want);
+	assert_string_equal(pr_config_where(&c, "table.balls", at, sizeof at), path);
+	assert_int_equal(pr_config_validate(&c, err), PR_EINVAL);
+	snprintf(want, sizeof want, "%s:5: table.reward_balls", path);
+	assert_non_null(strstr(err, want));
+	assert_int_equal(pr_config_set(&c, "table.reward_balls=1", err), PR_OK);
+	assert_string_equal(pr_config_where(&c, "table.reward_balls", at, sizeof at), "--set");
+	assert_int_equal(pr_config_set(&c, "bench.iterations=7", err), PR_OK);
+	assert_int_equal(pr_config_set(&c, "experiment.name=rosenbrock", err), PR_OK);
+	assert_int_equal(c.bench.iterations, 7);
+	assert_int_equal(c.bench.dims, 20);
+	assert_int_equal(c.bench.context_dims, 1);
+	pr_config_init(&c);
+	assert_string_equal(pr_config_where(&c, "sim.dt", at, sizeof at), "defaults");
+}
+
 static void test_write_round_trip(void **state)
 {
 	pr_config a, b;
@@ -183,6 +213,7 @@ int main(void)
 		cmocka_unit_test(test_errors_name_line_and_key),
 		cmocka_unit_test(test_long_line_and_missing_file),
 		cmocka_unit_test(test_set_and_validate),
+		cmocka_unit_test(test_where_and_bench_defaults),
 		cmocka_unit_test(test_write_round_trip),
 	};
 	int rc = cmocka_run_group_tests(tests, NULL, NULL);

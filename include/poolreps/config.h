@@ -15,6 +15,8 @@
 #include "poolreps/policy.h"
 #include "poolreps/exp.h"
 
+#define PR_CONFIG_MAXKEYS 128
+
 typedef struct pr_config {
 	pr_run_opts run;          /* experiment.* */
 	pr_table table;           /* table.* */
@@ -33,6 +35,7 @@ typedef struct pr_config {
 	pr_bench_opts bench;      /* bench.*: defaults follow experiment.name */
 	unsigned bench_given;     /* bench.* keys set explicitly (bit per key) */
 	char source[256];         /* the parameter file, or "" */
+	int key_line[PR_CONFIG_MAXKEYS]; /* per key: file line, -1 for --set, 0 default */
 } pr_config;
 
 void pr_config_init(pr_config *c);
@@ -42,6 +45,9 @@ int pr_config_load(pr_config *c, const char *path, char *err);
 int pr_config_set(pr_config *c, const char *assignment, char *err);
 /* Checks that involve several keys (e.g. n_c <= n_min, boxes inside the table). */
 int pr_config_validate(const pr_config *c, char *err);
+/* Where key "section.key" got its value, for messages: "file:line", "--set",
+ * or for a default the parameter file (or "defaults"). Returns buf. */
+const char *pr_config_where(const pr_config *c, const char *key, char *buf, size_t n);
 /* Write every key as INI (the effective configuration). */
 int pr_config_write(const pr_config *c, FILE *fp);
 /* List every key with default, unit and range. */
