@@ -7,7 +7,7 @@ OUT     ?= results
 
 VERSION := $(shell git describe --always --dirty --tags 2>/dev/null || cat VERSION 2>/dev/null || echo 0.1.0)
 WARN    := -std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes
-DEFS    := -D_POSIX_C_SOURCE=200809L -DPR_VERSION_STR='"$(VERSION)"'
+DEFS    := -D_POSIX_C_SOURCE=200809L -DHAVE_INLINE -DPR_VERSION_STR='"$(VERSION)"'
 PKGS    := gsl nlopt
 ifeq ($(SAN),1)
   CFLAGS += -O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
@@ -30,6 +30,9 @@ TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 all: poolreps
 
 lib: $(LIB)
+
+# flags live here: a changed Makefile rebuilds everything
+$(LIB_OBJ) $(BUILD)/main.o: Makefile
 
 $(BUILD)/%.o: src/%.c | $(BUILD)
 	$(CC) $(ALL_CFLAGS) -c $< -o $@

@@ -53,8 +53,14 @@ static double row_dot(const dual_ctx *c, int i, const double *theta)
 			s += r[j] * theta[j];
 		return s;
 	}
+	/* one-hot rows (val NULL): 1.0 * theta is theta exactly */
+	if (!c->val) {
+		for (j = c->rowptr[i]; j < c->rowptr[i + 1]; j++)
+			s += theta[c->col[j]];
+		return s;
+	}
 	for (j = c->rowptr[i]; j < c->rowptr[i + 1]; j++)
-		s += (c->val ? c->val[j] : 1.0) * theta[c->col[j]];
+		s += c->val[j] * theta[c->col[j]];
 	return s;
 }
 
@@ -71,8 +77,13 @@ static void row_add(const dual_ctx *c, int i, double a, double *acc)
 			acc[j] += a * r[j];
 		return;
 	}
+	if (!c->val) {
+		for (j = c->rowptr[i]; j < c->rowptr[i + 1]; j++)
+			acc[c->col[j]] += a;
+		return;
+	}
 	for (j = c->rowptr[i]; j < c->rowptr[i + 1]; j++)
-		acc[c->col[j]] += a * (c->val ? c->val[j] : 1.0);
+		acc[c->col[j]] += a * c->val[j];
 }
 
 /* g(eta, theta) of eq. 3.8 plus (ridge/2)|theta|^2 at x = (log eta, theta).
@@ -380,12 +391,14 @@ static int newton(dual_ctx *c, double *x, double ymin, int fix)
 			for (j = off; j < nx; j++)
 				v[j] -= mean[j];
 			for (j = off; j < nx; j++) {
-				double pv = c->p[i] * v[j] / eta;
+				/* the upper triangle of row j - off, through a raw pointer:
+				 * this loop is O(n d^2) per Newton step */
+				double pv = c->p[i] * v[j] / eta, *hrow = H->data + (size_t)(j - off) * H->tda;
 
 				if (pv == 0.0)
 					continue;
 				for (k = j; k < nx; k++)
-					*gsl_matrix_ptr(H, (size_t)(j - off), (size_t)(k - off)) += pv * v[k];
+					hrow[k - off] += pv * v[k];
 			}
 		}
 		for (j = 0; j < m; j++) {
@@ -550,10 +563,12 @@ static int ipf(dual_ctx *c, double *x, int max_sweeps)
 				c->mx[f] = -HUGE_VAL;
 				c->sm[f] = 0.0;
 			}
+			/* u_i kept in A (free here: dual_eval refills it) */
 			for (i = 0; i < c->n; i++) {
 				int f = c->col[c->rowptr[i] + t];
 				double u = (c->R[i] - c->sv[i] + th[f]) / eta;
 
+				c->A[i] = u;
 				if (c->q[i] > 0.0 && u > c->mx[f])
 					c->mx[f] = u;
 			}
@@ -561,7 +576,7 @@ static int ipf(dual_ctx *c, double *x, int max_sweeps)
 				int f = c->col[c->rowptr[i] + t];
 
 				if (c->q[i] > 0.0)
-					c->sm[f] += c->q[i] * exp((c->R[i] - c->sv[i] + th[f]) / eta - c->mx[f]);
+					c->sm[f] += c->q[i] * exp(c->A[i] - c->mx[f]);
 			}
 			/* new theta per leaf (sm < 0 marks a leaf already updated) */
 			for (i = 0; i < c->n; i++) {
