@@ -67,7 +67,8 @@ static const key_def keys[] = {
 	 "subtracted when the cue ball is pocketed"},
 
 	{"start", "cue_box", K_BOX, F(start.cue_box), -BIG, BIG, 0, "m", "cue ball box xmin,xmax,ymin,ymax"},
-	{"start", "reward_box", K_BOX, F(start.reward_box), -BIG, BIG, 0, "m", "reward ball box xmin,xmax,ymin,ymax"},
+	{"start", "reward_box", K_BOX, F(start.reward_box), -BIG, BIG, 0, "m",
+	 "reward ball box xmin,xmax,ymin,ymax (exp3: 0.05,0.15,-0.1,0.1)"},
 	{"start", "obstacle_box", K_BOX, F(start.obstacle_box), -BIG, BIG, 0, "m", "obstacle box xmin,xmax,ymin,ymax"},
 	{"start", "max_tries", K_INT, F(start.max_tries), 1, 1000000, 0, "", "redraws of an overlapping start"},
 
@@ -106,17 +107,20 @@ static const key_def keys[] = {
 	{"forest", "score", K_ENUM, F(forest.score), 0, 0, 0, "rvr|nrvr", "split score (eq. 4.1) or its negation"},
 	{"forest", "replacement", K_ENUM, F(forest.with_replacement), 0, 0, 0, "without|with",
 	 "draw the K cut dimensions with or without replacement"},
+	{"forest", "outputs", K_ENUM, F(forest.outputs), 0, 0, 0, "sum|relative",
+	 "several outputs: add variance reductions (eq. 6.1) or each relative to its node variance"},
 
-	{"value", "trees", K_INT, F(value.trees), 1, 10000, 0, "", "value-feature forest: M"},
+	{"value", "trees", K_INT, F(value.trees), 1, 10000, 0, "", "value-feature forest: M (exp3: 10)"},
 	{"value", "cuts", K_INT, F(value.cuts), 1, 10000, 0, "", "value-feature forest: K"},
-	{"value", "n_min", K_INT, F(value.n_min), 1, 100000000, 0, "", "value-feature forest: n_min"},
+	{"value", "n_min", K_INT, F(value.n_min), 1, 100000000, 0, "", "value-feature forest: n_min (exp3: 60)"},
 	{"value", "n_c", K_INT, F(value.n_c), 1, 100000000, 0, "", "value-feature forest: n_c"},
-	{"value", "score", K_ENUM, F(value.score), 0, 0, 0, "rvr|nrvr", "value-feature forest score"},
+	{"value", "score", K_ENUM, F(value.score), 0, 0, 0, "rvr|nrvr", "value-feature forest score (exp3: nrvr)"},
 	{"value", "replacement", K_ENUM, F(value.with_replacement), 0, 0, 0, "without|with", "value-feature forest cut draws"},
+	{"value", "outputs", K_ENUM, F(value.outputs), 0, 0, 0, "sum|relative", "value-feature forest: several outputs"},
 	{"value", "features", K_NAME, F(value_features), 0, 0, 0, "leaves|samples",
 	 "active leaves (eq. 5.4) or active samples (eq. 5.6)"},
 
-	{"reps", "epsilon", K_DOUBLE, F(reps.epsilon), 0, 1e6, 1, "nats", "KL bound (eq. 3.2)"},
+	{"reps", "epsilon", K_DOUBLE, F(reps.epsilon), 0, 1e6, 1, "nats", "KL bound (eq. 3.2; sphere, rosenbrock: 1)"},
 	{"reps", "ridge", K_DOUBLE, F(reps.ridge), 0, 1e12, 0, "", "ridge on theta in the dual"},
 	{"reps", "eta_min", K_DOUBLE, F(reps.eta_min), 0, 1, 1, "",
 	 "lower bound on eta in return standard deviations (below 1)"},
@@ -125,24 +129,28 @@ static const key_def keys[] = {
 	{"policy", "target", K_ENUM, F(policy.target), 0, 0, 0, "action|reward_state", "policy forest output"},
 	{"policy", "lambda", K_DOUBLE, F(policy.lambda), 0, 1e12, 0, "", "ridge of eq. 6.6"},
 	{"policy", "min_std", K_DOUBLE, F(policy.min_std), 0, 100, 1, "m/s", "floor on action standard deviations"},
-	{"policy", "trees", K_INT, F(policy.forest.trees), 1, 10000, 0, "", "policy forest: M"},
-	{"policy", "cuts", K_INT, F(policy.forest.cuts), 1, 10000, 0, "", "policy forest: K"},
+	{"policy", "trees", K_INT, F(policy.forest.trees), 1, 10000, 0, "", "policy forest: M (exp2: 30)"},
+	{"policy", "cuts", K_INT, F(policy.forest.cuts), 1, 10000, 0, "", "policy forest: K (exp2: 10)"},
 	{"policy", "n_min", K_INT, F(policy.forest.n_min), 1, 100000000, 0, "", "policy forest: n_min"},
 	{"policy", "n_c", K_INT, F(policy.forest.n_c), 1, 100000000, 0, "", "policy forest: n_c"},
 	{"policy", "score", K_ENUM, F(policy.forest.score), 0, 0, 0, "rvr|nrvr", "policy forest score"},
 	{"policy", "replacement", K_ENUM, F(policy.forest.with_replacement), 0, 0, 0, "without|with", "policy forest cut draws"},
+	{"policy", "outputs", K_ENUM, F(policy.forest.outputs), 0, 0, 0, "sum|relative",
+	 "policy forest, two outputs: eq. 6.3 as printed (sum) or each relative to its variance"},
 	{"policy", "cov", K_ENUM, F(policy.cov), 0, 0, 0, "query|residual",
 	 "eq. 6.8 centred on the query mean (as printed) or on each sample's own fit"},
 
-	/* defaults of bench.* depend on experiment.name (pr_bench_opts_init) */
-	{"bench", "iterations", K_INT, F(bench.iterations), 1, 1000000, 0, "", "REPS iterations"},
+	/* defaults of bench.* depend on experiment.name (pr_bench_opts_init), as
+	 * do those in exp_defaults: the help text names them */
+	{"bench", "iterations", K_INT, F(bench.iterations), 1, 1000000, 0, "", "REPS iterations (quadratic: 40)"},
 	{"bench", "samples", K_INT, F(bench.samples), 2, 10000000, 0, "", "episodes per iteration"},
-	{"bench", "dims", K_INT, F(bench.dims), 1, 10000, 0, "", "action (parameter) dimensions"},
-	{"bench", "context_dims", K_INT, F(bench.context_dims), 1, 100, 0, "", "context dimensions k"},
+	{"bench", "dims", K_INT, F(bench.dims), 1, 10000, 0, "", "action (parameter) dimensions (quadratic: 1)"},
+	{"bench", "context_dims", K_INT, F(bench.context_dims), 1, 100, 0, "",
+	 "context dimensions k (quadratic, rosenbrock: 1)"},
 	{"bench", "init_std", K_DOUBLE, F(bench.init_std), 0, 1e6, 1, "", "initial policy standard deviation"},
 	{"bench", "min_std", K_DOUBLE, F(bench.min_std), 0, 1e6, 1, "", "floor on policy standard deviations"},
 	{"bench", "value_degree", K_INT, F(bench.value_degree), 1, 2, 0, "",
-	 "REPS value features: 1 = s, 2 = s and its products"},
+	 "REPS value features: 1 = s, 2 = s and its products (quadratic: 2)"},
 	{"bench", "test_contexts", K_INT, F(bench.test_contexts), 1, 1000000, 0, "",
 	 "fixed contexts scoring the policy mean"},
 };
@@ -170,24 +178,67 @@ void pr_config_init(pr_config *c)
 	pr_bench_opts_init(&c->bench, c->run.name);
 }
 
-static int is_bench(const key_def *k);
+/* Defaults that depend on experiment.name besides bench.* (which
+ * pr_bench_opts_init sets by name): what data/<name>.ini states, so that a
+ * parameter file naming only the experiment runs the thesis's setup. */
+static const struct {
+	const char *name, *key, *value;
+} exp_defaults[] = {
+	{"exp2", "policy.trees", "30"},
+	{"exp2", "policy.cuts", "10"},
+	{"exp3", "start.reward_box", "0.05,0.15,-0.1,0.1"},
+	{"exp3", "value.trees", "10"},
+	{"exp3", "value.n_min", "60"},
+	{"exp3", "value.score", "nrvr"},
+	{"sphere", "reps.epsilon", "1"},
+	{"rosenbrock", "reps.epsilon", "1"},
+};
+#define NEXPDEF (sizeof exp_defaults / sizeof exp_defaults[0])
 
-/* bench.* defaults follow experiment.name; keys set explicitly stay. */
-static void bench_defaults(pr_config *c)
+static const key_def *find_dotted(const char *name);
+static int set_value_raw(pr_config *c, const key_def *k, const char *value, const char *where, char *err);
+
+static int follows_name(const key_def *k)
+{
+	char name[64];
+	size_t j;
+
+	if (strcmp(k->section, "bench") == 0)
+		return 1;
+	snprintf(name, sizeof name, "%s.%s", k->section, k->key);
+	for (j = 0; j < NEXPDEF; ++j)
+		if (strcmp(exp_defaults[j].key, name) == 0)
+			return 1;
+	return 0;
+}
+
+static size_t key_size(const key_def *k)
+{
+	switch (k->type) {
+	case K_DOUBLE: return sizeof(double);
+	case K_INT:
+	case K_ENUM: return sizeof(int);
+	case K_BOX: return 4 * sizeof(double);
+	}
+	return 0;
+}
+
+/* After experiment.name changed: every name-dependent key that was not set
+ * explicitly (key_line 0) takes that experiment's default. */
+static void experiment_defaults(pr_config *c)
 {
 	pr_config d;
-	unsigned bit = 1;
-	size_t i;
+	char err[PR_ERRLEN];
+	size_t i, j;
 
+	pr_config_init(&d);
 	pr_bench_opts_init(&d.bench, c->run.name);
-	for (i = 0; i < NKEYS; ++i) {
-		if (!is_bench(&keys[i]))
-			continue;
-		if (!(c->bench_given & bit))
-			memcpy((char *)c + keys[i].off, (const char *)&d + keys[i].off,
-			       keys[i].type == K_INT ? sizeof(int) : sizeof(double));
-		bit <<= 1;
-	}
+	for (j = 0; j < NEXPDEF; ++j)
+		if (strcmp(exp_defaults[j].name, c->run.name) == 0)
+			set_value_raw(&d, find_dotted(exp_defaults[j].key), exp_defaults[j].value, "", err);
+	for (i = 0; i < NKEYS; ++i)
+		if (c->key_line[i] == 0 && follows_name(&keys[i]))
+			memcpy((char *)c + keys[i].off, (const char *)&d + keys[i].off, key_size(&keys[i]));
 }
 
 void pr_run_opts_init(pr_run_opts *o)
@@ -240,21 +291,17 @@ static int choice_index(const char *choices, const char *value)
 	return -1;
 }
 
-static int is_bench(const key_def *k)
+/* The key "section.key", or NULL. */
+static const key_def *find_dotted(const char *name)
 {
-	return strcmp(k->section, "bench") == 0;
-}
+	const char *dot = strchr(name, '.');
+	char section[64];
 
-/* Bit of a bench.* key in pr_config.bench_given. */
-static unsigned bench_bit(const key_def *k)
-{
-	unsigned bit = 1;
-	size_t i;
-
-	for (i = 0; i < NKEYS && &keys[i] != k; ++i)
-		if (is_bench(&keys[i]))
-			bit <<= 1;
-	return bit;
+	if (!dot || (size_t)(dot - name) >= sizeof section)
+		return NULL;
+	memcpy(section, name, (size_t)(dot - name));
+	section[dot - name] = '\0';
+	return find_key(section, dot + 1);
 }
 
 static int in_range(const key_def *k, double v)
@@ -295,19 +342,14 @@ static int parse_numbers(const char *s, double *v, int cap)
 
 static char *trim(char *s);
 
-static int set_value_raw(pr_config *c, const key_def *k, const char *value, const char *where, char *err);
-
+/* Callers mark the key in key_line first, so a name change keeps it. */
 static int set_value(pr_config *c, const key_def *k, const char *value, const char *where, char *err)
 {
 	int rc = set_value_raw(c, k, value, where, err);
 
-	if (rc)
-		return rc;
-	if (is_bench(k))
-		c->bench_given |= bench_bit(k);
-	else if (k->off == F(run.name))
-		bench_defaults(c);
-	return PR_OK;
+	if (rc == PR_OK && k->off == F(run.name))
+		experiment_defaults(c);
+	return rc;
 }
 
 static int set_value_raw(pr_config *c, const key_def *k, const char *value, const char *where, char *err)
@@ -617,15 +659,8 @@ int pr_config_set(pr_config *c, const char *assignment, char *err)
 const char *pr_config_where(const pr_config *c, const char *key, char *buf, size_t n)
 {
 	const char *src = c->source[0] ? c->source : "defaults";
-	const char *dot = strchr(key, '.');
-	char section[64];
-	const key_def *k = NULL;
+	const key_def *k = find_dotted(key);
 
-	if (dot && (size_t)(dot - key) < sizeof section) {
-		memcpy(section, key, (size_t)(dot - key));
-		section[dot - key] = '\0';
-		k = find_key(section, dot + 1);
-	}
 	if (k && c->key_line[k - keys] > 0)
 		snprintf(buf, n, "%s:%d", src, c->key_line[k - keys]);
 	else if (k && c->key_line[k - keys] < 0)

@@ -21,13 +21,16 @@
  * (x0,y0,x1,y1); the cue ball's constant coordinates are never cut.
  *
  * Raw exp2_returns.csv (first column repetition):
- *   repetition,size,policy,mode,mean_return,std_return,n,pocketed
- * with std the sample standard deviation over the n test shots and pocketed
- * the fraction of them that put the reward ball into a target pocket. Each
+ *   repetition,size,policy,mode,mean_return,std_return,n,pocketed,policy_flags
+ * with std the sample standard deviation over the n test shots, pocketed
+ * the fraction of them that put the reward ball into a target pocket and
+ * policy_flags the PR_POLICY_* fallbacks of the policy's queries, or-ed
+ * (0 for the expert). Each
  * repetition starts with the expert's own row (size 0, policy expert, mode
  * mean) on the same test states.
  * Derived exp2_summary.csv (summarize, from the raw file alone):
- *   size,policy,mode,mean_return,two_se,two_se_shots,repetitions,shots,pocketed
+ *   size,policy,mode,mean_return,two_se,two_se_shots,repetitions,shots,pocketed,
+ *   policy_flags (or-ed over repetitions)
  * mean_return is the mean over repetitions; two_se = 2 sd/sqrt(R) over the R
  * repetition means (0 when R = 1); two_se_shots = 2 sqrt(var/N) over all N
  * test shots pooled (the thesis's error bar if each repetition is one run).
@@ -76,6 +79,7 @@ void pr_exp2_opts_init(pr_exp2_opts *o)
 typedef struct {
 	double mean, std, pocketed;
 	int n;
+	int flags;            /* PR_POLICY_* fallbacks of the queries, or-ed */
 } stats;
 
 typedef struct {
@@ -153,6 +157,7 @@ static void summarise(const double *ret, const int *pk, int n, stats *st)
 	st->std = n > 1 ? sqrt(ss / (n - 1)) : 0.0;
 	st->pocketed = (double)np / n;
 	st->n = n;
+	st->flags = 0;
 }
 
 /* Shoot action a from state s; the return and whether it pocketed. */
@@ -214,20 +219,25 @@ static int eval_policy(const job_ctx *c, work *w, int k, int n, int pol, stats *
 	if (!p || !(ws = pr_policy_work_new(p, err)))
 		rc = p ? PR_ENOMEM : PR_EINVAL;
 	for (m = 0; m < NMODES && rc == PR_OK; ++m) {
+		int flags = 0;
 		for (i = 0; i < ntest && rc == PR_OK; ++i) {
 			const double *s = w->T + (size_t)DS * i;
 			double a[DA];
+			int f = 0;
 			if (pr_interrupted)
 				rc = pr_err(err, PR_EINTR, "interrupted");
 			else if (m == MODE_MEAN)
-				rc = pr_policy_eval(p, s, a, NULL, NULL, ws, err);
+				rc = pr_policy_eval(p, s, a, NULL, &f, ws, err);
 			else
-				rc = pr_policy_sample(p, s, 1, draw, a, NULL, ws, err);
+				rc = pr_policy_sample(p, s, 1, draw, a, &f, ws, err);
+			flags |= f;
 			if (rc == PR_OK)
 				rc = play(cfg, w, s, a, i, err);
 		}
-		if (rc == PR_OK)
+		if (rc == PR_OK) {
 			summarise(w->ret, w->pocketed, ntest, &out[m]);
+			out[m].flags = flags;
+		}
 	}
 	pr_policy_work_free(ws);
 	pr_policy_free(p);
@@ -313,13 +323,14 @@ static void write_row(pr_csvw *w, int k, int size, const char *policy, const cha
 	pr_csvw_num(w, s->std);
 	pr_csvw_int(w, s->n);
 	pr_csvw_num(w, s->pocketed);
+	pr_csvw_int(w, s->flags);
 	pr_csvw_endrow(w);
 }
 
 static int write_returns(const char *dir, const job_ctx *c, int lo, int hi, char *err)
 {
 	static const char *const cols[] = {"repetition", "size", "policy", "mode", "mean_return",
-	                                   "std_return", "n", "pocketed"};
+	                                   "std_return", "n", "pocketed", "policy_flags"};
 	char path[PATHLEN];
 	pr_csvw *w;
 	size_t i;
@@ -404,6 +415,7 @@ typedef struct {
 	double wsum, within;    /* n-weighted sum of means; sum of (n-1) std^2 */
 	double between;         /* sum of n (mean - grand mean)^2 */
 	double pocketed;
+	long flags;
 } group;
 
 static int lookup(const char *s, const char *const *names, int n)
@@ -420,18 +432,18 @@ static int lookup(const char *s, const char *const *names, int n)
 static int accumulate(const pr_exp_table *t, int pass, group *g, int *ng, char *err)
 {
 	static const char *const names[] = {"size", "policy", "mode", "mean_return", "std_return",
-	                                    "n", "pocketed"};
-	int col[7], i, rc;
+	                                    "n", "pocketed", "policy_flags"};
+	int col[8], i, rc;
 	long r;
 
-	for (i = 0; i < 7; ++i)
+	for (i = 0; i < 8; ++i)
 		if ((col[i] = pr_exp_table_col(t, names[i], err)) < 0)
 			return col[i];
 	for (r = 0; r < pr_exp_table_nrows(t); ++r) {
 		const char *ps = pr_exp_table_str(t, r, col[1]), *ms = pr_exp_table_str(t, r, col[2]);
 		int pol = strcmp(ps, "expert") == 0 ? NPOL : lookup(ps, pol_name, NPOL);
 		int mode = lookup(ms, mode_name, NMODES);
-		long size, n;
+		long size, n, fl;
 		double mean, sd, pk;
 		group *x = NULL;
 		if (pol < 0 || mode < 0)
@@ -441,7 +453,8 @@ static int accumulate(const pr_exp_table *t, int pass, group *g, int *ng, char *
 		    (rc = pr_exp_table_num(t, r, col[3], &mean, err)) ||
 		    (rc = pr_exp_table_num(t, r, col[4], &sd, err)) ||
 		    (rc = pr_exp_table_int(t, r, col[5], 1, 100000000, &n, err)) ||
-		    (rc = pr_exp_table_num(t, r, col[6], &pk, err)))
+		    (rc = pr_exp_table_num(t, r, col[6], &pk, err)) ||
+		    (rc = pr_exp_table_int(t, r, col[7], 0, 1 << 20, &fl, err)))
 			return rc;
 		for (i = 0; i < *ng; ++i)
 			if (g[i].size == size && g[i].policy == pol && g[i].mode == mode)
@@ -463,6 +476,7 @@ static int accumulate(const pr_exp_table *t, int pass, group *g, int *ng, char *
 			x->wsum += (double)n * mean;
 			x->within += (double)(n - 1) * sd * sd;
 			x->pocketed += pk;
+			x->flags |= fl;
 		} else {
 			double d = mean - x->sum / x->reps, e = mean - x->wsum / (double)x->shots;
 			x->ss += d * d;
@@ -475,7 +489,8 @@ static int accumulate(const pr_exp_table *t, int pass, group *g, int *ng, char *
 int pr_exp2_summarize(const pr_config *cfg, const char *dir, char *err)
 {
 	static const char *const cols[] = {"size", "policy", "mode", "mean_return", "two_se",
-	                                   "two_se_shots", "repetitions", "shots", "pocketed"};
+	                                   "two_se_shots", "repetitions", "shots", "pocketed",
+	                                   "policy_flags"};
 	char path[PATHLEN];
 	pr_exp_table *t = NULL;
 	group *g;
@@ -517,6 +532,7 @@ int pr_exp2_summarize(const pr_config *cfg, const char *dir, char *err)
 		pr_csvw_int(w, x->reps);
 		pr_csvw_int(w, x->shots);
 		pr_csvw_num(w, x->pocketed / x->reps);
+		pr_csvw_int(w, x->flags);
 		pr_csvw_endrow(w);
 	}
 	free(g);

@@ -107,7 +107,7 @@ static int parse_variants(const pr_config *cfg, int *var, int *nvar, char *err)
 
 /* REPS and policy diagnostics of one iteration (raw exp3_reps.csv). */
 typedef struct {
-	double eta, kl, ess, q_ess;
+	double eta, kl, ess, q_ess, residual;
 	int bound, nfeat, evals, redraws, flags;
 } rep_row;
 
@@ -391,6 +391,7 @@ static int iterate(learner *L, int t, char *err)
 	row->eta = res->eta;
 	row->kl = res->kl;
 	row->ess = res->ess;
+	row->residual = res->residual;
 	row->bound = res->bound;
 	row->nfeat = pb.d;
 	row->evals = res->iterations;
@@ -642,8 +643,8 @@ static int write_episodes(const setup *su, const char *dir, char *err)
 static int write_reps(const setup *su, const char *dir, char *err)
 {
 	static const char *const hdr[] = {
-		"repetition", "policy", "iteration", "eta", "kl", "ess", "bound", "q_ess", "features",
-		"dual_evals", "redraws", "policy_flags"
+		"repetition", "policy", "iteration", "eta", "kl", "ess", "bound", "residual", "q_ess",
+		"features", "dual_evals", "redraws", "policy_flags"
 	};
 	char path[PATHLEN];
 	pr_csvw *w;
@@ -666,6 +667,7 @@ static int write_reps(const setup *su, const char *dir, char *err)
 			rc |= pr_csvw_num(w, r->kl);
 			rc |= pr_csvw_num(w, r->ess);
 			rc |= pr_csvw_int(w, r->bound);
+			rc |= pr_csvw_num(w, r->residual);
 			rc |= pr_csvw_num(w, r->q_ess);
 			rc |= pr_csvw_int(w, r->nfeat);
 			rc |= pr_csvw_int(w, r->evals);
@@ -1162,31 +1164,35 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 }
 
 /* exp3_reps_summary.csv: per policy, how often the KL bound was active,
- * mean KL, ESS of p and of the importance weights, the iterations in which
+ * mean KL, the largest feature-expectation residual |sum p phi - phi_hat|
+ * (SPEC.md §4: an unconverged dual shows here), ESS of p and of the
+ * importance weights, the iterations in which
  * min_std floored a policy variance or a policy fit or query fell back
  * (PR_POLICY_* flags), and the actions drawn again for exceeding
  * sim.max_speed. */
 static int write_reps_summary(const int *var, int nvar, const char *dir, char *err)
 {
-	enum { C_POL, C_KL, C_ESS, C_BOUND, C_QESS, C_FEAT, C_REDRAW, C_FLAGS, NC };
+	enum { C_POL, C_KL, C_ESS, C_BOUND, C_QESS, C_FEAT, C_REDRAW, C_FLAGS, C_RES, NC };
 	static const char *const cname[NC] = {
-		"policy", "kl", "ess", "bound", "q_ess", "features", "redraws", "policy_flags"
+		"policy", "kl", "ess", "bound", "q_ess", "features", "redraws", "policy_flags", "residual"
 	};
 	static const char *const hdr[] = {
-		"policy", "solves", "bound_active", "bound_inactive", "mean_kl", "mean_ess", "mean_q_ess",
-		"mean_features", "floor_iterations", "fallback_iterations", "redraws"
+		"policy", "solves", "bound_active", "bound_inactive", "mean_kl", "max_residual", "mean_ess",
+		"mean_q_ess", "mean_features", "floor_iterations", "fallback_iterations", "redraws"
 	};
 	char path[PATHLEN];
 	pr_exp_table *t = NULL;
 	pr_csvw *w = NULL;
 	double (*acc)[5] = calloc((size_t)nvar, sizeof *acc);
+	double *maxres = calloc((size_t)nvar, sizeof *maxres);
 	long (*cnt)[5] = calloc((size_t)nvar, sizeof *cnt), i, x, nr;
 	int col[NC], c, v, rc;
 	size_t h;
 
-	if (!acc || !cnt) {
+	if (!acc || !cnt || !maxres) {
 		free(acc);
 		free(cnt);
+		free(maxres);
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	}
 	snprintf(path, sizeof path, "%s/exp3_reps.csv", dir);
@@ -1195,7 +1201,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		if ((col[c] = pr_exp_table_col(t, cname[c], err)) < 0)
 			rc = col[c];
 	for (i = 0; rc == PR_OK && i < pr_exp_table_nrows(t); ++i) {
-		double kl, ess, qess, nf;
+		double kl, ess, qess, nf, res;
 		long bound;
 		if ((v = variant_of(pr_exp_table_str(t, i, col[C_POL]), var, nvar)) < 0) {
 			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in exp3.policies",
@@ -1206,11 +1212,13 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		    (rc = pr_exp_table_num(t, i, col[C_ESS], &ess, err)) ||
 		    (rc = pr_exp_table_num(t, i, col[C_QESS], &qess, err)) ||
 		    (rc = pr_exp_table_num(t, i, col[C_FEAT], &nf, err)) ||
+		    (rc = pr_exp_table_num(t, i, col[C_RES], &res, err)) ||
 		    (rc = pr_exp_table_int(t, i, col[C_BOUND], 0, 1, &bound, err)) ||
 		    (rc = pr_exp_table_int(t, i, col[C_REDRAW], 0, 1000000000L, &nr, err)) ||
 		    (rc = pr_exp_table_int(t, i, col[C_FLAGS], 0, 1 << 20, &x, err)))
 			break;
 		acc[v][0] += kl;
+		maxres[v] = fmax(maxres[v], res);
 		acc[v][1] += ess;
 		acc[v][2] += qess;
 		acc[v][3] += nf;
@@ -1236,6 +1244,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		pr_csvw_int(w, cnt[v][1]);
 		pr_csvw_int(w, cnt[v][0] - cnt[v][1]);
 		pr_csvw_num(w, acc[v][0] / n);
+		pr_csvw_num(w, maxres[v]);
 		pr_csvw_num(w, acc[v][1] / n);
 		pr_csvw_num(w, acc[v][2] / n);
 		pr_csvw_num(w, acc[v][3] / n);
@@ -1246,6 +1255,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 	}
 	free(acc);
 	free(cnt);
+	free(maxres);
 	if (!w)
 		return rc;
 	if (rc) {

@@ -23,9 +23,11 @@
 enum { P_QUADRATIC, P_SPHERE, P_ROSENBROCK };
 
 /* Per-row metrics after repetition and iteration, in file order. */
-enum { M_SAMPLES, M_RETURN, M_TEST_RETURN, M_TEST_ERROR, M_STD, M_ETA, M_KL, M_ESS, M_BOUND, NMET };
+enum { M_SAMPLES, M_RETURN, M_TEST_RETURN, M_TEST_ERROR, M_STD, M_ETA, M_KL, M_ESS, M_BOUND,
+       M_FLAGS, NMET };
 static const char *const met_name[NMET] = {
-	"samples", "mean_return", "test_return", "test_error", "mean_std", "eta", "kl", "ess", "bound"
+	"samples", "mean_return", "test_return", "test_error", "mean_std", "eta", "kl", "ess", "bound",
+	"policy_flags"
 };
 
 void pr_bench_opts_init(pr_bench_opts *o, const char *name)
@@ -132,18 +134,20 @@ static void draw_context(const bench_ctx *c, gsl_rng *rng, double *s)
 /* Score the policy mean on the test contexts: mean return, RMS distance to
  * x*(s), and the root mean variance of the (state-independent) covariance. */
 static int score(const bench_ctx *c, const pr_policy *p, const double *G, const double *tc,
-                 pr_policy_work *ws, double *buf, double *m, char *err)
+                 pr_policy_work *ws, double *buf, double *m, int *flags, char *err)
 {
 	const int da = c->dims;
 	double *mean = buf, *cov = mean + da, *xs = cov + (size_t)da * da, *y = xs + da;
 	double ret = 0.0, e2 = 0.0, tr = 0.0;
-	int t, j, rc;
+	int t, j, rc, f;
 
 	for (t = 0; t < c->b->test_contexts; t++) {
 		const double *s = tc + (size_t)t * c->k;
 
-		if ((rc = pr_policy_eval(p, s, mean, cov, NULL, ws, err)))
+		f = 0;
+		if ((rc = pr_policy_eval(p, s, mean, cov, &f, ws, err)))
 			return rc;
+		*flags |= f;
 		ret += objective(c, G, mean, s, y);
 		optimum(c, G, s, xs);
 		for (j = 0; j < da; j++)
@@ -169,7 +173,7 @@ static int run_rep(void *ctx, int rep, char *err)
 	pr_reps_result *r = NULL;
 	double *G = NULL, *tc = NULL, *S = NULL, *X = NULL, *R = NULL, *phi = NULL, *psi = NULL;
 	double *buf = NULL;
-	int it, i, j, rc = PR_OK;
+	int it, i, j, flags, fitflags = 0, rc = PR_OK;
 
 	G = malloc((size_t)da * k * sizeof *G);
 	tc = malloc((size_t)b->test_contexts * k * sizeof *tc);
@@ -208,12 +212,15 @@ static int run_rep(void *ctx, int rep, char *err)
 			goto done;
 		}
 		m[M_RETURN] = 0.0;
+		flags = 0;
 		for (i = 0; i < n; i++) {
 			double *s = S + (size_t)i * k, *x = X + (size_t)i * da;
+			int f = 0;
 
 			draw_context(c, rng, s);
-			if ((rc = pr_policy_sample(pol, s, 1, rng, x, NULL, ws, err)))
+			if ((rc = pr_policy_sample(pol, s, 1, rng, x, &f, ws, err)))
 				goto done;
+			flags |= f;
 			R[i] = objective(c, G, x, s, buf);
 			m[M_RETURN] += R[i] / n;
 			/* value features: s, or s and s_j s_k (eq. 3.4 with hand-made phi) */
@@ -222,7 +229,7 @@ static int run_rep(void *ctx, int rep, char *err)
 				phi[(size_t)i * dv + j] = psi[1 + j];
 		}
 		m[M_SAMPLES] = (double)(it + 1) * n;
-		if ((rc = score(c, pol, G, tc, ws, buf, m, err)))
+		if ((rc = score(c, pol, G, tc, ws, buf, m, &flags, err)))
 			goto done;
 		if ((rc = pr_reps_solve(&c->cfg->reps, &pb, &r, err)))
 			goto done;
@@ -233,7 +240,9 @@ static int run_rep(void *ctx, int rep, char *err)
 		/* eq. 3.10: the REPS weights already contain the (uniform) q */
 		d.w = r->p;
 		next = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, c->cfg->policy.lambda, b->min_std,
-		                            NULL, err);
+		                            &fitflags, err);
+		/* the policy that drew this iteration's samples, and the fit it led to */
+		m[M_FLAGS] = flags | fitflags;
 		pr_reps_result_free(r);
 		r = NULL;
 		if (!next) {
@@ -285,7 +294,7 @@ static int write_curve(const char *dir, const bench_ctx *c, int lo, int hi, char
 			if (!rc)
 				rc = pr_csvw_int(w, it);
 			for (j = 0; j < NMET && !rc; j++)
-				rc = j == M_SAMPLES || j == M_BOUND ? pr_csvw_int(w, (long)m[j])
+				rc = j == M_SAMPLES || j == M_BOUND || j == M_FLAGS ? pr_csvw_int(w, (long)m[j])
 				                                    : pr_csvw_num(w, m[j]);
 			if (!rc)
 				rc = pr_csvw_endrow(w);

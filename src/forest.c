@@ -28,15 +28,15 @@
  * m / (nl nr) * (S_l - nl mean)^2 from the plain left sum S_l of y, and the
  * node mean comes from the parent's split: no centring pass.
  *
- * Score. SSE_k = sum of w (y_k - mean_k)^2 over the node, for each output k
- * that varies in the node. We maximise
- *     rvr = sum_k red_k / SSE_k,
- * the relative variance reduction of Geurts et al., summed over outputs
- * (eq. 6.1) and weighted (eq. 6.2-6.3) when weights are given. Eq. 4.1's
- * score for output k is -(SSE_k - red_k) / W, so rvr_k = 1 + W * score_k /
- * SSE_k: the same best test for one output; with several outputs each one
- * counts relative to its own node variance, so units do not matter.
- * score = nrvr maximises -rvr exactly (section 7.5.1).
+ * Score. Eq. 4.1's score for output k is -(SSE_k - red_k) / W, with SSE_k
+ * the node's weighted sum of squares (eq. 6.2-6.3 with weights); SSE_k and W
+ * are the same for every test of a node, so maximising
+ *     rvr = sum_k red_k
+ * picks the test of eq. 6.1 / 6.3 (outputs = sum, the default). With
+ * outputs = relative each output counts relative to its own node variance,
+ * rvr = sum_k red_k / SSE_k (Geurts et al.'s relative reduction), so units
+ * do not matter; with one output the two pick the same test. score = nrvr
+ * maximises -rvr exactly (section 7.5.1).
  */
 #include <limits.h>
 #include <math.h>
@@ -76,6 +76,7 @@ void pr_forest_opts_init(pr_forest_opts *o)
 	o->n_c = 1;
 	o->score = PR_SCORE_RVR;
 	o->with_replacement = 1;
+	o->outputs = PR_OUTPUTS_SUM;
 }
 
 int pr_forest_opts_check(const pr_forest_opts *o, const char *prefix, char *err)
@@ -92,6 +93,8 @@ int pr_forest_opts_check(const pr_forest_opts *o, const char *prefix, char *err)
 		return pr_err(err, PR_EINVAL, "%s%sn_c: must be >= 1 (got %d)", p, dot, o->n_c);
 	if (o->score != PR_SCORE_RVR && o->score != PR_SCORE_NRVR)
 		return pr_err(err, PR_EINVAL, "%s%sscore: must be rvr or nrvr", p, dot);
+	if (o->outputs != PR_OUTPUTS_SUM && o->outputs != PR_OUTPUTS_RELATIVE)
+		return pr_err(err, PR_EINVAL, "%s%soutputs: must be sum or relative", p, dot);
 	if (o->with_replacement != 0 && o->with_replacement != 1)
 		return pr_err(err, PR_EINVAL, "%s%swith_replacement: must be 0 or 1 (got %d)",
 		              p, dot, o->with_replacement);
@@ -540,7 +543,8 @@ static int choose_split(builder *b, const nodebuf *nb, int lo, int m, double sum
 				nl = scan_gen(b, xn + (size_t)dd[i] * b->n, w, m, tt[i], &wl, &wr);
 				for (int q = 0; q < b->dy; q++)
 					if (b->sse[q] > 0)
-						sc += reduction(b->sl[q], b->sr[q], wl, wr) / b->sse[q];
+						sc += reduction(b->sl[q], b->sr[q], wl, wr) /
+						      (o->outputs == PR_OUTPUTS_RELATIVE ? b->sse[q] : 1.0);
 			}
 			if (nl < o->n_c || m - nl < o->n_c)
 				continue;

@@ -581,10 +581,10 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 
 /* Locally weighted regression with the weights what (eq. 6.6-6.9), at
  * state s: mean and (unfloored) covariance into ws->mean, ws->cov. The
- * weights are normalised to sum 1 first: eq. 6.7-6.9 do not change, and the
- * ridge lambda then acts on a problem of unit total weight whatever the
- * scale of the REPS weights. Returns the flags, PR_POLICY_COVFALL when
- * Z <= 0 (mean still valid), or a negative status. */
+ * weights are normalised to sum 1 first, which leaves eq. 6.7-6.9 as they
+ * are; the ridge is divided by the same total, so it is eq. 6.6's lambda on
+ * the raw weights. Returns the flags, PR_POLICY_COVFALL when Z <= 0 (mean
+ * still valid), or a negative status. */
 static int lwr(const pr_policy *p, const double *s, const double *what, pr_policy_work *ws)
 {
 	const int k = p->ds + 1, da = p->da;
@@ -607,7 +607,7 @@ static int lwr(const pr_policy *p, const double *s, const double *what, pr_polic
 			for (j = 0; j < da; j++)
 				mu[j] += ws->wn[i] * p->A[(size_t)i * da + j];
 	} else {
-		int st = ridge_solve(p->n, k, da, p->X, ws->wn, p->A, p->lambda, &ws->ek, ws->rhs, ws->B);
+		int st = ridge_solve(p->n, k, da, p->X, ws->wn, p->A, p->lambda / tot, &ws->ek, ws->rhs, ws->B);
 
 		if (st < 0)
 			return st;

@@ -181,6 +181,35 @@ static void test_where_and_bench_defaults(void **state)
 	assert_string_equal(pr_config_where(&c, "sim.dt", at, sizeof at), "defaults");
 }
 
+/* A file naming only the experiment gets that experiment's setup (what
+ * data/<name>.ini states); a key given anywhere, before or after the name,
+ * keeps its value; renaming restores the other defaults. */
+static void test_experiment_defaults(void **state)
+{
+	pr_config c;
+	char err[PR_ERRLEN];
+
+	(void)state;
+	assert_int_equal(load("[start]\ncue_box = -0.2,-0.2,0,0\n[value]\nn_min = 33\n"
+	                      "[experiment]\nname = exp3\n", &c, err), PR_OK);
+	assert_float_equal(c.start.reward_box[1], 0.15, 0);
+	assert_float_equal(c.start.reward_box[2], -0.1, 0);
+	assert_float_equal(c.start.cue_box[0], -0.2, 0);
+	assert_int_equal(c.value.trees, 10);
+	assert_int_equal(c.value.n_min, 33);
+	assert_int_equal(c.value.score, PR_SCORE_NRVR);
+	assert_int_equal(c.policy.forest.trees, 10);
+	assert_int_equal(pr_config_set(&c, "experiment.name=exp2", err), PR_OK);
+	assert_float_equal(c.start.reward_box[1], 0.45, 0);
+	assert_int_equal(c.value.trees, 30);
+	assert_int_equal(c.value.n_min, 33);
+	assert_int_equal(c.policy.forest.trees, 30);
+	assert_int_equal(c.policy.forest.cuts, 10);
+	assert_int_equal(pr_config_set(&c, "experiment.name=sphere", err), PR_OK);
+	assert_float_equal(c.reps.epsilon, 1, 0);
+	assert_int_equal(c.policy.forest.trees, 10);
+}
+
 static void test_write_round_trip(void **state)
 {
 	pr_config a, b;
@@ -214,6 +243,7 @@ int main(void)
 		cmocka_unit_test(test_long_line_and_missing_file),
 		cmocka_unit_test(test_set_and_validate),
 		cmocka_unit_test(test_where_and_bench_defaults),
+		cmocka_unit_test(test_experiment_defaults),
 		cmocka_unit_test(test_write_round_trip),
 	};
 	int rc = cmocka_run_group_tests(tests, NULL, NULL);

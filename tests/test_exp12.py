@@ -130,7 +130,7 @@ def test_exp2_schema_and_ranges(tmp_path):
     run("exp2.ini", tmp_path, EXP2_TINY)
     h, ret = rows(tmp_path / "exp2_returns.csv")
     assert h == ["repetition", "size", "policy", "mode", "mean_return", "std_return", "n",
-                 "pocketed"]
+                 "pocketed", "policy_flags"]
     # per repetition: the expert, then 2 sizes x 3 policies x 2 modes
     assert len(ret) == 2 * 13
     keys = [(r["size"], r["policy"], r["mode"]) for r in ret[:13]]
@@ -144,13 +144,17 @@ def test_exp2_schema_and_ranges(tmp_path):
         assert 0 <= float(r["pocketed"]) <= 1
         if float(r["pocketed"]) == 1:
             assert float(r["mean_return"]) == 0
+        # PR_POLICY_* bits; the expert is no fitted policy
+        assert 0 <= int(r["policy_flags"]) < 64
+        if r["policy"] == "expert":
+            assert r["policy_flags"] == "0"
     # the ghost-ball expert pockets (nearly) every test shot (SPEC.md §3)
     for r in ret:
         if r["policy"] == "expert":
             assert float(r["pocketed"]) >= 0.95
     h, summ = rows(tmp_path / "exp2_summary.csv")
     assert h == ["size", "policy", "mode", "mean_return", "two_se", "two_se_shots",
-                 "repetitions", "shots", "pocketed"]
+                 "repetitions", "shots", "pocketed", "policy_flags"]
     assert len(summ) == 13
     for s in summ:
         v = [float(r["mean_return"]) for r in ret

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include <gsl/gsl_errno.h>
+#include <gsl/gsl_randist.h>
 #include <gsl/gsl_rng.h>
 
 #include "poolreps/forest.h"
@@ -374,8 +375,9 @@ static void test_weighted_known(void **state)
 	pr_forest_free(f);
 }
 
-/* Two outputs on a 10 x 10 grid: y1 = [x0 >= .5], y2 = 1000 x1. Both outputs
- * take part in the score (eq. 6.1), each relative to its own node variance:
+/* Two outputs on a 10 x 10 grid: y1 = [x0 >= .5], y2 = 1000 x1, with
+ * outputs = relative: both outputs take part, each relative to its own node
+ * variance:
  * the root splits x0 at .5 (y1 fully explained: rvr 1 + 0, against 0 + 0.75
  * for x1 at .5), each half then x1 at .5 for y2, so the leaves are the four
  * quadrants: y1 exact, y2 the quadrant mean 200 or 700. An unnormalised sum
@@ -387,6 +389,7 @@ static void test_multi_output(void **state)
 	pr_forest_opts o = opts(5, 500, 25, 1);
 
 	(void)state;
+	o.outputs = PR_OUTPUTS_RELATIVE;
 	for (int i = 0; i < 100; i++) {
 		X[2 * i] = (i % 10) / 10.0;
 		X[2 * i + 1] = (i / 10) / 10.0;
@@ -640,6 +643,43 @@ static void test_bad_input(void **state)
 	pr_forest_free(NULL);
 }
 
+/* Two outputs on very different scales: y0 = 10 [x0 < 0.5] + N(0, 5^2)
+ * noise, y1 = 0.01 [x1 < 0.5]. Eq. 6.1 adds the reductions as they are
+ * (outputs = sum), so the root cuts x0, which removes far more variance;
+ * relative to each output's own variance the clean step in y1 wins. */
+static void test_outputs_sum_and_relative(void **state)
+{
+	enum { N = 400, M = 20 };
+	static double X[N * 2], Y[N * 2];
+	gsl_rng *r = gsl_rng_alloc(gsl_rng_mt19937);
+	pr_forest_opts o = opts(M, 300, N - 1, 1);
+	int mode, t, dim, right, on_x0[2] = {0, 0};
+	double thr;
+
+	(void)state;
+	gsl_rng_set(r, 3);
+	for (int i = 0; i < N; i++) {
+		X[2 * i] = gsl_rng_uniform(r);
+		X[2 * i + 1] = gsl_rng_uniform(r);
+		Y[2 * i] = 10.0 * (X[2 * i] < 0.5) + gsl_ran_gaussian(r, 5.0);
+		Y[2 * i + 1] = 0.01 * (X[2 * i + 1] < 0.5);
+	}
+	gsl_rng_free(r);
+	for (mode = 0; mode < 2; mode++) {
+		pr_forest *f;
+
+		o.outputs = mode ? PR_OUTPUTS_RELATIVE : PR_OUTPUTS_SUM;
+		f = fit(&o, X, N, 2, Y, 2, NULL, 1);
+		for (t = 0; t < M; t++) {
+			assert_int_equal(pr_forest_node(f, pr_forest_tree_node0(f, t), &dim, &thr, &right), 0);
+			on_x0[mode] += dim == 0;
+		}
+		pr_forest_free(f);
+	}
+	assert_int_equal(on_x0[PR_OUTPUTS_SUM], M);
+	assert_int_equal(on_x0[PR_OUTPUTS_RELATIVE], 0);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -656,6 +696,7 @@ int main(void)
 		cmocka_unit_test(test_active_samples_hand),
 		cmocka_unit_test(test_state_action_features),
 		cmocka_unit_test(test_without_replacement),
+		cmocka_unit_test(test_outputs_sum_and_relative),
 		cmocka_unit_test(test_bad_input),
 	};
 

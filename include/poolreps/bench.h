@@ -39,10 +39,12 @@ int pr_bench_opts_check(const pr_bench_opts *o, char *err);
  * options (the REPS options come from cfg->reps, the policy ridge from
  * cfg->policy.lambda). Writes dir/bench_curve.csv: repetition, iteration,
  * samples, mean_return, test_return, test_error, mean_std, eta, kl, ess,
- * bound. Row (r, i) describes the policy that drew iteration i's samples
- * (mean_return is their mean return; test_return and test_error the return
- * and RMS distance to x*(s) of its mean on the fixed test contexts;
- * mean_std the root mean variance) and the REPS update computed from them.
+ * bound, policy_flags. Row (r, i) describes the policy that drew iteration
+ * i's samples (mean_return is their mean return; test_return and test_error
+ * the return and RMS distance to x*(s) of its mean on the fixed test
+ * contexts; mean_std the root mean variance) and the REPS update computed
+ * from them; policy_flags or-s the PR_POLICY_* fallbacks of that policy's
+ * queries and of the fit that followed.
  * Repetition k draws only from the stream (experiment.seed, k). */
 int pr_bench_run(const pr_config *cfg, const pr_bench_opts *b, const char *dir,
                  const pr_progress *prog, char *err);

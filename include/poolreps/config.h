@@ -33,9 +33,9 @@ typedef struct pr_config {
 	pr_exp2_opts exp2;        /* exp2.* */
 	pr_exp3_opts exp3;        /* exp3.* */
 	pr_bench_opts bench;      /* bench.*: defaults follow experiment.name */
-	unsigned bench_given;     /* bench.* keys set explicitly (bit per key) */
 	char source[256];         /* the parameter file, or "" */
-	int key_line[PR_CONFIG_MAXKEYS]; /* per key: file line, -1 for --set, 0 default */
+	int key_line[PR_CONFIG_MAXKEYS]; /* per key: file line, -1 for --set, 0 default;
+	                                  * keys left at 0 follow experiment.name */
 } pr_config;
 
 void pr_config_init(pr_config *c);

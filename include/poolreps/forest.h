@@ -6,6 +6,9 @@
 #include "poolreps/common.h"
 
 enum { PR_SCORE_RVR = 0, PR_SCORE_NRVR = 1 };
+/* Several outputs: eq. 6.1/6.3 add the variance reductions as they are
+ * (sum); relative divides each by its own node variance first. */
+enum { PR_OUTPUTS_SUM = 0, PR_OUTPUTS_RELATIVE = 1 };
 
 /* Forest parameters (keys forest.*, and the same fields under value.* and policy.*). */
 typedef struct {
@@ -15,6 +18,7 @@ typedef struct {
 	int n_c;              /* drop splits leaving a child with fewer than n_c */
 	int score;            /* PR_SCORE_RVR (eq. 4.1) or PR_SCORE_NRVR (7.5.1) */
 	int with_replacement; /* 1: cut dimensions drawn with replacement */
+	int outputs;          /* PR_OUTPUTS_SUM (eq. 6.1, 6.3) or PR_OUTPUTS_RELATIVE */
 } pr_forest_opts;
 void pr_forest_opts_init(pr_forest_opts *o);
 /* Check the options; messages name "<prefix>.<key>" (prefix NULL: the bare
