@@ -669,6 +669,15 @@ int pr_csvw_close(pr_csvw *w, char *err)
 	return status;
 }
 
+int pr_csvw_finish(pr_csvw *w, int rc, char *err)
+{
+	if (rc && rc != w->status) {
+		pr_csvw_abort(w);
+		return rc;
+	}
+	return pr_csvw_close(w, err);
+}
+
 int pr_csv_write(const pr_csv *t, const char *path, char *err)
 {
 	pr_csvw *w = pr_csvw_open(path, err);

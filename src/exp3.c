@@ -633,30 +633,20 @@ static int write_episodes(const setup *su, const char *dir, char *err)
 			rc |= pr_csvw_endrow(w);
 		}
 	}
-	if (rc) {
-		pr_csvw_abort(w);
-		return pr_err(err, PR_EIO, "%s: write error", path);
-	}
-	return pr_csvw_close(w, err);
+	return pr_csvw_finish(w, rc, err);
 }
 
 static int write_reps(const setup *su, const char *dir, char *err)
 {
-	static const char *const hdr[] = {
-		"repetition", "policy", "iteration", "eta", "kl", "ess", "bound", "residual", "q_ess",
-		"features", "dual_evals", "redraws", "policy_flags"
-	};
 	char path[PATHLEN];
 	pr_csvw *w;
 	int j, t, rc = PR_OK;
-	size_t h;
 
 	snprintf(path, sizeof path, "%s/exp3_reps.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
-	for (h = 0; h < sizeof hdr / sizeof hdr[0]; ++h)
-		rc |= pr_csvw_str(w, hdr[h]);
-	rc |= pr_csvw_endrow(w);
+	rc = pr_csvw_header(w, "repetition,policy,iteration,eta,kl,ess,bound,residual,q_ess,"
+	                       "features,dual_evals,redraws,policy_flags");
 	for (j = 0; rc == PR_OK && j < su->nrep * su->nvar; ++j)
 		for (t = 0; rc == PR_OK && t < su->cfg->exp3.iterations; ++t) {
 			const rep_row *r = &su->jobs[j].reps[t];
@@ -675,11 +665,7 @@ static int write_reps(const setup *su, const char *dir, char *err)
 			rc |= pr_csvw_int(w, r->flags);
 			rc |= pr_csvw_endrow(w);
 		}
-	if (rc) {
-		pr_csvw_abort(w);
-		return pr_err(err, PR_EIO, "%s: write error", path);
-	}
-	return pr_csvw_close(w, err);
+	return pr_csvw_finish(w, rc, err);
 }
 
 /* Options this experiment needs beyond the per-key ranges. */
@@ -1003,11 +989,7 @@ static int write_curve(const pr_config *cfg, const episodes *E, const int *var, 
 	free(cnt);
 	if (!w)
 		return rc;
-	if (rc) {
-		pr_csvw_abort(w);
-		return pr_err(err, PR_EIO, "%s: write error", path);
-	}
-	return pr_csvw_close(w, err);
+	return pr_csvw_finish(w, rc, err);
 }
 
 /* Mark each run's last `last` episodes (rows are in episode order within a
@@ -1038,21 +1020,15 @@ static int mark_final(const episodes *E, long last, char *fin, char *err)
 static int write_final(const pr_config *cfg, const episodes *E, const int *var, const char *fin,
                        const char *dir, char *err)
 {
-	static const char *const hdr[] = {
-		"policy", "repetition", "episodes", "mean_return", "std_return", "pocketed_target",
-		"pocketed_other", "mean_distance"
-	};
 	char path[PATHLEN];
 	pr_csvw *w;
-	size_t h;
 	int v, r, rc = PR_OK;
 
 	snprintf(path, sizeof path, "%s/exp3_final.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
-	for (h = 0; h < sizeof hdr / sizeof hdr[0]; ++h)
-		pr_csvw_str(w, hdr[h]);
-	rc = pr_csvw_endrow(w);
+	rc = pr_csvw_header(w, "policy,repetition,episodes,mean_return,std_return,pocketed_target,"
+	                       "pocketed_other,mean_distance");
 	for (v = 0; rc == PR_OK && v < E->nv; ++v)
 		for (r = 0; rc == PR_OK && r <= E->nr; ++r) {
 			/* r == nr: all repetitions pooled */
@@ -1080,11 +1056,7 @@ static int write_final(const pr_config *cfg, const episodes *E, const int *var, 
 			pr_csvw_num(w, ds / (double)n);
 			rc = pr_csvw_endrow(w);
 		}
-	if (rc) {
-		pr_csvw_abort(w);
-		return pr_err(err, PR_EIO, "%s: write error", path);
-	}
-	return pr_csvw_close(w, err);
+	return pr_csvw_finish(w, rc, err);
 }
 
 /* exp3_pockets.csv (Fig. 7.9) and exp3_dist.csv (Fig. 7.10) over the last
@@ -1122,12 +1094,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 			rc = pr_csvw_endrow(w);
 		}
 	}
-	if (rc) {
-		pr_csvw_abort(w);
-		free(hist);
-		return pr_err(err, PR_EIO, "%s: write error", path);
-	}
-	if ((rc = pr_csvw_close(w, err))) {
+	if ((rc = pr_csvw_finish(w, rc, err))) {
 		free(hist);
 		return rc;
 	}
@@ -1156,11 +1123,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 		}
 	}
 	free(hist);
-	if (rc) {
-		pr_csvw_abort(w);
-		return pr_err(err, PR_EIO, "%s: write error", path);
-	}
-	return pr_csvw_close(w, err);
+	return pr_csvw_finish(w, rc, err);
 }
 
 /* exp3_reps_summary.csv: per policy, how often the KL bound was active,
@@ -1176,10 +1139,6 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 	static const char *const cname[NC] = {
 		"policy", "kl", "ess", "bound", "q_ess", "features", "redraws", "policy_flags", "residual"
 	};
-	static const char *const hdr[] = {
-		"policy", "solves", "bound_active", "bound_inactive", "mean_kl", "max_residual", "mean_ess",
-		"mean_q_ess", "mean_features", "floor_iterations", "fallback_iterations", "redraws"
-	};
 	char path[PATHLEN];
 	pr_exp_table *t = NULL;
 	pr_csvw *w = NULL;
@@ -1187,7 +1146,6 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 	double *maxres = calloc((size_t)nvar, sizeof *maxres);
 	long (*cnt)[5] = calloc((size_t)nvar, sizeof *cnt), i, x, nr;
 	int col[NC], c, v, rc;
-	size_t h;
 
 	if (!acc || !cnt || !maxres) {
 		free(acc);
@@ -1233,9 +1191,9 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 	if (rc == PR_OK && !(w = pr_csvw_open(path, err)))
 		rc = PR_EIO;
 	if (rc == PR_OK) {
-		for (h = 0; h < sizeof hdr / sizeof hdr[0]; ++h)
-			pr_csvw_str(w, hdr[h]);
-		rc = pr_csvw_endrow(w);
+		rc = pr_csvw_header(w, "policy,solves,bound_active,bound_inactive,mean_kl,max_residual,"
+		                    "mean_ess,mean_q_ess,mean_features,floor_iterations,"
+		                    "fallback_iterations,redraws");
 	}
 	for (v = 0; rc == PR_OK && v < nvar; ++v) {
 		double n = cnt[v][0] > 0 ? (double)cnt[v][0] : 1.0;
@@ -1258,11 +1216,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 	free(maxres);
 	if (!w)
 		return rc;
-	if (rc) {
-		pr_csvw_abort(w);
-		return pr_err(err, PR_EIO, "%s: write error", path);
-	}
-	return pr_csvw_close(w, err);
+	return pr_csvw_finish(w, rc, err);
 }
 
 int pr_exp3_summarize(const pr_config *cfg, const char *dir, char *err)

@@ -299,11 +299,7 @@ static int write_curve(const char *dir, const bench_ctx *c, int lo, int hi, char
 			if (!rc)
 				rc = pr_csvw_endrow(w);
 		}
-	if (rc) {
-		pr_csvw_abort(w);
-		return pr_err(err, PR_EIO, "%s: write error", path);
-	}
-	return pr_csvw_close(w, err);
+	return pr_csvw_finish(w, rc, err);
 }
 
 int pr_bench_run(const pr_config *cfg, const pr_bench_opts *b, const char *dir,
@@ -446,11 +442,7 @@ int pr_exp_benchmark_summarize(const pr_config *cfg, const char *dir, char *err)
 		if (!rc)
 			rc = pr_csvw_endrow(w);
 	}
-	if (rc) {
-		rc = pr_err(err, PR_EIO, "%s: write error", path);
-		goto done;
-	}
-	rc = pr_csvw_close(w, err);
+	rc = pr_csvw_finish(w, rc, err);
 	w = NULL;
 done:
 	pr_csvw_abort(w);

@@ -18,28 +18,12 @@
 /* Open dir/name and write its header (a comma list). */
 static pr_csvw *open_csv(const char *dir, const char *name, const char *header, char *err)
 {
-	char path[1024], col[64];
-	const char *p = header;
+	char path[1024];
 	pr_csvw *w;
 
 	snprintf(path, sizeof path, "%s/%s", dir, name);
-	if (!(w = pr_csvw_open(path, err)))
-		return NULL;
-	while (*p) {
-		size_t n = strcspn(p, ",");
-		snprintf(col, sizeof col, "%.*s", (int)n, p);
-		if (pr_csvw_str(w, col)) {
-			pr_csvw_abort(w);
-			pr_err(err, PR_EIO, "%s: write failed", path);
-			return NULL;
-		}
-		p += n + (p[n] == ',');
-	}
-	if (pr_csvw_endrow(w)) {
-		pr_csvw_abort(w);
-		pr_err(err, PR_EIO, "%s: write failed", path);
-		return NULL;
-	}
+	if ((w = pr_csvw_open(path, err)))
+		pr_csvw_header(w, header);
 	return w;
 }
 
@@ -51,15 +35,6 @@ static int put_row(pr_csvw *w, int n, const double *v)
 	for (i = 0; i < n && !rc; ++i)
 		rc = pr_csvw_num(w, v[i]);
 	return rc ? rc : pr_csvw_endrow(w);
-}
-
-static int finish(pr_csvw *w, int rc, const char *name, char *err)
-{
-	if (rc) {
-		pr_csvw_abort(w);
-		return pr_err(err, rc, "%s: write failed", name);
-	}
-	return pr_csvw_close(w, err);
 }
 
 static int write_trace(pr_csvw *w, double shot, const pr_sim_trace *tr, int with_shot)
@@ -88,7 +63,7 @@ static int fig_table(const pr_config *cfg, const char *dir, gsl_rng *rng, double
 		double v[4] = {t->length, t->width, t->ball_radius, t->pocket_radius};
 		rc = put_row(w, 4, v);
 	}
-	if ((rc = finish(w, rc, "fig7_table.csv", err)))
+	if ((rc = pr_csvw_finish(w, rc, err)))
 		return rc;
 	if (!(w = open_csv(dir, "fig7_1_pockets.csv", "pocket,x,y", err)))
 		return PR_EIO;
@@ -97,7 +72,7 @@ static int fig_table(const pr_config *cfg, const char *dir, gsl_rng *rng, double
 		pr_sim_pocket_xy(t, i, v + 1);
 		rc = put_row(w, 3, v);
 	}
-	if ((rc = finish(w, rc, "fig7_1_pockets.csv", err)))
+	if ((rc = pr_csvw_finish(w, rc, err)))
 		return rc;
 	if ((rc = pr_sim_sample_start(t, &cfg->start, n, rng, st, err)))
 		return rc;
@@ -110,7 +85,7 @@ static int fig_table(const pr_config *cfg, const char *dir, gsl_rng *rng, double
 		if (!rc)
 			rc = put_row(w, 2, st + 2 * i);
 	}
-	return finish(w, rc, "fig7_1_balls.csv", err);
+	return pr_csvw_finish(w, rc, err);
 }
 
 /* Grid cell (i, j) <-> action; i runs over vx, j over vy. */
@@ -163,10 +138,9 @@ static int fig_landscape(const pr_config *cfg, const char *dir, char *err)
 			v[2] = rew[i * GRID + j];
 			v[3] = r.hit;
 			v[4] = r.pocket[1];
-			if ((rc = put_row(w, 5, v)))
-				rc = pr_err(err, rc, "fig7_2_reward.csv: write failed");
+			rc = put_row(w, 5, v);
 		}
-	rc = rc ? rc : pr_csvw_close(w, err);
+	rc = pr_csvw_finish(w, rc, err);
 	w = NULL;
 	if (rc)
 		goto done;
@@ -204,11 +178,10 @@ static int fig_landscape(const pr_config *cfg, const char *dir, char *err)
 		chosen[q][1] = a[1];
 		{
 			double v[5] = {q, want[q], a[0], a[1], rew[best]};
-			if ((rc = put_row(w, 5, v)))
-				rc = pr_err(err, rc, "fig7_3_shots.csv: write failed");
+			rc = put_row(w, 5, v);
 		}
 	}
-	rc = rc ? rc : pr_csvw_close(w, err);
+	rc = pr_csvw_finish(w, rc, err);
 	w = NULL;
 	if (rc)
 		goto done;
@@ -218,10 +191,10 @@ static int fig_landscape(const pr_config *cfg, const char *dir, char *err)
 	}
 	for (q = 0; q < 2 && !rc; ++q) {
 		pr_shot r;
-		if (!(rc = pr_sim_shoot(sim, state, 2, chosen[q], &r, tr, err)) && (rc = write_trace(w, q, tr, 1)))
-			rc = pr_err(err, rc, "fig7_3_trace.csv: write failed");
+		if (!(rc = pr_sim_shoot(sim, state, 2, chosen[q], &r, tr, err)))
+			rc = write_trace(w, q, tr, 1);
 	}
-	rc = rc ? rc : pr_csvw_close(w, err);
+	rc = pr_csvw_finish(w, rc, err);
 	w = NULL;
 done:
 	pr_csvw_abort(w);
@@ -267,7 +240,7 @@ static int fig_ghost(const pr_config *cfg, const char *dir, gsl_rng *rng, double
 		double v[18] = {st[0], st[1], st[2], st[3], g.target, g.aim[0], g.aim[1], g.ghost[0],
 		                g.ghost[1], g.dir[0], g.dir[1], g.cut * 180 / acos(-1.0), g.v_contact,
 		                g.v0, a[0], a[1], r.pocket[1], pr_sim_reward(&t, &cfg->reward, &r)};
-		rc = finish(w, put_row(w, 18, v), "fig7_5_ghost.csv", err);
+		rc = pr_csvw_finish(w, put_row(w, 18, v), err);
 		w = NULL;
 	}
 	if (rc)
@@ -276,7 +249,7 @@ static int fig_ghost(const pr_config *cfg, const char *dir, gsl_rng *rng, double
 		rc = PR_EIO;
 		goto done;
 	}
-	rc = finish(w, write_trace(w, 0, tr, 0), "fig7_5_trace.csv", err);
+	rc = pr_csvw_finish(w, write_trace(w, 0, tr, 0), err);
 	w = NULL;
 done:
 	pr_csvw_abort(w);

@@ -199,6 +199,35 @@ static void test_header(void **state)
 	unlink(out);
 }
 
+/* finish: the writer's own failure is reported by close; another failure
+ * (already in err) removes the file and is returned as it is. */
+static void test_finish(void **state)
+{
+	pr_csvw *w;
+	char err[PR_ERRLEN], tmp[160];
+
+	(void)state;
+	snprintf(out, sizeof out, "/tmp/pr_test_csv_fin_%ld.csv", (long)getpid());
+	snprintf(tmp, sizeof tmp, "%s.tmp.%ld", out, (long)getpid());
+	w = pr_csvw_open(out, err);
+	pr_csvw_header(w, "a");
+	assert_int_equal(pr_csvw_finish(w, pr_csvw_num(w, NAN), err), PR_ENUM);
+	assert_non_null(strstr(err, "non-finite"));
+	assert_int_equal(access(out, F_OK), -1);
+	w = pr_csvw_open(out, err);
+	pr_csvw_header(w, "a");
+	snprintf(err, PR_ERRLEN, "shot failed");
+	assert_int_equal(pr_csvw_finish(w, PR_EINVAL, err), PR_EINVAL);
+	assert_string_equal(err, "shot failed");
+	assert_int_equal(access(out, F_OK), -1);
+	assert_int_equal(access(tmp, F_OK), -1);
+	w = pr_csvw_open(out, err);
+	pr_csvw_header(w, "a");
+	assert_int_equal(pr_csvw_finish(w, PR_OK, err), PR_OK);
+	assert_int_equal(access(out, F_OK), 0);
+	unlink(out);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -207,6 +236,7 @@ int main(void)
 		cmocka_unit_test(test_select),
 		cmocka_unit_test(test_write_round_trip_and_atomic),
 		cmocka_unit_test(test_header),
+		cmocka_unit_test(test_finish),
 	};
 	int rc = cmocka_run_group_tests(tests, NULL, NULL);
 	unlink(path);

@@ -51,5 +51,9 @@ int pr_csvw_header(pr_csvw *w, const char *names);
 int pr_csvw_close(pr_csvw *w, char *err);
 /* Remove the temporary file and free (after an error). NULL is a no-op. */
 void pr_csvw_abort(pr_csvw *w);
+/* End a file whose writing stopped with status rc: PR_OK or the writer's own
+ * failure closes it (pr_csvw_close reports a write error or a refused NaN);
+ * any other failure, already described in err, removes it and returns rc. */
+int pr_csvw_finish(pr_csvw *w, int rc, char *err);
 
 #endif
