@@ -17,7 +17,7 @@ else
   BUILD := build/rel
 endif
 ALL_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc $(shell pkg-config --cflags $(PKGS)) $(CFLAGS) -MMD -MP
-LIBS    := $(shell pkg-config --libs $(PKGS)) -lcsv -linih -lpthread -lm
+LIBS    := $(shell pkg-config --libs $(PKGS)) -lglpk -lcsv -linih -lpthread -lm
 
 LIB_SRC := $(filter-out src/main.c,$(wildcard src/*.c))
 LIB_OBJ := $(LIB_SRC:src/%.c=$(BUILD)/%.o)

@@ -1,12 +1,15 @@
-/* cmd_reps.c — `poolreps reps` (SPEC.md §6): REPS weights for a table of
+/* cmd_reps.c — `poolreps reps`: REPS weights for a table of
  * samples.
  *
  * Input: one row per sample, with the return column (--return), the state
  * feature columns (--features, a comma list or a prefix ending in '*';
  * omitted = no features) and optionally base weights (--base). Output:
  * one column p, one row per input row, in input order. --summary FILE
- * writes one row eta,dual,kl,ess,bound,residual,iterations. Every input
- * check runs before anything is written; on an error no file is left.
+ * writes one row eta,dual,kl,ess,bound,residual,iterations,kl_gap,
+ * residual_rel,status (the certificate, reps.h). A solve that cannot be
+ * certified exits 3 with one line naming what failed (e.g. the feature
+ * residual). Every input check runs before anything is written; on an
+ * error no file is left.
  */
 #include <math.h>
 #include <stdio.h>
@@ -32,28 +35,19 @@ static int write_weights(pr_csvw *w, const pr_reps_result *r)
 
 static int write_summary(pr_csvw *w, const pr_reps_result *r)
 {
-	static const char *const head[] = { "eta", "dual", "kl", "ess", "bound", "residual",
-	                                    "iterations" };
-	int i, rc = 0;
+	int rc = pr_csvw_header(w, "eta,dual,kl,ess,bound,residual,iterations,kl_gap,residual_rel,"
+	                           "status");
 
-	for (i = 0; i < 7 && !rc; i++)
-		rc = pr_csvw_str(w, head[i]);
-	if (!rc)
-		rc = pr_csvw_endrow(w);
-	if (!rc)
-		rc = pr_csvw_num(w, r->eta);
-	if (!rc)
-		rc = pr_csvw_num(w, r->dual);
-	if (!rc)
-		rc = pr_csvw_num(w, r->kl);
-	if (!rc)
-		rc = pr_csvw_num(w, r->ess);
-	if (!rc)
-		rc = pr_csvw_int(w, r->bound);
-	if (!rc)
-		rc = pr_csvw_num(w, r->residual);
-	if (!rc)
-		rc = pr_csvw_int(w, r->iterations);
+	rc |= pr_csvw_num(w, r->eta);
+	rc |= pr_csvw_num(w, r->dual);
+	rc |= pr_csvw_num(w, r->kl);
+	rc |= pr_csvw_num(w, r->ess);
+	rc |= pr_csvw_int(w, r->bound);
+	rc |= pr_csvw_num(w, r->residual);
+	rc |= pr_csvw_int(w, r->iterations);
+	rc |= pr_csvw_num(w, r->kl_gap);
+	rc |= pr_csvw_num(w, r->residual_rel);
+	rc |= pr_csvw_str(w, pr_reps_status_name(r->status));
 	return rc ? rc : pr_csvw_endrow(w);
 }
 
@@ -143,9 +137,14 @@ int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pb.phi = phi;
 	if ((rc = pr_reps_solve(&o, &pb, &r, err)))
 		goto done;
-	if (!r->bound && !a->quiet)
-		fprintf(stderr, "poolreps: reps: KL bound inactive: %s (KL = %.6g < epsilon = %g)\n",
-		        r->constant ? "all returns are equal" : "eta is at its lower bound",
+	if (r->status == PR_REPS_FAILED) {
+		rc = pr_err(err, PR_ENUM, "reps: %s: no certified answer: %s", pr_csv_path(in), r->reason);
+		goto done;
+	}
+	if (r->status == PR_REPS_UNREACHABLE && !a->quiet)
+		fprintf(stderr, "poolreps: reps: KL bound unreachable: %s (KL = %.6g < epsilon = %g, "
+		        "eta = 0)\n", r->constant ? "all returns are equal" :
+		        "p is the eta -> 0 limit, the feature-matching solution closest to q",
 		        r->kl, o.epsilon);
 	w = pr_csvw_open(a->output, err);
 	if (!w) {

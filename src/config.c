@@ -123,8 +123,10 @@ static const key_def keys[] = {
 	{"reps", "epsilon", K_DOUBLE, F(reps.epsilon), 0, 1e6, 1, "nats", "KL bound (eq. 3.2; sphere, rosenbrock: 1)"},
 	{"reps", "ridge", K_DOUBLE, F(reps.ridge), 0, 1e12, 0, "", "ridge on theta in the dual"},
 	{"reps", "eta_min", K_DOUBLE, F(reps.eta_min), 0, 1, 1, "",
-	 "lower bound on eta in return standard deviations (below 1)"},
-	{"reps", "max_iter", K_INT, F(reps.max_iter), 1, 10000000, 0, "", "dual solver evaluations"},
+	 "eta (return standard deviations) below which the eta -> 0 limit decides if KL = epsilon is reachable"},
+	{"reps", "max_iter", K_INT, F(reps.max_iter), 1, 10000000, 0, "", "dual evaluations per solve"},
+	{"reps", "allow_failed", K_INT, F(reps.allow_failed), 0, 1, 0, "",
+	 "experiments: 1 records an uncertified REPS solve (status failed) and goes on; 0 fails the run"},
 
 	{"policy", "target", K_ENUM, F(policy.target), 0, 0, 0, "action|reward_state", "policy forest output"},
 	{"policy", "lambda", K_DOUBLE, F(policy.lambda), 0, 1e12, 0, "", "ridge of eq. 6.6"},

@@ -107,8 +107,8 @@ static int parse_variants(const pr_config *cfg, int *var, int *nvar, char *err)
 
 /* REPS and policy diagnostics of one iteration (raw exp3_reps.csv). */
 typedef struct {
-	double eta, kl, ess, q_ess, residual;
-	int bound, nfeat, evals, redraws, flags;
+	double eta, kl, ess, q_ess, residual, kl_gap, residual_rel;
+	int bound, nfeat, evals, redraws, flags, status;
 } rep_row;
 
 /* Everything a job produces, kept until the fixed-order write. */
@@ -395,7 +395,15 @@ static int iterate(learner *L, int t, char *err)
 	row->bound = res->bound;
 	row->nfeat = pb.d;
 	row->evals = res->iterations;
+	row->kl_gap = res->kl_gap;
+	row->residual_rel = res->residual_rel;
+	row->status = res->status;
+	if (res->status == PR_REPS_FAILED && !cfg->reps.allow_failed)
+		rc = pr_err(err, PR_ENUM, "iteration %d: REPS answer not certified: %s "
+		            "(reps.allow_failed = 1 records such solves and goes on)", t, res->reason);
 	pr_reps_result_free(res);
+	if (rc)
+		return rc;
 
 	d.n = n;
 	d.ds = su->nx;
@@ -646,7 +654,7 @@ static int write_reps(const setup *su, const char *dir, char *err)
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
 	rc = pr_csvw_header(w, "repetition,policy,iteration,eta,kl,ess,bound,residual,q_ess,"
-	                       "features,dual_evals,redraws,policy_flags");
+	                       "features,dual_evals,redraws,policy_flags,kl_gap,residual_rel,status");
 	for (j = 0; rc == PR_OK && j < su->nrep * su->nvar; ++j)
 		for (t = 0; rc == PR_OK && t < su->cfg->exp3.iterations; ++t) {
 			const rep_row *r = &su->jobs[j].reps[t];
@@ -663,6 +671,9 @@ static int write_reps(const setup *su, const char *dir, char *err)
 			rc |= pr_csvw_int(w, r->evals);
 			rc |= pr_csvw_int(w, r->redraws);
 			rc |= pr_csvw_int(w, r->flags);
+			rc |= pr_csvw_num(w, r->kl_gap);
+			rc |= pr_csvw_num(w, r->residual_rel);
+			rc |= pr_csvw_str(w, pr_reps_status_name(r->status));
 			rc |= pr_csvw_endrow(w);
 		}
 	return pr_csvw_finish(w, rc, err);
@@ -1127,24 +1138,26 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 }
 
 /* exp3_reps_summary.csv: per policy, how often the KL bound was active,
- * mean KL, the largest feature-expectation residual |sum p phi - phi_hat|
- * (SPEC.md §4: an unconverged dual shows here), ESS of p and of the
- * importance weights, the iterations in which
+ * mean KL, the largest feature-expectation residual |sum p phi - phi_hat|,
+ * ESS of p and of the importance weights, the iterations in which
  * min_std floored a policy variance or a policy fit or query fell back
- * (PR_POLICY_* flags), and the actions drawn again for exceeding
- * sim.max_speed. */
+ * (PR_POLICY_* flags), the actions drawn again for exceeding
+ * sim.max_speed, and the REPS certificates: solves that were unreachable
+ * (eta = 0, the eta -> 0 limit) or failed, and the largest relative
+ * feature residual. */
 static int write_reps_summary(const int *var, int nvar, const char *dir, char *err)
 {
-	enum { C_POL, C_KL, C_ESS, C_BOUND, C_QESS, C_FEAT, C_REDRAW, C_FLAGS, C_RES, NC };
+	enum { C_POL, C_KL, C_ESS, C_BOUND, C_QESS, C_FEAT, C_REDRAW, C_FLAGS, C_RES, C_RREL, C_ST, NC };
 	static const char *const cname[NC] = {
-		"policy", "kl", "ess", "bound", "q_ess", "features", "redraws", "policy_flags", "residual"
+		"policy", "kl", "ess", "bound", "q_ess", "features", "redraws", "policy_flags", "residual",
+		"residual_rel", "status"
 	};
 	char path[PATHLEN];
 	pr_exp_table *t = NULL;
 	pr_csvw *w = NULL;
 	double (*acc)[5] = calloc((size_t)nvar, sizeof *acc);
-	double *maxres = calloc((size_t)nvar, sizeof *maxres);
-	long (*cnt)[5] = calloc((size_t)nvar, sizeof *cnt), i, x, nr;
+	double *maxres = calloc(2 * (size_t)nvar, sizeof *maxres);
+	long (*cnt)[7] = calloc((size_t)nvar, sizeof *cnt), i, x, nr;
 	int col[NC], c, v, rc;
 
 	if (!acc || !cnt || !maxres) {
@@ -1159,7 +1172,8 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		if ((col[c] = pr_exp_table_col(t, cname[c], err)) < 0)
 			rc = col[c];
 	for (i = 0; rc == PR_OK && i < pr_exp_table_nrows(t); ++i) {
-		double kl, ess, qess, nf, res;
+		double kl, ess, qess, nf, res, rrel;
+		const char *st;
 		long bound;
 		if ((v = variant_of(pr_exp_table_str(t, i, col[C_POL]), var, nvar)) < 0) {
 			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in exp3.policies",
@@ -1171,12 +1185,24 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		    (rc = pr_exp_table_num(t, i, col[C_QESS], &qess, err)) ||
 		    (rc = pr_exp_table_num(t, i, col[C_FEAT], &nf, err)) ||
 		    (rc = pr_exp_table_num(t, i, col[C_RES], &res, err)) ||
+		    (rc = pr_exp_table_num(t, i, col[C_RREL], &rrel, err)) ||
 		    (rc = pr_exp_table_int(t, i, col[C_BOUND], 0, 1, &bound, err)) ||
 		    (rc = pr_exp_table_int(t, i, col[C_REDRAW], 0, 1000000000L, &nr, err)) ||
 		    (rc = pr_exp_table_int(t, i, col[C_FLAGS], 0, 1 << 20, &x, err)))
 			break;
+		st = pr_exp_table_str(t, i, col[C_ST]);
+		if (strcmp(st, pr_reps_status_name(PR_REPS_ACTIVE)) != 0 &&
+		    strcmp(st, pr_reps_status_name(PR_REPS_UNREACHABLE)) != 0 &&
+		    strcmp(st, pr_reps_status_name(PR_REPS_FAILED)) != 0) {
+			rc = pr_err(err, PR_EIO, "%s: row %ld: status '%.40s' is not active, unreachable "
+			            "or failed", path, i + 2, st);
+			break;
+		}
+		cnt[v][5] += strcmp(st, pr_reps_status_name(PR_REPS_UNREACHABLE)) == 0;
+		cnt[v][6] += strcmp(st, pr_reps_status_name(PR_REPS_FAILED)) == 0;
 		acc[v][0] += kl;
 		maxres[v] = fmax(maxres[v], res);
+		maxres[nvar + v] = fmax(maxres[nvar + v], rrel);
 		acc[v][1] += ess;
 		acc[v][2] += qess;
 		acc[v][3] += nf;
@@ -1193,7 +1219,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 	if (rc == PR_OK) {
 		rc = pr_csvw_header(w, "policy,solves,bound_active,bound_inactive,mean_kl,max_residual,"
 		                    "mean_ess,mean_q_ess,mean_features,floor_iterations,"
-		                    "fallback_iterations,redraws");
+		                    "fallback_iterations,redraws,unreachable,failed,max_residual_rel");
 	}
 	for (v = 0; rc == PR_OK && v < nvar; ++v) {
 		double n = cnt[v][0] > 0 ? (double)cnt[v][0] : 1.0;
@@ -1209,6 +1235,9 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		pr_csvw_int(w, cnt[v][2]);
 		pr_csvw_int(w, cnt[v][3]);
 		pr_csvw_int(w, cnt[v][4]);
+		pr_csvw_int(w, cnt[v][5]);
+		pr_csvw_int(w, cnt[v][6]);
+		pr_csvw_num(w, maxres[nvar + v]);
 		rc = pr_csvw_endrow(w);
 	}
 	free(acc);

@@ -24,10 +24,10 @@ enum { P_QUADRATIC, P_SPHERE, P_ROSENBROCK };
 
 /* Per-row metrics after repetition and iteration, in file order. */
 enum { M_SAMPLES, M_RETURN, M_TEST_RETURN, M_TEST_ERROR, M_STD, M_ETA, M_KL, M_ESS, M_BOUND,
-       M_FLAGS, NMET };
+       M_FLAGS, M_KLGAP, M_RESREL, M_UNREACH, NMET };
 static const char *const met_name[NMET] = {
 	"samples", "mean_return", "test_return", "test_error", "mean_std", "eta", "kl", "ess", "bound",
-	"policy_flags"
+	"policy_flags", "kl_gap", "residual_rel", "unreachable"
 };
 
 void pr_bench_opts_init(pr_bench_opts *o, const char *name)
@@ -237,6 +237,16 @@ static int run_rep(void *ctx, int rep, char *err)
 		m[M_KL] = r->kl;
 		m[M_ESS] = r->ess;
 		m[M_BOUND] = r->bound;
+		/* the certificate: bound 1 active, unreachable 1, both 0 failed */
+		m[M_KLGAP] = r->kl_gap;
+		m[M_RESREL] = r->residual_rel;
+		m[M_UNREACH] = r->status == PR_REPS_UNREACHABLE;
+		if (r->status == PR_REPS_FAILED && !c->cfg->reps.allow_failed) {
+			rc = pr_err(err, PR_ENUM, "bench: repetition %d, iteration %d: REPS answer not "
+			            "certified: %s (reps.allow_failed = 1 records it and goes on)", rep, it,
+			            r->reason);
+			goto done;
+		}
 		/* eq. 3.10: the REPS weights already contain the (uniform) q */
 		d.w = r->p;
 		next = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, c->cfg->policy.lambda, b->min_std,
@@ -294,8 +304,8 @@ static int write_curve(const char *dir, const bench_ctx *c, int lo, int hi, char
 			if (!rc)
 				rc = pr_csvw_int(w, it);
 			for (j = 0; j < NMET && !rc; j++)
-				rc = j == M_SAMPLES || j == M_BOUND || j == M_FLAGS ? pr_csvw_int(w, (long)m[j])
-				                                    : pr_csvw_num(w, m[j]);
+				rc = j == M_SAMPLES || j == M_BOUND || j == M_FLAGS || j == M_UNREACH ?
+				     pr_csvw_int(w, (long)m[j]) : pr_csvw_num(w, m[j]);
 			if (!rc)
 				rc = pr_csvw_endrow(w);
 		}

@@ -69,7 +69,10 @@ static const command commands[] = {
 	 "poolreps reps --return COL --features LIST [--base COL] [--epsilon E]\n"
 	 "              [--summary FILE] [-i IN.csv] [-o OUT.csv]\n"
 	 "  REPS weights p for every input row; LIST is a comma list of columns or a\n"
-	 "  prefix ending in '*'. --summary writes eta,dual,kl,ess,bound."},
+	 "  prefix ending in '*'. --summary writes one row eta,dual,kl,ess,bound,residual,\n"
+	 "  iterations,kl_gap,residual_rel,status: the certificate; status is active\n"
+	 "  (|KL - epsilon| and the relative feature residual <= 1e-9), unreachable (eta = 0:\n"
+	 "  p is the eta -> 0 limit, KL < epsilon) or failed, which exits 3."},
 	{"policy", "train,state,action,weight,sample,target", pr_cmd_policy,
 	 "poolreps policy --train FILE --state COLS --action COLS --weight COL [--sample N]\n"
 	 "                [--target COLS] [-i STATES.csv] [-o OUT.csv] [--set policy.key=value]...\n"

@@ -8,6 +8,7 @@
 
 #include <gsl/gsl_eigen.h>
 #include <gsl/gsl_errno.h>
+#include <gsl/gsl_linalg.h>
 #include <gsl/gsl_matrix.h>
 #include <gsl/gsl_randist.h>
 
@@ -84,18 +85,25 @@ void pr_policy_features(int kind, const double *s, int ds, double *psi)
 
 struct pr_policy {
 	int kind, ds, da;
-	/* gaussian and linear: mean = W psi(s), fixed covariance */
+	/* gaussian and linear: mean = W psi(s - xc), fixed covariance */
 	int features, nf;
 	double *W;          /* da x nf */
+	double *xc;         /* ds: the centre the linear features are taken about */
 	double *cov;        /* da x da */
 	double *V, *lam;    /* cov = V diag(lam) V^T, lam > 0 (floored) */
 	double logdet;      /* sum log lam */
 	/* tree */
 	pr_forest *forest;
-	int n, M, cap;
-	double *X;          /* n x (ds+1) design rows [1, s_i] (eq. 6.6) */
-	double *A;          /* n x da */
+	int n, M, cap, nl;
+	double *X, *A;      /* n x ds, n x da: states and actions minus zref */
+	double *zref;       /* ds + da: the weighted means of the states and actions */
 	double *w;          /* n REPS weights */
+	double *lm;         /* nl moment records (mom_*): each leaf's samples */
+	double *gm;         /* one moment record: all samples */
+	double *w2;         /* nl x nl: sum of w^2 over the samples two leaves
+	                       share (a leaf with itself: its own), or NULL when
+	                       too large (then sums walk the samples) */
+	double gw2;         /* sum of w^2 over all samples */
 	double lambda, min_std;
 	int covmode;
 };
@@ -133,12 +141,14 @@ static int eig_alloc(eig *e, int k)
 
 struct pr_policy_work {
 	int n, ds, da, cap;
-	double *what;     /* n: eq. 6.4 weights */
-	double *wn;       /* n: normalised */
+	double *what;     /* n: eq. 6.4 weights (residual covariance, no pair table) */
+	int *touched;     /* n: the samples with what > 0 */
 	int *leaves;      /* cap active leaves */
-	double *rhs, *B;  /* (ds+1) x da */
+	double *mom;      /* one moment record */
+	double *B;        /* ds x da slopes */
 	double *mean, *cov, *cov2, *z, *lam;
-	eig ek;           /* ds+1 */
+	double *sw;       /* ds + ds x da + ds x da: slope-solve scratch */
+	eig ek;           /* ds */
 	eig ea;           /* da: after a query, the eigenvectors and floored
 	                     eigenvalues of ws->cov */
 };
@@ -148,24 +158,33 @@ void pr_policy_work_free(pr_policy_work *w)
 	if (!w)
 		return;
 	free(w->what);
-	free(w->wn);
+	free(w->touched);
 	free(w->leaves);
-	free(w->rhs);
+	free(w->mom);
 	free(w->B);
 	free(w->mean);
 	free(w->cov);
 	free(w->cov2);
 	free(w->z);
 	free(w->lam);
+	free(w->sw);
 	eig_free(&w->ek);
 	eig_free(&w->ea);
 	free(w);
 }
 
+/* Doubles in one moment record for ds states and da actions: see mom_*. */
+static size_t mom_size(int ds, int da)
+{
+	size_t dz = (size_t)ds + (size_t)da;
+
+	return 1 + dz + dz * dz;
+}
+
 static pr_policy_work *work_new(int n, int ds, int da, int cap, char *err)
 {
 	pr_policy_work *w = calloc(1, sizeof *w);
-	size_t k = (size_t)ds + 1, a = (size_t)da;
+	size_t k = (size_t)ds, a = (size_t)da;
 
 	if (!w) {
 		pr_err(err, PR_ENOMEM, "policy: out of memory");
@@ -176,17 +195,19 @@ static pr_policy_work *work_new(int n, int ds, int da, int cap, char *err)
 	w->da = da;
 	w->cap = cap;
 	w->what = calloc((size_t)(n > 0 ? n : 1), sizeof *w->what);
-	w->wn = calloc((size_t)(n > 0 ? n : 1), sizeof *w->wn);
+	w->touched = calloc((size_t)(n > 0 ? n : 1), sizeof *w->touched);
 	w->leaves = calloc((size_t)(cap > 0 ? cap : 1), sizeof *w->leaves);
-	w->rhs = calloc(k * a, sizeof *w->rhs);
-	w->B = calloc(k * a, sizeof *w->B);
+	w->mom = calloc(mom_size(ds, da) + k + a, sizeof *w->mom); /* + mom_merge's scratch */
+	w->B = calloc(k * a + 1, sizeof *w->B);
 	w->mean = calloc(a, sizeof *w->mean);
 	w->cov = calloc(a * a, sizeof *w->cov);
 	w->cov2 = calloc(a * a, sizeof *w->cov2);
 	w->z = calloc(a, sizeof *w->z);
 	w->lam = calloc(a, sizeof *w->lam);
-	if (!w->what || !w->wn || !w->leaves || !w->rhs || !w->B || !w->mean || !w->cov ||
-	    !w->cov2 || !w->z || !w->lam || eig_alloc(&w->ek, (int)k) || eig_alloc(&w->ea, da)) {
+	w->sw = calloc(k + 2 * k * a + 1, sizeof *w->sw);
+	if (!w->what || !w->touched || !w->leaves || !w->mom || !w->B || !w->mean || !w->cov ||
+	    !w->cov2 || !w->z || !w->lam || !w->sw || (ds > 0 && eig_alloc(&w->ek, ds)) ||
+	    eig_alloc(&w->ea, da)) {
 		pr_policy_work_free(w);
 		pr_err(err, PR_ENOMEM, "policy: out of memory");
 		return NULL;
@@ -199,59 +220,86 @@ pr_policy_work *pr_policy_work_new(const pr_policy *p, char *err)
 	return work_new(p->n, p->ds, p->da, p->cap, err);
 }
 
-/* B (k x da) = (X^T W X + lambda I)^+ X^T W A (eq. 6.6) over the rows with
- * w_i > 0, through the eigen-decomposition of the k x k normal matrix:
- * eigenvalues below RCOND times the largest are dropped (PR_POLICY_PINV).
- * Returns the flags, or a negative status when GSL fails. */
-static int ridge_solve(int n, int k, int da, const double *X, const double *w,
-                       const double *A, double lambda, eig *e, double *rhs, double *B)
+/* The ridge solve shared by both fits, in standardised coordinates: given
+ * the SVD of the k-column standardised weighted design, X~ = U diag(sig) V^T,
+ * and U^T Y~ (k x da), the slopes b~ = V diag(sig / (sig^2 + lambda)) U^T Y~
+ * minimise |X~ b - Y~|^2 + lambda |b|^2. Singular values below RCOND times
+ * the largest are dropped (a rank-deficient design: minimum-norm slopes,
+ * PR_POLICY_PINV). V is k x k row-major (column l is the l-th vector).
+ * Returns the flags. */
+static int ridge_filter(int k, int da, const double *V, const double *sig, const double *UtY,
+                        double lambda, double *b)
 {
-	double lmax = 0.0;
-	int i, j, l, m, flags = 0;
+	double smax = 0.0;
+	int j, l, m, flags = 0;
 
-	gsl_matrix_set_zero(e->M);
-	memset(rhs, 0, (size_t)k * da * sizeof *rhs);
-	for (i = 0; i < n; i++) {
-		const double *x = X + (size_t)i * k, *a = A + (size_t)i * da;
-
-		if (!(w[i] > 0.0))
-			continue;
-		for (j = 0; j < k; j++) {
-			double wx = w[i] * x[j];
-
-			for (l = j; l < k; l++)
-				*gsl_matrix_ptr(e->M, (size_t)j, (size_t)l) += wx * x[l];
-			for (m = 0; m < da; m++)
-				rhs[j * da + m] += wx * a[m];
-		}
-	}
-	for (j = 0; j < k; j++) {
-		*gsl_matrix_ptr(e->M, (size_t)j, (size_t)j) += lambda;
-		for (l = j + 1; l < k; l++)
-			gsl_matrix_set(e->M, (size_t)l, (size_t)j, gsl_matrix_get(e->M, (size_t)j, (size_t)l));
-	}
-	if (gsl_eigen_symmv(e->M, e->ev, e->V, e->ws) != GSL_SUCCESS)
-		return PR_ENUM;
-	for (j = 0; j < k; j++)
-		lmax = fmax(lmax, gsl_vector_get(e->ev, (size_t)j));
-	memset(B, 0, (size_t)k * da * sizeof *B);
+	for (l = 0; l < k; l++)
+		smax = fmax(smax, sig[l]);
+	memset(b, 0, (size_t)k * da * sizeof *b);
 	for (l = 0; l < k; l++) {
-		double ll = gsl_vector_get(e->ev, (size_t)l);
+		double f;
 
-		if (!(ll > RCOND * lmax) || !(ll > 0.0)) {
+		if (!(sig[l] > RCOND * smax)) {
 			flags |= PR_POLICY_PINV;
 			continue;
 		}
+		f = sig[l] / (sig[l] * sig[l] + lambda);
+		for (m = 0; m < da; m++)
+			for (j = 0; j < k; j++)
+				b[j * da + m] += V[j * k + l] * f * UtY[l * da + m];
+	}
+	return flags;
+}
+
+/* Slopes B (k x da) of the weighted regression of a on x from centred second
+ * moments per unit weight: Cxx (k x k, row stride ldz) and Cxa (k x da, row
+ * stride ldz), ridge lambda on the slopes in standardised units (x_j / sd_j).
+ * Dimensions with no spread get slope 0 (PR_POLICY_PINV); if none has any,
+ * PR_POLICY_MEANONLY. The standardised correlation matrix is X~^T X~ of the
+ * standardised design, so its eigen-decomposition is that design's SVD
+ * (V, sig^2). sw: k + 2 k da scratch. Returns the flags or PR_ENUM. */
+static int slope_solve(int k, int da, const double *Cxx, const double *Cxa, int ldz,
+                       double lambda, eig *e, double *sw, double *B)
+{
+	double *sd = sw, *UtY = sw + k, *bs = UtY + (size_t)k * da;
+	int j, l, m, flags = 0, live = 0;
+
+	for (j = 0; j < k; j++) {
+		sd[j] = Cxx[j * ldz + j] > 0.0 ? sqrt(Cxx[j * ldz + j]) : 0.0;
+		live += sd[j] > 0.0;
+	}
+	memset(B, 0, (size_t)k * da * sizeof *B);
+	if (live < k)
+		flags |= PR_POLICY_PINV;
+	if (live == 0)
+		return flags | PR_POLICY_MEANONLY;
+	for (j = 0; j < k; j++)
+		for (l = 0; l < k; l++)
+			gsl_matrix_set(e->M, (size_t)j, (size_t)l,
+			               sd[j] > 0.0 && sd[l] > 0.0 ? Cxx[j * ldz + l] / (sd[j] * sd[l]) : 0.0);
+	if (gsl_eigen_symmv(e->M, e->ev, e->V, e->ws) != GSL_SUCCESS)
+		return PR_ENUM;
+	/* sig_l = sqrt(ev_l); U^T Y~ = diag(1/sig) V^T (standardised Cxa) */
+	for (l = 0; l < k; l++) {
+		double ev = gsl_vector_get(e->ev, (size_t)l);
+
+		bs[l] = ev > 0.0 ? sqrt(ev) : 0.0;
 		for (m = 0; m < da; m++) {
-			double c = 0.0;
+			double t = 0.0;
 
 			for (j = 0; j < k; j++)
-				c += gsl_matrix_get(e->V, (size_t)j, (size_t)l) * rhs[j * da + m];
-			c /= ll;
-			for (j = 0; j < k; j++)
-				B[j * da + m] += c * gsl_matrix_get(e->V, (size_t)j, (size_t)l);
+				if (sd[j] > 0.0)
+					t += gsl_matrix_get(e->V, (size_t)j, (size_t)l) * Cxa[j * ldz + m] / sd[j];
+			UtY[l * da + m] = bs[l] > 0.0 ? t / bs[l] : 0.0;
 		}
 	}
+	for (j = 0; j < k; j++)
+		for (l = 0; l < k; l++)
+			gsl_matrix_set(e->M, (size_t)j, (size_t)l, gsl_matrix_get(e->V, (size_t)j, (size_t)l));
+	flags |= ridge_filter(k, da, e->M->data, bs, UtY, lambda, B);
+	for (j = 0; j < k; j++)
+		for (m = 0; m < da; m++)
+			B[j * da + m] = sd[j] > 0.0 ? B[j * da + m] / sd[j] : 0.0;
 	return flags;
 }
 
@@ -345,9 +393,14 @@ void pr_policy_free(pr_policy *p)
 	free(p->V);
 	free(p->lam);
 	pr_forest_free(p->forest);
+	free(p->xc);
 	free(p->X);
 	free(p->A);
+	free(p->zref);
 	free(p->w);
+	free(p->lm);
+	free(p->gm);
+	free(p->w2);
 	free(p);
 }
 
@@ -443,16 +496,121 @@ static int check_data(const pr_policy_data *d, int need_y, double *sw, char *err
 	return PR_OK;
 }
 
+/* B (nf x da) of a = B^T psi with psi_0 = 1, by weighted least squares with
+ * weights w (sum 1) in centred, standardised coordinates: the other columns
+ * are centred on their weighted means and divided by their weighted
+ * standard deviations, the SVD of the weighted design (one-sided Jacobi)
+ * gives ridge_filter's slopes, and the intercept follows from the means, so
+ * it is not penalised. Returns the flags or a negative status. */
+static int design_solve(int n, int nf, int da, const double *X, const double *w,
+                        const double *A, double lambda, double *B)
+{
+	const int k = nf - 1;
+	const size_t kk = (size_t)(k > 0 ? k : 1);
+	int i, j, l, c, m = 0, r = 0, rows, live = 0, flags = 0, st;
+	double *mean = calloc((size_t)nf + (size_t)da + kk * (1 + 2 * (size_t)da), sizeof *mean);
+	double *abar, *sd, *UtY, *bs;
+	gsl_matrix *D = NULL, *Y = NULL, *V = NULL;
+	gsl_vector *sig = NULL;
+
+	for (i = 0; i < n; i++)
+		m += w[i] > 0.0;
+	rows = m > k ? m : k;
+	if (k > 0) {
+		D = gsl_matrix_calloc((size_t)rows, (size_t)k);
+		Y = gsl_matrix_calloc((size_t)rows, (size_t)da);
+		V = gsl_matrix_alloc((size_t)k, (size_t)k);
+		sig = gsl_vector_alloc((size_t)k);
+	}
+	if (!mean || (k > 0 && (!D || !Y || !V || !sig))) {
+		st = PR_ENOMEM;
+		goto done;
+	}
+	abar = mean + nf;
+	sd = abar + da;
+	UtY = sd + kk;
+	bs = UtY + kk * (size_t)da;
+	/* weighted means of psi_1.. and a, twice (the second pass takes out the
+	 * first's round-off), and the standard deviations of psi_1.. */
+	for (j = 1; j < nf + da; j++) {
+		double mu = 0.0, cr = 0.0;
+
+		for (i = 0; i < n; i++)
+			mu += w[i] * (j < nf ? X[(size_t)i * nf + j] : A[(size_t)i * da + j - nf]);
+		for (i = 0; i < n; i++)
+			cr += w[i] * ((j < nf ? X[(size_t)i * nf + j] : A[(size_t)i * da + j - nf]) - mu);
+		*(j < nf ? &mean[j] : &abar[j - nf]) = mu + cr;
+	}
+	for (j = 0; j < k; j++) {
+		double v = 0.0;
+
+		for (i = 0; i < n; i++)
+			v += w[i] * (X[(size_t)i * nf + 1 + j] - mean[1 + j]) * (X[(size_t)i * nf + 1 + j] - mean[1 + j]);
+		sd[j] = v > 0.0 ? sqrt(v) : 0.0;
+		live += sd[j] > 0.0;
+	}
+	memset(B, 0, (size_t)nf * da * sizeof *B);
+	if (live < k)
+		flags |= PR_POLICY_PINV;
+	if (k > 0 && live == 0)
+		flags |= PR_POLICY_MEANONLY;
+	if (live > 0) {
+		for (i = 0; i < n; i++) {
+			double sq = sqrt(w[i]);
+
+			if (!(w[i] > 0.0))
+				continue;
+			for (j = 0; j < k; j++)
+				gsl_matrix_set(D, (size_t)r, (size_t)j, sd[j] > 0.0 ?
+				               sq * (X[(size_t)i * nf + 1 + j] - mean[1 + j]) / sd[j] : 0.0);
+			for (j = 0; j < da; j++)
+				gsl_matrix_set(Y, (size_t)r, (size_t)j, sq * (A[(size_t)i * da + j] - abar[j]));
+			r++;
+		}
+		if (gsl_linalg_SV_decomp_jacobi(D, V, sig) != GSL_SUCCESS) {
+			st = PR_ENUM;
+			goto done;
+		}
+		/* D now holds U */
+		for (l = 0; l < k; l++)
+			for (c = 0; c < da; c++) {
+				double t = 0.0;
+
+				for (i = 0; i < rows; i++)
+					t += gsl_matrix_get(D, (size_t)i, (size_t)l) * gsl_matrix_get(Y, (size_t)i, (size_t)c);
+				UtY[l * da + c] = t;
+			}
+		flags |= ridge_filter(k, da, V->data, sig->data, UtY, lambda, bs);
+		for (j = 0; j < k; j++)
+			for (c = 0; c < da; c++)
+				B[(1 + j) * da + c] = sd[j] > 0.0 ? bs[j * da + c] / sd[j] : 0.0;
+	}
+	for (c = 0; c < da; c++) {
+		B[c] = abar[c];
+		for (l = 1; l < nf; l++)
+			B[c] -= B[l * da + c] * mean[l];
+	}
+	st = flags;
+done:
+	free(mean);
+	gsl_matrix_free(D);
+	gsl_matrix_free(Y);
+	gsl_matrix_free(V);
+	gsl_vector_free(sig);
+	return st;
+}
+
 /* Weighted ML (eq. 3.10) of a linear-Gaussian policy: with w normalised to
- * sum 1, W^T = (Psi^T D Psi + lambda I)^+ Psi^T D A maximises
+ * sum 1, the weighted least-squares W (design_solve, features of the states
+ * taken about their weighted mean xc) maximises
  * sum w_i log N(a_i | W psi_i, Sigma) for any Sigma, and then
  * Sigma = sum w_i r_i r_i^T. */
 pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double lambda,
                                 double min_std, int *flags, char *err)
 {
 	pr_policy *p = NULL;
-	double *X = NULL, *wn = NULL, *rhs = NULL, *B = NULL, sw, *r;
-	eig ek = { 0 }, ea = { 0 };
+	double *X = NULL, *wn = NULL, *rhs = NULL, *B = NULL, *u = NULL, sw, *r;
+	eig ea = { 0 };
 	int nf, i, j, l, f = 0, st;
 
 	if (flags)
@@ -473,18 +631,28 @@ pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double la
 	wn = malloc((size_t)d->n * sizeof *wn);
 	rhs = malloc((size_t)nf * d->da * sizeof *rhs);
 	B = malloc((size_t)nf * d->da * sizeof *B);
-	if (!p || !X || !wn || !rhs || !B || eig_alloc(&ek, nf) || eig_alloc(&ea, d->da) ||
-	    !(p->W = malloc((size_t)d->da * nf * sizeof *p->W))) {
+	u = malloc((size_t)d->ds * sizeof *u);
+	if (!p || !X || !wn || !rhs || !B || !u || eig_alloc(&ea, d->da) ||
+	    !(p->W = malloc((size_t)d->da * nf * sizeof *p->W)) ||
+	    !(p->xc = calloc((size_t)d->ds + 1, sizeof *p->xc))) {
 		pr_err(err, PR_ENOMEM, "policy: out of memory");
 		goto fail;
 	}
 	p->features = features;
 	p->nf = nf;
-	for (i = 0; i < d->n; i++) {
-		pr_policy_features(features, d->S + (size_t)i * d->ds, d->ds, X + (size_t)i * nf);
+	for (i = 0; i < d->n; i++)
 		wn[i] = (d->w ? d->w[i] : 1.0) / sw;
+	for (i = 0; i < d->n; i++)
+		for (j = 0; j < d->ds; j++)
+			p->xc[j] += wn[i] * d->S[(size_t)i * d->ds + j];
+	for (i = 0; i < d->n; i++) {
+		/* psi(s - xc): the same model, but the features do not depend on
+		 * where the states sit (offsets would swamp the quadratic terms) */
+		for (j = 0; j < d->ds; j++)
+			u[j] = d->S[(size_t)i * d->ds + j] - p->xc[j];
+		pr_policy_features(features, u, d->ds, X + (size_t)i * nf);
 	}
-	st = ridge_solve(d->n, nf, d->da, X, wn, d->A, lambda, &ek, rhs, B);
+	st = design_solve(d->n, nf, d->da, X, wn, d->A, lambda, B);
 	if (st < 0) {
 		pr_err(err, PR_ENUM, "policy: weighted regression failed");
 		goto fail;
@@ -518,7 +686,7 @@ pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double la
 	free(wn);
 	free(rhs);
 	free(B);
-	eig_free(&ek);
+	free(u);
 	eig_free(&ea);
 	return p;
 fail:
@@ -526,23 +694,98 @@ fail:
 	free(wn);
 	free(rhs);
 	free(B);
-	eig_free(&ek);
+	free(u);
 	eig_free(&ea);
 	pr_policy_free(p);
 	return NULL;
+}
+
+/* ---- moment records ----
+ * One record summarises weighted samples z = (x, a) (dz = ds + da values,
+ * relative to p->zref): rec[0] = sum w, rec[1..dz] = the weighted mean,
+ * then the dz x dz centred sums sum w (z - mean)(z - mean)^T. */
+
+/* The record of samples idx (count k) with weights w. */
+static void mom_of(const pr_policy *p, const int *idx, int k, double *rec)
+{
+	const int ds = p->ds, da = p->da, dz = ds + da;
+	double *mu = rec + 1, *S = rec + 1 + dz;
+	int i, j, l, pass;
+
+	memset(rec, 0, mom_size(ds, da) * sizeof *rec);
+	for (i = 0; i < k; i++)
+		rec[0] += p->w[idx[i]];
+	if (!(rec[0] > 0.0))
+		return;
+	/* the mean twice: the second pass takes out the first's round-off */
+	for (pass = 0; pass < 2; pass++) {
+		double c[64], *cc = dz <= 64 ? c : S; /* S is free scratch until the end */
+
+		memset(cc, 0, (size_t)dz * sizeof *cc);
+		for (i = 0; i < k; i++) {
+			const double wi = p->w[idx[i]], *x = p->X + (size_t)idx[i] * ds,
+			             *a = p->A + (size_t)idx[i] * da;
+
+			for (j = 0; j < dz; j++)
+				cc[j] += wi * ((j < ds ? x[j] : a[j - ds]) - mu[j]);
+		}
+		for (j = 0; j < dz; j++)
+			mu[j] += cc[j] / rec[0];
+	}
+	memset(S, 0, (size_t)dz * dz * sizeof *S);
+	for (i = 0; i < k; i++) {
+		const double wi = p->w[idx[i]], *x = p->X + (size_t)idx[i] * ds,
+		             *a = p->A + (size_t)idx[i] * da;
+
+		for (j = 0; j < dz; j++) {
+			double dj = wi * ((j < ds ? x[j] : a[j - ds]) - mu[j]);
+
+			for (l = j; l < dz; l++)
+				S[j * dz + l] += dj * ((l < ds ? x[l] : a[l - ds]) - mu[l]);
+		}
+	}
+	for (j = 0; j < dz; j++)
+		for (l = 0; l < j; l++)
+			S[j * dz + l] = S[l * dz + j];
+}
+
+/* acc <- acc and r pooled (the pairwise update of Chan, Golub and LeVeque:
+ * no sums of squares about zero, so nothing cancels). */
+static void mom_merge(int dz, double *acc, const double *r)
+{
+	double Wa = acc[0], Wb = r[0], W = Wa + Wb, f, *d;
+	int j, l;
+
+	if (!(Wb > 0.0))
+		return;
+	if (!(Wa > 0.0)) {
+		memcpy(acc, r, (1 + (size_t)dz + (size_t)dz * dz) * sizeof *acc);
+		return;
+	}
+	f = Wa * Wb / W;
+	d = acc + 1 + dz + (size_t)dz * dz; /* dz scratch after the record */
+	for (j = 0; j < dz; j++)
+		d[j] = r[1 + j] - acc[1 + j];
+	for (j = 0; j < dz; j++) {
+		acc[1 + j] += d[j] * (Wb / W);
+		for (l = 0; l < dz; l++)
+			acc[1 + dz + j * dz + l] += r[1 + dz + j * dz + l] + f * d[j] * d[l];
+	}
+	acc[0] = W;
 }
 
 pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
                               gsl_rng *rng, char *err)
 {
 	pr_policy *p;
-	const int reward = o->target == PR_TARGET_REWARD_STATE;
+	const int reward = o->target == PR_TARGET_REWARD_STATE, ds = d->ds, da = d->da;
+	const size_t LM = mom_size(ds, da);
 	double sw;
-	int i, j, k;
+	int *all = NULL, i, j, l;
 
 	if (pr_policy_opts_check(o, err) != PR_OK || check_data(d, reward, &sw, err) != PR_OK)
 		return NULL;
-	p = policy_alloc(PR_POLICY_TREE, d->ds, d->da);
+	p = policy_alloc(PR_POLICY_TREE, ds, da);
 	if (!p) {
 		pr_err(err, PR_ENOMEM, "policy: out of memory");
 		return NULL;
@@ -551,132 +794,234 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 	p->lambda = o->lambda;
 	p->min_std = o->min_std;
 	p->covmode = o->cov;
-	k = d->ds + 1;
-	p->X = malloc((size_t)d->n * k * sizeof *p->X);
-	p->A = malloc((size_t)d->n * d->da * sizeof *p->A);
+	p->X = malloc((size_t)d->n * ds * sizeof *p->X);
+	p->A = malloc((size_t)d->n * da * sizeof *p->A);
+	p->zref = calloc((size_t)(ds + da), sizeof *p->zref);
 	p->w = malloc((size_t)d->n * sizeof *p->w);
-	if (!p->X || !p->A || !p->w) {
+	all = malloc((size_t)d->n * sizeof *all);
+	if (!p->X || !p->A || !p->zref || !p->w || !all) {
+		free(all);
 		pr_policy_free(p);
 		pr_err(err, PR_ENOMEM, "policy: out of memory");
 		return NULL;
 	}
 	for (i = 0; i < d->n; i++) {
-		p->X[(size_t)i * k] = 1.0;
-		for (j = 0; j < d->ds; j++)
-			p->X[(size_t)i * k + 1 + j] = d->S[(size_t)i * d->ds + j];
 		p->w[i] = d->w ? d->w[i] : 1.0;
+		all[i] = i;
 	}
-	memcpy(p->A, d->A, (size_t)d->n * d->da * sizeof *p->A);
+	/* states and actions relative to their weighted means: what the
+	 * regressions see no longer depends on offsets */
+	for (i = 0; i < d->n; i++)
+		for (j = 0; j < ds + da; j++)
+			p->zref[j] += p->w[i] / sw * (j < ds ? d->S[(size_t)i * ds + j] : d->A[(size_t)i * da + j - ds]);
+	for (i = 0; i < d->n; i++) {
+		for (j = 0; j < ds; j++)
+			p->X[(size_t)i * ds + j] = d->S[(size_t)i * ds + j] - p->zref[j];
+		for (j = 0; j < da; j++)
+			p->A[(size_t)i * da + j] = d->A[(size_t)i * da + j] - p->zref[ds + j];
+	}
 	/* eq. 6.3: the weighted score uses the REPS weights */
-	p->forest = pr_forest_fit(&o->forest, d->S, d->n, d->ds, reward ? d->Y : d->A,
-	                          reward ? d->dy : d->da, p->w, rng, err);
+	p->forest = pr_forest_fit(&o->forest, d->S, d->n, ds, reward ? d->Y : d->A,
+	                          reward ? d->dy : da, p->w, rng, err);
 	if (!p->forest) {
+		free(all);
 		pr_policy_free(p);
 		return NULL;
 	}
 	p->M = pr_forest_ntrees(p->forest);
 	p->cap = p->M;
+	p->nl = pr_forest_nleaves(p->forest);
+	/* per leaf and overall: the moment records; per pair of leaves, the
+	 * sum of w^2 over the samples they share (eq. 6.9 needs sum w-hat^2) */
+	p->lm = malloc((size_t)p->nl * LM * sizeof *p->lm);
+	p->gm = malloc((LM + (size_t)(ds + da)) * sizeof *p->gm);
+	if ((size_t)p->nl * (size_t)p->nl <= 4u << 20)
+		p->w2 = calloc((size_t)p->nl * (size_t)p->nl, sizeof *p->w2);
+	if (!p->lm || !p->gm || ((size_t)p->nl * (size_t)p->nl <= 4u << 20 && !p->w2)) {
+		free(all);
+		pr_policy_free(p);
+		pr_err(err, PR_ENOMEM, "policy: out of memory");
+		return NULL;
+	}
+	for (l = 0; l < p->nl; l++) {
+		const int *idx;
+		int k = pr_forest_leaf_samples(p->forest, l, &idx);
+
+		mom_of(p, idx, k, p->lm + (size_t)l * LM);
+	}
+	mom_of(p, all, d->n, p->gm);
+	p->gw2 = 0.0;
+	for (i = 0; i < d->n; i++)
+		p->gw2 += p->w[i] * p->w[i];
+	if (p->w2) {
+		int *lv = malloc((size_t)p->M * sizeof *lv), u, v;
+
+		if (!lv) {
+			free(all);
+			pr_policy_free(p);
+			pr_err(err, PR_ENOMEM, "policy: out of memory");
+			return NULL;
+		}
+		for (i = 0; i < d->n; i++) {
+			double w2 = p->w[i] * p->w[i];
+
+			if (pr_forest_active(p->forest, d->S + (size_t)i * ds, ds, lv, p->M) != p->M) {
+				free(lv);
+				free(all);
+				pr_policy_free(p);
+				pr_err(err, PR_ENUM, "policy: forest query failed");
+				return NULL;
+			}
+			for (u = 0; u < p->M; u++)
+				for (v = 0; v < p->M; v++)
+					p->w2[(size_t)lv[u] * p->nl + lv[v]] += w2;
+		}
+		free(lv);
+	}
+	free(all);
 	return p;
 }
 
-/* Locally weighted regression with the weights what (eq. 6.6-6.9), at
- * state s: mean and (unfloored) covariance into ws->mean, ws->cov. The
- * weights are normalised to sum 1 first, which leaves eq. 6.7-6.9 as they
- * are; the ridge is divided by the same total, so it is eq. 6.6's lambda on
- * the raw weights. Returns the flags, PR_POLICY_COVFALL when Z <= 0 (mean
- * still valid), or a negative status. */
-static int lwr(const pr_policy *p, const double *s, const double *what, pr_policy_work *ws)
+/* eq. 6.4 weights w-hat (ws->what, the nonzero ones listed in ws->touched)
+ * by walking the samples of the active leaves; returns their count. */
+static int walk_weights(const pr_policy *p, const int *leaves, int nl, pr_policy_work *ws)
 {
-	const int k = p->ds + 1, da = p->da;
-	double tot = 0.0, s2 = 0.0, Z;
-	int i, j, l, npos = 0, flags = 0;
-	double *mu = ws->mean, *C = ws->cov, *r = ws->z;
+	int t, i, nt = 0;
 
-	for (i = 0; i < p->n; i++)
-		tot += what[i];
-	for (i = 0; i < p->n; i++) {
-		ws->wn[i] = what[i] / tot;
-		s2 += ws->wn[i] * ws->wn[i];
-		npos += ws->wn[i] > 0.0;
-	}
-	memset(mu, 0, (size_t)da * sizeof *mu);
-	if (npos < k) {
-		/* fewer weighted samples than coefficients: no slope to fit */
-		flags |= PR_POLICY_MEANONLY;
-		for (i = 0; i < p->n; i++)
-			for (j = 0; j < da; j++)
-				mu[j] += ws->wn[i] * p->A[(size_t)i * da + j];
-	} else {
-		int st = ridge_solve(p->n, k, da, p->X, ws->wn, p->A, p->lambda / tot, &ws->ek, ws->rhs, ws->B);
+	for (t = 0; t < nl; t++) {
+		const int *idx;
+		int m = pr_forest_leaf_samples(p->forest, leaves[t], &idx);
 
-		if (st < 0)
-			return st;
-		flags |= st;
-		/* eq. 6.7: mu = beta s + alpha */
-		for (j = 0; j < da; j++) {
-			mu[j] = ws->B[j];
-			for (l = 1; l < k; l++)
-				mu[j] += ws->B[l * da + j] * s[l - 1];
+		/* w_i/M times the number of active leaves shared with s */
+		for (i = 0; i < m; i++) {
+			if (ws->what[idx[i]] == 0.0 && p->w[idx[i]] > 0.0)
+				ws->touched[nt++] = idx[i];
+			ws->what[idx[i]] += p->w[idx[i]] / p->M;
 		}
 	}
-	/* eq. 6.9 with sum w = 1 */
-	Z = 1.0 - s2;
+	return nt;
+}
+
+static void unwalk(pr_policy_work *ws, int nt)
+{
+	int k;
+
+	for (k = 0; k < nt; k++)
+		ws->what[ws->touched[k]] = 0.0;
+}
+
+/* Locally weighted regression eq. 6.6-6.9 at state s from the pooled
+ * moments rec of the weights w-hat (tot = sum w-hat, s2n = sum w-hat^2 /
+ * tot^2), in centred, standardised coordinates:
+ *   mu(s) = a_bar + B^T (s - s_bar), B from slope_solve with ridge
+ *   lambda / tot (eq. 6.6's lambda on the raw weights),
+ *   Sigma = sum w-hat (a - mu)(a - mu)^T / Z, Z = tot (1 - s2n) (eq. 6.8-6.9):
+ *   about mu(s) this is tot [C_aa + (a_bar - mu)(a_bar - mu)^T]; about each
+ *   sample's own fit (residual covariance) the samples are walked: the nt
+ *   weights in ws->what / ws->touched, or every sample with w when global.
+ * Mean and (unfloored) covariance into ws->mean, ws->cov. Returns the
+ * flags, PR_POLICY_COVFALL when Z <= ZMIN tot (mean still valid), or a
+ * negative status. */
+static int lwr(const pr_policy *p, const double *rec, double tot, double s2n, int global, int nt,
+               const double *s, pr_policy_work *ws)
+{
+	const int ds = p->ds, da = p->da, dz = ds + da;
+	const double *mu = rec + 1, *S = rec + 1 + dz;
+	double *C = ws->cov, *B = ws->B, *r = ws->z;
+	int j, l, i, k, flags;
+
+	/* slope_solve takes the centred sums: the factor 1/W of the moments per
+	 * unit weight cancels in the standardised solve */
+	flags = slope_solve(ds, da, S, S + ds, dz, p->lambda / tot, &ws->ek, ws->sw, B);
+	if (flags < 0)
+		return flags;
+	for (j = 0; j < da; j++) {
+		ws->mean[j] = mu[ds + j] + p->zref[ds + j];
+		for (l = 0; l < ds; l++)
+			ws->mean[j] += B[l * da + j] * (s[l] - p->zref[l] - mu[l]);
+	}
 	memset(C, 0, (size_t)da * da * sizeof *C);
-	if (!(Z > ZMIN))
+	if (!(1.0 - s2n > ZMIN))
 		return flags | PR_POLICY_COVFALL;
-	for (i = 0; i < p->n; i++) {
-		const double *a = p->A + (size_t)i * da;
+	if (p->covmode == PR_COV_RESIDUAL && !(flags & PR_POLICY_MEANONLY)) {
+		int n = global ? p->n : nt;
+		double wt = 0.0;
 
-		if (!(ws->wn[i] > 0.0))
-			continue;
-		for (j = 0; j < da; j++) {
-			double c = mu[j];
+		for (k = 0; k < n; k++) {
+			const int ii = global ? k : ws->touched[k];
+			const double wi = global ? p->w[ii] : ws->what[ii];
+			const double *x = p->X + (size_t)ii * ds, *a = p->A + (size_t)ii * da;
 
-			if (p->covmode == PR_COV_RESIDUAL && !(flags & PR_POLICY_MEANONLY)) {
-				c = ws->B[j];
-				for (l = 1; l < k; l++)
-					c += ws->B[l * da + j] * p->X[(size_t)i * k + l];
+			if (!(wi > 0.0))
+				continue;
+			wt += wi;
+			for (j = 0; j < da; j++) {
+				r[j] = a[j] - mu[ds + j];
+				for (i = 0; i < ds; i++)
+					r[j] -= B[i * da + j] * (x[i] - mu[i]);
 			}
-			r[j] = a[j] - c;
+			for (j = 0; j < da; j++)
+				for (l = j; l < da; l++)
+					C[j * da + l] += wi * r[j] * r[l];
 		}
-		/* eq. 6.8 */
 		for (j = 0; j < da; j++)
 			for (l = j; l < da; l++)
-				C[j * da + l] += ws->wn[i] * r[j] * r[l];
+				C[j * da + l] /= wt;
+	} else {
+		/* eq. 6.8 about mu(s): the spread about a_bar plus the shift */
+		for (j = 0; j < da; j++)
+			for (l = j; l < da; l++)
+				C[j * da + l] = S[(ds + j) * dz + ds + l] / rec[0] +
+				                (mu[ds + j] + p->zref[ds + j] - ws->mean[j]) *
+				                (mu[ds + l] + p->zref[ds + l] - ws->mean[l]);
 	}
+	/* divided by Z / tot = 1 - s2n (eq. 6.9) */
 	for (j = 0; j < da; j++)
 		for (l = j; l < da; l++)
-			C[l * da + j] = C[j * da + l] /= Z;
+			C[l * da + j] = C[j * da + l] /= 1.0 - s2n;
 	return flags;
 }
 
-/* The tree policy at s: eq. 6.4 weights by walking the active leaves and
- * their sample lists, then lwr(), with the fallbacks of PR_POLICY_*. */
+/* The tree policy at s: eq. 6.4's weights pooled leaf by leaf (sum w-hat f =
+ * (1/M) sum over the active leaves of sum w f), then lwr(), with the
+ * fallbacks of PR_POLICY_*. */
 static int tree_eval(const pr_policy *p, const double *s, int *flags, pr_policy_work *ws,
                      char *err)
 {
-	double tot = 0.0;
-	int nl, t, i, f = 0, st;
+	const size_t LM = mom_size(p->ds, p->da);
+	const int dz = p->ds + p->da;
+	double *rec = ws->mom, s2 = 0.0, tot, s2n;
+	int nl, t, u, f = 0, st, nt = 0, walk;
 
 	nl = pr_forest_active(p->forest, s, p->ds, ws->leaves, ws->cap);
 	if (nl < 0)
 		return pr_err(err, PR_ENUM, "policy: forest query failed");
-	memset(ws->what, 0, (size_t)p->n * sizeof *ws->what);
-	for (t = 0; t < nl; t++) {
-		const int *idx;
-		int m = pr_forest_leaf_samples(p->forest, ws->leaves[t], &idx);
-
-		/* eq. 6.4: w_i/M times the number of active leaves shared with s */
-		for (i = 0; i < m; i++)
-			ws->what[idx[i]] += p->w[idx[i]] / p->M;
-	}
-	for (i = 0; i < p->n; i++)
-		tot += ws->what[i];
-	if (!(tot > 0.0) || !isfinite(tot)) {
+	rec[0] = 0.0;
+	for (t = 0; t < nl; t++)
+		mom_merge(dz, rec, p->lm + (size_t)ws->leaves[t] * LM);
+	walk = !p->w2 || p->covmode == PR_COV_RESIDUAL;
+	if (!(rec[0] > 0.0) || !isfinite(rec[0])) {
+		/* no weight around s: the global weighted fit */
 		f |= PR_POLICY_GLOBAL;
-		memcpy(ws->what, p->w, (size_t)p->n * sizeof *p->w);
+		memcpy(rec, p->gm, LM * sizeof *rec);
+		st = lwr(p, rec, rec[0], p->gw2 / (rec[0] * rec[0]), 1, 0, s, ws);
+	} else {
+		if (walk)
+			nt = walk_weights(p, ws->leaves, nl, ws);
+		if (p->w2) {
+			for (t = 0; t < nl; t++)
+				for (u = 0; u < nl; u++)
+					s2 += p->w2[(size_t)ws->leaves[t] * p->nl + ws->leaves[u]];
+		} else {
+			for (t = 0; t < nt; t++)
+				s2 += ws->what[ws->touched[t]] * ws->what[ws->touched[t]] * (double)p->M * p->M;
+		}
+		tot = rec[0] / p->M;
+		s2n = s2 / (rec[0] * rec[0]);
+		st = lwr(p, rec, tot, s2n, 0, nt, s, ws);
+		if (walk)
+			unwalk(ws, nt);
 	}
-	st = lwr(p, s, ws->what, ws);
 	if (st < 0)
 		return pr_err(err, PR_ENUM, "policy: local regression failed");
 	f |= st;
@@ -684,7 +1029,8 @@ static int tree_eval(const pr_policy *p, const double *s, int *flags, pr_policy_
 		/* one effective local sample: take the spread of the global weights
 		 * around the local mean's global counterpart */
 		memcpy(ws->cov2, ws->mean, (size_t)p->da * sizeof *ws->mean);
-		st = lwr(p, s, p->w, ws);
+		memcpy(rec, p->gm, LM * sizeof *rec);
+		st = lwr(p, rec, rec[0], p->gw2 / (rec[0] * rec[0]), 1, 0, s, ws);
 		if (st < 0)
 			return pr_err(err, PR_ENUM, "policy: global regression failed");
 		memcpy(ws->mean, ws->cov2, (size_t)p->da * sizeof *ws->mean);
@@ -712,11 +1058,13 @@ static int eval_into(const pr_policy *p, const double *s, int *flags, pr_policy_
 	if (p->nf == 1) {
 		memcpy(ws->mean, p->W, (size_t)p->da * sizeof *p->W);
 	} else {
-		double *psi = malloc((size_t)p->nf * sizeof *psi);
+		double *psi = malloc(((size_t)p->nf + (size_t)p->ds) * sizeof *psi), *u = psi + p->nf;
 
 		if (!psi)
 			return pr_err(err, PR_ENOMEM, "policy: out of memory");
-		pr_policy_features(p->features, s, p->ds, psi);
+		for (j = 0; j < p->ds; j++)
+			u[j] = s[j] - p->xc[j];
+		pr_policy_features(p->features, u, p->ds, psi);
 		for (j = 0; j < p->da; j++) {
 			ws->mean[j] = 0.0;
 			for (l = 0; l < p->nf; l++)

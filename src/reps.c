@@ -1,14 +1,36 @@
-/* reps.c — episodic contextual REPS: the dual eq. 3.8, its gradient, the
- * L-BFGS solve with exact back-mapping of standardised returns, the checks
- * of SPEC.md §4, and importance weights for sample reuse. */
+/* reps.c — episodic contextual REPS (thesis ch. 3): the dual eq. 3.8, its
+ * certified solve, and importance weights for sample reuse.
+ *
+ * The solve, in standardised units (returns shifted by their maximum and
+ * divided by their q-weighted spread; dense features centred on phi_hat and
+ * divided by their largest deviation, so both are O(1)):
+ *  1. theta_solve: Newton's method on theta at fixed eta with the exact
+ *     Hessian (1/eta) Cov_p(phi), Jacobi-scaled, a 1e-10 shift for the
+ *     directions in which the features are linearly dependent, Armijo steps;
+ *  2. search: a safeguarded Newton root search on y = log eta for
+ *     KL(p_eta || q) = eps; h(eta) = min_theta g is convex with
+ *     h'(eta) = eps - KL, and dKL/dy = -ResVar_p(u | phi), u = A/eta, the
+ *     variance of u left after regressing on the features (a Schur
+ *     complement of the same Hessian). The same regression gives the
+ *     predictor dtheta/dy = -eta Cov_p(phi)^-1 Cov_p(phi, u);
+ *  3. limit: when the search heads below eta_min with KL < eps, the
+ *     eta -> 0 limit p_0 decides: the feature-matching linear programme
+ *     (GLPK), its optimal face (the zero reduced costs, and a second LP for
+ *     the largest support on them when the vertex does not show it), and
+ *     the maximum-entropy point of that face (theta_solve at eta = 1 with
+ *     R = 0). KL(p_0||q) < eps: unreachable, answer p_0 at eta = 0.
+ *     Otherwise the root lies below eta_min and the search goes on.
+ * Every answer is then certified (certify): see reps.h. */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <stdio.h>
 
-#include <gsl/gsl_eigen.h>
+#include <glpk.h>
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_linalg.h>
 #include <gsl/gsl_matrix.h>
-#include <nlopt.h>
 
 #include "poolreps/reps.h"
 
@@ -17,132 +39,1528 @@ void pr_reps_opts_init(pr_reps_opts *o)
 	o->epsilon = 0.5;
 	o->ridge = 0.0;
 	o->max_iter = 2000;
-	o->eta_min = 1e-8;
+	o->eta_min = 1e-2;
+	o->allow_failed = 0;
 }
 
-/* Everything one dual evaluation needs; the last evaluation's weights,
- * KL(p||q) and Var_p((R - theta^T phi)/eta) stay behind for the checks. */
-typedef struct {
-	int n, d;
-	const double *R;      /* returns (standardised by pr_reps_solve) */
-	const double *q;      /* base weights, sum 1 */
-	const double *phi;    /* dense features, or NULL */
-	const int *rowptr, *col;
-	const double *val;
-	const double *phihat; /* sum_i q_i phi_i */
-	double eps, ridge;
-	double *A;            /* n: R_i - theta^T phi_i */
-	double *p;            /* n: weights at the last evaluation */
-	double kl, var;       /* KL(p||q), Var_p(A/eta) at the last evaluation */
-	double amax;          /* max A_i at the last evaluation */
-	int evals;
-	int groups;           /* > 0: one-hot features in this many blocks (IPF path) */
-	double *mx, *sm, *sv; /* IPF scratch: d, d, n */
-} dual_ctx;
+const char *pr_reps_status_name(int status)
+{
+	switch (status) {
+	case PR_REPS_ACTIVE: return "active";
+	case PR_REPS_UNREACHABLE: return "unreachable";
+	default: return "failed";
+	}
+}
 
-static double row_dot(const dual_ctx *c, int i, const double *theta)
+/* Inner (theta) and outer (KL) targets, well inside PR_REPS_TOL. */
+#define THETA_TOL 1e-13
+#define KL_TOL 1e-12
+/* A residual that stops falling counts as converged below this (well inside
+ * the certificate's PR_REPS_TOL; the certificate checks it again). */
+#define FLOOR_TOL 1e-11
+/* Shift added to the Jacobi-scaled covariance (unit diagonal) before its
+ * Cholesky factorisation: it bounds steps along exactly dependent feature
+ * directions, which leave p unchanged. */
+#define SHIFT 1e-10
+/* Largest move of log eta per search step before the root is bracketed. */
+#define MAX_DY 5.0
+
+/* ---- the problem in solver coordinates ---- */
+
+/* m samples (those with q > 0), nf free features. Dense features: psi
+ * (m x nf) = (phi - phi_hat)/s, target 0. Binary (one-hot) features: per
+ * row the free features it holds (rfp, rfi), target the leaf masses Q.
+ * Features that are constant on the samples, and for one-hot blocks (one
+ * leaf per tree in every row) one reference leaf per block, are not free:
+ * their constraints follow from sum p = 1 and the others. */
+typedef struct {
+	int m, nf, bin;
+	double eps;
+	double *R, *q;       /* m */
+	double *psi;         /* dense: m x nf */
+	int *rfp, *rfi;      /* binary: m + 1, rfp[m] */
+	double *tg;          /* nf: target of sum p psi */
+	double *gs;          /* nf: residual scale (1 dense, max(Q, 1-Q) binary) */
+	double *rw;          /* nf: ridge weight, or NULL */
+	int *fr;             /* nf: the original feature of each free one */
+	int *blk;            /* binary: nf, block of each free leaf (-1: none) */
+	int K;               /* binary: blocks (0: not block structured) */
+	int *rowid;          /* m: the original sample of each row */
+} prob;
+
+static void prob_free(prob *P)
+{
+	free(P->R);
+	free(P->q);
+	free(P->psi);
+	free(P->rfp);
+	free(P->rfi);
+	free(P->tg);
+	free(P->gs);
+	free(P->rw);
+	free(P->fr);
+	free(P->blk);
+	free(P->rowid);
+	memset(P, 0, sizeof *P);
+}
+
+/* One evaluation of the dual at (eta, th). */
+typedef struct {
+	double *th;          /* nf */
+	double *A, *p;       /* m: R - psi th; weights */
+	double *g;           /* nf: dF/dtheta = tg - sum p psi + rw th */
+	double F, kl, amax, res;
+} point;
+
+/* Scratch of one solver (sized for the main problem; sub-problems are smaller). */
+typedef struct {
+	int evals, max_evals;
+	point pt[2];         /* current and trial */
+	gsl_matrix *H;       /* nf x nf */
+	double *dsc;         /* nf: Jacobi scaling 1/sqrt(H_jj), 0 = frozen */
+	double *v1, *v2, *c; /* nf */
+	int *iscr;           /* 3 nf */
+	double *u;           /* m */
+	double varu, resvar; /* Var_p(u), ResVar_p(u | psi) at the last factorisation */
+} work;
+
+static void work_free(work *w)
+{
+	int k;
+
+	for (k = 0; k < 2; k++) {
+		free(w->pt[k].th);
+		free(w->pt[k].A);
+		free(w->pt[k].p);
+		free(w->pt[k].g);
+	}
+	gsl_matrix_free(w->H);
+	free(w->dsc);
+	free(w->v1);
+	free(w->v2);
+	free(w->c);
+	free(w->u);
+	free(w->iscr);
+}
+
+static int work_alloc(work *w, int m, int nf, int max_evals)
+{
+	size_t a = (size_t)(nf > 0 ? nf : 1), b = (size_t)m;
+	int k;
+
+	memset(w, 0, sizeof *w);
+	w->max_evals = max_evals;
+	for (k = 0; k < 2; k++) {
+		w->pt[k].th = calloc(a, sizeof(double));
+		w->pt[k].A = calloc(b, sizeof(double));
+		w->pt[k].p = calloc(b, sizeof(double));
+		w->pt[k].g = calloc(a, sizeof(double));
+		if (!w->pt[k].th || !w->pt[k].A || !w->pt[k].p || !w->pt[k].g)
+			return PR_ENOMEM;
+	}
+	w->H = gsl_matrix_alloc(a, a);
+	w->dsc = calloc(a, sizeof(double));
+	w->v1 = calloc(a, sizeof(double));
+	w->v2 = calloc(a, sizeof(double));
+	w->c = calloc(a, sizeof(double));
+	w->u = calloc(b, sizeof(double));
+	w->iscr = calloc(3 * a, sizeof(int));
+	return w->H && w->dsc && w->v1 && w->v2 && w->c && w->u && w->iscr ? PR_OK : PR_ENOMEM;
+}
+
+/* The dual in solver coordinates at (eta, x->th):
+ *   F = eta eps + th.tg + amax + eta log sum q exp((A - amax)/eta) + rw th^2/2,
+ * A = R - psi th, amax = max A (so no exp overflows), p = q e^{u} / z with
+ * u = (A - amax)/eta, KL(p||q) = sum p u - log z, g = dF/dth. */
+static void eval(const prob *P, work *w, double eta, point *x)
+{
+	const int m = P->m, nf = P->nf;
+	double amax = -HUGE_VAL, z = 0.0, eu = 0.0, F, th2 = 0.0;
+	int i, j, k;
+
+	w->evals++;
+	for (i = 0; i < m; i++) {
+		double a = P->R[i];
+
+		if (P->bin) {
+			for (k = P->rfp[i]; k < P->rfp[i + 1]; k++)
+				a -= x->th[P->rfi[k]];
+		} else {
+			const double *r = P->psi + (size_t)i * nf;
+
+			for (j = 0; j < nf; j++)
+				a -= r[j] * x->th[j];
+		}
+		x->A[i] = a;
+		if (a > amax)
+			amax = a;
+	}
+	for (i = 0; i < m; i++) {
+		double u = (x->A[i] - amax) / eta;
+
+		x->p[i] = P->q[i] * exp(u);
+		z += x->p[i];
+	}
+	for (j = 0; j < nf; j++)
+		x->g[j] = P->tg[j] + (P->rw ? P->rw[j] * x->th[j] : 0.0);
+	for (i = 0; i < m; i++) {
+		double pi = x->p[i] /= z;
+
+		eu += pi * ((x->A[i] - amax) / eta);
+		if (P->bin) {
+			for (k = P->rfp[i]; k < P->rfp[i + 1]; k++)
+				x->g[P->rfi[k]] -= pi;
+		} else {
+			const double *r = P->psi + (size_t)i * nf;
+
+			for (j = 0; j < nf; j++)
+				x->g[j] -= pi * r[j];
+		}
+	}
+	x->amax = amax;
+	x->kl = eu - log(z);
+	F = eta * P->eps + amax + eta * log(z);
+	x->res = 0.0;
+	for (j = 0; j < nf; j++) {
+		F += x->th[j] * P->tg[j];
+		if (P->rw)
+			th2 += P->rw[j] * x->th[j] * x->th[j];
+		x->res = fmax(x->res, fabs(x->g[j]) / P->gs[j]);
+	}
+	x->F = F + 0.5 * th2;
+}
+
+/* Do all free leaves keep a mass of at least 1e-6 outside them (P < 1 - 1e-6)? */
+static int plain_ok(const prob *P, const point *x)
+{
+	int j;
+
+	for (j = 0; j < P->nf; j++)
+		if (!(P->tg[j] - x->g[j] + (P->rw ? P->rw[j] * x->th[j] : 0.0) < 1.0 - 1e-6))
+			return 0;
+	return 1;
+}
+
+/* Cov_p(psi) (free features) into the upper triangle of w->H, Cov_p(psi, u)
+ * into w->c and Var_p(u) into w->varu, at the weights of x. The moments are
+ * taken about the row c with the largest weight,
+ *   Cov = sum p (psi - psi_c)(psi - psi_c)^T - (m - psi_c)(m - psi_c)^T,
+ * so nothing cancels when p concentrates on a few rows (small eta). For
+ * one-hot rows psi_i - psi_c is +1 on the leaves only i holds and -1 on
+ * those only c holds. */
+static void covariances(const prob *P, work *w, double eta, const point *x)
+{
+	const int m = P->m, nf = P->nf;
+	double *H = w->H->data, *mc = w->v1, *dv = w->v2, mu = 0.0, vu = 0.0, pmax = -1.0;
+	const size_t td = w->H->tda;
+	int *dj = w->iscr, *inc = w->iscr + nf, *ini = w->iscr + 2 * (size_t)nf;
+	int i, j, k, l, c = 0, nd;
+
+	for (i = 0; i < m; i++) {
+		w->u[i] = (x->A[i] - x->amax) / eta;
+		mu += x->p[i] * w->u[i];
+		if (x->p[i] > pmax) {
+			pmax = x->p[i];
+			c = i;
+		}
+	}
+	for (j = 0; j < nf; j++) {
+		memset(H + (size_t)j * td + j, 0, (size_t)(nf - j) * sizeof *H);
+		w->c[j] = 0.0;
+		mc[j] = 0.0;
+		inc[j] = ini[j] = 0;
+	}
+	/* one-hot rows whose leaves all keep some mass away from them: the
+	 * moments about 0 (the mass of each leaf pair) lose at most
+	 * eps / (1 - P_leaf) of Cov's diagonal, and cost half as much */
+	if (P->bin && plain_ok(P, x)) {
+		for (i = 0; i < m; i++) {
+			const double pi = x->p[i], du = w->u[i] - mu;
+			const int *f = P->rfi + P->rfp[i], nk = P->rfp[i + 1] - P->rfp[i];
+
+			vu += pi * du * du;
+			for (k = 0; k < nk; k++) {
+				double *hr = H + (size_t)f[k] * td;
+
+				w->c[f[k]] += pi * du;
+				mc[f[k]] += pi;
+				for (l = 0; l < nk; l++)
+					if (f[l] >= f[k])
+						hr[f[l]] += pi;
+			}
+		}
+		for (j = 0; j < nf; j++)
+			for (k = j; k < nf; k++)
+				H[(size_t)j * td + k] -= mc[j] * mc[k];
+		w->varu = vu;
+		return;
+	}
+	if (P->bin)
+		for (k = P->rfp[c]; k < P->rfp[c + 1]; k++)
+			inc[P->rfi[k]] = 1;
+	for (i = 0; i < m; i++) {
+		const double pi = x->p[i], du = w->u[i] - mu;
+
+		vu += pi * du * du;
+		if (pi == 0.0 || i == c)
+			continue;
+		/* the nonzero entries of psi_i - psi_c: indices dj, values dv */
+		nd = 0;
+		if (P->bin) {
+			for (k = P->rfp[i]; k < P->rfp[i + 1]; k++) {
+				ini[P->rfi[k]] = 1;
+				if (!inc[P->rfi[k]]) {
+					dj[nd] = P->rfi[k];
+					dv[nd++] = 1.0;
+				}
+			}
+			for (k = P->rfp[c]; k < P->rfp[c + 1]; k++)
+				if (!ini[P->rfi[k]]) {
+					dj[nd] = P->rfi[k];
+					dv[nd++] = -1.0;
+				}
+			for (k = P->rfp[i]; k < P->rfp[i + 1]; k++)
+				ini[P->rfi[k]] = 0;
+		} else {
+			const double *r = P->psi + (size_t)i * nf, *rc = P->psi + (size_t)c * nf;
+
+			for (j = 0; j < nf; j++)
+				if (r[j] != rc[j]) {
+					dj[nd] = j;
+					dv[nd++] = r[j] - rc[j];
+				}
+		}
+		/* upper triangle through raw row pointers: O(nd^2) per row */
+		for (k = 0; k < nd; k++) {
+			const double pv = pi * dv[k];
+			double *hr = H + (size_t)dj[k] * td;
+
+			mc[dj[k]] += pv;
+			w->c[dj[k]] += pv * du;
+			for (l = 0; l < nd; l++)
+				if (dj[l] >= dj[k])
+					hr[dj[l]] += pv * dv[l];
+		}
+	}
+	for (j = 0; j < nf; j++)
+		for (k = j; k < nf; k++)
+			H[(size_t)j * td + k] -= mc[j] * mc[k];
+	w->varu = vu;
+}
+
+/* Factorises the symmetric positive semi-definite matrix held in the upper
+ * triangle of H (n x n, diagonal included) after Jacobi scaling to unit
+ * diagonal, with SHIFT added; rows whose diagonal is not above 1e-300 and
+ * 1e-30 of the largest have nothing left to fit and are frozen (dsc = 0).
+ * The lower triangle and diagonal receive the Cholesky factor, the upper
+ * triangle is kept. Returns PR_OK or PR_ENUM. */
+static int psd_factor(gsl_matrix *H, int n, double *dsc)
+{
+	const size_t td = H->tda;
+	double *h = H->data, dmax = 0.0, shift;
+	gsl_matrix_view hv;
+	int j, k, tries;
+
+	if (n == 0)
+		return PR_OK;
+	for (j = 0; j < n; j++)
+		dmax = fmax(dmax, h[(size_t)j * td + j]);
+	for (j = 0; j < n; j++) {
+		double d = h[(size_t)j * td + j];
+
+		dsc[j] = d > 1e-300 && d > 1e-30 * dmax ? 1.0 / sqrt(d) : 0.0;
+	}
+	hv = gsl_matrix_submatrix(H, 0, 0, (size_t)n, (size_t)n);
+	for (tries = 0, shift = SHIFT; tries < 4; tries++, shift *= 100.0) {
+		for (j = 0; j < n; j++) {
+			for (k = 0; k < j; k++)
+				h[(size_t)j * td + k] = h[(size_t)k * td + j] * dsc[j] * dsc[k];
+			h[(size_t)j * td + j] = 1.0 + shift;
+		}
+		if (gsl_linalg_cholesky_decomp1(&hv.matrix) == GSL_SUCCESS)
+			return PR_OK;
+	}
+	return PR_ENUM;
+}
+
+/* x = M^-1 b with the factor of psd_factor (x may alias b). */
+static void psd_solve(gsl_matrix *H, int n, const double *dsc, const double *b, double *x)
+{
+	gsl_matrix_view hv;
+	gsl_vector_view xv;
+	int j;
+
+	if (n == 0)
+		return;
+	hv = gsl_matrix_submatrix(H, 0, 0, (size_t)n, (size_t)n);
+	xv = gsl_vector_view_array(x, (size_t)n);
+	for (j = 0; j < n; j++)
+		x[j] = b[j] * dsc[j];
+	gsl_linalg_cholesky_svx(&hv.matrix, &xv.vector);
+	for (j = 0; j < n; j++)
+		x[j] *= dsc[j];
+}
+
+/* Factorises H = Cov/eta + diag(rw) (Cov in the upper triangle of w->H). */
+static long nfactor;
+static int factor(const prob *P, work *w, double eta)
+{
+	nfactor++;
+	const size_t td = w->H->tda;
+	double *H = w->H->data;
+	int j, k;
+
+	for (j = 0; j < P->nf; j++) {
+		for (k = j; k < P->nf; k++)
+			H[(size_t)j * td + k] /= eta;
+		if (P->rw)
+			H[(size_t)j * td + j] += P->rw[j];
+	}
+	return psd_factor(w->H, P->nf, w->dsc);
+}
+
+/* x = H^-1 b with the factorisation of factor() (x may alias b). */
+static void hsolve(const prob *P, work *w, const double *b, double *x)
+{
+	psd_solve(w->H, P->nf, w->dsc, b, x);
+}
+
+/* After a factorisation at x: the regression of u on the features,
+ * w->v2 = Cov^-1 Cov(psi, u) (= -dtheta/dy / eta), and
+ * w->resvar = Var(u) - Cov(u, psi) v2 = -dKL/dlog eta (no ridge). */
+static void regress_u(const prob *P, work *w, double eta)
 {
 	double s = 0.0;
 	int j;
 
-	if (c->d == 0)
-		return 0.0;
-	if (c->phi) {
-		const double *r = c->phi + (size_t)i * c->d;
-		for (j = 0; j < c->d; j++)
-			s += r[j] * theta[j];
-		return s;
+	if (P->nf == 0) {
+		w->resvar = w->varu;
+		return;
 	}
-	/* one-hot rows (val NULL): 1.0 * theta is theta exactly */
-	if (!c->val) {
-		for (j = c->rowptr[i]; j < c->rowptr[i + 1]; j++)
-			s += theta[c->col[j]];
-		return s;
+	for (j = 0; j < P->nf; j++)
+		w->v1[j] = w->c[j] / eta;
+	hsolve(P, w, w->v1, w->v2);
+	for (j = 0; j < P->nf; j++)
+		s += w->c[j] * w->v2[j];
+	w->resvar = fmax(w->varu - s, 0.0);
+}
+
+/* Newton's method on theta at fixed eta, from w->pt[0].th. Leaves pt[0]
+ * evaluated at the last accepted theta and H factorised there (with
+ * Cov_p(psi, u) for regress_u). Returns 1 if res <= tol, 0 if it stalled or
+ * ran out of evaluations, PR_ENUM/PR_EINTR on failure. */
+static int theta_solve(const prob *P, work *w, double eta, double tol)
+{
+	point *x = &w->pt[0], *t = &w->pt[1], tmp;
+	double best = HUGE_VAL;
+	int it, j, k, since = 0;
+
+	eval(P, w, eta, x);
+	for (it = 0;; it++) {
+		double dec = 0.0, step = 1.0;
+		int ok = 0;
+
+		if (pr_interrupted)
+			return PR_EINTR;
+		covariances(P, w, eta, x);
+		if (factor(P, w, eta) != PR_OK) {
+			if (getenv("REPS_DEBUG")) fprintf(stderr, "factor failed eta %g res %g F %g kl %g\n", eta, x->res, x->F, x->kl);
+			return PR_ENUM;
+		}
+		if (getenv("REPS_DEBUG")) fprintf(stderr, "it %d eta %.6g res %.3g F %.17g kl %.6g evals %d\n", it, eta, x->res, x->F, x->kl, w->evals);
+		if (x->res <= tol || P->nf == 0)
+			return 1;
+		/* the residual has reached its round-off floor (at small eta the
+		 * weights carry round-off of eps |A / eta|): no halving in 4 steps */
+		if (x->res < 0.5 * best) {
+			best = x->res;
+			since = 0;
+		} else if (++since >= 4) {
+			return x->res <= FLOOR_TOL;
+		}
+		if (w->evals >= w->max_evals)
+			return 0;
+		hsolve(P, w, x->g, w->v2);
+		for (j = 0; j < P->nf; j++)
+			dec += x->g[j] * w->v2[j];
+		for (k = 0; k < 40 && w->evals < w->max_evals; k++, step *= 0.5) {
+			for (j = 0; j < P->nf; j++)
+				t->th[j] = x->th[j] - step * w->v2[j];
+			eval(P, w, eta, t);
+			/* Armijo; near the optimum the decrease drowns in the round-off
+			 * of F: then a step that shrinks the residual is progress */
+			if (t->F <= x->F - 1e-4 * step * dec ||
+			    (dec <= 1e-12 * (1.0 + fabs(x->F)) && t->res < x->res)) {
+				ok = 1;
+				break;
+			}
+		}
+		if (!ok)
+			return 0;
+		tmp = *x;
+		*x = *t;
+		*t = tmp;
 	}
-	for (j = c->rowptr[i]; j < c->rowptr[i + 1]; j++)
-		s += c->val[j] * theta[c->col[j]];
+}
+
+/* ---- building the problem ---- */
+
+/* One-hot blocks: every row holds K entries and its j-th entry is always a
+ * feature of block j (the active leaves of a forest, one per tree). Fills
+ * blk (d) and returns K, or 0 when the rows are not built that way. */
+static int find_blocks(const pr_reps_problem *pb, const int *rows, int m, int *blk)
+{
+	int i, j, K;
+
+	K = pb->rowptr[rows[0] + 1] - pb->rowptr[rows[0]];
+	if (K < 1)
+		return 0;
+	for (j = 0; j < pb->d; j++)
+		blk[j] = -1;
+	for (i = 0; i < m; i++) {
+		const int *c = pb->col + pb->rowptr[rows[i]];
+
+		if (pb->rowptr[rows[i] + 1] - pb->rowptr[rows[i]] != K)
+			return 0;
+		for (j = 0; j < K; j++) {
+			if (blk[c[j]] < 0)
+				blk[c[j]] = j;
+			else if (blk[c[j]] != j)
+				return 0;
+		}
+	}
+	return K;
+}
+
+/* Value of feature j of sample i (original data). */
+static double feat(const pr_reps_problem *pb, int i, int j)
+{
+	int k;
+
+	if (pb->phi)
+		return pb->phi[(size_t)i * pb->d + j];
+	for (k = pb->rowptr[i]; k < pb->rowptr[i + 1]; k++)
+		if (pb->col[k] == j)
+			return pb->val ? pb->val[k] : 1.0;
+	return 0.0;
+}
+
+/* Feature summaries of the original problem over the rows with q > 0:
+ * phat (d) = sum q phi (centred twice for accuracy), fs (d) = the largest
+ * deviation from it. Binary features are summed sparsely. */
+static void feature_stats(const pr_reps_problem *pb, const int *rows, const double *q, int m,
+                          double *phat, double *fs)
+{
+	const int d = pb->d;
+	int i, j, k;
+
+	memset(phat, 0, (size_t)d * sizeof *phat);
+	if (!pb->phi && !pb->val) {
+		for (i = 0; i < m; i++)
+			for (k = pb->rowptr[rows[i]]; k < pb->rowptr[rows[i] + 1]; k++)
+				phat[pb->col[k]] += q[i];
+		/* a leaf holds every sample or none of them exactly when its
+		 * deviation is 0: count the rows to decide that without round-off */
+		memset(fs, 0, (size_t)d * sizeof *fs);
+		for (i = 0; i < m; i++)
+			for (k = pb->rowptr[rows[i]]; k < pb->rowptr[rows[i] + 1]; k++)
+				fs[pb->col[k]] += 1.0;
+		for (j = 0; j < d; j++)
+			fs[j] = fs[j] == 0.0 || fs[j] == (double)m ? 0.0 : fmax(phat[j], 1.0 - phat[j]);
+		return;
+	}
+	for (i = 0; i < m; i++)
+		for (j = 0; j < d; j++)
+			phat[j] += q[i] * feat(pb, rows[i], j);
+	for (j = 0; j < d; j++) {
+		double c = 0.0;
+
+		for (i = 0; i < m; i++)
+			c += q[i] * (feat(pb, rows[i], j) - phat[j]);
+		phat[j] += c;
+		fs[j] = 0.0;
+		for (i = 0; i < m; i++)
+			fs[j] = fmax(fs[j], fabs(feat(pb, rows[i], j) - phat[j]));
+	}
+}
+
+/* Allocates the solver-coordinate arrays of P for m rows and nf free features. */
+static int prob_alloc(prob *P, int m, int nf, int bin, int nnz, int ridge)
+{
+	size_t a = (size_t)(nf > 0 ? nf : 1);
+
+	P->m = m;
+	P->nf = nf;
+	P->bin = bin;
+	P->R = malloc((size_t)m * sizeof *P->R);
+	P->q = malloc((size_t)m * sizeof *P->q);
+	P->rowid = malloc((size_t)m * sizeof *P->rowid);
+	P->tg = calloc(a, sizeof *P->tg);
+	P->gs = calloc(a, sizeof *P->gs);
+	P->fr = calloc(a, sizeof *P->fr);
+	P->blk = calloc(a, sizeof *P->blk);
+	P->rw = ridge ? calloc(a, sizeof *P->rw) : NULL;
+	if (bin) {
+		P->rfp = malloc(((size_t)m + 1) * sizeof *P->rfp);
+		P->rfi = malloc((size_t)(nnz > 0 ? nnz : 1) * sizeof *P->rfi);
+	} else {
+		P->psi = malloc((size_t)m * a * sizeof *P->psi);
+	}
+	if (!P->R || !P->q || !P->rowid || !P->tg || !P->gs || !P->fr || !P->blk ||
+	    (ridge && !P->rw) || (bin ? !P->rfp || !P->rfi : !P->psi))
+		return PR_ENOMEM;
+	return PR_OK;
+}
+
+/* The main problem: rows with q > 0 (rows[], q[] normalised, Rs the
+ * standardised returns), features summarised by phat, fs. */
+static int prob_main(prob *P, const pr_reps_problem *pb, const int *rows, const double *qn,
+                     const double *Rs, int m, const double *phat, const double *fs, double eps,
+                     double ridge, int *fx)
+{
+	const int d = pb->d, bin = d > 0 && !pb->phi && !pb->val;
+	int *blk = NULL, *ref = NULL, K = 0, nf = 0, nnz = 0, i, j, k, st;
+
+	if (bin) {
+		blk = malloc((size_t)d * sizeof *blk);
+		ref = malloc((size_t)d * sizeof *ref);
+		if (!blk || !ref) {
+			free(blk);
+			free(ref);
+			return PR_ENOMEM;
+		}
+		K = ridge > 0.0 ? 0 : find_blocks(pb, rows, m, blk);
+		/* the reference leaf of a block: its largest leaf */
+		for (j = 0; j < K; j++)
+			ref[j] = -1;
+		for (j = 0; K > 0 && j < d; j++)
+			if (blk[j] >= 0 && fs[j] > 0.0 && (ref[blk[j]] < 0 || phat[j] > phat[ref[blk[j]]]))
+				ref[blk[j]] = j;
+	}
+	for (j = 0; j < d; j++) {
+		fx[j] = -1;
+		if (fs[j] > 0.0 && !(K > 0 && blk[j] >= 0 && ref[blk[j]] == j))
+			fx[j] = nf++;
+	}
+	if (bin)
+		for (i = 0; i < m; i++)
+			for (k = pb->rowptr[rows[i]]; k < pb->rowptr[rows[i] + 1]; k++)
+				nnz += fx[pb->col[k]] >= 0;
+	st = prob_alloc(P, m, nf, bin, nnz, ridge > 0.0);
+	if (st == PR_OK) {
+		P->eps = eps;
+		P->K = K;
+		for (j = 0; j < d; j++) {
+			int f = fx[j];
+
+			if (f < 0)
+				continue;
+			P->fr[f] = j;
+			P->tg[f] = bin ? phat[j] : 0.0;
+			P->gs[f] = bin ? fs[j] : 1.0;
+			P->blk[f] = K > 0 ? blk[j] : -1;
+			if (P->rw)
+				P->rw[f] = bin ? ridge : ridge / (fs[j] * fs[j]);
+		}
+		memcpy(P->R, Rs, (size_t)m * sizeof *Rs);
+		memcpy(P->q, qn, (size_t)m * sizeof *qn);
+		memcpy(P->rowid, rows, (size_t)m * sizeof *rows);
+		if (bin) {
+			P->rfp[0] = 0;
+			for (i = 0, nnz = 0; i < m; i++) {
+				for (k = pb->rowptr[rows[i]]; k < pb->rowptr[rows[i] + 1]; k++)
+					if (fx[pb->col[k]] >= 0)
+						P->rfi[nnz++] = fx[pb->col[k]];
+				P->rfp[i + 1] = nnz;
+			}
+		} else {
+			for (i = 0; i < m; i++)
+				for (j = 0; j < d; j++)
+					if (fx[j] >= 0)
+						P->psi[(size_t)i * nf + fx[j]] =
+							(feat(pb, rows[i], j) - phat[j]) / fs[j];
+		}
+	}
+	free(blk);
+	free(ref);
+	return st;
+}
+
+/* The maximum-entropy problem on the face: rows S (indices into P's rows,
+ * ns of them), R = 0, the base weights q restricted to S, the targets of P.
+ * Free: P's free features that vary on S, less one reference leaf per
+ * block (P's own reference if S meets it, else S's largest leaf). */
+static int prob_face(prob *F, const prob *P, const int *S, int ns)
+{
+	const int nf = P->nf;
+	double *cnt = calloc((size_t)(nf > 0 ? nf : 1), sizeof *cnt);
+	double *mass = calloc((size_t)(nf > 0 ? nf : 1), sizeof *mass);
+	double *bc = calloc((size_t)(P->K > 0 ? P->K : 1), sizeof *bc);
+	int *fx = malloc((size_t)(nf > 0 ? nf : 1) * sizeof *fx), *bref = NULL;
+	int i, j, k, n2 = 0, nnz = 0, st = PR_ENOMEM;
+
+	if (!cnt || !mass || !bc || !fx)
+		goto done;
+	if (!(bref = malloc((size_t)(P->K > 0 ? P->K : 1) * sizeof *bref)))
+		goto done;
+	for (j = 0; j < nf; j++)
+		fx[j] = -1;
+	if (P->bin) {
+		for (i = 0; i < ns; i++)
+			for (k = P->rfp[S[i]]; k < P->rfp[S[i] + 1]; k++) {
+				cnt[P->rfi[k]] += 1.0;
+				mass[P->rfi[k]] += P->q[S[i]];
+			}
+		/* rows of S in P's reference leaf of block b: those in no free leaf of b */
+		for (j = 0; j < nf; j++)
+			if (P->blk[j] >= 0)
+				bc[P->blk[j]] += cnt[j];
+		for (k = 0; k < P->K; k++)
+			bref[k] = bc[k] < (double)ns ? -2 : -1; /* -2: P's reference is in S */
+		for (j = 0; j < nf; j++) {
+			int b = P->blk[j];
+
+			if (cnt[j] == 0.0 || cnt[j] == (double)ns)
+				continue;
+			if (b >= 0 && bref[b] != -2 && (bref[b] < 0 || mass[j] > mass[bref[b]]))
+				bref[b] = j;
+		}
+		for (j = 0; j < nf; j++)
+			if (cnt[j] > 0.0 && cnt[j] < (double)ns && !(P->blk[j] >= 0 && bref[P->blk[j]] == j))
+				fx[j] = n2++;
+		for (i = 0; i < ns; i++)
+			for (k = P->rfp[S[i]]; k < P->rfp[S[i] + 1]; k++)
+				nnz += fx[P->rfi[k]] >= 0;
+	} else {
+		for (j = 0; j < nf; j++)
+			for (i = 1; i < ns; i++)
+				if (P->psi[(size_t)S[i] * nf + j] != P->psi[(size_t)S[0] * nf + j]) {
+					fx[j] = n2++;
+					break;
+				}
+	}
+	if ((st = prob_alloc(F, ns, n2, P->bin, nnz, 0)) != PR_OK)
+		goto done;
+	F->eps = 0.0;
+	F->K = P->K;
+	for (j = 0; j < nf; j++)
+		if (fx[j] >= 0) {
+			F->fr[fx[j]] = j; /* a free index of P */
+			F->tg[fx[j]] = P->tg[j];
+			F->gs[fx[j]] = P->gs[j];
+			F->blk[fx[j]] = P->blk[j];
+		}
+	if (P->bin)
+		F->rfp[0] = 0;
+	for (i = 0, nnz = 0; i < ns; i++) {
+		F->R[i] = 0.0;
+		F->q[i] = P->q[S[i]];
+		F->rowid[i] = S[i];
+		if (P->bin) {
+			for (k = P->rfp[S[i]]; k < P->rfp[S[i] + 1]; k++)
+				if (fx[P->rfi[k]] >= 0)
+					F->rfi[nnz++] = fx[P->rfi[k]];
+			F->rfp[i + 1] = nnz;
+		} else {
+			for (j = 0; j < nf; j++)
+				if (fx[j] >= 0)
+					F->psi[(size_t)i * n2 + fx[j]] = P->psi[(size_t)S[i] * nf + j];
+		}
+	}
+done:
+	free(cnt);
+	free(mass);
+	free(bc);
+	free(fx);
+	free(bref);
+	return st;
+}
+
+/* ---- the eta -> 0 limit ---- */
+
+/* What the limit solve leaves for the result, in solver units. */
+typedef struct {
+	double *p;        /* m: p_0 on P's rows */
+	double *th;       /* nf: an optimal dual solution of the LP (free features) */
+	double *lam;      /* nf: the face's max-entropy multipliers: theta(eta) is
+	                     th + eta lam + o(eta) as eta -> 0 */
+	double kl;        /* KL(p_0 || q) */
+	double value;     /* the dual value at eta = 0: th.tg + max_i (R_i - psi_i th) */
+	double gap;       /* value - sum p_0 R: how far p_0 is from optimal */
+	double outside;   /* the largest mass an optimal solution can put outside supp p_0 */
+	int ok;           /* 0: the limit could not be computed (reason set) */
+} limit_t;
+
+/* Column i of the LP's constraint matrix (free features, then sum p = 1)
+ * times the row vector y (nf + 1): a_i . y, and sum |a_ik y_k| in *mag. */
+static double col_dot(const prob *P, int i, const double *y, double *mag)
+{
+	double s = y[P->nf], a = fabs(y[P->nf]);
+	int e;
+
+	if (P->bin) {
+		for (e = P->rfp[i]; e < P->rfp[i + 1]; e++) {
+			s += y[P->rfi[e]];
+			a += fabs(y[P->rfi[e]]);
+		}
+	} else {
+		const double *r = P->psi + (size_t)i * P->nf;
+
+		for (e = 0; e < P->nf; e++) {
+			s += r[e] * y[e];
+			a += fabs(r[e] * y[e]);
+		}
+	}
+	if (mag)
+		*mag = a;
 	return s;
 }
 
-/* acc += a * phi_i */
-static void row_add(const dual_ctx *c, int i, double a, double *acc)
+/* Compensated R_i - a_i . y (Ogita, Rump and Oishi's Dot2: error-free
+ * products by fma and sums by TwoSum), so that the result is within
+ * 2 eps |result| + 2 (k eps)^2 mag of the exact value, k = col_nnz + 1. */
+static double rr_exact(const prob *P, int i, const double *y, double *mag)
 {
-	int j;
+	double s = P->R[i], c = 0.0, a = fabs(P->R[i]);
+	int e, nk = P->bin ? P->rfp[i + 1] - P->rfp[i] : P->nf;
 
-	if (c->d == 0 || a == 0.0)
-		return;
-	if (c->phi) {
-		const double *r = c->phi + (size_t)i * c->d;
-		for (j = 0; j < c->d; j++)
-			acc[j] += a * r[j];
-		return;
+	for (e = -1; e < nk; e++) {
+		double pr, pe, t, z;
+
+		if (e < 0)
+			pr = -y[P->nf];
+		else if (P->bin)
+			pr = -y[P->rfi[P->rfp[i] + e]];
+		else
+			pr = -P->psi[(size_t)i * P->nf + e] * y[e];
+		pe = P->bin || e < 0 ? 0.0 : fma(-P->psi[(size_t)i * P->nf + e], y[e], -pr);
+		t = s + pr;
+		z = t - s;
+		c += (s - (t - z)) + (pr - z) + pe;
+		s = t;
+		a += fabs(pr);
 	}
-	if (!c->val) {
-		for (j = c->rowptr[i]; j < c->rowptr[i + 1]; j++)
-			acc[c->col[j]] += a;
-		return;
-	}
-	for (j = c->rowptr[i]; j < c->rowptr[i + 1]; j++)
-		acc[c->col[j]] += a * c->val[j];
+	*mag = a;
+	return s + c;
 }
 
-/* g(eta, theta) of eq. 3.8 plus (ridge/2)|theta|^2 at x = (log eta, theta).
- * The maximum of A over samples with q_i > 0 is subtracted before exp, so
- * log sum q exp(A/eta) = amax/eta + log Zs never overflows. With
- * p_i = q_i exp((A_i - amax)/eta) / Zs:
- *   KL(p||q) = sum p_i (A_i - amax)/eta - log Zs,
- *   dg/dlog eta = eta (eps - KL), dg/dtheta = phi_hat - sum p phi + ridge theta.
- * grad may be NULL. */
-static double dual_eval(dual_ctx *c, const double *x, double *grad)
+/* Entries of column i of the constraint matrix. */
+static int col_nnz(const prob *P, int i)
 {
-	const double eta = exp(x[0]);
-	const double *th = x + 1;
-	double amax = -HUGE_VAL, zs = 0.0, eu = 0.0, eu2 = 0.0, g, th2 = 0.0;
-	int i, j;
-
-	c->evals++;
-	for (i = 0; i < c->n; i++) {
-		if (c->q[i] <= 0.0)
-			continue;
-		c->A[i] = c->R[i] - row_dot(c, i, th);
-		if (c->A[i] > amax)
-			amax = c->A[i];
-	}
-	for (i = 0; i < c->n; i++) {
-		c->p[i] = c->q[i] > 0.0 ? c->q[i] * exp((c->A[i] - amax) / eta) : 0.0;
-		zs += c->p[i];
-	}
-	for (i = 0; i < c->n; i++) {
-		double u;
-
-		if (c->q[i] <= 0.0)
-			continue;
-		c->p[i] /= zs;
-		u = (c->A[i] - amax) / eta;
-		eu += c->p[i] * u;
-		eu2 += c->p[i] * u * u;
-	}
-	c->amax = amax;
-	c->kl = eu - log(zs);
-	c->var = eu2 - eu * eu;
-	if (c->var < 0.0)
-		c->var = 0.0;
-	for (j = 0; j < c->d; j++)
-		th2 += th[j] * th[j];
-	g = eta * c->eps + amax + eta * log(zs) + 0.5 * c->ridge * th2;
-	for (j = 0; j < c->d; j++)
-		g += th[j] * c->phihat[j];
-	if (grad) {
-		grad[0] = eta * (c->eps - c->kl);
-		for (j = 0; j < c->d; j++)
-			grad[1 + j] = c->phihat[j] + c->ridge * th[j];
-		for (i = 0; i < c->n; i++)
-			row_add(c, i, -c->p[i], grad + 1);
-	}
-	return g;
+	return (P->bin ? P->rfp[i + 1] - P->rfp[i] : P->nf) + 1;
 }
 
-/* Checks the problem and fills the normalised base weights qn. */
+/* acc (nf + 1) += v a_i. */
+static void col_add(const prob *P, int i, double v, double *acc)
+{
+	int e;
+
+	if (P->bin) {
+		for (e = P->rfp[i]; e < P->rfp[i + 1]; e++)
+			acc[P->rfi[e]] += v;
+	} else {
+		for (e = 0; e < P->nf; e++)
+			acc[e] += v * P->psi[(size_t)i * P->nf + e];
+	}
+	acc[P->nf] += v;
+}
+
+/* Adds column i of the constraint matrix to GLPK's triplets (1-based rows,
+ * column `c`, starting after entry *nnz). */
+static void col_triplets(const prob *P, int i, int c, int *ia, int *ja, double *ar, int *nnz)
+{
+	int e;
+
+	if (P->bin) {
+		for (e = P->rfp[i]; e < P->rfp[i + 1]; e++) {
+			++*nnz;
+			ia[*nnz] = P->rfi[e] + 1;
+			ja[*nnz] = c;
+			ar[*nnz] = 1.0;
+		}
+	} else {
+		for (e = 0; e < P->nf; e++)
+			if (P->psi[(size_t)i * P->nf + e] != 0.0) {
+				++*nnz;
+				ia[*nnz] = e + 1;
+				ja[*nnz] = c;
+				ar[*nnz] = P->psi[(size_t)i * P->nf + e];
+			}
+	}
+	++*nnz;
+	ia[*nnz] = P->nf + 1;
+	ja[*nnz] = c;
+	ar[*nnz] = 1.0;
+}
+
+/* Solves lp by the simplex method, GLPK's output off; 1 if optimal. */
+static int lp_solve(glp_prob *lp)
+{
+	glp_smcp parm;
+
+	glp_init_smcp(&parm);
+	parm.msg_lev = GLP_MSG_OFF;
+	parm.presolve = GLP_OFF;
+	glp_scale_prob(lp, GLP_SF_AUTO);
+	glp_adv_basis(lp, 0);
+	return glp_simplex(lp, &parm) == 0 && glp_get_status(lp) == GLP_OPT;
+}
+
+/* Triplet storage for nnz entries (1-based, as GLPK wants). */
+static int triplets(size_t nnz, int **ia, int **ja, double **ar)
+{
+	*ia = malloc((nnz + 1) * sizeof **ia);
+	*ja = malloc((nnz + 1) * sizeof **ja);
+	*ar = malloc((nnz + 1) * sizeof **ar);
+	return *ia && *ja && *ar ? PR_OK : PR_ENOMEM;
+}
+
+static size_t lp_nnz(const prob *P)
+{
+	return P->bin ? (size_t)P->rfp[P->m] + (size_t)P->m : (size_t)P->m * ((size_t)P->nf + 1);
+}
+
+/* The feature-matching LP: maximise sum p R subject to the free features'
+ * targets and sum p = 1, p >= 0. Fills x (m), the row duals y (nf + 1);
+ * returns 1 if optimal, 0 if not, PR_ENOMEM. */
+static int lp_match(const prob *P, double *x, double *y)
+{
+	const int nr = P->nf + 1;
+	int *ia, *ja, nnz = 0, i, ok;
+	double *ar;
+	glp_prob *lp;
+
+	if (triplets(lp_nnz(P), &ia, &ja, &ar) != PR_OK) {
+		free(ia);
+		free(ja);
+		free(ar);
+		return PR_ENOMEM;
+	}
+	lp = glp_create_prob();
+	glp_set_obj_dir(lp, GLP_MAX);
+	glp_add_rows(lp, nr);
+	for (i = 0; i < nr; i++) {
+		double b = i < P->nf ? P->tg[i] : 1.0;
+
+		glp_set_row_bnds(lp, i + 1, GLP_FX, b, b);
+	}
+	glp_add_cols(lp, P->m);
+	for (i = 0; i < P->m; i++) {
+		glp_set_col_bnds(lp, i + 1, GLP_LO, 0.0, 0.0);
+		glp_set_obj_coef(lp, i + 1, P->R[i]);
+		col_triplets(P, i, i + 1, ia, ja, ar, &nnz);
+	}
+	glp_load_matrix(lp, nnz, ia, ja, ar);
+	ok = lp_solve(lp);
+	for (i = 0; ok && i < P->m; i++)
+		x[i] = glp_get_col_prim(lp, i + 1);
+	for (i = 0; ok && i < nr; i++)
+		y[i] = glp_get_row_dual(lp, i + 1);
+	glp_delete_prob(lp);
+	free(ia);
+	free(ja);
+	free(ar);
+	return ok;
+}
+
+/* Which columns of Z (nz of them, zero reduced cost) some optimal p uses,
+ * and a certificate for the others: maximise sum_k s_k over a row vector w
+ * (nf + 1, free) and 0 <= s <= 1 with a_i . w >= s_k on Z and w . b = 0.
+ * For every feasible p on Z, sum p_i a_i . w = w . b = 0 with every term
+ * >= 0, so p vanishes where a_i . w > 0; by Farkas' lemma the optimum has
+ * s_k = 1 exactly there. Marks the used columns in sup, fills w; returns 1,
+ * 0 (LP failure) or PR_ENOMEM. */
+static int lp_support(const prob *P, const int *Z, int nz, char *sup, double *w)
+{
+	const int nr = P->nf + 1;
+	int *ia, *ja, nnz = 0, i, k, ok;
+	double *ar;
+	glp_prob *lp;
+
+	if (triplets(lp_nnz(P) + (size_t)nz + (size_t)nr, &ia, &ja, &ar) != PR_OK) {
+		free(ia);
+		free(ja);
+		free(ar);
+		return PR_ENOMEM;
+	}
+	/* rows 1..nz: a_i . w - s_k >= 0; row nz + 1: w . b = 0.
+	 * columns 1..nr: w; nr + 1..nr + nz: s. Built as the transpose of
+	 * col_triplets' (row, column) pairs. */
+	lp = glp_create_prob();
+	glp_set_obj_dir(lp, GLP_MAX);
+	glp_add_rows(lp, nz + 1);
+	glp_add_cols(lp, nr + nz);
+	for (k = 0; k < nz; k++) {
+		int from = nnz;
+
+		glp_set_row_bnds(lp, k + 1, GLP_LO, 0.0, 0.0);
+		col_triplets(P, Z[k], k + 1, ia, ja, ar, &nnz);
+		for (i = from + 1; i <= nnz; i++) {
+			int t = ia[i];
+
+			ia[i] = ja[i];
+			ja[i] = t;
+		}
+		++nnz;
+		ia[nnz] = k + 1;
+		ja[nnz] = nr + k + 1;
+		ar[nnz] = -1.0;
+		glp_set_col_bnds(lp, nr + k + 1, GLP_DB, 0.0, 1.0);
+		glp_set_obj_coef(lp, nr + k + 1, 1.0);
+	}
+	glp_set_row_bnds(lp, nz + 1, GLP_FX, 0.0, 0.0);
+	for (i = 0; i < nr; i++) {
+		double b = i < P->nf ? P->tg[i] : 1.0;
+
+		glp_set_col_bnds(lp, i + 1, GLP_FR, 0.0, 0.0);
+		if (b != 0.0) {
+			++nnz;
+			ia[nnz] = nz + 1;
+			ja[nnz] = i + 1;
+			ar[nnz] = b;
+		}
+	}
+	glp_load_matrix(lp, nnz, ia, ja, ar);
+	ok = lp_solve(lp);
+	for (k = 0; ok && k < nz; k++)
+		sup[Z[k]] = glp_get_col_prim(lp, nr + k + 1) < 0.5;
+	for (i = 0; ok && i < nr; i++)
+		w[i] = glp_get_col_prim(lp, i + 1);
+	glp_delete_prob(lp);
+	free(ia);
+	free(ja);
+	free(ar);
+	return ok;
+}
+
+/* Polishes the row duals y (nf + 1) so that the reduced costs vanish on the
+ * rows S to round-off: least squares min |A_S^T dy - rr_S| by the normal
+ * equations (Jacobi-scaled, shifted Cholesky), two rounds. */
+static int polish_dual(const prob *P, const int *S, int ns, double *y, gsl_matrix *N,
+                       double *dsc, double *rhs, double *dy, double *a)
+{
+	const int nr = P->nf + 1;
+	const size_t td = N->tda;
+	int round, i, j, k;
+
+	for (round = 0; round < 2; round++) {
+		for (j = 0; j < nr; j++) {
+			memset(N->data + (size_t)j * td, 0, (size_t)nr * sizeof *N->data);
+			rhs[j] = 0.0;
+		}
+		for (i = 0; i < ns; i++) {
+			double rr = P->R[S[i]] - col_dot(P, S[i], y, NULL);
+
+			/* the dense column a of row S[i] */
+			memset(a, 0, (size_t)nr * sizeof *a);
+			if (P->bin) {
+				for (k = P->rfp[S[i]]; k < P->rfp[S[i] + 1]; k++)
+					a[P->rfi[k]] = 1.0;
+			} else {
+				memcpy(a, P->psi + (size_t)S[i] * P->nf, (size_t)P->nf * sizeof *a);
+			}
+			a[P->nf] = 1.0;
+			for (j = 0; j < nr; j++) {
+				if (a[j] == 0.0)
+					continue;
+				rhs[j] += a[j] * rr;
+				for (k = j; k < nr; k++)
+					N->data[(size_t)j * td + k] += a[j] * a[k];
+			}
+		}
+		if (psd_factor(N, nr, dsc) != PR_OK)
+			return PR_ENUM;
+		psd_solve(N, nr, dsc, rhs, dy);
+		for (j = 0; j < nr; j++)
+			y[j] += dy[j];
+	}
+	return PR_OK;
+}
+
+/* The eta -> 0 limit of P (no ridge): p_0 maximises entropy relative to q
+ * on the optimal face of the feature-matching LP.
+ *  - LP (GLPK) -> row duals y, reduced costs rr_i = R_i - a_i.y - v <= 0
+ *    with v their maximum (so y is exactly dual feasible). Every optimal p
+ *    vanishes where rr_i < 0; Z = {rr_i >= -1e-11 of the terms}.
+ *  - The face's support S: the vertex's support, or, if that misses part
+ *    of Z, lp_support, whose w shifts y by delta w so that the reduced
+ *    costs on Z \ S become negative too (a strictly complementary dual).
+ *  - polish_dual makes rr = 0 on S to round-off; value = y.b + v.
+ *  - p_0: theta_solve at eta = 1 with R = 0 on S (the max-entropy problem).
+ * Certificate: gap = value - sum p_0 R (p_0 is optimal within gap), and
+ * outside = max over the rows where p_0 = 0 of (gap+ + round-off)/|rr_i|:
+ * since sum p_i (-rr_i) = value - sum p R <= gap for every optimal p,
+ * no optimal p puts more than that on a row outside S. */
+static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, size_t rlen)
+{
+	const int m = P->m, nf = P->nf, nr = nf + 1;
+	int *S = malloc((size_t)m * sizeof *S), *Z = malloc((size_t)m * sizeof *Z);
+	double *rr = malloc((size_t)m * sizeof *rr), *x = malloc((size_t)m * sizeof *x);
+	double *mag = malloc((size_t)m * sizeof *mag);
+	double *y = calloc(6 * (size_t)nr, sizeof *y), *wv, *dsc, *rhs, *dy, *acol;
+	char *sup = calloc((size_t)m, 1);
+	gsl_matrix *N = gsl_matrix_alloc((size_t)nr, (size_t)nr);
+	prob F;
+	work w;
+	double rmax, tscale = 1.0, pR = 0.0, delta, emax, *err = malloc((size_t)m * sizeof *err);
+	int i, k, nz = 0, nb = 0, ns = 0, st = PR_OK, rc;
+
+	memset(&F, 0, sizeof F);
+	memset(&w, 0, sizeof w);
+	L->ok = 0;
+	if (!S || !Z || !rr || !x || !mag || !err || !y || !sup || !N) {
+		st = PR_ENOMEM;
+		goto done;
+	}
+	wv = y + nr;
+	dsc = wv + nr;
+	rhs = dsc + nr;
+	dy = rhs + nr;
+	acol = dy + nr;
+	glp_term_out(GLP_OFF);
+	if (nf > 0) {
+		rc = lp_match(P, x, y);
+		if (rc < 0) {
+			st = rc;
+			goto done;
+		}
+		if (rc == 0) {
+			snprintf(reason, rlen, "the eta -> 0 linear programme did not solve");
+			goto done;
+		}
+	}
+	/* reduced costs; without features the face is the largest returns */
+	rmax = -HUGE_VAL;
+	for (i = 0; i < m; i++) {
+		rr[i] = P->R[i] - col_dot(P, i, y, &mag[i]);
+		tscale = fmax(tscale, mag[i] + fabs(P->R[i]));
+		rmax = fmax(rmax, rr[i]);
+	}
+	for (i = 0; i < m; i++)
+		if (rr[i] - rmax >= -1e-11 * tscale) {
+			Z[nz++] = i;
+			if (nf == 0 || x[i] > 1e-11) {
+				sup[i] = 1;
+				nb++;
+			}
+		}
+	if (nb < nz) {
+		double cmax = 0.0;
+
+		rc = lp_support(P, Z, nz, sup, wv);
+		if (rc < 0) {
+			st = rc;
+			goto done;
+		}
+		if (rc == 0) {
+			snprintf(reason, rlen, "the largest-support linear programme did not solve");
+			goto done;
+		}
+		/* delta: keep the rows off Z strictly below the face */
+		delta = 1.0;
+		for (i = 0; i < m; i++) {
+			double c = col_dot(P, i, wv, NULL);
+
+			cmax = fmax(cmax, fabs(c));
+			if (rr[i] - rmax < -1e-11 * tscale && c < 0.0)
+				delta = fmin(delta, 0.5 * (rmax - rr[i]) / -c);
+		}
+		for (k = 0; k < nr; k++)
+			y[k] += delta * wv[k];
+	}
+	for (i = 0; i < m; i++)
+		if (sup[i])
+			S[ns++] = i;
+	if (nf > 0 && (st = polish_dual(P, S, ns, y, N, dsc, rhs, dy, acol)) != PR_OK)
+		goto done;
+	rmax = -HUGE_VAL;
+	for (i = 0; i < m; i++) {
+		rr[i] = rr_exact(P, i, y, &mag[i]);
+		rmax = fmax(rmax, rr[i]);
+	}
+	L->value = rmax + y[nf];
+	for (k = 0; k < nf; k++) {
+		L->th[k] = y[k];
+		L->value += y[k] * P->tg[k];
+	}
+	if ((st = prob_face(&F, P, S, ns)) != PR_OK || (st = work_alloc(&w, F.m, F.nf, max_evals)) != PR_OK)
+		goto done;
+	rc = theta_solve(&F, &w, 1.0, THETA_TOL);
+	if (rc < 0) {
+		st = rc;
+		goto done;
+	}
+	memset(L->p, 0, (size_t)m * sizeof *L->p);
+	memset(L->lam, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *L->lam);
+	for (k = 0; k < F.nf; k++)
+		L->lam[F.fr[k]] = w.pt[0].th[k];
+	L->kl = 0.0;
+	for (i = 0; i < F.m; i++) {
+		double pi = w.pt[0].p[i];
+
+		L->p[F.rowid[i]] = pi;
+		if (pi > 0.0)
+			L->kl += pi * log(pi / F.q[i]);
+		pR += pi * P->R[F.rowid[i]];
+	}
+	/* Certificate. With e_i the bound on the round-off of rr_i (rr_exact),
+	 * for every feasible p
+	 *   value - sum p R = sum p_i (rmax - rr_i) + y.(b - A p),
+	 * so the true gap of p_0 is at most the sum over S of p_0 (rmax - rr + e + e_max)
+	 * plus |y| times p_0's constraint residual, and an optimal p puts at
+	 * most gap / (rmax - rr_i - e_i - e_max) on a row i outside S. */
+	memset(acol, 0, (size_t)nr * sizeof *acol);
+	L->gap = 0.0;
+	emax = 0.0;
+	for (i = 0; i < m; i++) {
+		double nk = col_nnz(P, i) + 1.0;
+
+		err[i] = 2.0 * DBL_EPSILON * fabs(rr[i]) + 2.0 * nk * nk * DBL_EPSILON * DBL_EPSILON * mag[i];
+		if (rr[i] == rmax)
+			emax = fmax(emax, err[i]);
+	}
+	for (i = 0; i < m; i++) {
+		if (L->p[i] == 0.0)
+			continue;
+		L->gap += L->p[i] * (rmax - rr[i] + err[i] + emax);
+		col_add(P, i, L->p[i], acol);
+	}
+	for (k = 0; k < nr; k++)
+		L->gap += fabs(y[k]) * fabs(acol[k] - (k < nf ? P->tg[k] : 1.0));
+	L->outside = 0.0;
+	for (i = 0; i < m; i++)
+		if (L->p[i] == 0.0) {
+			double margin = rmax - rr[i] - err[i] - emax;
+
+			L->outside = fmax(L->outside, margin > 0.0 ? L->gap / margin : HUGE_VAL);
+		}
+	if (getenv("REPS_DEBUG")) {
+		for (i = 0; i < m; i++) if (L->p[i] == 0.0) fprintf(stderr, "out i %d rr %.3g err %.3g gap %.3g sup %d\n", i, rr[i]-rmax, err[i], L->gap, sup[i]);
+		fprintf(stderr, "nz %d nb %d ns %d tscale %g pR %.17g value %.17g\n", nz, nb, ns, tscale, pR, L->value);
+	}
+	L->ok = 1;
+	if (!(w.pt[0].res <= PR_REPS_TOL))
+		snprintf(reason, rlen, "the maximum-entropy point of the eta -> 0 face did not "
+		         "converge (residual %.3g)", w.pt[0].res);
+done:
+	/* GLPK keeps a per-thread environment: release it */
+	glp_free_env();
+	prob_free(&F);
+	work_free(&w);
+	gsl_matrix_free(N);
+	free(S);
+	free(Z);
+	free(rr);
+	free(x);
+	free(mag);
+	free(err);
+	free(y);
+	free(sup);
+	return st;
+}
+
+/* ---- the search for eta ---- */
+
+/* Solver verdicts. */
+enum { V_ACTIVE = PR_REPS_ACTIVE, V_UNREACHABLE = PR_REPS_UNREACHABLE, V_FAILED = PR_REPS_FAILED };
+
+/* The fast path: damped Newton on (eta, theta) jointly, from eta = 1 and
+ * theta = 0. g is jointly convex with Hessian Cov_p([u, psi]) / eta (plus
+ * the ridge), solved through the theta block's factorisation and its Schur
+ * complement ResVar_p(u | psi) / eta; Armijo steps keep eta > 0. Returns 1
+ * at the root (|KL - eps| <= KL_TOL, residual <= THETA_TOL), 0 if eta heads
+ * below eta_min or it does not converge in 50 steps (the search takes over
+ * from pt[0] at *eta), or a negative error. */
+static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
+{
+	const int nf = P->nf;
+	const double ktol = KL_TOL * fmax(1.0, P->eps);
+	point *x = &w->pt[0], *t = &w->pt[1], tmp;
+	double *v1 = w->v1, *v2 = w->v2, *dth = w->c;
+	int it, j, k;
+
+	*eta = 1.0;
+	memset(x->th, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *x->th);
+	eval(P, w, *eta, x);
+	for (it = 0; it < 50 && w->evals < w->max_evals; it++) {
+		double ge = P->eps - x->kl, cv1 = 0.0, cv2 = 0.0, schur, de, dec = 0.0, step = 1.0;
+		int ok = 0;
+
+		if (pr_interrupted)
+			return PR_EINTR;
+		covariances(P, w, *eta, x);
+		if (factor(P, w, *eta) != PR_OK)
+			return PR_ENUM;
+		if (fabs(ge) <= ktol && x->res <= THETA_TOL)
+			return 1;
+		/* C = Cov/eta + ridge factorised; b = Cov(psi, u)/eta */
+		hsolve(P, w, x->g, v1);
+		for (j = 0; j < nf; j++)
+			dth[j] = w->c[j] / *eta;
+		hsolve(P, w, dth, v2);
+		for (j = 0; j < nf; j++) {
+			cv1 += dth[j] * v1[j];
+			cv2 += dth[j] * v2[j];
+		}
+		schur = w->varu / *eta - cv2;
+		if (!(schur > 1e-14 * w->varu / *eta))
+			return 0;
+		de = (-ge + cv1) / schur;
+		for (j = 0; j < nf; j++)
+			dth[j] = -v1[j] - v2[j] * de;
+		dec = -ge * de;
+		for (j = 0; j < nf; j++)
+			dec -= x->g[j] * dth[j];
+		/* stay inside eta > 0 */
+		if (*eta + de <= 0.0)
+			step = 0.5 * *eta / -de;
+		for (k = 0; k < 40 && w->evals < w->max_evals; k++, step *= 0.5) {
+			double en = *eta + step * de;
+
+			for (j = 0; j < nf; j++)
+				t->th[j] = x->th[j] + step * dth[j];
+			eval(P, w, en, t);
+			if (t->F <= x->F - 1e-4 * step * dec ||
+			    (dec <= 1e-12 * (1.0 + fabs(x->F)) && t->res <= x->res &&
+			     fabs(P->eps - t->kl) < fabs(ge))) {
+				ok = 1;
+				*eta = en;
+				break;
+			}
+		}
+		if (!ok)
+			return 0;
+		tmp = *x;
+		*x = *t;
+		*t = tmp;
+		if (*eta < eta_min)
+			return 0;
+	}
+	return 0;
+}
+
+/* The root of KL(p_eta||q) = eps in y = log eta (eta in solver units), from
+ * y = 0 and theta = 0: Newton on log KL, whose slope is
+ * dKL/dy / KL = -ResVar_p(u|psi) / KL, safeguarded by bisection once the
+ * root is bracketed and by steps of at most MAX_DY before. Each new eta
+ * starts from the first-order predictor theta - Cov^-1 Cov(psi,u) deta.
+ * When KL < eps and the next eta would lie below eta_min (or Newton has no
+ * slope), the eta -> 0 limit is consulted once: KL(p_0) < eps means no root
+ * exists (unreachable). Returns the verdict, with pt[0] at the answer and
+ * *eta_out set for V_ACTIVE, or a negative error. */
+static int search(const prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *eta_out,
+                  char *reason, size_t rlen)
+{
+	const double eps = P->eps, ymin = log(o->eta_min), ktol = KL_TOL * fmax(1.0, eps);
+	const int nf = P->nf;
+	double y = 0.0, ylo = -HUGE_VAL, yhi = HUGE_VAL, ygood = 0.0, etagood = 1.0, dyold = HUGE_VAL;
+	double *thg = malloc(2 * (size_t)(nf > 0 ? nf : 1) * sizeof *thg), *bg;
+	int it, j, limited = 0, good = 0, retries = 0, st = V_FAILED;
+
+	if (!thg)
+		return PR_ENOMEM;
+	bg = thg + (nf > 0 ? nf : 1);
+	snprintf(reason, rlen, "the search for eta did not converge");
+	st = joint_newton(P, w, o->eta_min, eta_out);
+	if (st != 0) {
+		free(thg);
+		return st < 0 ? st : V_ACTIVE;
+	}
+	/* take over where the fast path stopped, if that is usable */
+	st = V_FAILED;
+	if (*eta_out >= o->eta_min && *eta_out < 1e300)
+		y = log(*eta_out);
+	else
+		memset(w->pt[0].th, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *thg);
+	for (it = 0; it < 400; it++) {
+		double eta = exp(y), f, kl, yt;
+		int conv;
+
+		/* start: the first-order predictor in eta (dtheta/deta = -b stays
+		 * bounded as eta -> 0), or, once the limit is known, its
+		 * asymptote th + eta lam if that has the lower dual value */
+		if (good)
+			for (j = 0; j < nf; j++)
+				w->pt[0].th[j] = thg[j] - bg[j] * (eta - etagood);
+		if (limited && nf > 0) {
+			for (j = 0; j < nf; j++)
+				w->pt[1].th[j] = L->th[j] + eta * L->lam[j];
+			eval(P, w, eta, &w->pt[1]);
+			eval(P, w, eta, &w->pt[0]);
+			if (w->pt[1].F < w->pt[0].F)
+				memcpy(w->pt[0].th, w->pt[1].th, (size_t)nf * sizeof *thg);
+		}
+		conv = theta_solve(P, w, eta, THETA_TOL);
+		if (conv < 0) {
+			st = conv;
+			break;
+		}
+		kl = w->pt[0].kl;
+		f = kl - eps;
+		if (fabs(f) <= ktol && conv == 1) {
+			*eta_out = eta;
+			st = V_ACTIVE;
+			break;
+		}
+		if (w->evals >= w->max_evals) {
+			snprintf(reason, rlen, "reps.max_iter = %d dual evaluations used up (KL = %.6g, "
+			         "residual %.3g)", w->max_evals, kl, w->pt[0].res);
+			*eta_out = eta;
+			break;
+		}
+		if (conv == 0) {
+			/* theta did not converge from this start: retreat towards the
+			 * last eta that did, and come back in smaller steps */
+			if (!good || ++retries > 60) {
+				snprintf(reason, rlen, "Newton's method on theta stalled at eta = %.3g "
+				         "(feature residual %.3g)", eta, w->pt[0].res);
+				*eta_out = eta;
+				break;
+			}
+			y = 0.5 * (y + ygood);
+			continue;
+		}
+		regress_u(P, w, eta);
+		memcpy(thg, w->pt[0].th, (size_t)nf * sizeof *thg);
+		memcpy(bg, w->v2, (size_t)nf * sizeof *bg);
+		ygood = y;
+		etagood = eta;
+		good = 1;
+		if (f > 0.0)
+			ylo = y;
+		else
+			yhi = y;
+		yt = kl > 0.0 && w->resvar > 0.0 ? y + (log(kl) - log(eps)) * kl / w->resvar : NAN;
+		if (f < 0.0 && ylo == -HUGE_VAL && !limited && !(yt >= ymin)) {
+			if (P->rw) {
+				snprintf(reason, rlen, "KL = %.6g < epsilon at eta near reps.eta_min, and with "
+				         "reps.ridge > 0 there is no eta -> 0 limit to certify", kl);
+				*eta_out = eta;
+				break;
+			}
+			if ((st = limit_solve(P, w->max_evals, L, reason, rlen)) != PR_OK)
+				break;
+			st = V_FAILED;
+			if (!L->ok)
+				break;
+			if (L->kl < eps) {
+				st = V_UNREACHABLE;
+				break;
+			}
+			limited = 1;
+		}
+		if (ylo > -HUGE_VAL && yhi < HUGE_VAL) {
+			if (yhi - ylo <= 4.0 * DBL_EPSILON * fmax(1.0, fabs(y))) {
+				/* eta is pinned to round-off: the certificate judges */
+				*eta_out = eta;
+				st = V_ACTIVE;
+				break;
+			}
+			if (!(yt > ylo && yt < yhi) || fabs(yt - y) > 0.5 * dyold)
+				yt = 0.5 * (ylo + yhi);
+		} else if (ylo == -HUGE_VAL) {
+			yt = yt >= y - MAX_DY ? yt : y - MAX_DY;
+			if (!(yt < y))
+				yt = y - 1.0;
+		} else {
+			yt = yt <= y + MAX_DY ? yt : y + MAX_DY;
+			if (!(yt > y))
+				yt = y + 1.0;
+		}
+		dyold = fabs(yt - y);
+		y = yt;
+		if (y < log(DBL_MIN) + 50.0 || y > 700.0) {
+			snprintf(reason, rlen, "eta left the floating-point range (KL = %.6g)", kl);
+			*eta_out = eta;
+			break;
+		}
+	}
+	free(thg);
+	return st;
+}
+
+/* ---- the result ---- */
+
+static pr_reps_result *result_new(int n, int d)
+{
+	pr_reps_result *r = calloc(1, sizeof *r);
+
+	if (!r)
+		return NULL;
+	r->n = n;
+	r->d = d;
+	r->p = calloc((size_t)n, sizeof *r->p);
+	r->theta = calloc((size_t)(d > 0 ? d : 1), sizeof *r->theta);
+	if (!r->p || !r->theta) {
+		pr_reps_result_free(r);
+		return NULL;
+	}
+	return r;
+}
+
+void pr_reps_result_free(pr_reps_result *r)
+{
+	if (!r)
+		return;
+	free(r->p);
+	free(r->theta);
+	free(r);
+}
+
+/* The certificate's feature part, in feature units, from r->p and r->theta:
+ * residual = |sum p (phi - phi_hat)|_2, residual_rel = the largest
+ * |sum p (phi_j - phi_hat_j) - ridge theta'_j| / fs_j, and the ESS.
+ * tmp: d scratch. */
+static void certify_features(const pr_reps_problem *pb, const int *rows, int m,
+                             const double *phat, const double *fs, double ridge_over_s,
+                             pr_reps_result *r, double *tmp)
+{
+	const int d = pb->d;
+	double s2 = 0.0, sp = 0.0;
+	int i, j, k;
+
+	memset(tmp, 0, (size_t)d * sizeof *tmp);
+	for (i = 0; i < m; i++) {
+		const double pi = r->p[rows[i]];
+
+		sp += pi;
+		s2 += pi * pi;
+		if (d == 0 || pi == 0.0)
+			continue;
+		if (!pb->phi && !pb->val) {
+			for (k = pb->rowptr[rows[i]]; k < pb->rowptr[rows[i] + 1]; k++)
+				tmp[pb->col[k]] += pi;
+		} else {
+			for (j = 0; j < d; j++)
+				tmp[j] += pi * (feat(pb, rows[i], j) - phat[j]);
+		}
+	}
+	r->residual = r->residual_rel = 0.0;
+	for (j = 0; j < d; j++) {
+		double v = !pb->phi && !pb->val ? tmp[j] - phat[j] * sp : tmp[j];
+
+		r->residual += v * v;
+		if (fs[j] > 0.0)
+			r->residual_rel = fmax(r->residual_rel, fabs(v - ridge_over_s * r->theta[j]) / fs[j]);
+	}
+	r->residual = sqrt(r->residual);
+	r->ess = 1.0 / s2;
+}
+
+static int check_opts(const pr_reps_opts *o, char *err)
+{
+	if (!(o->epsilon > 0.0) || !isfinite(o->epsilon))
+		return pr_err(err, PR_EINVAL, "reps.epsilon: must be > 0 (got %g)", o->epsilon);
+	if (!(o->ridge >= 0.0) || !isfinite(o->ridge))
+		return pr_err(err, PR_EINVAL, "reps.ridge: must be >= 0 (got %g)", o->ridge);
+	if (o->max_iter < 1)
+		return pr_err(err, PR_EINVAL, "reps.max_iter: must be >= 1 (got %d)", o->max_iter);
+	if (!(o->eta_min > 0.0 && o->eta_min <= 1.0))
+		return pr_err(err, PR_EINVAL, "reps.eta_min: must be in (0, 1] (got %g)", o->eta_min);
+	return PR_OK;
+}
+
+/* Checks the problem and fills the normalised base weights qn (n). */
 static int check_problem(const pr_reps_problem *pb, double *qn, char *err)
 {
 	double sq = 0.0;
@@ -194,795 +1612,280 @@ static int check_problem(const pr_reps_problem *pb, double *qn, char *err)
 				              i, pb->col[j], pb->d - 1);
 			if (pb->val && !isfinite(pb->val[j]))
 				return pr_err(err, PR_EINVAL, "reps: sample %d: feature value not finite", i);
+			if (!pb->val) {
+				int k;
+
+				/* one-hot rows must not repeat a feature (its value would be 2) */
+				for (k = pb->rowptr[i]; k < j; k++)
+					if (pb->col[k] == pb->col[j])
+						return pr_err(err, PR_EINVAL,
+						              "reps: sample %d: feature %d appears twice", i, pb->col[j]);
+			}
 		}
 	}
 	return PR_OK;
 }
 
-static void ctx_setup(dual_ctx *c, const pr_reps_problem *pb, const double *R,
-                      const double *qn, double *phihat, double eps, double ridge)
+/* Standardises the returns of the rows with q > 0 without overflow or
+ * underflow: Rs = (R - Rmax) / scale with scale = 2^e0 2^e1 sd, where
+ * 2^e0 brings the largest |R| into [0.5, 1), 2^e1 the largest deviation
+ * from Rmax, and sd is the q-weighted standard deviation of what is left.
+ * Scaling by powers of two is exact, and IEEE subtraction is correctly
+ * rounded, so exact shifts and power-of-two scalings of the returns give
+ * bit-identical Rs. Returns 0 when the returns are all equal. */
+static int standardise(const double *R, const int *rows, const double *q, int m, double *Rs,
+                       double *rmax, double *scale)
 {
-	int i;
+	double hi = -HUGE_VAL, lo = HUGE_VAL, mean = 0.0, var = 0.0, sd;
+	int i, e0 = 0, e1 = 0;
 
-	c->n = pb->n;
-	c->d = pb->d;
-	c->R = R;
-	c->q = qn;
-	c->phi = pb->phi;
-	c->rowptr = pb->rowptr;
-	c->col = pb->col;
-	c->val = pb->val;
-	c->eps = eps;
-	c->ridge = ridge;
-	memset(phihat, 0, (size_t)pb->d * sizeof *phihat);
-	for (i = 0; i < pb->n; i++)
-		row_add(c, i, qn[i], phihat);
-	c->phihat = phihat;
-	c->evals = 0;
-}
-
-double pr_reps_dual(const pr_reps_problem *pb, double epsilon, double ridge,
-                    const double *x, double *grad)
-{
-	dual_ctx c;
-	double *buf, g;
-	size_t n = (size_t)pb->n, d = (size_t)(pb->d > 0 ? pb->d : 0);
-
-	buf = malloc((3 * n + d + 1) * sizeof *buf);
-	if (!buf)
-		return NAN;
-	if (check_problem(pb, buf, NULL) != PR_OK) {
-		free(buf);
-		return NAN;
+	for (i = 0; i < m; i++) {
+		hi = fmax(hi, R[rows[i]]);
+		lo = fmin(lo, R[rows[i]]);
 	}
-	memset(&c, 0, sizeof c);
-	c.A = buf + n;
-	c.p = buf + 2 * n;
-	ctx_setup(&c, pb, pb->R, buf, buf + 3 * n, epsilon, ridge);
-	g = dual_eval(&c, x, grad);
-	free(buf);
-	return g;
-}
-
-/* Feature count up to which the Newton polish runs (O(n d^2 + d^3) a step). */
-#define NEWTON_MAX_D 200
-
-/* L-BFGS through NLopt, on x = (log eta, theta) with log eta >= ymin, or on
- * theta alone with eta fixed (fix = 1). */
-typedef struct {
-	dual_ctx *c;
-	int fix;
-	double *x, *g;   /* d+1 scratch for the fixed-eta case */
-	double best_f;
-	double *best;    /* best point seen, in the optimiser's coordinates */
-	nlopt_opt opt;
-} lbfgs_ctx;
-
-static double lbfgs_obj(unsigned m, const double *v, double *grad, void *data)
-{
-	lbfgs_ctx *l = data;
-	double f;
-
-	if (l->fix) {
-		memcpy(l->x + 1, v, m * sizeof *v);
-		f = dual_eval(l->c, l->x, grad ? l->g : NULL);
-		if (grad)
-			memcpy(grad, l->g + 1, m * sizeof *grad);
-	} else {
-		f = dual_eval(l->c, v, grad);
+	*rmax = hi;
+	if (hi == lo)
+		return 0;
+	frexp(fmax(fabs(hi), fabs(lo)), &e0);
+	for (i = 0; i < m; i++)
+		Rs[i] = ldexp(R[rows[i]], -e0) - ldexp(hi, -e0);
+	frexp(-(ldexp(lo, -e0) - ldexp(hi, -e0)), &e1);
+	for (i = 0; i < m; i++) {
+		Rs[i] = ldexp(Rs[i], -e1);
+		mean += q[i] * Rs[i];
 	}
-	if (isfinite(f) && f < l->best_f) {
-		l->best_f = f;
-		memcpy(l->best, v, m * sizeof *v);
-	}
-	if (pr_interrupted)
-		nlopt_force_stop(l->opt);
-	return f;
-}
-
-/* Runs L-BFGS from x and leaves the best point it saw in x (it may stop on
- * round-off, which is fine: the polish follows). Returns the NLopt code. */
-static int lbfgs(dual_ctx *c, double *x, double ymin, int fix, int max_iter)
-{
-	const size_t nx = (size_t)c->d + 1, m = fix ? nx - 1 : nx;
-	double *buf, *start = fix ? x + 1 : x, f;
-	lbfgs_ctx l;
-	nlopt_result nr;
-	size_t j;
-
-	if (m == 0)
-		return NLOPT_SUCCESS;
-	buf = malloc(5 * nx * sizeof *buf);
-	l.opt = buf ? nlopt_create(NLOPT_LD_LBFGS, (unsigned)m) : NULL;
-	if (!l.opt) {
-		free(buf);
-		return NLOPT_OUT_OF_MEMORY;
-	}
-	l.c = c;
-	l.fix = fix;
-	l.x = buf;
-	l.g = buf + nx;
-	l.best = buf + 2 * nx;
-	l.best_f = HUGE_VAL;
-	memcpy(l.x, x, nx * sizeof *x);
-	memcpy(l.best, start, m * sizeof *x);
-	memcpy(buf + 3 * nx, start, m * sizeof *x);
-	for (j = 0; j < m; j++)
-		buf[4 * nx + j] = -HUGE_VAL;
-	if (!fix)
-		buf[4 * nx] = ymin;
-	if (nlopt_set_min_objective(l.opt, lbfgs_obj, &l) < 0 ||
-	    nlopt_set_lower_bounds(l.opt, buf + 4 * nx) < 0 ||
-	    nlopt_set_ftol_rel(l.opt, 1e-15) < 0 ||
-	    nlopt_set_xtol_rel(l.opt, 1e-12) < 0 ||
-	    nlopt_set_maxeval(l.opt, max_iter) < 0 ||
-	    /* NLopt's default keeps about 4 MB / dim correction pairs: with
-	     * thousands of features every step then costs O(steps x dim) */
-	    nlopt_set_vector_storage(l.opt, 50) < 0)
-		nr = NLOPT_INVALID_ARGS;
-	else
-		nr = nlopt_optimize(l.opt, buf + 3 * nx, &f);
-	if (isfinite(l.best_f))
-		memcpy(start, l.best, m * sizeof *x);
-	if (!fix && x[0] < ymin)
-		x[0] = ymin;
-	nlopt_destroy(l.opt);
-	free(buf);
-	return nr;
-}
-
-/* Newton's method after L-BFGS, to bring the gradient to round-off so that
- * the weights do not depend on where L-BFGS stopped. The Hessian of eq. 3.8
- * in (eta, theta) is (1/eta) Cov_p(v) with v_i = (A_i/eta, phi_i), plus the
- * ridge on the theta block; it is positive semi-definite, and singular
- * directions (e.g. a constant feature) are dropped by an eigenvalue
- * pseudo-inverse. Armijo backtracking keeps g decreasing and eta above
- * eta_min. fix = 1: theta only. Returns PR_OK or PR_ENOMEM. */
-static int newton(dual_ctx *c, double *x, double ymin, int fix)
-{
-	const int nx = c->d + 1, off = fix ? 1 : 0, m = nx - off;
-	gsl_matrix *H, *V;
-	gsl_vector *ev;
-	gsl_eigen_symmv_workspace *ws;
-	double *b, *g, *v, *mean, *step, *xt;
-	int it, i, j, k, st = PR_OK;
-
-	if (m == 0)
-		return PR_OK;
-	H = gsl_matrix_alloc((size_t)m, (size_t)m);
-	V = gsl_matrix_alloc((size_t)m, (size_t)m);
-	ev = gsl_vector_alloc((size_t)m);
-	ws = gsl_eigen_symmv_alloc((size_t)m);
-	b = malloc((size_t)(5 * nx) * sizeof *b);
-	if (!H || !V || !ev || !ws || !b) {
-		st = PR_ENOMEM;
-		goto done;
-	}
-	g = b;
-	v = g + nx;
-	mean = v + nx;
-	step = mean + nx;
-	xt = step + nx;
-	for (it = 0; it < 50; it++) {
-		double eta = exp(x[0]), f, ft, gmax = 0.0, lmax = 0.0, slope = 0.0, t;
-		int ok = 0;
-
-		f = dual_eval(c, x, g);
-		for (j = off; j < nx; j++)
-			gmax = fmax(gmax, fabs(g[j]));
-		if (gmax <= 1e-14)
-			break;
-		g[0] /= eta; /* d/deta from d/dlog eta */
-		/* Cov_p(v), v_i = ((A_i - amax)/eta, phi_i); the shift does not matter */
-		gsl_matrix_set_zero(H);
-		memset(mean, 0, (size_t)nx * sizeof *mean);
-		for (i = 0; i < c->n; i++) {
-			if (c->p[i] <= 0.0)
-				continue;
-			mean[0] += c->p[i] * (c->A[i] - c->amax) / eta;
-			row_add(c, i, c->p[i], mean + 1);
-		}
-		for (i = 0; i < c->n; i++) {
-			if (c->p[i] <= 0.0)
-				continue;
-			memset(v + 1, 0, (size_t)c->d * sizeof *v);
-			row_add(c, i, 1.0, v + 1);
-			v[0] = (c->A[i] - c->amax) / eta;
-			for (j = off; j < nx; j++)
-				v[j] -= mean[j];
-			for (j = off; j < nx; j++) {
-				/* the upper triangle of row j - off, through a raw pointer:
-				 * this loop is O(n d^2) per Newton step */
-				double pv = c->p[i] * v[j] / eta, *hrow = H->data + (size_t)(j - off) * H->tda;
-
-				if (pv == 0.0)
-					continue;
-				for (k = j; k < nx; k++)
-					hrow[k - off] += pv * v[k];
-			}
-		}
-		for (j = 0; j < m; j++) {
-			if (j + off > 0)
-				*gsl_matrix_ptr(H, (size_t)j, (size_t)j) += c->ridge;
-			for (k = j + 1; k < m; k++)
-				gsl_matrix_set(H, (size_t)k, (size_t)j, gsl_matrix_get(H, (size_t)j, (size_t)k));
-		}
-		if (gsl_eigen_symmv(H, ev, V, ws) != GSL_SUCCESS)
-			break;
-		for (k = 0; k < m; k++)
-			lmax = fmax(lmax, gsl_vector_get(ev, (size_t)k));
-		memset(step, 0, (size_t)nx * sizeof *step);
-		for (k = 0; k < m; k++) {
-			double lk = gsl_vector_get(ev, (size_t)k), pk = 0.0;
-
-			if (!(lk > 1e-12 * lmax))
-				continue;
-			for (j = 0; j < m; j++)
-				pk += gsl_matrix_get(V, (size_t)j, (size_t)k) * g[j + off];
-			for (j = 0; j < m; j++)
-				step[j + off] -= pk / lk * gsl_matrix_get(V, (size_t)j, (size_t)k);
-		}
-		for (j = off; j < nx; j++)
-			slope += g[j] * step[j];
-		if (!(slope < 0.0))
-			break;
-		for (t = 1.0; t > 1e-12; t *= 0.5) {
-			double en = eta + t * step[0];
-
-			if (!(en > 0.0) || log(en) < ymin)
-				continue;
-			xt[0] = log(en);
-			for (j = 1; j < nx; j++)
-				xt[j] = x[j] + t * step[j];
-			ft = dual_eval(c, xt, t == 1.0 ? v : NULL);
-			if (ft <= f + 1e-4 * t * slope) {
-				ok = 1;
-				break;
-			}
-			/* Near the optimum the decrease drowns in round-off of g:
-			 * take the full step if it halves the gradient. */
-			if (t == 1.0 && ft <= f + 1e-12 * (1.0 + fabs(f))) {
-				double gn = 0.0;
-
-				for (j = off; j < nx; j++)
-					gn = fmax(gn, fabs(v[j]));
-				if (gn < 0.5 * gmax) {
-					ok = 1;
-					break;
-				}
-			}
-		}
-		if (!ok)
-			break;
-		memcpy(x, xt, (size_t)nx * sizeof *x);
-	}
-done:
-	gsl_matrix_free(H);
-	gsl_matrix_free(V);
-	gsl_vector_free(ev);
-	gsl_eigen_symmv_free(ws);
-	free(b);
-	return st;
-}
-
-/* Is dg/dtheta at x small enough to trust theta (feature units)? */
-static int theta_converged(dual_ctx *c, const double *x, double *g)
-{
-	double fs = 1.0;
-	int j;
-
-	dual_eval(c, x, g);
-	for (j = 0; j < c->d; j++)
-		fs = fmax(fs, fabs(c->phihat[j]));
-	for (j = 1; j <= c->d; j++)
-		if (!(fabs(g[j]) <= 1e-7 * fs))
-			return 0;
+	for (i = 0; i < m; i++)
+		var += q[i] * (Rs[i] - mean) * (Rs[i] - mean);
+	sd = sqrt(var);
+	if (!(sd > 0.0))
+		sd = 1.0; /* the spread sits on weights below DBL_MIN: any unit works */
+	for (i = 0; i < m; i++)
+		Rs[i] /= sd;
+	*scale = ldexp(sd, e0 + e1);
 	return 1;
 }
 
-/* theta*(eta) for the eta in x[0], warm-started from x; returns PR_OK,
- * PR_ENOMEM or PR_EINTR and leaves KL at the solution in c->kl. */
-static int ipf(dual_ctx *c, double *x, int max_sweeps);
-
-static int theta_solve(dual_ctx *c, double *x, int max_iter)
+/* The answer in feature and return units: p on all n samples, theta from
+ * the free features, eta, dual, KL. */
+static void map_back(const pr_reps_problem *pb, const prob *P, const double *p,
+                     const double *th, const double *fs, double rmax, double scale,
+                     double eta, double dual, double kl, pr_reps_result *r)
 {
-	int nr;
+	int i, f;
 
-	if (c->groups > 0)
-		return ipf(c, x, max_iter);
-	nr = lbfgs(c, x, 0.0, 1, max_iter);
+	memset(r->p, 0, (size_t)pb->n * sizeof *r->p);
+	for (i = 0; i < P->m; i++)
+		r->p[P->rowid[i]] = p[i];
+	memset(r->theta, 0, (size_t)(pb->d > 0 ? pb->d : 1) * sizeof *r->theta);
+	for (f = 0; f < P->nf; f++) {
+		int j = P->fr[f];
 
-	if (nr == NLOPT_OUT_OF_MEMORY)
-		return PR_ENOMEM;
-	if (nr == NLOPT_FORCED_STOP && pr_interrupted)
-		return PR_EINTR;
-	if (c->d <= NEWTON_MAX_D && newton(c, x, 0.0, 1) != PR_OK)
-		return PR_ENOMEM;
-	dual_eval(c, x, NULL);
-	return PR_OK;
-}
-
-/* One-hot features that come in blocks, each block a partition of the
- * samples (the active leaves of a state forest, eq. 5.4: one leaf per tree):
- * returns the block count K when row i's j-th stored feature always belongs
- * to block j, else 0. */
-static int one_hot_blocks(const pr_reps_problem *pb, int *pos)
-{
-	int i, j, K;
-
-	if (pb->phi || pb->val || pb->d < 1)
-		return 0;
-	K = pb->rowptr[1] - pb->rowptr[0];
-	if (K < 1)
-		return 0;
-	for (j = 0; j < pb->d; j++)
-		pos[j] = -1;
-	for (i = 0; i < pb->n; i++) {
-		if (pb->rowptr[i + 1] - pb->rowptr[i] != K)
-			return 0;
-		for (j = 0; j < K; j++) {
-			int f = pb->col[pb->rowptr[i] + j];
-
-			if (pos[f] < 0)
-				pos[f] = j;
-			else if (pos[f] != j)
-				return 0;
-		}
+		r->theta[j] = scale * (P->bin ? th[f] : th[f] / fs[j]);
 	}
-	return K;
+	r->eta = scale * eta;
+	r->dual = rmax + scale * dual;
+	r->kl = kl > 0.0 ? kl : 0.0;
 }
 
-/* theta*(eta) for block one-hot features by iterative proportional fitting:
- * with the other blocks fixed, the dual's optimum over one block's leaves is
- * closed-form (each leaf's p-mass must equal its q-mass, phi_hat):
- *   theta_l = eta log( sum_{i in l} q_i exp(u_i) / Q_l ),
- *   u_i = (R_i - sum of the other blocks' theta at i) / eta,
- * so sweeping over the blocks is exact block-coordinate descent on the
- * convex dual. Stops when every leaf mass matches to 1e-11 or after
- * max_sweeps sweeps. Leaves without q-mass keep theta = 0. */
-static int ipf(dual_ctx *c, double *x, int max_sweeps)
-{
-	const double eta = exp(x[0]);
-	double *th = x + 1;
-	int sweep, t, i, j, K = c->groups;
-
-	for (i = 0; i < c->n; i++) {
-		c->sv[i] = 0.0;
-		for (j = c->rowptr[i]; j < c->rowptr[i + 1]; j++)
-			c->sv[i] += th[c->col[j]];
-	}
-	for (sweep = 0; sweep < max_sweeps; sweep++) {
-		double gmax = 0.0;
-
-		if (pr_interrupted)
-			return PR_EINTR;
-		for (t = 0; t < K; t++) {
-			for (i = 0; i < c->n; i++) {
-				int f = c->col[c->rowptr[i] + t];
-
-				c->mx[f] = -HUGE_VAL;
-				c->sm[f] = 0.0;
-			}
-			/* u_i kept in A (free here: dual_eval refills it) */
-			for (i = 0; i < c->n; i++) {
-				int f = c->col[c->rowptr[i] + t];
-				double u = (c->R[i] - c->sv[i] + th[f]) / eta;
-
-				c->A[i] = u;
-				if (c->q[i] > 0.0 && u > c->mx[f])
-					c->mx[f] = u;
-			}
-			for (i = 0; i < c->n; i++) {
-				int f = c->col[c->rowptr[i] + t];
-
-				if (c->q[i] > 0.0)
-					c->sm[f] += c->q[i] * exp(c->A[i] - c->mx[f]);
-			}
-			/* new theta per leaf (sm < 0 marks a leaf already updated) */
-			for (i = 0; i < c->n; i++) {
-				int f = c->col[c->rowptr[i] + t];
-
-				if (c->sm[f] > 0.0 && c->phihat[f] > 0.0) {
-					double nt = eta * (c->mx[f] + log(c->sm[f]) - log(c->phihat[f]));
-
-					c->mx[f] = nt - th[f];
-					th[f] = nt;
-					c->sm[f] = -1.0;
-				} else if (c->sm[f] >= 0.0) {
-					c->mx[f] = 0.0;
-					c->sm[f] = -1.0;
-				}
-				c->sv[i] += c->mx[f];
-			}
-		}
-		dual_eval(c, x, c->sv + c->n);
-		for (j = 1; j <= c->d; j++)
-			gmax = fmax(gmax, fabs(c->sv[c->n + j]));
-		if (gmax <= 1e-11)
-			break;
-		for (i = 0; i < c->n; i++) {
-			c->sv[i] = 0.0;
-			for (j = c->rowptr[i]; j < c->rowptr[i + 1]; j++)
-				c->sv[i] += th[c->col[j]];
-		}
-	}
-	dual_eval(c, x, NULL);
-	return PR_OK;
-}
-
-/* Sets x[0] = log eta so that KL(p||q) = eps for the fixed theta in x. KL
- * falls monotonically with eta (dKL/dlog eta = -Var_p(A/eta)), so a
- * safeguarded Newton iteration on log eta inside a bracket converges. When
- * even eta_min gives KL < eps there is no root: x[0] = log eta_min and the
- * function returns 0 (bound inactive), else 1. */
-static int polish_eta(dual_ctx *c, double *x, double ymin)
-{
-	double lo, hi, y = x[0], f, step;
-	int it;
-
-	dual_eval(c, x, NULL);
-	f = c->kl - c->eps;
-	if (fabs(f) <= 1e-13)
-		return 1;
-	if (f > 0.0) {
-		/* KL too large: eta must grow. */
-		lo = y;
-		for (step = 1.0;; step *= 2.0) {
-			x[0] = y + step;
-			dual_eval(c, x, NULL);
-			if (c->kl - c->eps <= 0.0 || step > 1e3)
-				break;
-			lo = x[0];
-		}
-		hi = x[0];
-	} else {
-		hi = y;
-		x[0] = ymin;
-		dual_eval(c, x, NULL);
-		if (c->kl - c->eps < -PR_REPS_KL_TOL)
-			return 0;
-		if (c->kl - c->eps <= 0.0)
-			return 1;
-		lo = ymin;
-	}
-	/* Invariant: KL(lo) > eps >= KL(hi). */
-	y = 0.5 * (lo + hi);
-	for (it = 0; it < 200; it++) {
-		double ynew;
-
-		x[0] = y;
-		dual_eval(c, x, NULL);
-		f = c->kl - c->eps;
-		if (fabs(f) <= 1e-13 || hi - lo <= 1e-15 * (1.0 + fabs(y)))
-			break;
-		if (f > 0.0)
-			lo = y;
-		else
-			hi = y;
-		ynew = c->var > 0.0 ? y + f / c->var : 0.5 * (lo + hi);
-		if (!(ynew > lo && ynew < hi))
-			ynew = 0.5 * (lo + hi);
-		y = ynew;
-	}
-	return 1;
-}
-
-/* The robust path, used when L-BFGS on (log eta, theta) ended at the eta
- * bound or with theta unconverged (rich features make the dual very stiff
- * at small eta). The dual minimised over theta, h(eta) = min g(eta, .), is
- * convex with h'(eta) = eps - KL(eta, theta*(eta)), so KL along theta*(eta)
- * falls with eta. Walk eta down a decade at a time from 1 (returns are
- * standardised) with warm-started theta solves until KL >= eps; if eta_min
- * is reached first the bound is inactive (returns 0 with x at eta_min).
- * Otherwise an Illinois root search on log eta meets KL = eps (returns 1).
- * A negative return is an error status. */
-static int continuation(dual_ctx *c, double *x, double ymin, int max_iter)
-{
-	const int nx = c->d + 1;
-	double *th_lo, *th_hi, ylo, yhi, flo, fhi, y, f;
-	int it, st, side = 0;
-
-	th_lo = malloc(2 * (size_t)nx * sizeof *th_lo);
-	if (!th_lo)
-		return PR_ENOMEM;
-	th_hi = th_lo + nx;
-	memset(x, 0, (size_t)nx * sizeof *x);
-	if ((st = theta_solve(c, x, max_iter)) != PR_OK)
-		goto done;
-	f = c->kl - c->eps;
-	if (f > 0.0) {
-		/* KL too large already at eta = 1: go up. */
-		memcpy(th_lo, x, (size_t)nx * sizeof *x);
-		flo = f;
-		for (it = 0; it < 40 && f > 0.0; it++) {
-			x[0] += log(10.0);
-			if ((st = theta_solve(c, x, max_iter)) != PR_OK)
-				goto done;
-			f = c->kl - c->eps;
-			if (f > 0.0) {
-				memcpy(th_lo, x, (size_t)nx * sizeof *x);
-				flo = f;
-			}
-		}
-		memcpy(th_hi, x, (size_t)nx * sizeof *x);
-		fhi = f;
-	} else {
-		memcpy(th_hi, x, (size_t)nx * sizeof *x);
-		fhi = f;
-		while (f <= 0.0) {
-			if (x[0] <= ymin) {
-				st = 0;
-				goto done;
-			}
-			x[0] = fmax(x[0] - log(10.0), ymin);
-			if ((st = theta_solve(c, x, max_iter)) != PR_OK)
-				goto done;
-			f = c->kl - c->eps;
-			if (f <= 0.0) {
-				memcpy(th_hi, x, (size_t)nx * sizeof *x);
-				fhi = f;
-			}
-		}
-		memcpy(th_lo, x, (size_t)nx * sizeof *x);
-		flo = f;
-	}
-	/* Illinois on log eta: KL(ylo) > eps >= KL(yhi). */
-	ylo = th_lo[0];
-	yhi = th_hi[0];
-	for (it = 0; it < 100 && fabs(fhi) > 1e-10; it++) {
-		y = (ylo * fhi - yhi * flo) / (fhi - flo);
-		if (!(y > ylo && y < yhi))
-			y = 0.5 * (ylo + yhi);
-		memcpy(x, fabs(y - ylo) < fabs(y - yhi) ? th_lo : th_hi, (size_t)nx * sizeof *x);
-		x[0] = y;
-		if ((st = theta_solve(c, x, max_iter)) != PR_OK)
-			goto done;
-		f = c->kl - c->eps;
-		if (f > 0.0) {
-			memcpy(th_lo, x, (size_t)nx * sizeof *x);
-			ylo = y;
-			flo = f;
-			if (side == -1)
-				fhi *= 0.5;
-			side = -1;
-		} else {
-			memcpy(th_hi, x, (size_t)nx * sizeof *x);
-			yhi = y;
-			fhi = f;
-			if (side == 1)
-				flo *= 0.5;
-			side = 1;
-		}
-		if (yhi - ylo <= 1e-14 * (1.0 + fabs(yhi)))
-			break;
-	}
-	memcpy(x, th_hi, (size_t)nx * sizeof *x);
-	st = 1;
-done:
-	free(th_lo);
-	return st;
-}
-
-static pr_reps_result *result_new(int n, int d)
-{
-	pr_reps_result *r = calloc(1, sizeof *r);
-
-	if (!r)
-		return NULL;
-	r->n = n;
-	r->d = d;
-	r->p = calloc((size_t)n, sizeof *r->p);
-	r->theta = calloc((size_t)(d > 0 ? d : 1), sizeof *r->theta);
-	if (!r->p || !r->theta) {
-		pr_reps_result_free(r);
-		return NULL;
-	}
-	return r;
-}
-
-void pr_reps_result_free(pr_reps_result *r)
-{
-	if (!r)
-		return;
-	free(r->p);
-	free(r->theta);
-	free(r);
-}
-
-/* |sum p phi - phi_hat| and 1/sum p^2 for the weights in r. */
-static void finish_checks(const dual_ctx *c, pr_reps_result *r, double *tmp)
-{
-	double s = 0.0;
-	int i, j;
-
-	for (j = 0; j < c->d; j++)
-		tmp[j] = -c->phihat[j];
-	for (i = 0; i < c->n; i++)
-		row_add(c, i, r->p[i], tmp);
-	for (j = 0; j < c->d; j++)
-		s += tmp[j] * tmp[j];
-	r->residual = sqrt(s);
-	s = 0.0;
-	for (i = 0; i < c->n; i++)
-		s += r->p[i] * r->p[i];
-	r->ess = 1.0 / s;
-}
-
-static int check_opts(const pr_reps_opts *o, char *err)
-{
-	if (!(o->epsilon > 0.0) || !isfinite(o->epsilon))
-		return pr_err(err, PR_EINVAL, "reps.epsilon: must be > 0 (got %g)", o->epsilon);
-	if (!(o->ridge >= 0.0) || !isfinite(o->ridge))
-		return pr_err(err, PR_EINVAL, "reps.ridge: must be >= 0 (got %g)", o->ridge);
-	if (o->max_iter < 1)
-		return pr_err(err, PR_EINVAL, "reps.max_iter: must be >= 1 (got %d)", o->max_iter);
-	if (!(o->eta_min > 0.0 && o->eta_min < 1.0))
-		return pr_err(err, PR_EINVAL, "reps.eta_min: must be in (0, 1) (got %g)", o->eta_min);
-	return PR_OK;
-}
-
-/* The solve runs on R' = (R - m)/s with m, s the q-weighted mean and std.
- * Then p is unchanged, eta = s eta', theta = s theta' and
- * g(eta, theta; R) = m + s g'(eta', theta'; R') exactly (eq. 3.8 is
- * positively homogeneous in (R, eta, theta) and shifts with R). */
 int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
                   pr_reps_result **out, char *err)
 {
-	dual_ctx c;
 	pr_reps_result *r = NULL;
-	double *buf = NULL, *ipfbuf = NULL, *qn, *Rs, *phihat, *x, *tmp;
-	double m = 0.0, s = 0.0, rmin = HUGE_VAL, rmax = -HUGE_VAL, amax = 0.0, f, ymin;
+	prob P;
+	work w;
+	limit_t L;
+	double *qn = NULL, *Rs, *qs, *phat, *fs, *tmp, rmax, scale = 1.0, eta = 0.0;
+	int *rows = NULL, *fx, m = 0, i, j, st, verdict;
 	size_t n, d;
-	int i, st, nx, active, nr;
 
-	st = check_opts(o, err);
-	if (st != PR_OK)
+	memset(&P, 0, sizeof P);
+	memset(&w, 0, sizeof w);
+	memset(&L, 0, sizeof L);
+	if ((st = check_opts(o, err)) != PR_OK)
 		return st;
 	if (pb->n < 1)
 		return pr_err(err, PR_EINVAL, "reps: no samples");
 	n = (size_t)pb->n;
 	d = (size_t)(pb->d > 0 ? pb->d : 0);
-	nx = (int)d + 1;
-	buf = malloc((4 * n + 3 * d + 2) * sizeof *buf);
+	qn = malloc((3 * n + 3 * d + 2) * sizeof *qn);
+	rows = malloc((n + d + 1) * sizeof *rows);
 	r = result_new(pb->n, pb->d);
-	if (!buf || !r) {
+	if (!qn || !rows || !r) {
 		st = pr_err(err, PR_ENOMEM, "reps: out of memory");
 		goto done;
 	}
-	qn = buf;
 	Rs = qn + n;
-	memset(&c, 0, sizeof c);
-	c.A = Rs + n;
-	c.p = c.A + n;
-	tmp = c.p + n;       /* d + 1 */
-	phihat = tmp + d + 1;
-	x = phihat + d;      /* d + 1 */
-	st = check_problem(pb, qn, err);
-	if (st != PR_OK)
+	qs = Rs + n;
+	phat = qs + n;
+	fs = phat + d;
+	tmp = fs + d;
+	fx = rows + n;
+	if ((st = check_problem(pb, qn, err)) != PR_OK)
 		goto done;
-
-	for (i = 0; i < pb->n; i++) {
-		if (qn[i] <= 0.0)
-			continue;
-		m += qn[i] * pb->R[i];
-		if (pb->R[i] < rmin)
-			rmin = pb->R[i];
-		if (pb->R[i] > rmax)
-			rmax = pb->R[i];
-		if (fabs(pb->R[i]) > amax)
-			amax = fabs(pb->R[i]);
-	}
 	for (i = 0; i < pb->n; i++)
-		if (qn[i] > 0.0)
-			s += qn[i] * (pb->R[i] - m) * (pb->R[i] - m);
-	s = sqrt(s);
-	ctx_setup(&c, pb, Rs, qn, phihat, o->epsilon, o->ridge);
-
-	/* Returns equal up to rounding: every eta gives p = q. */
-	if (rmax - rmin <= 8.0 * DBL_EPSILON * amax || !(s > 0.0)) {
+		if (qn[i] > 0.0) {
+			qs[m] = qn[i];
+			rows[m++] = i;
+		}
+	if (d > 0)
+		feature_stats(pb, rows, qs, m, phat, fs);
+	if (!standardise(pb->R, rows, qs, m, Rs, &rmax, &scale)) {
+		/* every p with matched features earns the same: p_0 = q */
 		memcpy(r->p, qn, n * sizeof *qn);
-		r->eta = 0.0;
-		r->dual = m;
-		r->kl = 0.0;
-		r->bound = 0;
+		r->dual = rmax;
 		r->constant = 1;
-		finish_checks(&c, r, tmp);
+		r->status = PR_REPS_UNREACHABLE;
+		r->kl_gap = o->epsilon;
+		certify_features(pb, rows, m, phat, fs, 0.0, r, tmp);
+		if (!(r->residual_rel <= PR_REPS_TOL)) {
+			r->status = PR_REPS_FAILED;
+			snprintf(r->reason, sizeof r->reason, "feature residual %.3g > %g", r->residual_rel,
+			         PR_REPS_TOL);
+		}
 		*out = r;
-		free(buf);
-		return PR_OK;
+		r = NULL;
+		goto done;
 	}
-	for (i = 0; i < pb->n; i++)
-		Rs[i] = (pb->R[i] - m) / s;
+	if ((st = prob_main(&P, pb, rows, qs, Rs, m, phat, fs, o->epsilon, o->ridge, fx)) != PR_OK ||
+	    (st = work_alloc(&w, m, P.nf, o->max_iter)) != PR_OK) {
+		st = pr_err(err, PR_ENOMEM, "reps: out of memory");
+		goto done;
+	}
+	L.p = malloc((size_t)m * sizeof *L.p);
+	L.th = calloc((size_t)(P.nf > 0 ? P.nf : 1), sizeof *L.th);
+	L.lam = calloc((size_t)(P.nf > 0 ? P.nf : 1), sizeof *L.lam);
+	if (!L.p || !L.th || !L.lam) {
+		st = pr_err(err, PR_ENOMEM, "reps: out of memory");
+		goto done;
+	}
+	nfactor = 0;
+	verdict = search(&P, &w, o, &L, &eta, r->reason, sizeof r->reason);
+	if (getenv("REPS_STAT")) fprintf(stderr, "STAT m %d nf %d evals %d factors %ld verdict %d\n", m, P.nf, w.evals, nfactor, verdict);
+	if (verdict < 0) {
+		st = pr_err(err, verdict, verdict == PR_EINTR ? "reps: interrupted" :
+		            verdict == PR_ENOMEM ? "reps: out of memory" :
+		            "reps: the Hessian of the dual could not be factorised");
+		goto done;
+	}
+	if (verdict == V_UNREACHABLE) {
+		map_back(pb, &P, L.p, L.th, fs, rmax, scale, 0.0, L.value, L.kl, r);
+	} else {
+		point *x = &w.pt[0];
+		double rterm = 0.0;
 
-	ymin = log(o->eta_min);
-	memset(x, 0, (size_t)nx * sizeof *x);
-	active = -1;
-	if (!pb->phi && !pb->val && o->ridge == 0.0) {
-		int *pos = malloc(d * sizeof *pos);
-
-		if (!pos) {
-			st = pr_err(err, PR_ENOMEM, "reps: out of memory");
-			goto done;
+		for (j = 0; j < P.nf && P.rw; j++)
+			rterm += 0.5 * P.rw[j] * x->th[j] * x->th[j];
+		map_back(pb, &P, x->p, x->th, fs, rmax, scale, eta, x->F - rterm, x->kl, r);
+	}
+	r->iterations = w.evals;
+	r->kl_gap = fabs(r->kl - o->epsilon);
+	certify_features(pb, rows, m, phat, fs, o->ridge / scale, r, tmp);
+	r->status = verdict;
+	if (verdict == V_ACTIVE && !(r->kl_gap <= PR_REPS_TOL && r->residual_rel <= PR_REPS_TOL)) {
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "|KL - epsilon| = %.3g, feature residual %.3g "
+		         "(tolerance %g)", r->kl_gap, r->residual_rel, PR_REPS_TOL);
+	} else if (verdict == V_UNREACHABLE &&
+	           !(r->residual_rel <= PR_REPS_TOL && L.gap <= PR_REPS_TOL &&
+	             L.outside <= PR_REPS_TOL)) {
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "eta -> 0 limit not certified: feature residual "
+		         "%.3g, LP gap %.3g, mass outside the face up to %.3g (tolerance %g)",
+		         r->residual_rel, L.gap, L.outside, PR_REPS_TOL);
+	}
+	if (r->status == PR_REPS_FAILED && getenv("REPS_DUMP")) {
+		FILE *fp = fopen(getenv("REPS_DUMP"), "w");
+		int a, b;
+		fprintf(fp, "R,q");
+		for (b = 0; b < pb->d; b++) fprintf(fp, ",phi%d", b);
+		fprintf(fp, "\n");
+		for (a = 0; a < pb->n; a++) {
+			fprintf(fp, "%.17g,%.17g", pb->R[a], qn[a]);
+			for (b = 0; b < pb->d; b++) fprintf(fp, ",%.17g", feat(pb, a, b));
+			fprintf(fp, "\n");
 		}
-		c.groups = one_hot_blocks(pb, pos);
-		free(pos);
+		fclose(fp);
+		fprintf(stderr, "DUMP eps %.17g\n", o->epsilon);
 	}
-	if (c.groups > 0) {
-		/* Block one-hot features: when L-BFGS crawls on the stiff dual,
-		 * the continuation below uses exact block updates (IPF) instead. */
-		ipfbuf = malloc((3 * d + n + 1) * sizeof *ipfbuf);
-		if (!ipfbuf) {
-			st = pr_err(err, PR_ENOMEM, "reps: out of memory");
-			goto done;
-		}
-		c.mx = ipfbuf;
-		c.sm = ipfbuf + d;
-		c.sv = ipfbuf + 2 * d;
+	if (r->status == PR_REPS_ACTIVE)
+		r->reason[0] = '\0';
+	r->bound = r->status == PR_REPS_ACTIVE;
+	if (!isfinite(r->dual) || !isfinite(r->eta))
+		st = pr_err(err, PR_ENUM, "reps: returns too far apart: eta or the dual overflows");
+	for (j = 0; st == PR_OK && j < pb->d; j++)
+		if (!isfinite(r->theta[j]))
+			st = pr_err(err, PR_ENUM, "reps: returns too far apart: theta overflows");
+	if (st == PR_OK) {
+		*out = r;
+		r = NULL;
 	}
-	nr = lbfgs(&c, x, ymin, 0, c.groups > 0 && o->max_iter > 300 ? 300 : o->max_iter);
-	r->solver = nr;
-	if (nr == NLOPT_FORCED_STOP && pr_interrupted) {
-		st = pr_err(err, PR_EINTR, "reps: interrupted");
-		goto done;
-	}
-	if (nr == NLOPT_OUT_OF_MEMORY || nr == NLOPT_INVALID_ARGS) {
-		st = pr_err(err, PR_ENUM, "reps: L-BFGS failed (NLopt status %d)", nr);
-		goto done;
-	}
-	if (x[0] > ymin + 1e-9) {
-		if (pb->d <= NEWTON_MAX_D && newton(&c, x, ymin, 0) != PR_OK) {
-			st = pr_err(err, PR_ENOMEM, "reps: out of memory");
-			goto done;
-		}
-		if (x[0] > ymin + 1e-9 && theta_converged(&c, x, tmp) && polish_eta(&c, x, ymin))
-			active = 1;
-	}
-	if (active < 0) {
-		active = continuation(&c, x, ymin, o->max_iter);
-		if (active < 0) {
-			st = pr_err(err, active, active == PR_EINTR ? "reps: interrupted"
-			                                            : "reps: out of memory");
-			goto done;
-		}
-		if (active) {
-			if (!c.groups && pb->d <= NEWTON_MAX_D && newton(&c, x, ymin, 0) != PR_OK) {
-				st = pr_err(err, PR_ENOMEM, "reps: out of memory");
-				goto done;
-			}
-			active = polish_eta(&c, x, ymin);
-		}
-	}
-
-	/* Final evaluation without the ridge term for the reported dual. */
-	c.ridge = 0.0;
-	f = dual_eval(&c, x, NULL);
-	memcpy(r->p, c.p, n * sizeof *c.p);
-	r->kl = c.kl > 0.0 ? c.kl : 0.0;
-	r->eta = s * exp(x[0]);
-	for (i = 0; i < (int)d; i++)
-		r->theta[i] = s * x[1 + i];
-	r->dual = m + s * f;
-	r->iterations = c.evals;
-	r->bound = fabs(c.kl - o->epsilon) <= PR_REPS_KL_TOL;
-	if (active && !r->bound) {
-		st = pr_err(err, PR_ENUM, "reps: KL(p||q) = %.9g misses epsilon = %g after the solve",
-		            c.kl, o->epsilon);
-		goto done;
-	}
-	finish_checks(&c, r, tmp);
-	if (!isfinite(r->dual) || !isfinite(r->eta) || !isfinite(r->ess)) {
-		st = pr_err(err, PR_ENUM, "reps: non-finite result");
-		goto done;
-	}
-	*out = r;
-	r = NULL;
-	st = PR_OK;
 done:
 	pr_reps_result_free(r);
-	free(buf);
-	free(ipfbuf);
+	prob_free(&P);
+	work_free(&w);
+	free(L.p);
+	free(L.th);
+	free(L.lam);
+	free(qn);
+	free(rows);
 	return st;
 }
+
+/* ---- the dual as given, for tests ---- */
+
+double pr_reps_dual(const pr_reps_problem *pb, double epsilon, double ridge,
+                    const double *x, double *grad)
+{
+	const double eta = exp(x[0]);
+	const int n = pb->n, d = pb->d > 0 ? pb->d : 0;
+	double *qn = malloc((size_t)(n > 0 ? n : 1) * sizeof *qn);
+	double *A = malloc((size_t)(n > 0 ? n : 1) * sizeof *A);
+	double amax = -HUGE_VAL, z = 0.0, eu = 0.0, g, kl;
+	int i, j;
+
+	if (!qn || !A || check_problem(pb, qn, NULL) != PR_OK) {
+		free(qn);
+		free(A);
+		return NAN;
+	}
+	for (i = 0; i < n; i++) {
+		A[i] = pb->R[i];
+		for (j = 0; j < d; j++)
+			A[i] -= x[1 + j] * feat(pb, i, j);
+		if (qn[i] > 0.0 && A[i] > amax)
+			amax = A[i];
+	}
+	for (i = 0; i < n; i++)
+		if (qn[i] > 0.0)
+			z += qn[i] * exp((A[i] - amax) / eta);
+	g = eta * epsilon + amax + eta * log(z);
+	for (j = 0; j < d; j++) {
+		g += 0.5 * ridge * x[1 + j] * x[1 + j];
+		if (grad)
+			grad[1 + j] = ridge * x[1 + j];
+	}
+	for (i = 0; i < n; i++) {
+		double pi = qn[i] > 0.0 ? qn[i] * exp((A[i] - amax) / eta) / z : 0.0;
+
+		if (pi > 0.0)
+			eu += pi * (A[i] - amax) / eta;
+		for (j = 0; j < d; j++) {
+			double f = feat(pb, i, j);
+
+			g += x[1 + j] * qn[i] * f;
+			if (grad)
+				grad[1 + j] += (qn[i] - pi) * f;
+		}
+	}
+	kl = eu - log(z);
+	if (grad)
+		grad[0] = eta * (epsilon - kl);
+	free(qn);
+	free(A);
+	return g;
+}
+
+/* ---- importance weights ---- */
 
 int pr_reps_importance(int npol, int n, const double *logpi, const int *counts,
                        const double *logcur, double *q, double *logratio,

@@ -82,22 +82,24 @@ def test_schema_and_ranges(tiny):
 
     h, reps = rows(tiny / "exp3_reps.csv")
     assert h == ["repetition", "policy", "iteration", "eta", "kl", "ess", "bound", "residual",
-                 "q_ess", "features", "dual_evals", "redraws", "policy_flags"]
+                 "q_ess", "features", "dual_evals", "redraws", "policy_flags", "kl_gap",
+                 "residual_rel", "status"]
     assert len(reps) == 2 * 6 * 3
     for r in reps:
         assert 1 <= int(r["iteration"]) <= 3
         assert float(r["eta"]) >= 0 and float(r["kl"]) >= 0
         assert 1 - 1e-9 <= float(r["ess"]) <= 40 + 1e-9
         assert 1 - 1e-9 <= float(r["q_ess"]) <= 40 + 1e-9
-        # the feature match REPS reached (SPEC.md 4: checked after every solve);
-        # with the bound active the dual converged, at eta_min (more leaves than
-        # samples here) the match may be incomplete, and the CSV says how far
-        assert 0 <= float(r["residual"]) < math.inf
+        # every solve is certified: active (KL = eps, features matched) or
+        # unreachable (eta = 0, the eta -> 0 limit, KL < eps); failed would
+        # have failed the run (reps.allow_failed = 0)
+        assert float(r["residual_rel"]) <= 1e-9
         if r["bound"] == "1":
-            assert float(r["residual"]) < 1e-6
-            assert float(r["kl"]) == pytest.approx(0.5, abs=1e-6)
+            assert r["status"] == "active" and float(r["kl_gap"]) <= 1e-9
+            assert float(r["kl"]) == pytest.approx(0.5, abs=1e-9)
         else:
-            assert r["bound"] == "0" and float(r["kl"]) < 0.5
+            assert r["status"] == "unreachable" and float(r["kl"]) < 0.5
+            assert float(r["eta"]) == 0.0
         if r["policy"] == "handcrafted":
             assert r["features"] == "6"  # 1, x, y, x^2, xy, y^2
         if r["iteration"] == "1":
@@ -159,8 +161,12 @@ def test_derived_match_raw(tiny):
     for x in rs:
         assert int(x["solves"]) == 6
         assert int(x["bound_active"]) + int(x["bound_inactive"]) == 6
-        mine = [float(r["residual"]) for r in reps if r["policy"] == x["policy"]]
-        assert float(x["max_residual"]) == max(mine)
+        mine = [r for r in reps if r["policy"] == x["policy"]]
+        assert float(x["max_residual"]) == max(float(r["residual"]) for r in mine)
+        assert float(x["max_residual_rel"]) == max(float(r["residual_rel"]) for r in mine)
+        assert int(x["unreachable"]) == sum(r["status"] == "unreachable" for r in mine)
+        assert int(x["failed"]) == 0
+        assert int(x["bound_inactive"]) == int(x["unreachable"]) + int(x["failed"])
 
 
 def test_reps_improves_on_initial_policy(tmp_path):

@@ -1,5 +1,4 @@
-"""End-to-end tests of `poolreps reps` and `poolreps policy` (SPEC.md §6,
-issue 4 items 4 and 7).
+"""End-to-end tests of `poolreps reps` and `poolreps policy`.
 
 The binary is $POOLREPS (default ./poolreps at the repository root); run
 with LC_ALL=C.
@@ -83,7 +82,10 @@ def test_reps_weights_and_summary(tmp_path):
     for col in ("eta", "dual", "kl", "ess", "bound"):
         assert col in s[0]
     s = s[0]
-    assert int(s["bound"]) == 1
+    assert list(s.keys()) == ["eta", "dual", "kl", "ess", "bound", "residual", "iterations",
+                              "kl_gap", "residual_rel", "status"]
+    assert int(s["bound"]) == 1 and s["status"] == "active"
+    assert float(s["kl_gap"]) <= 1e-9 and float(s["residual_rel"]) <= 1e-9
     assert abs(float(s["kl"]) - 0.7) <= 1e-6
     assert abs(float(s["ess"]) - 1 / sum(x * x for x in p)) < 1e-6
     # KL recomputed from the weights and the normalised base weights
@@ -131,11 +133,12 @@ def test_reps_constant_returns_uniform(tmp_path):
     inp = write_rows(tmp_path / "c.csv", ["R", "phi"], [[-0.3, i / 10] for i in range(10)])
     r = ok(run(["reps", "--return", "R", "--features", "phi", "-i", inp, "-o", "p.csv",
                 "--summary", "s.csv"], tmp_path))
-    assert "KL bound inactive" in r.stderr
+    assert "KL bound unreachable" in r.stderr and "all returns are equal" in r.stderr
     p = [float(x["p"]) for x in read_csv(tmp_path / "p.csv")]
     assert all(abs(x - 0.1) < 1e-15 for x in p)
     s = read_csv(tmp_path / "s.csv")[0]
     assert int(s["bound"]) == 0 and float(s["kl"]) == 0.0
+    assert s["status"] == "unreachable" and float(s["eta"]) == 0.0
 
 
 def test_reps_rich_features_bound_inactive(tmp_path):
@@ -146,10 +149,12 @@ def test_reps_rich_features_bound_inactive(tmp_path):
     inp = write_rows(tmp_path / "rich.csv", ["R"] + [f"leaf{j}" for j in range(n)], rows)
     r = ok(run(["reps", "--return", "R", "--features", "leaf*", "-i", inp, "-o", "p.csv",
                 "--summary", "s.csv"], tmp_path))
-    assert "KL bound inactive" in r.stderr
+    assert "KL bound unreachable" in r.stderr
     s = read_csv(tmp_path / "s.csv")[0]
     assert int(s["bound"]) == 0 and float(s["kl"]) < 0.5
-    assert all(abs(float(x["p"]) - 1 / n) < 1e-6 for x in read_csv(tmp_path / "p.csv"))
+    assert s["status"] == "unreachable" and float(s["eta"]) == 0.0
+    assert float(s["residual_rel"]) <= 1e-9
+    assert all(abs(float(x["p"]) - 1 / n) < 1e-12 for x in read_csv(tmp_path / "p.csv"))
 
 
 def test_reps_bad_input(tmp_path):

@@ -1,4 +1,4 @@
-/* reps.h — episodic contextual REPS (thesis ch. 3, SPEC.md §4).
+/* reps.h — episodic contextual REPS (thesis ch. 3).
  *
  * One call, pr_reps_solve, minimises the dual eq. 3.8
  *
@@ -6,11 +6,16 @@
  *                 + eta * log sum_i q_i exp((R_i - theta^T phi_i) / eta),
  *   phi_hat = sum_i q_i phi_i,
  *
- * over x = (log eta, theta) with NLopt's L-BFGS and the analytic gradient,
- * on returns standardised by their q-weighted mean and std (eta and theta
- * are mapped back exactly: eta = s*eta', theta = s*theta', g = m + s*g').
- * The weights p_i ∝ q_i exp((R_i - theta^T phi_i)/eta) (eq. 3.7) already
- * contain q: a policy fit must not multiply by q again.
+ * and certifies the answer. The weights p_i ∝ q_i exp((R_i - theta^T phi_i)/eta)
+ * (eq. 3.7) already contain q: a policy fit must not multiply by q again.
+ *
+ * The dual minimised over theta, h(eta), is convex with h'(eta) = eps - KL(p_eta||q),
+ * and KL(p_eta||q) rises monotonically as eta falls, towards KL(p_0||q), where p_0
+ * is the eta -> 0 limit: among the solutions of the feature-matching linear
+ * programme (maximise sum p R subject to sum p phi = phi_hat, sum p = 1, p >= 0,
+ * p = 0 where q = 0) the one closest to q in KL. So either the bound is met at a
+ * unique eta > 0 (status active), or eps >= KL(p_0||q) and the answer is p_0
+ * itself at eta = 0 (status unreachable).
  */
 #ifndef POOLREPS_REPS_H
 #define POOLREPS_REPS_H
@@ -19,17 +24,33 @@
 
 /* REPS parameters (keys reps.*). */
 typedef struct {
-	double epsilon;  /* KL bound, eq. 3.2; > 0 */
-	double ridge;    /* ridge (ridge/2)|theta'|^2 on theta in standardised
-	                    return units (so it does not depend on the return
-	                    scale); 0 = none */
-	int max_iter;    /* L-BFGS dual evaluations (or IPF sweeps) per solve */
-	double eta_min;  /* lower bound on eta in units of the return std */
+	double epsilon;   /* KL bound, eq. 3.2; > 0 */
+	double ridge;     /* ridge (ridge/2)|theta'|^2 on theta in standardised
+	                     return units (so it does not depend on the return
+	                     scale); 0 = none. The eta -> 0 limit exists only
+	                     without it (an unreachable bound is then "failed") */
+	int max_iter;     /* dual evaluations per solve before it gives up */
+	double eta_min;   /* eta, in return standard deviations, below which the
+	                     solver consults the eta -> 0 limit (a linear
+	                     programme) to decide whether the bound is reachable */
+	int allow_failed; /* experiments: 1 = record a failed certificate and go
+	                     on; 0 (default) = a failed solve fails the run */
 } pr_reps_opts;
 void pr_reps_opts_init(pr_reps_opts *o);
 
-/* The |KL - eps| tolerance that makes the bound count as met. */
-#define PR_REPS_KL_TOL 1e-6
+/* Certificate tolerance: |KL - eps|, the relative feature residual, and the
+ * distance of p to the eta -> 0 solution must each be within it. */
+#define PR_REPS_TOL 1e-9
+
+/* Certificate status of a solve. */
+enum {
+	PR_REPS_ACTIVE = 0,      /* |KL - eps| <= PR_REPS_TOL, residual <= PR_REPS_TOL */
+	PR_REPS_UNREACHABLE = 1, /* eta = 0 (its floor), KL < eps, p = the eta -> 0
+	                            solution within PR_REPS_TOL, residual <= PR_REPS_TOL */
+	PR_REPS_FAILED = 2       /* neither could be certified; `reason` says why */
+};
+/* "active", "unreachable" or "failed". */
+const char *pr_reps_status_name(int status);
 
 /* A REPS problem over n samples with d state features. Features are dense
  * (phi, n x d row-major) or sparse in CSR form (rowptr n+1 entries, col and
@@ -49,33 +70,40 @@ typedef struct {
 /* Result of one solve. Owned by the caller: pr_reps_result_free. */
 typedef struct {
 	int n, d;
-	double *p;         /* n weights, sum 1; include q; 0 where q_i = 0 */
-	double *theta;     /* d value-function parameters, return units */
-	double eta;        /* temperature, return units (0 when returns are constant) */
-	double dual;       /* g(eta, theta) of eq. 3.8 without the ridge term */
-	double kl;         /* KL(p || q) */
-	double residual;   /* |sum_i p_i phi_i - phi_hat|_2 */
-	double ess;        /* effective sample size 1 / sum_i p_i^2 */
-	int bound;         /* 1: the KL bound is active, |kl - eps| <= PR_REPS_KL_TOL;
-	                      0: "KL bound inactive": eta sits at its lower bound
-	                      and kl < eps (features rich enough to pin p near q,
-	                      or returns constant) */
-	int constant;      /* 1: all returns equal; p = q, eta = 0, theta = 0 */
-	int iterations;    /* dual evaluations (L-BFGS, Newton, IPF sweeps, polish) */
-	int solver;        /* NLopt's result code (nlopt_result) */
+	double *p;           /* n weights, sum 1; include q; 0 where q_i = 0 */
+	double *theta;       /* d value-function parameters, return units */
+	double eta;          /* temperature, return units; 0 when the bound is
+	                        unreachable (the eta -> 0 limit) */
+	double dual;         /* g(eta, theta) of eq. 3.8 without the ridge term
+	                        (at eta = 0: the linear programme's dual value) */
+	double kl;           /* KL(p || q) */
+	double kl_gap;       /* |kl - epsilon| */
+	double residual;     /* |sum_i p_i (phi_i - phi_hat)|_2, feature units */
+	double residual_rel; /* max_j |sum_i p_i (phi_ij - phi_hat_j)| / s_j,
+	                        s_j = max_{i: q_i > 0} |phi_ij - phi_hat_j| (0/0 = 0);
+	                        with a ridge, of sum p phi - phi_hat + ridge theta' */
+	double ess;          /* effective sample size 1 / sum_i p_i^2 */
+	int status;          /* PR_REPS_ACTIVE, PR_REPS_UNREACHABLE or PR_REPS_FAILED */
+	int bound;           /* 1 exactly when status is PR_REPS_ACTIVE */
+	int constant;        /* 1: all returns with q_i > 0 are equal; p = q, eta = 0 */
+	int iterations;      /* dual evaluations (Newton steps and line-search trials) */
+	char reason[160];    /* status failed: what could not be certified */
 } pr_reps_result;
 
-/* Solve the dual: L-BFGS, a Newton polish (d <= 200), and a 1-D root find
- * on eta for the final theta. When L-BFGS ends at the eta bound or with
- * theta unconverged, a continuation in eta with warm-started theta solves
- * decides whether the bound is active (exact block updates for one-hot
- * features in blocks, i.e. CSR rows whose j-th entry is a leaf of tree j).
- * The KL check is enforced: when eta is above its lower bound the result
- * satisfies |kl - eps| <= PR_REPS_KL_TOL; otherwise bound = 0. Check
- * `residual` for the feature match.
+/* Solve the dual and certify the result (see the file comment): Newton's
+ * method on theta for fixed eta with the exact Hessian (the p-weighted
+ * covariance of the features), a safeguarded root search on log eta for
+ * KL = eps, and, when eta falls below eta_min with KL < eps, the eta -> 0
+ * limit by a linear programme (GLPK) and a maximum-entropy solve on its
+ * optimal face. Returns are standardised first (shift by their maximum,
+ * divide by their q-weighted spread, both without overflow or underflow),
+ * so the answer is invariant to affine changes of the returns.
+ * A result that cannot be certified is returned with status
+ * PR_REPS_FAILED and PR_OK: the caller decides (the CLI exits 3).
  * Errors: PR_EINVAL (bad options, non-finite data, negative or all-zero q,
- * naming the sample), PR_ENOMEM, PR_ENUM (solver failure). *out is set only
- * on success. */
+ * naming the sample), PR_ENOMEM, PR_ENUM (returns so far apart that the
+ * back-mapped eta or theta overflows), PR_EINTR. *out is set only on
+ * success. */
 int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
                   pr_reps_result **out, char *err);
 void pr_reps_result_free(pr_reps_result *r);
@@ -88,7 +116,7 @@ void pr_reps_result_free(pr_reps_result *r);
 double pr_reps_dual(const pr_reps_problem *pb, double epsilon, double ridge,
                     const double *x, double *grad);
 
-/* Importance weights for sample reuse (SPEC.md §4): a window of n samples
+/* Importance weights for sample reuse: a window of n samples
  * drawn by npol past policies, counts[k] of them by policy k (sum = n).
  * logpi is npol x n row-major: logpi[k*n + i] = log pi_k(a_i | s_i); logcur
  * (n) holds log pi_current(a_i | s_i). In log space,
