@@ -1,4 +1,4 @@
-/* cmd_policy.c — `poolreps policy` (SPEC.md §6): fit the tree-LWR Gaussian
+/* cmd_policy.c — `poolreps policy`: fit the tree-LWR Gaussian
  * policy (keys policy.*) from weighted samples and query it.
  *
  * --train FILE holds the samples: --state COLS, --action COLS (comma lists

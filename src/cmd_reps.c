@@ -8,8 +8,9 @@
  * writes one row eta,dual,kl,ess,bound,residual,iterations,kl_gap,
  * residual_rel,status (the certificate, reps.h). A solve that cannot be
  * certified exits 3 with one line naming what failed (e.g. the feature
- * residual). Every input check runs before anything is written; on an
- * error no file is left.
+ * residual). Features that are all 0 or 1 are handed to the solver as
+ * sparse one-hot rows. Every input check runs before anything is written;
+ * on an error no file is left.
  */
 #include <math.h>
 #include <stdio.h>
@@ -51,6 +52,38 @@ static int write_summary(pr_csvw *w, const pr_reps_result *r)
 	return rc ? rc : pr_csvw_endrow(w);
 }
 
+/* Features that are all 0 or 1 (one-hot leaves, eq. 5.4) go to the solver
+ * in sparse form, as the experiments hand them over: the one-hot path. */
+static int sparse_if_binary(pr_reps_problem *pb, int **rowptr, int **col, char *err)
+{
+	size_t i, nnz = 0, nd = (size_t)pb->n * (size_t)pb->d;
+	int r;
+
+	for (i = 0; i < nd; i++) {
+		if (pb->phi[i] != 0.0 && pb->phi[i] != 1.0)
+			return PR_OK;
+		nnz += pb->phi[i] == 1.0;
+	}
+	*rowptr = malloc(((size_t)pb->n + 1) * sizeof **rowptr);
+	*col = malloc((nnz > 0 ? nnz : 1) * sizeof **col);
+	if (!*rowptr || !*col)
+		return pr_err(err, PR_ENOMEM, "reps: out of memory");
+	for (r = 0, nnz = 0; r < pb->n; r++) {
+		int j;
+
+		(*rowptr)[r] = (int)nnz;
+		for (j = 0; j < pb->d; j++)
+			if (pb->phi[(size_t)r * pb->d + j] == 1.0)
+				(*col)[nnz++] = j;
+	}
+	(*rowptr)[pb->n] = (int)nnz;
+	pb->phi = NULL;
+	pb->rowptr = *rowptr;
+	pb->col = *col;
+	pb->val = NULL;
+	return PR_OK;
+}
+
 int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	pr_reps_opts o = cfg->reps;
@@ -59,7 +92,7 @@ int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pr_csv *in = NULL;
 	pr_csvw *w = NULL, *sw = NULL;
 	double *R = NULL, *q = NULL, *phi = NULL, sq = 0.0;
-	int *fc = NULL, rcol, bcol = -1, d = 0, j, rc;
+	int *fc = NULL, *rowptr = NULL, *col = NULL, rcol, bcol = -1, d = 0, j, rc;
 	long i, n;
 
 	if (a->epsilon_set) {
@@ -135,6 +168,8 @@ int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pb.R = R;
 	pb.q = q;
 	pb.phi = phi;
+	if (d > 0 && (rc = sparse_if_binary(&pb, &rowptr, &col, err)))
+		goto done;
 	if ((rc = pr_reps_solve(&o, &pb, &r, err)))
 		goto done;
 	if (r->status == PR_REPS_FAILED) {
@@ -172,6 +207,8 @@ done:
 	pr_reps_result_free(r);
 	pr_csv_free(in);
 	free(fc);
+	free(rowptr);
+	free(col);
 	free(R);
 	free(q);
 	free(phi);

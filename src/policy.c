@@ -1,6 +1,15 @@
 /* policy.c — Gaussian policies: fixed, linear on hand-made features
  * (weighted ML, eq. 3.10), and tree-based locally weighted regression
- * (eq. 6.4-6.9). */
+ * (eq. 6.4-6.9).
+ *
+ * Both regressions run in centred, standardised coordinates, so offsets
+ * and scales of states and actions do not reach the arithmetic: the
+ * intercept comes from weighted means, the slopes from the standardised
+ * design (its SVD for the linear fit; for tree-LWR the eigen-decomposition
+ * of its correlation matrix, built per query from per-leaf moments: eq.
+ * 6.4's weights make every weighted sum a sum over the query's active
+ * leaves, and leaf records merge exactly by the pairwise update, so a
+ * query costs O(M) instead of O(n)). */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -14,8 +23,12 @@
 
 #include "poolreps/policy.h"
 
-/* Eigenvalues below this fraction of the largest are dropped (pseudo-inverse). */
-#define RCOND 1e-12
+/* Singular values of the standardised design below these fractions of the
+ * largest are dropped (a pseudo-inverse): the SVD of the design itself
+ * resolves them to round-off; from the moments (eigenvalues of the
+ * correlation matrix, sig^2) only down to about sqrt(eps). */
+#define RCOND_DESIGN 1e-12
+#define RCOND_MOMENTS 1e-7
 /* Z of eq. 6.9 for weights normalised to sum 1 is 1 - sum w^2 = 1 - 1/ESS;
  * below this there is effectively one sample and no spread to estimate. */
 #define ZMIN 1e-12
@@ -223,12 +236,12 @@ pr_policy_work *pr_policy_work_new(const pr_policy *p, char *err)
 /* The ridge solve shared by both fits, in standardised coordinates: given
  * the SVD of the k-column standardised weighted design, X~ = U diag(sig) V^T,
  * and U^T Y~ (k x da), the slopes b~ = V diag(sig / (sig^2 + lambda)) U^T Y~
- * minimise |X~ b - Y~|^2 + lambda |b|^2. Singular values below RCOND times
+ * minimise |X~ b - Y~|^2 + lambda |b|^2. Singular values below rcond times
  * the largest are dropped (a rank-deficient design: minimum-norm slopes,
  * PR_POLICY_PINV). V is k x k row-major (column l is the l-th vector).
  * Returns the flags. */
 static int ridge_filter(int k, int da, const double *V, const double *sig, const double *UtY,
-                        double lambda, double *b)
+                        double lambda, double rcond, double *b)
 {
 	double smax = 0.0;
 	int j, l, m, flags = 0;
@@ -239,7 +252,7 @@ static int ridge_filter(int k, int da, const double *V, const double *sig, const
 	for (l = 0; l < k; l++) {
 		double f;
 
-		if (!(sig[l] > RCOND * smax)) {
+		if (!(sig[l] > rcond * smax)) {
 			flags |= PR_POLICY_PINV;
 			continue;
 		}
@@ -296,7 +309,7 @@ static int slope_solve(int k, int da, const double *Cxx, const double *Cxa, int 
 	for (j = 0; j < k; j++)
 		for (l = 0; l < k; l++)
 			gsl_matrix_set(e->M, (size_t)j, (size_t)l, gsl_matrix_get(e->V, (size_t)j, (size_t)l));
-	flags |= ridge_filter(k, da, e->M->data, bs, UtY, lambda, B);
+	flags |= ridge_filter(k, da, e->M->data, bs, UtY, lambda, RCOND_MOMENTS, B);
 	for (j = 0; j < k; j++)
 		for (m = 0; m < da; m++)
 			B[j * da + m] = sd[j] > 0.0 ? B[j * da + m] / sd[j] : 0.0;
@@ -580,7 +593,7 @@ static int design_solve(int n, int nf, int da, const double *X, const double *w,
 					t += gsl_matrix_get(D, (size_t)i, (size_t)l) * gsl_matrix_get(Y, (size_t)i, (size_t)c);
 				UtY[l * da + c] = t;
 			}
-		flags |= ridge_filter(k, da, V->data, sig->data, UtY, lambda, bs);
+		flags |= ridge_filter(k, da, V->data, sig->data, UtY, lambda, RCOND_DESIGN, bs);
 		for (j = 0; j < k; j++)
 			for (c = 0; c < da; c++)
 				B[(1 + j) * da + c] = sd[j] > 0.0 ? bs[j * da + c] / sd[j] : 0.0;

@@ -24,8 +24,8 @@
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
-#include <string.h>
 #include <stdio.h>
+#include <string.h>
 
 #include <glpk.h>
 #include <gsl/gsl_errno.h>
@@ -57,7 +57,7 @@ const char *pr_reps_status_name(int status)
 #define KL_TOL 1e-12
 /* A residual that stops falling counts as converged below this (well inside
  * the certificate's PR_REPS_TOL; the certificate checks it again). */
-#define FLOOR_TOL 1e-11
+#define FLOOR_TOL 1e-10
 /* Shift added to the Jacobi-scaled covariance (unit diagonal) before its
  * Cholesky factorisation: it bounds steps along exactly dependent feature
  * directions, which leave p unchanged. */
@@ -350,8 +350,9 @@ static void covariances(const prob *P, work *w, double eta, const point *x)
 
 /* Factorises the symmetric positive semi-definite matrix held in the upper
  * triangle of H (n x n, diagonal included) after Jacobi scaling to unit
- * diagonal, with SHIFT added; rows whose diagonal is not above 1e-300 and
- * 1e-30 of the largest have nothing left to fit and are frozen (dsc = 0).
+ * diagonal, with SHIFT added; rows whose diagonal is not above 1e-150 (near
+ * underflow, where products lose their relative accuracy) and 1e-30 of the
+ * largest have nothing left to fit and are frozen (dsc = 0).
  * The lower triangle and diagonal receive the Cholesky factor, the upper
  * triangle is kept. Returns PR_OK or PR_ENUM. */
 static int psd_factor(gsl_matrix *H, int n, double *dsc)
@@ -368,7 +369,7 @@ static int psd_factor(gsl_matrix *H, int n, double *dsc)
 	for (j = 0; j < n; j++) {
 		double d = h[(size_t)j * td + j];
 
-		dsc[j] = d > 1e-300 && d > 1e-30 * dmax ? 1.0 / sqrt(d) : 0.0;
+		dsc[j] = d > 1e-150 && d > 1e-30 * dmax ? 1.0 / sqrt(d) : 0.0;
 	}
 	hv = gsl_matrix_submatrix(H, 0, 0, (size_t)n, (size_t)n);
 	for (tries = 0, shift = SHIFT; tries < 4; tries++, shift *= 100.0) {
@@ -402,10 +403,8 @@ static void psd_solve(gsl_matrix *H, int n, const double *dsc, const double *b, 
 }
 
 /* Factorises H = Cov/eta + diag(rw) (Cov in the upper triangle of w->H). */
-static long nfactor;
 static int factor(const prob *P, work *w, double eta)
 {
-	nfactor++;
 	const size_t td = w->H->tda;
 	double *H = w->H->data;
 	int j, k;
@@ -446,38 +445,39 @@ static void regress_u(const prob *P, work *w, double eta)
 }
 
 /* Newton's method on theta at fixed eta, from w->pt[0].th. Leaves pt[0]
- * evaluated at the last accepted theta and H factorised there (with
- * Cov_p(psi, u) for regress_u). Returns 1 if res <= tol, 0 if it stalled or
- * ran out of evaluations, PR_ENUM/PR_EINTR on failure. */
+ * evaluated at the last accepted theta. Returns 1 if res <= tol, or if the
+ * residual stopped falling at its round-off floor below FLOOR_TOL, with H
+ * factorised at pt[0] (and Cov_p(psi, u) for regress_u); 0 if it stalled,
+ * ran out of evaluations or met an indefinite Hessian; PR_EINTR. */
 static int theta_solve(const prob *P, work *w, double eta, double tol)
 {
 	point *x = &w->pt[0], *t = &w->pt[1], tmp;
 	double best = HUGE_VAL;
-	int it, j, k, since = 0;
+	int j, k, since = 0, tiny = 0;
 
 	eval(P, w, eta, x);
-	for (it = 0;; it++) {
+	for (;;) {
 		double dec = 0.0, step = 1.0;
 		int ok = 0;
 
 		if (pr_interrupted)
 			return PR_EINTR;
 		covariances(P, w, eta, x);
-		if (factor(P, w, eta) != PR_OK) {
-			if (getenv("REPS_DEBUG")) fprintf(stderr, "factor failed eta %g res %g F %g kl %g\n", eta, x->res, x->F, x->kl);
-			return PR_ENUM;
-		}
-		if (getenv("REPS_DEBUG")) fprintf(stderr, "it %d eta %.6g res %.3g F %.17g kl %.6g evals %d\n", it, eta, x->res, x->F, x->kl, w->evals);
+		/* a Hessian that round-off made indefinite: this start is useless */
+		if (factor(P, w, eta) != PR_OK)
+			return 0;
 		if (x->res <= tol || P->nf == 0)
 			return 1;
-		/* the residual has reached its round-off floor (at small eta the
-		 * weights carry round-off of eps |A / eta|): no halving in 4 steps */
-		if (x->res < 0.5 * best) {
-			best = x->res;
+		/* the residual's round-off floor (at small eta the weights carry
+		 * round-off of eps |A / eta|): 4 steps in a row whose decrease of F
+		 * drowned in round-off, without halving the residual */
+		if (tiny && !(x->res < 0.5 * best)) {
+			if (++since >= 4)
+				return x->res <= FLOOR_TOL;
+		} else {
 			since = 0;
-		} else if (++since >= 4) {
-			return x->res <= FLOOR_TOL;
 		}
+		best = fmin(best, x->res);
 		if (w->evals >= w->max_evals)
 			return 0;
 		hsolve(P, w, x->g, w->v2);
@@ -497,6 +497,7 @@ static int theta_solve(const prob *P, work *w, double eta, double tol)
 		}
 		if (!ok)
 			return 0;
+		tiny = dec <= 1e-12 * (1.0 + fabs(x->F));
 		tmp = *x;
 		*x = *t;
 		*t = tmp;
@@ -784,6 +785,9 @@ typedef struct {
 	double *th;       /* nf: an optimal dual solution of the LP (free features) */
 	double *lam;      /* nf: the face's max-entropy multipliers: theta(eta) is
 	                     th + eta lam + o(eta) as eta -> 0 */
+	double *rr;       /* m: the reduced costs R_i - psi_i th - const <= 0 (0 on
+	                     the face), to round-off of the result */
+	int shifted;      /* the search continued on R = rr, theta - th */
 	double kl;        /* KL(p_0 || q) */
 	double value;     /* the dual value at eta = 0: th.tg + max_i (R_i - psi_i th) */
 	double gap;       /* value - sum p_0 R: how far p_0 is from optimal */
@@ -816,31 +820,34 @@ static double col_dot(const prob *P, int i, const double *y, double *mag)
 	return s;
 }
 
-/* Compensated R_i - a_i . y (Ogita, Rump and Oishi's Dot2: error-free
- * products by fma and sums by TwoSum), so that the result is within
- * 2 eps |result| + 2 (k eps)^2 mag of the exact value, k = col_nnz + 1. */
-static double rr_exact(const prob *P, int i, const double *y, double *mag)
+/* Compensated t - a_i . (y + ylo) (Ogita, Rump and Oishi's Dot2: error-free
+ * products by fma and sums by TwoSum; ylo, the low part of a double-double
+ * y, may be NULL), so that the result is within 2 eps |result| +
+ * 2 (k eps)^2 mag of the exact value, k = 2 col_nnz + 1. */
+static double rr_exact(const prob *P, int i, double t, const double *y, const double *ylo,
+                       double *mag)
 {
-	double s = P->R[i], c = 0.0, a = fabs(P->R[i]);
-	int e, nk = P->bin ? P->rfp[i + 1] - P->rfp[i] : P->nf;
+	double s = t, c = 0.0, a = fabs(t);
+	int e, nk = P->bin ? P->rfp[i + 1] - P->rfp[i] : P->nf, lo;
 
-	for (e = -1; e < nk; e++) {
-		double pr, pe, t, z;
+	for (lo = 0; lo < (ylo ? 2 : 1); lo++) {
+		const double *v = lo ? ylo : y;
 
-		if (e < 0)
-			pr = -y[P->nf];
-		else if (P->bin)
-			pr = -y[P->rfi[P->rfp[i] + e]];
-		else
-			pr = -P->psi[(size_t)i * P->nf + e] * y[e];
-		pe = P->bin || e < 0 ? 0.0 : fma(-P->psi[(size_t)i * P->nf + e], y[e], -pr);
-		t = s + pr;
-		z = t - s;
-		c += (s - (t - z)) + (pr - z) + pe;
-		s = t;
-		a += fabs(pr);
+		for (e = -1; e < nk; e++) {
+			double f = e < 0 || P->bin ? 1.0 : P->psi[(size_t)i * P->nf + e], pr, pe, sn, z;
+			int k = e < 0 ? P->nf : P->bin ? P->rfi[P->rfp[i] + e] : e;
+
+			pr = -f * v[k];
+			pe = fma(-f, v[k], -pr);
+			sn = s + pr;
+			z = sn - s;
+			c += (s - (sn - z)) + (pr - z) + pe;
+			s = sn;
+			a += fabs(pr);
+		}
 	}
-	*mag = a;
+	if (mag)
+		*mag = a;
 	return s + c;
 }
 
@@ -903,6 +910,20 @@ static int lp_solve(glp_prob *lp)
 	parm.presolve = GLP_OFF;
 	glp_scale_prob(lp, GLP_SF_AUTO);
 	glp_adv_basis(lp, 0);
+	/* tight tolerances first: base weights span many decades, and a sample
+	 * whose leaf pins it to a mass of 1e-11 must not be rounded to 0; if
+	 * the simplex method cannot work to them, GLPK's defaults, from where
+	 * it stopped (the certificate judges the result either way) */
+	parm.tol_bnd = 1e-13;
+	parm.tol_dj = 1e-13;
+	/* tight tolerances can make a degenerate problem cycle: a budget */
+	parm.it_lim = 50 * (glp_get_num_rows(lp) + glp_get_num_cols(lp));
+	if (glp_simplex(lp, &parm) == 0 && glp_get_status(lp) == GLP_OPT)
+		return 1;
+	glp_init_smcp(&parm);
+	parm.msg_lev = GLP_MSG_OFF;
+	parm.presolve = GLP_OFF;
+	parm.it_lim = 50 * (glp_get_num_rows(lp) + glp_get_num_cols(lp));
 	return glp_simplex(lp, &parm) == 0 && glp_get_status(lp) == GLP_OPT;
 }
 
@@ -964,8 +985,10 @@ static int lp_match(const prob *P, double *x, double *y)
 }
 
 /* Which columns of Z (nz of them, zero reduced cost) some optimal p uses,
- * and a certificate for the others: maximise sum_k s_k over a row vector w
- * (nf + 1, free) and 0 <= s <= 1 with a_i . w >= s_k on Z and w . b = 0.
+ * beyond those marked in sup (the vertex's support, which it uses), and a
+ * certificate for the others: maximise sum_k s_k over a row vector w
+ * (nf + 1, free) and 0 <= s <= 1 (s = 0 on sup) with a_i . w >= s_k on Z
+ * and w . b = 0.
  * For every feasible p on Z, sum p_i a_i . w = w . b = 0 with every term
  * >= 0, so p vanishes where a_i . w > 0; by Farkas' lemma the optimum has
  * s_k = 1 exactly there. Marks the used columns in sup, fills w; returns 1,
@@ -1005,7 +1028,11 @@ static int lp_support(const prob *P, const int *Z, int nz, char *sup, double *w)
 		ia[nnz] = k + 1;
 		ja[nnz] = nr + k + 1;
 		ar[nnz] = -1.0;
-		glp_set_col_bnds(lp, nr + k + 1, GLP_DB, 0.0, 1.0);
+		/* the vertex's support is used (by the vertex): s = 0 there */
+		if (sup[Z[k]])
+			glp_set_col_bnds(lp, nr + k + 1, GLP_FX, 0.0, 0.0);
+		else
+			glp_set_col_bnds(lp, nr + k + 1, GLP_DB, 0.0, 1.0);
 		glp_set_obj_coef(lp, nr + k + 1, 1.0);
 	}
 	glp_set_row_bnds(lp, nz + 1, GLP_FX, 0.0, 0.0);
@@ -1023,7 +1050,7 @@ static int lp_support(const prob *P, const int *Z, int nz, char *sup, double *w)
 	glp_load_matrix(lp, nnz, ia, ja, ar);
 	ok = lp_solve(lp);
 	for (k = 0; ok && k < nz; k++)
-		sup[Z[k]] = glp_get_col_prim(lp, nr + k + 1) < 0.5;
+		sup[Z[k]] = sup[Z[k]] || glp_get_col_prim(lp, nr + k + 1) < 0.5;
 	for (i = 0; ok && i < nr; i++)
 		w[i] = glp_get_col_prim(lp, i + 1);
 	glp_delete_prob(lp);
@@ -1033,46 +1060,53 @@ static int lp_support(const prob *P, const int *Z, int nz, char *sup, double *w)
 	return ok;
 }
 
-/* Polishes the row duals y (nf + 1) so that the reduced costs vanish on the
- * rows S to round-off: least squares min |A_S^T dy - rr_S| by the normal
- * equations (Jacobi-scaled, shifted Cholesky), two rounds. */
-static int polish_dual(const prob *P, const int *S, int ns, double *y, gsl_matrix *N,
-                       double *dsc, double *rhs, double *dy, double *a)
+/* Least squares over the rows S: y (nf + 1) += the minimiser of
+ * sum_i (t_i - a_i . y)^2, a_i = (psi_i, 1), by the normal equations
+ * (Jacobi-scaled, shifted Cholesky) and refinement with compensated
+ * residuals while they halve. With ylo (may be NULL) the refinements after
+ * the first go there: y + ylo is a double-double, whose residuals fall to
+ * about eps^2 of the terms. With t = R it polishes the LP's row duals so
+ * that the reduced costs vanish on S. */
+static int lsq_fit(const prob *P, const int *S, int ns, const double *t, double *y, double *ylo,
+                   gsl_matrix *N, double *dsc, double *rhs, double *dy, double *a)
 {
 	const int nr = P->nf + 1;
 	const size_t td = N->tda;
+	double last = HUGE_VAL;
 	int round, i, j, k;
 
-	for (round = 0; round < 2; round++) {
-		for (j = 0; j < nr; j++) {
-			memset(N->data + (size_t)j * td, 0, (size_t)nr * sizeof *N->data);
-			rhs[j] = 0.0;
-		}
-		for (i = 0; i < ns; i++) {
-			double rr = P->R[S[i]] - col_dot(P, S[i], y, NULL);
-
-			/* the dense column a of row S[i] */
-			memset(a, 0, (size_t)nr * sizeof *a);
-			if (P->bin) {
-				for (k = P->rfp[S[i]]; k < P->rfp[S[i] + 1]; k++)
-					a[P->rfi[k]] = 1.0;
-			} else {
-				memcpy(a, P->psi + (size_t)S[i] * P->nf, (size_t)P->nf * sizeof *a);
-			}
-			a[P->nf] = 1.0;
-			for (j = 0; j < nr; j++) {
-				if (a[j] == 0.0)
-					continue;
-				rhs[j] += a[j] * rr;
+	for (j = 0; j < nr; j++)
+		memset(N->data + (size_t)j * td, 0, (size_t)nr * sizeof *N->data);
+	for (i = 0; i < ns; i++) {
+		/* the dense column a of row S[i] */
+		memset(a, 0, (size_t)nr * sizeof *a);
+		col_add(P, S[i], 1.0, a);
+		for (j = 0; j < nr; j++)
+			if (a[j] != 0.0)
 				for (k = j; k < nr; k++)
 					N->data[(size_t)j * td + k] += a[j] * a[k];
-			}
+	}
+	if (psd_factor(N, nr, dsc) != PR_OK)
+		return PR_ENUM;
+	for (round = 0; round < 12; round++) {
+		double worst = 0.0, *to = round > 0 && ylo ? ylo : y;
+
+		memset(rhs, 0, (size_t)nr * sizeof *rhs);
+		for (i = 0; i < ns; i++) {
+			double r = rr_exact(P, S[i], t[S[i]], y, ylo, NULL);
+
+			worst = fmax(worst, fabs(r));
+			memset(a, 0, (size_t)nr * sizeof *a);
+			col_add(P, S[i], r, a);
+			for (j = 0; j < nr; j++)
+				rhs[j] += a[j];
 		}
-		if (psd_factor(N, nr, dsc) != PR_OK)
-			return PR_ENUM;
+		if (!(worst < 0.5 * last))
+			break;
+		last = worst;
 		psd_solve(N, nr, dsc, rhs, dy);
 		for (j = 0; j < nr; j++)
-			y[j] += dy[j];
+			to[j] += dy[j];
 	}
 	return PR_OK;
 }
@@ -1085,7 +1119,8 @@ static int polish_dual(const prob *P, const int *S, int ns, double *y, gsl_matri
  *  - The face's support S: the vertex's support, or, if that misses part
  *    of Z, lp_support, whose w shifts y by delta w so that the reduced
  *    costs on Z \ S become negative too (a strictly complementary dual).
- *  - polish_dual makes rr = 0 on S to round-off; value = y.b + v.
+ *  - lsq_fit polishes y, as a double-double, so that rr = 0 on S to about
+ *    eps^2; value = y.b + v.
  *  - p_0: theta_solve at eta = 1 with R = 0 on S (the max-entropy problem).
  * Certificate: gap = value - sum p_0 R (p_0 is optimal within gap), and
  * outside = max over the rows where p_0 = 0 of (gap+ + round-off)/|rr_i|:
@@ -1097,7 +1132,7 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 	int *S = malloc((size_t)m * sizeof *S), *Z = malloc((size_t)m * sizeof *Z);
 	double *rr = malloc((size_t)m * sizeof *rr), *x = malloc((size_t)m * sizeof *x);
 	double *mag = malloc((size_t)m * sizeof *mag);
-	double *y = calloc(6 * (size_t)nr, sizeof *y), *wv, *dsc, *rhs, *dy, *acol;
+	double *y = calloc(7 * (size_t)nr, sizeof *y), *wv, *dsc, *rhs, *dy, *acol, *ylo;
 	char *sup = calloc((size_t)m, 1);
 	gsl_matrix *N = gsl_matrix_alloc((size_t)nr, (size_t)nr);
 	prob F;
@@ -1117,6 +1152,7 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 	rhs = dsc + nr;
 	dy = rhs + nr;
 	acol = dy + nr;
+	ylo = acol + nr;
 	glp_term_out(GLP_OFF);
 	if (nf > 0) {
 		rc = lp_match(P, x, y);
@@ -1139,13 +1175,13 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 	for (i = 0; i < m; i++)
 		if (rr[i] - rmax >= -1e-11 * tscale) {
 			Z[nz++] = i;
-			if (nf == 0 || x[i] > 1e-11) {
+			if (nf == 0 || x[i] > 1e-15) {
 				sup[i] = 1;
 				nb++;
 			}
 		}
 	if (nb < nz) {
-		double cmax = 0.0;
+		double cmin = HUGE_VAL;
 
 		rc = lp_support(P, Z, nz, sup, wv);
 		if (rc < 0) {
@@ -1157,13 +1193,17 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 			goto done;
 		}
 		/* delta: keep the rows off Z strictly below the face */
+		/* delta: the largest smallest margin, min(delta c_min on Z \ S,
+		 * rmax - rr_i + delta c_i off Z), capped at 1 */
+		for (i = 0; i < m; i++)
+			if (sup[i] == 0 && rr[i] - rmax >= -1e-11 * tscale)
+				cmin = fmin(cmin, col_dot(P, i, wv, NULL));
 		delta = 1.0;
 		for (i = 0; i < m; i++) {
 			double c = col_dot(P, i, wv, NULL);
 
-			cmax = fmax(cmax, fabs(c));
 			if (rr[i] - rmax < -1e-11 * tscale && c < 0.0)
-				delta = fmin(delta, 0.5 * (rmax - rr[i]) / -c);
+				delta = fmin(delta, (rmax - rr[i]) / (cmin - c));
 		}
 		for (k = 0; k < nr; k++)
 			y[k] += delta * wv[k];
@@ -1171,20 +1211,39 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 	for (i = 0; i < m; i++)
 		if (sup[i])
 			S[ns++] = i;
-	if (nf > 0 && (st = polish_dual(P, S, ns, y, N, dsc, rhs, dy, acol)) != PR_OK)
+	if (ns == 0) {
+		snprintf(reason, rlen, "the eta -> 0 face came out empty");
+		goto done;
+	}
+	if (nf > 0 && (st = lsq_fit(P, S, ns, P->R, y, ylo, N, dsc, rhs, dy, acol)) != PR_OK)
 		goto done;
 	rmax = -HUGE_VAL;
 	for (i = 0; i < m; i++) {
-		rr[i] = rr_exact(P, i, y, &mag[i]);
+		rr[i] = rr_exact(P, i, P->R[i], y, ylo, &mag[i]);
 		rmax = fmax(rmax, rr[i]);
 	}
 	L->value = rmax + y[nf];
+	for (i = 0; i < m; i++)
+		L->rr[i] = rr[i] - rmax;
 	for (k = 0; k < nf; k++) {
 		L->th[k] = y[k];
 		L->value += y[k] * P->tg[k];
 	}
 	if ((st = prob_face(&F, P, S, ns)) != PR_OK || (st = work_alloc(&w, F.m, F.nf, max_evals)) != PR_OK)
 		goto done;
+	if (ns == nb && F.nf > 0) {
+		/* the face is the vertex's support: start from the weights that fit
+		 * the vertex x best in the exponential family q exp(-psi theta),
+		 * which reaches x itself when the face is that one point */
+		for (i = 0; i < ns; i++) {
+			Z[i] = i;
+			err[i] = -log(x[S[i]] / F.q[i]); /* err is free until the certificate */
+		}
+		memset(wv, 0, (size_t)nr * sizeof *wv);
+		if ((st = lsq_fit(&F, Z, ns, err, wv, NULL, N, dsc, rhs, dy, acol)) != PR_OK)
+			goto done;
+		memcpy(w.pt[0].th, wv, (size_t)F.nf * sizeof *wv);
+	}
 	rc = theta_solve(&F, &w, 1.0, THETA_TOL);
 	if (rc < 0) {
 		st = rc;
@@ -1203,30 +1262,26 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 			L->kl += pi * log(pi / F.q[i]);
 		pR += pi * P->R[F.rowid[i]];
 	}
-	/* Certificate. With e_i the bound on the round-off of rr_i (rr_exact),
-	 * for every feasible p
-	 *   value - sum p R = sum p_i (rmax - rr_i) + y.(b - A p),
-	 * so the true gap of p_0 is at most the sum over S of p_0 (rmax - rr + e + e_max)
-	 * plus |y| times p_0's constraint residual, and an optimal p puts at
-	 * most gap / (rmax - rr_i - e_i - e_max) on a row i outside S. */
-	memset(acol, 0, (size_t)nr * sizeof *acol);
+	/* Certificate, for the problem whose targets are the features p_0
+	 * matches, b' = A p_0 (they differ from phi_hat by p_0's residual,
+	 * which the certificate reports and bounds separately). For every p
+	 * feasible there, sum p_i (rmax - rr_i) = y.b' + rmax - sum p R exactly,
+	 * so every optimal p satisfies sum p_i (rmax - rr_i) <= gap, the same
+	 * sum for p_0 (with e_i, the bound on the round-off of rr_i from
+	 * rr_exact, added), and puts at most gap / (rmax - rr_i - e_i - e_max)
+	 * on a row i outside S. */
 	L->gap = 0.0;
 	emax = 0.0;
 	for (i = 0; i < m; i++) {
-		double nk = col_nnz(P, i) + 1.0;
+		double nk = 2.0 * col_nnz(P, i) + 1.0;
 
 		err[i] = 2.0 * DBL_EPSILON * fabs(rr[i]) + 2.0 * nk * nk * DBL_EPSILON * DBL_EPSILON * mag[i];
 		if (rr[i] == rmax)
 			emax = fmax(emax, err[i]);
 	}
-	for (i = 0; i < m; i++) {
-		if (L->p[i] == 0.0)
-			continue;
-		L->gap += L->p[i] * (rmax - rr[i] + err[i] + emax);
-		col_add(P, i, L->p[i], acol);
-	}
-	for (k = 0; k < nr; k++)
-		L->gap += fabs(y[k]) * fabs(acol[k] - (k < nf ? P->tg[k] : 1.0));
+	for (i = 0; i < m; i++)
+		if (L->p[i] > 0.0)
+			L->gap += L->p[i] * (rmax - rr[i] + err[i] + emax);
 	L->outside = 0.0;
 	for (i = 0; i < m; i++)
 		if (L->p[i] == 0.0) {
@@ -1234,12 +1289,8 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 
 			L->outside = fmax(L->outside, margin > 0.0 ? L->gap / margin : HUGE_VAL);
 		}
-	if (getenv("REPS_DEBUG")) {
-		for (i = 0; i < m; i++) if (L->p[i] == 0.0) fprintf(stderr, "out i %d rr %.3g err %.3g gap %.3g sup %d\n", i, rr[i]-rmax, err[i], L->gap, sup[i]);
-		fprintf(stderr, "nz %d nb %d ns %d tscale %g pR %.17g value %.17g\n", nz, nb, ns, tscale, pR, L->value);
-	}
-	L->ok = 1;
-	if (!(w.pt[0].res <= PR_REPS_TOL))
+	L->ok = w.pt[0].res <= PR_REPS_TOL;
+	if (!L->ok)
 		snprintf(reason, rlen, "the maximum-entropy point of the eta -> 0 face did not "
 		         "converge (residual %.3g)", w.pt[0].res);
 done:
@@ -1290,7 +1341,7 @@ static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
 			return PR_EINTR;
 		covariances(P, w, *eta, x);
 		if (factor(P, w, *eta) != PR_OK)
-			return PR_ENUM;
+			return 0;
 		if (fabs(ge) <= ktol && x->res <= THETA_TOL)
 			return 1;
 		/* C = Cov/eta + ridge factorised; b = Cov(psi, u)/eta */
@@ -1346,9 +1397,13 @@ static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
  * starts from the first-order predictor theta - Cov^-1 Cov(psi,u) deta.
  * When KL < eps and the next eta would lie below eta_min (or Newton has no
  * slope), the eta -> 0 limit is consulted once: KL(p_0) < eps means no root
- * exists (unreachable). Returns the verdict, with pt[0] at the answer and
- * *eta_out set for V_ACTIVE, or a negative error. */
-static int search(const prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *eta_out,
+ * exists (unreachable). Otherwise the root lies below, where A / eta would
+ * carry the round-off of A = R - psi theta magnified by 1/eta: the search
+ * goes on with theta - th on the returns rr = R - psi th - const, the
+ * limit's exact reduced costs (0 on the face), so A is small where p is
+ * not negligible (L->shifted). Returns the verdict, with pt[0] at the
+ * answer and *eta_out set for V_ACTIVE, or a negative error. */
+static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *eta_out,
                   char *reason, size_t rlen)
 {
 	const double eps = P->eps, ymin = log(o->eta_min), ktol = KL_TOL * fmax(1.0, eps);
@@ -1384,7 +1439,7 @@ static int search(const prob *P, work *w, const pr_reps_opts *o, limit_t *L, dou
 				w->pt[0].th[j] = thg[j] - bg[j] * (eta - etagood);
 		if (limited && nf > 0) {
 			for (j = 0; j < nf; j++)
-				w->pt[1].th[j] = L->th[j] + eta * L->lam[j];
+				w->pt[1].th[j] = eta * L->lam[j];
 			eval(P, w, eta, &w->pt[1]);
 			eval(P, w, eta, &w->pt[0]);
 			if (w->pt[1].F < w->pt[0].F)
@@ -1448,6 +1503,10 @@ static int search(const prob *P, work *w, const pr_reps_opts *o, limit_t *L, dou
 				break;
 			}
 			limited = 1;
+			L->shifted = 1;
+			memcpy(P->R, L->rr, (size_t)P->m * sizeof *P->R);
+			for (j = 0; j < nf; j++)
+				thg[j] -= L->th[j];
 		}
 		if (ylo > -HUGE_VAL && yhi < HUGE_VAL) {
 			if (yhi - ylo <= 4.0 * DBL_EPSILON * fmax(1.0, fabs(y))) {
@@ -1687,6 +1746,20 @@ static void map_back(const pr_reps_problem *pb, const prob *P, const double *p,
 	r->kl = kl > 0.0 ? kl : 0.0;
 }
 
+/* p finite, >= 0 and summing to 1 within the round-off of the sum. */
+static int weights_ok(const double *p, int n)
+{
+	double sum = 0.0;
+	int i;
+
+	for (i = 0; i < n; i++) {
+		if (!(p[i] >= 0.0) || !isfinite(p[i]))
+			return 0;
+		sum += p[i];
+	}
+	return fabs(sum - 1.0) <= 4.0 * n * DBL_EPSILON;
+}
+
 int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
                   pr_reps_result **out, char *err)
 {
@@ -1754,13 +1827,12 @@ int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
 	L.p = malloc((size_t)m * sizeof *L.p);
 	L.th = calloc((size_t)(P.nf > 0 ? P.nf : 1), sizeof *L.th);
 	L.lam = calloc((size_t)(P.nf > 0 ? P.nf : 1), sizeof *L.lam);
-	if (!L.p || !L.th || !L.lam) {
+	L.rr = malloc((size_t)m * sizeof *L.rr);
+	if (!L.p || !L.th || !L.lam || !L.rr) {
 		st = pr_err(err, PR_ENOMEM, "reps: out of memory");
 		goto done;
 	}
-	nfactor = 0;
 	verdict = search(&P, &w, o, &L, &eta, r->reason, sizeof r->reason);
-	if (getenv("REPS_STAT")) fprintf(stderr, "STAT m %d nf %d evals %d factors %ld verdict %d\n", m, P.nf, w.evals, nfactor, verdict);
 	if (verdict < 0) {
 		st = pr_err(err, verdict, verdict == PR_EINTR ? "reps: interrupted" :
 		            verdict == PR_ENOMEM ? "reps: out of memory" :
@@ -1775,13 +1847,28 @@ int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
 
 		for (j = 0; j < P.nf && P.rw; j++)
 			rterm += 0.5 * P.rw[j] * x->th[j] * x->th[j];
+		if (L.shifted) {
+			/* back from theta - th on R = rr: g gains the limit's value */
+			for (j = 0; j < P.nf; j++)
+				x->th[j] += L.th[j];
+			rterm -= L.value;
+		}
 		map_back(pb, &P, x->p, x->th, fs, rmax, scale, eta, x->F - rterm, x->kl, r);
 	}
 	r->iterations = w.evals;
+	r->status = verdict;
+	if (!weights_ok(r->p, pb->n)) {
+		/* nothing usable came out: the base weights stand in for p */
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "the weights do not sum to 1 (p = q returned)");
+		memcpy(r->p, qn, n * sizeof *qn);
+		r->kl = 0.0;
+	}
 	r->kl_gap = fabs(r->kl - o->epsilon);
 	certify_features(pb, rows, m, phat, fs, o->ridge / scale, r, tmp);
-	r->status = verdict;
-	if (verdict == V_ACTIVE && !(r->kl_gap <= PR_REPS_TOL && r->residual_rel <= PR_REPS_TOL)) {
+	if (r->status == PR_REPS_FAILED) {
+		/* said above or by the search */
+	} else if (verdict == V_ACTIVE && !(r->kl_gap <= PR_REPS_TOL && r->residual_rel <= PR_REPS_TOL)) {
 		r->status = PR_REPS_FAILED;
 		snprintf(r->reason, sizeof r->reason, "|KL - epsilon| = %.3g, feature residual %.3g "
 		         "(tolerance %g)", r->kl_gap, r->residual_rel, PR_REPS_TOL);
@@ -1792,20 +1879,6 @@ int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
 		snprintf(r->reason, sizeof r->reason, "eta -> 0 limit not certified: feature residual "
 		         "%.3g, LP gap %.3g, mass outside the face up to %.3g (tolerance %g)",
 		         r->residual_rel, L.gap, L.outside, PR_REPS_TOL);
-	}
-	if (r->status == PR_REPS_FAILED && getenv("REPS_DUMP")) {
-		FILE *fp = fopen(getenv("REPS_DUMP"), "w");
-		int a, b;
-		fprintf(fp, "R,q");
-		for (b = 0; b < pb->d; b++) fprintf(fp, ",phi%d", b);
-		fprintf(fp, "\n");
-		for (a = 0; a < pb->n; a++) {
-			fprintf(fp, "%.17g,%.17g", pb->R[a], qn[a]);
-			for (b = 0; b < pb->d; b++) fprintf(fp, ",%.17g", feat(pb, a, b));
-			fprintf(fp, "\n");
-		}
-		fclose(fp);
-		fprintf(stderr, "DUMP eps %.17g\n", o->epsilon);
 	}
 	if (r->status == PR_REPS_ACTIVE)
 		r->reason[0] = '\0';
@@ -1826,6 +1899,7 @@ done:
 	free(L.p);
 	free(L.th);
 	free(L.lam);
+	free(L.rr);
 	free(qn);
 	free(rows);
 	return st;

@@ -378,6 +378,143 @@ static void test_degenerate(void **state)
 	gsl_rng_free(rng);
 }
 
+/* One tree with one leaf is the global weighted linear fit; with states
+ * 1000 +- 1 and a = 2 (s - 1000) the mean must follow the slope (an
+ * uncentred eq. 6.6 lost it: -0.018 at every query), and offsets and scales
+ * of states and actions must not change the answer (1e-9 relative). */
+static void test_offset_states(void **state)
+{
+	enum { NS = 200 };
+	double S[NS], A[NS], S2[NS], A2[NS], mean, cov, mean2, cov2;
+	double q[3] = { -0.5, 0.0, 0.5 }, off[3] = { 1000.0, 1e6, -3e5 }, sc[3] = { 1e-6, 1e6, 3.0 };
+	pr_policy_data d = { NS, 1, 1, 0, S, A, NULL, NULL };
+	pr_policy_opts o;
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(11);
+	pr_policy *p, *p2;
+	int i, k, j, flags;
+
+	(void)state;
+	for (i = 0; i < NS; i++) {
+		S[i] = gsl_rng_uniform(rng) * 2 - 1;
+		A[i] = 2 * S[i] + 0.01 * gsl_ran_gaussian(rng, 1);
+	}
+	pr_policy_opts_init(&o);
+	o.forest.trees = 1;
+	o.forest.n_min = NS + 1;
+	o.min_std = 1e-150; /* the scaled actions' spread is 1e-6: no floor */
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	for (k = 0; k < 3; k++) {
+		pr_policy_data d2 = { NS, 1, 1, 0, S2, A2, NULL, NULL };
+
+		for (i = 0; i < NS; i++) {
+			S2[i] = S[i] * sc[k] + off[k] * sc[k];
+			A2[i] = A[i] / sc[k];
+		}
+		p2 = pr_policy_tree_fit(&o, &d2, rng, err);
+		assert_non_null(p2);
+		for (j = 0; j < 3; j++) {
+			double s2 = q[j] * sc[k] + off[k] * sc[k];
+
+			assert_int_equal(pr_policy_eval(p, &q[j], &mean, &cov, &flags, NULL, err), PR_OK);
+			assert_int_equal(flags, 0);
+			assert_true(fabs(mean - 2 * q[j]) < 0.01);
+			assert_int_equal(pr_policy_eval(p2, &s2, &mean2, &cov2, &flags, NULL, err), PR_OK);
+			assert_int_equal(flags, 0);
+			/* the states carry round-off of |off| eps relative to their spread */
+			assert_true(fabs(mean2 * sc[k] - mean) <= 1e-9);
+			assert_true(fabs(cov2 * sc[k] * sc[k] - cov) <= 1e-9 * cov);
+		}
+		pr_policy_free(p2);
+	}
+	pr_policy_free(p);
+	gsl_rng_free(rng);
+}
+
+/* The linear-Gaussian fit with quadratic features: offsets of 1e6 would
+ * swamp s^2 in uncentred features; the fit takes them about the weighted
+ * mean state, so the mean at a query does not move. */
+static void test_linear_fit_offsets(void **state)
+{
+	enum { NS = 100 };
+	double S[2 * NS], A[2 * NS], S2[2 * NS], w[NS], s[2], s2[2], m1[2], m2[2], c1[4], c2[4];
+	pr_policy_data d = { NS, 2, 2, 0, S, A, NULL, w };
+	pr_policy_data e = { NS, 2, 2, 0, S2, A, NULL, w };
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(12);
+	pr_policy *p, *p2;
+	int i, j, flags;
+
+	(void)state;
+	for (i = 0; i < NS; i++) {
+		S[2 * i] = gsl_rng_uniform(rng);
+		S[2 * i + 1] = gsl_rng_uniform(rng);
+		A[2 * i] = S[2 * i] * S[2 * i] - S[2 * i + 1] + 0.01 * gsl_ran_gaussian(rng, 1);
+		A[2 * i + 1] = S[2 * i] * S[2 * i + 1] + 0.01 * gsl_ran_gaussian(rng, 1);
+		w[i] = gsl_rng_uniform(rng);
+		S2[2 * i] = S[2 * i] + 1e6;
+		S2[2 * i + 1] = S[2 * i + 1] - 1e6;
+	}
+	p = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &d, 1e-10, 1e-6, &flags, err);
+	p2 = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &e, 1e-10, 1e-6, &flags, err);
+	assert_non_null(p);
+	assert_non_null(p2);
+	assert_int_equal(flags, 0);
+	for (j = 0; j < 5; j++) {
+		s[0] = 0.2 * j;
+		s[1] = 1.0 - 0.2 * j;
+		s2[0] = s[0] + 1e6;
+		s2[1] = s[1] - 1e6;
+		assert_int_equal(pr_policy_eval(p, s, m1, c1, NULL, NULL, err), PR_OK);
+		assert_int_equal(pr_policy_eval(p2, s2, m2, c2, NULL, NULL, err), PR_OK);
+		/* the quadratic model fits a0 = s0^2 - s1 */
+		assert_true(fabs(m1[0] - (s[0] * s[0] - s[1])) < 0.02);
+		/* states rounded at 1e6 eps = 1e-10 of their unit spread */
+		assert_true(fabs(m1[0] - m2[0]) <= 1e-8 && fabs(m1[1] - m2[1]) <= 1e-8);
+		for (i = 0; i < 4; i++)
+			assert_true(fabs(c1[i] - c2[i]) <= 1e-8 * c1[0]);
+	}
+	pr_policy_free(p);
+	pr_policy_free(p2);
+	gsl_rng_free(rng);
+}
+
+/* Collinear states (s1 = 2 s0 exactly) make the standardised design rank 1:
+ * PR_POLICY_PINV, with the slope fitted along the line the data span, so
+ * queries on that line are right. */
+static void test_collinear_states(void **state)
+{
+	enum { NS = 80 };
+	double S[2 * NS], A[NS], s[2], mean, cov;
+	pr_policy_data d = { NS, 2, 1, 0, S, A, NULL, NULL };
+	pr_policy_opts o;
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(13);
+	pr_policy *p;
+	int i, flags;
+
+	(void)state;
+	for (i = 0; i < NS; i++) {
+		S[2 * i] = gsl_rng_uniform(rng);
+		S[2 * i + 1] = 2 * S[2 * i];
+		A[i] = 3 * S[2 * i] + 1;
+	}
+	pr_policy_opts_init(&o);
+	o.lambda = 0.0;
+	o.forest.trees = 2;
+	o.forest.n_min = NS + 1;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	s[0] = 0.3;
+	s[1] = 0.6;
+	assert_int_equal(pr_policy_eval(p, s, &mean, &cov, &flags, NULL, err), PR_OK);
+	assert_true(flags & PR_POLICY_PINV);
+	assert_true(fabs(mean - 1.9) <= 1e-9);
+	pr_policy_free(p);
+	gsl_rng_free(rng);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -388,6 +525,9 @@ int main(void)
 		cmocka_unit_test(test_covariance_hand),
 		cmocka_unit_test(test_tree_is_local),
 		cmocka_unit_test(test_degenerate),
+		cmocka_unit_test(test_offset_states),
+		cmocka_unit_test(test_linear_fit_offsets),
+		cmocka_unit_test(test_collinear_states),
 	};
 
 	gsl_set_error_handler_off();

@@ -325,6 +325,278 @@ static void test_rich_features_inactive(void **state)
 	pr_reps_result_free(r);
 }
 
+/* One-hot leaves of `trees` random partitions of n states in [0,1]^2 with
+ * continuous thresholds (each tree splits its largest cell at a uniform
+ * threshold until it has `leaves` cells), in CSR form with one entry per
+ * tree: the block layout of a forest's active leaves. Returns d. */
+static int forest_features(gsl_rng *rng, int n, int trees, int leaves, const double *S,
+                           int *rowptr, int *col)
+{
+	int *cell = malloc((size_t)n * sizeof *cell), *cnt = malloc((size_t)leaves * sizeof *cnt);
+	int t, i, k, d = 0;
+
+	for (i = 0; i <= n; i++)
+		rowptr[i] = i * trees;
+	for (t = 0; t < trees; t++) {
+		for (i = 0; i < n; i++)
+			cell[i] = 0;
+		for (k = 1; k < leaves; k++) {
+			int big = 0, dim = (int)gsl_rng_uniform_int(rng, 2), c;
+			double lo = HUGE_VAL, hi = -HUGE_VAL, thr;
+
+			for (c = 0; c < k; c++)
+				cnt[c] = 0;
+			for (i = 0; i < n; i++)
+				cnt[cell[i]]++;
+			for (c = 1; c < k; c++)
+				if (cnt[c] > cnt[big])
+					big = c;
+			for (i = 0; i < n; i++)
+				if (cell[i] == big) {
+					lo = fmin(lo, S[2 * i + dim]);
+					hi = fmax(hi, S[2 * i + dim]);
+				}
+			thr = lo + gsl_rng_uniform(rng) * (hi - lo);
+			for (i = 0; i < n; i++)
+				if (cell[i] == big && S[2 * i + dim] > thr)
+					cell[i] = k;
+		}
+		for (i = 0; i < n; i++)
+			col[i * trees + t] = d + cell[i];
+		d += leaves;
+	}
+	free(cell);
+	free(cnt);
+	return d;
+}
+
+static double sum_pr(const pr_reps_result *r, const double *R)
+{
+	double s = 0.0;
+	int i;
+
+	for (i = 0; i < r->n; i++)
+		s += r->p[i] * R[i];
+	return s;
+}
+
+/* The certificate's invariants, whatever the status. */
+static void assert_certified(const pr_reps_result *r, double eps)
+{
+	double s = 0.0;
+	int i;
+
+	for (i = 0; i < r->n; i++) {
+		assert_true(r->p[i] >= 0.0);
+		s += r->p[i];
+	}
+	assert_true(fabs(s - 1.0) <= 1e-13);
+	assert_true(r->residual_rel <= PR_REPS_TOL);
+	assert_true(fabs(r->kl_gap - fabs(r->kl - eps)) <= 1e-15);
+	if (r->status == PR_REPS_ACTIVE) {
+		assert_int_equal(r->bound, 1);
+		assert_true(r->kl_gap <= PR_REPS_TOL && r->eta > 0.0);
+	} else {
+		assert_int_equal(r->status, PR_REPS_UNREACHABLE);
+		assert_int_equal(r->bound, 0);
+		assert_true(r->eta == 0.0 && r->kl < eps);
+	}
+}
+
+/* The regimes that used to be silently wrong: 200 samples, 30 trees of 8
+ * leaves (rank about 170): the feature-matching limit has KL < 0.5, so the
+ * bound is unreachable, p must match the features (it used to miss them by
+ * 0.3); with a smaller eps the bound is met. */
+static void test_rich_forest_unreachable(void **state)
+{
+	enum { NS = 200, T = 30, L = 8 };
+	double R[NS], S[2 * NS], pr_u, pr_a;
+	int rowptr[NS + 1], col[NS * T], i, d;
+	gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
+	pr_reps_problem pb = { NS, 0, R, NULL, NULL, rowptr, col, NULL };
+	pr_reps_opts o;
+	pr_reps_result *r = NULL, *a = NULL;
+	char err[PR_ERRLEN];
+
+	(void)state;
+	gsl_rng_set(rng, 1);
+	for (i = 0; i < NS; i++) {
+		S[2 * i] = gsl_rng_uniform(rng);
+		S[2 * i + 1] = gsl_rng_uniform(rng);
+		R[i] = -fabs(S[2 * i] - 0.5) + gsl_ran_gaussian(rng, 0.3);
+	}
+	d = forest_features(rng, NS, T, L, S, rowptr, col);
+	pb.d = d;
+	pr_reps_opts_init(&o);
+	assert_int_equal(pr_reps_solve(&o, &pb, &r, err), PR_OK);
+	assert_int_equal(r->status, PR_REPS_UNREACHABLE);
+	assert_certified(r, o.epsilon);
+	/* the limit is the most rewarding matched p: a feasible p with a KL
+	 * bound just below it earns no more */
+	o.epsilon = 0.5 * r->kl;
+	assert_int_equal(pr_reps_solve(&o, &pb, &a, err), PR_OK);
+	assert_int_equal(a->status, PR_REPS_ACTIVE);
+	assert_certified(a, o.epsilon);
+	pr_u = sum_pr(r, R);
+	pr_a = sum_pr(a, R);
+	assert_true(pr_a <= pr_u + 1e-12);
+	/* and the dual's value at eta = 0 is the limit's sum p R */
+	assert_true(fabs(r->dual - pr_u) <= 1e-12);
+	pr_reps_result_free(r);
+	pr_reps_result_free(a);
+	gsl_rng_free(rng);
+}
+
+/* d = 25 generic features, n = 20: the only matched p is q. d = 3 with eps
+ * beyond the reachable KL: unreachable, and no other matched p with KL <=
+ * eps earns more (checked against a slightly tighter active solve). */
+static void test_generic_unreachable(void **state)
+{
+	enum { NW = 20, DW = 25 };
+	double R[NW], phi[NW * DW], q[NW], R3[N], q3[N], phi3[N * D];
+	pr_reps_problem pb = { NW, DW, R, q, phi, NULL, NULL, NULL };
+	pr_reps_problem p3 = { N, D, R3, q3, phi3, NULL, NULL, NULL };
+	gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
+	pr_reps_opts o;
+	pr_reps_result *r = NULL, *a = NULL;
+	char err[PR_ERRLEN];
+	double sq = 0.0;
+	int i;
+
+	(void)state;
+	gsl_rng_set(rng, 2);
+	for (i = 0; i < NW * DW; i++)
+		phi[i] = gsl_ran_gaussian(rng, 1.0);
+	for (i = 0; i < NW; i++) {
+		R[i] = gsl_ran_gaussian(rng, 1.0);
+		sq += q[i] = 0.5 + gsl_rng_uniform(rng);
+	}
+	pr_reps_opts_init(&o);
+	assert_int_equal(pr_reps_solve(&o, &pb, &r, err), PR_OK);
+	assert_int_equal(r->status, PR_REPS_UNREACHABLE);
+	assert_certified(r, o.epsilon);
+	for (i = 0; i < NW; i++)
+		assert_true(fabs(r->p[i] - q[i] / sq) <= 1e-13);
+	pr_reps_result_free(r);
+	make_problem(13, R3, q3, phi3);
+	o.epsilon = 5.0;
+	assert_int_equal(pr_reps_solve(&o, &p3, &r, err), PR_OK);
+	assert_int_equal(r->status, PR_REPS_UNREACHABLE);
+	assert_certified(r, o.epsilon);
+	o.epsilon = r->kl * (1.0 - 1e-6);
+	assert_int_equal(pr_reps_solve(&o, &p3, &a, err), PR_OK);
+	assert_int_equal(a->status, PR_REPS_ACTIVE);
+	assert_true(sum_pr(a, R3) <= sum_pr(r, R3) + 1e-12);
+	/* close to the limit, the active answer is close to it too */
+	for (i = 0; i < N; i++)
+		assert_true(fabs(a->p[i] - r->p[i]) <= 1e-3);
+	pr_reps_result_free(r);
+	pr_reps_result_free(a);
+	gsl_rng_free(rng);
+}
+
+/* Returns of spread 1e-161 (their squares underflow) and of magnitude 1e154
+ * (theirs overflow) solve like returns of order 1: REPS is invariant to
+ * R -> a R + b, and so is the standardisation. */
+static void test_extreme_scales(void **state)
+{
+	double R[N], q[N], phi[N * D], R2[N], scales[4] = { 1e-161, 1e154, 1e-300, 1e300 };
+	pr_reps_problem pb = { N, D, R, q, phi, NULL, NULL, NULL };
+	pr_reps_opts o;
+	pr_reps_result *ref = NULL;
+	char err[PR_ERRLEN];
+	int k, i;
+
+	(void)state;
+	make_problem(14, R, q, phi);
+	pr_reps_opts_init(&o);
+	assert_int_equal(pr_reps_solve(&o, &pb, &ref, err), PR_OK);
+	assert_int_equal(ref->status, PR_REPS_ACTIVE);
+	for (k = 0; k < 4; k++) {
+		pr_reps_problem p2 = pb;
+		pr_reps_result *r = NULL;
+
+		for (i = 0; i < N; i++)
+			R2[i] = scales[k] * R[i];
+		p2.R = R2;
+		assert_int_equal(pr_reps_solve(&o, &p2, &r, err), PR_OK);
+		assert_int_equal(r->status, PR_REPS_ACTIVE);
+		assert_certified(r, o.epsilon);
+		for (i = 0; i < N; i++)
+			assert_true(fabs(r->p[i] - ref->p[i]) <= 1e-12);
+		assert_true(fabs(r->eta / scales[k] - ref->eta) <= 1e-12 * ref->eta);
+		pr_reps_result_free(r);
+	}
+	pr_reps_result_free(ref);
+}
+
+/* A leaf holding one sample of base weight 1e-11 pins its weight to that
+ * mass; the eta -> 0 limit must keep it (not round it to 0). */
+static void test_pinned_tiny_mass(void **state)
+{
+	enum { NS = 60, T = 4 };
+	double R[NS], S[2 * NS], q[NS], sq = 0.0;
+	int rowptr[NS + 1], col[NS * T], i;
+	gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
+	pr_reps_problem pb = { NS, 0, R, q, NULL, rowptr, col, NULL };
+	pr_reps_opts o;
+	pr_reps_result *r = NULL;
+	char err[PR_ERRLEN];
+
+	(void)state;
+	gsl_rng_set(rng, 3);
+	for (i = 0; i < NS; i++) {
+		S[2 * i] = gsl_rng_uniform(rng);
+		S[2 * i + 1] = gsl_rng_uniform(rng);
+		R[i] = S[2 * i] + gsl_ran_gaussian(rng, 0.1);
+		q[i] = i == 0 ? 1e-11 : 0.5 + gsl_rng_uniform(rng);
+		sq += q[i];
+	}
+	pb.d = forest_features(rng, NS, T, 6, S, rowptr, col);
+	/* sample 0 alone in a leaf of its own (tree 0) */
+	for (i = 0; i < NS; i++)
+		if (col[i * T] == col[0] && i != 0)
+			col[i * T] = (col[0] + 1) % 6;
+	pr_reps_opts_init(&o);
+	o.epsilon = 10.0;
+	assert_int_equal(pr_reps_solve(&o, &pb, &r, err), PR_OK);
+	if (r->status != PR_REPS_UNREACHABLE) printf("REASON %s\n", r->reason);
+	assert_int_equal(r->status, PR_REPS_UNREACHABLE);
+	assert_certified(r, o.epsilon);
+	assert_true(fabs(r->p[0] - q[0] / sq) <= 1e-9 * q[0] / sq);
+	pr_reps_result_free(r);
+	gsl_rng_free(rng);
+}
+
+/* With a ridge the feature constraint is relaxed and there is no eta -> 0
+ * limit to certify: an unreachable bound is a failed certificate, said so
+ * in `reason`, never a silent answer. */
+static void test_ridge_unreachable_fails(void **state)
+{
+	double R[N], phi[N * D];
+	int rowptr[N + 1], col[N], i;
+	pr_reps_problem pb = { N, N, R, NULL, NULL, rowptr, col, NULL };
+	pr_reps_opts o;
+	pr_reps_result *r = NULL;
+	char err[PR_ERRLEN];
+
+	(void)state;
+	make_problem(15, R, NULL, phi);
+	for (i = 0; i < N; i++) {
+		rowptr[i] = i;
+		col[i] = i;
+	}
+	rowptr[N] = N;
+	pr_reps_opts_init(&o);
+	o.ridge = 1e-3;
+	assert_int_equal(pr_reps_solve(&o, &pb, &r, err), PR_OK);
+	assert_int_equal(r->status, PR_REPS_FAILED);
+	assert_int_equal(r->bound, 0);
+	assert_non_null(strstr(r->reason, "ridge"));
+	assert_string_equal(pr_reps_status_name(r->status), "failed");
+	pr_reps_result_free(r);
+}
+
 static void test_bad_input(void **state)
 {
 	double R[N], q[N], phi[N * D];
@@ -498,6 +770,11 @@ int main(void)
 		cmocka_unit_test(test_constant_returns),
 		cmocka_unit_test(test_no_features_known_answer),
 		cmocka_unit_test(test_rich_features_inactive),
+		cmocka_unit_test(test_rich_forest_unreachable),
+		cmocka_unit_test(test_generic_unreachable),
+		cmocka_unit_test(test_extreme_scales),
+		cmocka_unit_test(test_pinned_tiny_mass),
+		cmocka_unit_test(test_ridge_unreachable_fails),
 		cmocka_unit_test(test_bad_input),
 		cmocka_unit_test(test_zero_base_weights),
 		cmocka_unit_test(test_importance_single_policy),

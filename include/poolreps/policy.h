@@ -1,5 +1,5 @@
 /* policy.h — tree-based locally weighted regression Gaussian policy
- * (thesis ch. 6, SPEC.md §5) and a linear-Gaussian baseline.
+ * (thesis ch. 6) and a linear-Gaussian baseline.
  *
  * One opaque pr_policy covers three kinds with the same mean / sample /
  * log-density interface:
@@ -29,7 +29,10 @@ enum { PR_COV_QUERY = 0, PR_COV_RESIDUAL = 1 };
 /* Policy parameters (keys policy.*). */
 typedef struct {
 	int target;            /* forest output: actions or final reward-ball positions */
-	double lambda;         /* ridge of eq. 6.6 */
+	double lambda;         /* ridge of eq. 6.6, read in centred, standardised
+	                          coordinates: on the slopes measured in weighted
+	                          standard deviations of the states, not on the
+	                          intercept, with eq. 6.6's raw weights */
 	double min_std;        /* floor on each action standard deviation, m/s */
 	pr_forest_opts forest; /* policy.trees, policy.cuts, policy.n_min, ... */
 	int cov;               /* PR_COV_QUERY (eq. 6.8 as printed) or PR_COV_RESIDUAL */
@@ -59,8 +62,11 @@ void pr_policy_features_quadratic(const double *s, int ds, double *psi);
 /* Fallbacks and adjustments made by one query or fit (bit set; 0 = none). */
 enum {
 	PR_POLICY_GLOBAL = 1,   /* no weight around the query: global weighted fit used */
-	PR_POLICY_PINV = 2,     /* singular weighted design: eigenvalue pseudo-inverse */
-	PR_POLICY_MEANONLY = 4, /* fewer weighted samples than ds + 1: weighted mean only */
+	PR_POLICY_PINV = 2,     /* rank-deficient standardised weighted design (a state
+	                           coordinate without spread, or collinear ones):
+	                           minimum-norm slopes in standardised units, i.e.
+	                           slope 0 along the directions the data do not span */
+	PR_POLICY_MEANONLY = 4, /* no weighted state spread at all: weighted mean only */
 	PR_POLICY_COVFALL = 8,  /* Z <= 0 (one effective sample): covariance of the
 	                           global weights, or min_std^2 I if that fails too */
 	PR_POLICY_FLOOR = 16    /* min_std raised some variance (eigenvalue floor) */
@@ -82,10 +88,14 @@ typedef struct pr_policy pr_policy;
 pr_policy *pr_policy_gaussian_new(int ds, int da, const double *mean, const double *cov,
                                   char *err);
 
-/* Weighted ML (eq. 3.10) of a = W psi(s) + N(0, Sigma): W by weighted ridge
- * regression (ridge lambda on every coefficient, weights normalised to sum 1),
- * Sigma = sum_i w_i r_i r_i^T / sum_i w_i with residuals r_i, eigenvalues
- * floored at min_std^2. *flags (may be NULL) receives PR_POLICY_* bits. */
+/* Weighted ML (eq. 3.10) of a = W psi(s - c) + N(0, Sigma), c the weighted
+ * mean state (the same model as W psi(s), with features that offsets do not
+ * swamp): W by weighted least squares in centred, standardised coordinates
+ * (SVD of the weighted design; ridge lambda on the coefficients of the
+ * non-constant features in units of their weighted standard deviations,
+ * weights normalised to sum 1, intercept free), Sigma = sum_i w_i r_i r_i^T /
+ * sum_i w_i with residuals r_i, eigenvalues floored at min_std^2. *flags (may
+ * be NULL) receives PR_POLICY_* bits. */
 pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double lambda,
                                 double min_std, int *flags, char *err);
 
