@@ -117,6 +117,7 @@ struct pr_policy {
 	                       share (a leaf with itself: its own), or NULL when
 	                       too large (then sums walk the samples) */
 	double gw2;         /* sum of w^2 over all samples */
+	int *lpos, gpos;    /* samples with w > 0 per leaf, and overall */
 	double lambda, min_std;
 	int covmode;
 };
@@ -414,6 +415,7 @@ void pr_policy_free(pr_policy *p)
 	free(p->lm);
 	free(p->gm);
 	free(p->w2);
+	free(p->lpos);
 	free(p);
 }
 
@@ -848,9 +850,10 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 	 * sum of w^2 over the samples they share (eq. 6.9 needs sum w-hat^2) */
 	p->lm = malloc((size_t)p->nl * LM * sizeof *p->lm);
 	p->gm = malloc((LM + (size_t)(ds + da)) * sizeof *p->gm);
+	p->lpos = calloc((size_t)p->nl, sizeof *p->lpos);
 	if ((size_t)p->nl * (size_t)p->nl <= 4u << 20)
 		p->w2 = calloc((size_t)p->nl * (size_t)p->nl, sizeof *p->w2);
-	if (!p->lm || !p->gm || ((size_t)p->nl * (size_t)p->nl <= 4u << 20 && !p->w2)) {
+	if (!p->lm || !p->gm || !p->lpos || ((size_t)p->nl * (size_t)p->nl <= 4u << 20 && !p->w2)) {
 		free(all);
 		pr_policy_free(p);
 		pr_err(err, PR_ENOMEM, "policy: out of memory");
@@ -861,11 +864,16 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 		int k = pr_forest_leaf_samples(p->forest, l, &idx);
 
 		mom_of(p, idx, k, p->lm + (size_t)l * LM);
+		for (i = 0; i < k; i++)
+			p->lpos[l] += p->w[idx[i]] > 0.0;
 	}
 	mom_of(p, all, d->n, p->gm);
 	p->gw2 = 0.0;
-	for (i = 0; i < d->n; i++)
+	p->gpos = 0;
+	for (i = 0; i < d->n; i++) {
 		p->gw2 += p->w[i] * p->w[i];
+		p->gpos += p->w[i] > 0.0;
+	}
 	if (p->w2) {
 		int *lv = malloc((size_t)p->M * sizeof *lv), u, v;
 
@@ -932,11 +940,13 @@ static void unwalk(pr_policy_work *ws, int nt)
  *   about mu(s) this is tot [C_aa + (a_bar - mu)(a_bar - mu)^T]; about each
  *   sample's own fit (residual covariance) the samples are walked: the nt
  *   weights in ws->what / ws->touched, or every sample with w when global.
+ * few: fewer weighted samples than ds + 1, too few to fit a slope: the
+ * weighted mean (PR_POLICY_MEANONLY).
  * Mean and (unfloored) covariance into ws->mean, ws->cov. Returns the
  * flags, PR_POLICY_COVFALL when Z <= ZMIN tot (mean still valid), or a
  * negative status. */
 static int lwr(const pr_policy *p, const double *rec, double tot, double s2n, int global, int nt,
-               const double *s, pr_policy_work *ws)
+               int few, const double *s, pr_policy_work *ws)
 {
 	const int ds = p->ds, da = p->da, dz = ds + da;
 	const double *mu = rec + 1, *S = rec + 1 + dz;
@@ -945,9 +955,12 @@ static int lwr(const pr_policy *p, const double *rec, double tot, double s2n, in
 
 	/* slope_solve takes the centred sums: the factor 1/W of the moments per
 	 * unit weight cancels in the standardised solve */
-	flags = slope_solve(ds, da, S, S + ds, dz, p->lambda / tot, &ws->ek, ws->sw, B);
-	if (flags < 0)
+	if (few) {
+		memset(B, 0, (size_t)ds * da * sizeof *B);
+		flags = PR_POLICY_MEANONLY;
+	} else if ((flags = slope_solve(ds, da, S, S + ds, dz, p->lambda / tot, &ws->ek, ws->sw, B)) < 0) {
 		return flags;
+	}
 	for (j = 0; j < da; j++) {
 		ws->mean[j] = mu[ds + j] + p->zref[ds + j];
 		for (l = 0; l < ds; l++)
@@ -1004,7 +1017,7 @@ static int tree_eval(const pr_policy *p, const double *s, int *flags, pr_policy_
 	const size_t LM = mom_size(p->ds, p->da);
 	const int dz = p->ds + p->da;
 	double *rec = ws->mom, s2 = 0.0, tot, s2n;
-	int nl, t, u, f = 0, st, nt = 0, walk;
+	int nl, t, u, f = 0, st, nt = 0, walk, maxpos = 0;
 
 	nl = pr_forest_active(p->forest, s, p->ds, ws->leaves, ws->cap);
 	if (nl < 0)
@@ -1012,12 +1025,17 @@ static int tree_eval(const pr_policy *p, const double *s, int *flags, pr_policy_
 	rec[0] = 0.0;
 	for (t = 0; t < nl; t++)
 		mom_merge(dz, rec, p->lm + (size_t)ws->leaves[t] * LM);
-	walk = !p->w2 || p->covmode == PR_COV_RESIDUAL;
+	/* the samples are walked for the residual covariance, for sum w-hat^2
+	 * without the pair table, and to count them when no active leaf alone
+	 * holds ds + 1 weighted samples */
+	for (t = 0; t < nl; t++)
+		maxpos = p->lpos[ws->leaves[t]] > maxpos ? p->lpos[ws->leaves[t]] : maxpos;
+	walk = !p->w2 || p->covmode == PR_COV_RESIDUAL || maxpos < p->ds + 1;
 	if (!(rec[0] > 0.0) || !isfinite(rec[0])) {
 		/* no weight around s: the global weighted fit */
 		f |= PR_POLICY_GLOBAL;
 		memcpy(rec, p->gm, LM * sizeof *rec);
-		st = lwr(p, rec, rec[0], p->gw2 / (rec[0] * rec[0]), 1, 0, s, ws);
+		st = lwr(p, rec, rec[0], p->gw2 / (rec[0] * rec[0]), 1, 0, p->gpos < p->ds + 1, s, ws);
 	} else {
 		if (walk)
 			nt = walk_weights(p, ws->leaves, nl, ws);
@@ -1031,7 +1049,7 @@ static int tree_eval(const pr_policy *p, const double *s, int *flags, pr_policy_
 		}
 		tot = rec[0] / p->M;
 		s2n = s2 / (rec[0] * rec[0]);
-		st = lwr(p, rec, tot, s2n, 0, nt, s, ws);
+		st = lwr(p, rec, tot, s2n, 0, nt, walk && nt < p->ds + 1, s, ws);
 		if (walk)
 			unwalk(ws, nt);
 	}
@@ -1043,7 +1061,7 @@ static int tree_eval(const pr_policy *p, const double *s, int *flags, pr_policy_
 		 * around the local mean's global counterpart */
 		memcpy(ws->cov2, ws->mean, (size_t)p->da * sizeof *ws->mean);
 		memcpy(rec, p->gm, LM * sizeof *rec);
-		st = lwr(p, rec, rec[0], p->gw2 / (rec[0] * rec[0]), 1, 0, s, ws);
+		st = lwr(p, rec, rec[0], p->gw2 / (rec[0] * rec[0]), 1, 0, p->gpos < p->ds + 1, s, ws);
 		if (st < 0)
 			return pr_err(err, PR_ENUM, "policy: global regression failed");
 		memcpy(ws->mean, ws->cov2, (size_t)p->da * sizeof *ws->mean);

@@ -1,26 +1,30 @@
 /* reps.c — episodic contextual REPS (thesis ch. 3): the dual eq. 3.8, its
  * certified solve, and importance weights for sample reuse.
  *
- * The solve, in standardised units (returns shifted by their maximum and
- * divided by their q-weighted spread; dense features centred on phi_hat and
- * divided by their largest deviation, so both are O(1)):
- *  1. theta_solve: Newton's method on theta at fixed eta with the exact
- *     Hessian (1/eta) Cov_p(phi), Jacobi-scaled, a 1e-10 shift for the
- *     directions in which the features are linearly dependent, Armijo steps;
- *  2. search: a safeguarded Newton root search on y = log eta for
- *     KL(p_eta || q) = eps; h(eta) = min_theta g is convex with
- *     h'(eta) = eps - KL, and dKL/dy = -ResVar_p(u | phi), u = A/eta, the
- *     variance of u left after regressing on the features (a Schur
- *     complement of the same Hessian). The same regression gives the
- *     predictor dtheta/dy = -eta Cov_p(phi)^-1 Cov_p(phi, u);
- *  3. limit: when the search heads below eta_min with KL < eps, the
- *     eta -> 0 limit p_0 decides: the feature-matching linear programme
- *     (GLPK), its optimal face (the zero reduced costs, and a second LP for
- *     the largest support on them when the vertex does not show it), and
- *     the maximum-entropy point of that face (theta_solve at eta = 1 with
- *     R = 0). KL(p_0||q) < eps: unreachable, answer p_0 at eta = 0.
- *     Otherwise the root lies below eta_min and the search goes on.
- * Every answer is then certified (certify): see reps.h. */
+ * The solve works in standardised units: returns shifted by their maximum
+ * and divided by their q-weighted spread (standardise), dense features
+ * centred on phi_hat and divided by their largest deviation, one-hot
+ * features as they are, less those whose constraint the others imply.
+ *  1. joint_newton (the fast path): damped Newton on (eta, theta) from
+ *     (1, 0); g is jointly convex, its Hessian is Cov_p([u, phi]) / eta with
+ *     u = A / eta, A = R - theta^T phi.
+ *  2. search (when eta heads below eta_min or the fast path stalls): a
+ *     safeguarded Newton root search on y = log eta for KL(p_eta||q) = eps,
+ *     with theta_solve (Newton on theta at fixed eta, Hessian
+ *     Cov_p(phi) / eta, Jacobi-scaled with a 1e-10 shift for exactly
+ *     dependent directions) at each eta. h(eta) = min_theta g is convex,
+ *     h'(eta) = eps - KL, dKL/dy = -ResVar_p(u | phi) (a Schur complement of
+ *     the same Hessian), and dtheta/deta = -Cov_p(phi)^-1 Cov_p(phi, u)
+ *     predicts theta at the next eta.
+ *  3. limit_solve (when KL < eps there): the eta -> 0 limit p_0, the
+ *     maximum-entropy point (relative to q) of the optimal face of the
+ *     feature-matching linear programme (GLPK). KL(p_0||q) < eps: the bound
+ *     is unreachable and p_0 is the answer, at eta = 0. Otherwise the root
+ *     lies below and the search goes on relative to the limit's dual.
+ * Each answer then gets its certificate (reps.h): |KL - eps|, the relative
+ * feature residual, and for the limit an LP gap and a bound on the mass an
+ * optimal solution can put outside supp p_0, from a strictly complementary
+ * dual whose reduced costs are exact to about eps^2. */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>

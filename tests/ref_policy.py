@@ -15,7 +15,8 @@ prints them), at the query state s:
             with the raw weights w^ of eq. 6.6, i.e. the slopes B solve
               (C_ss + (lambda / sum w^) diag(C_ss)) B = C_sa,
             C the w^-weighted covariances (per unit weight);
-  eq. 6.7   mu = a_bar + B^T (s - s_bar);
+  eq. 6.7   mu = a_bar + B^T (s - s_bar); with fewer weighted samples than
+            ds + 1 (too few for the ds + 1 coefficients) mu = a_bar;
   eq. 6.8   Sigma = sum w^ (a_i - mu)(a_i - mu)^T / Z  (query-centred), or
             about each sample's own fit a_bar + B^T (s_i - s_bar) (residual);
   eq. 6.9   Z = ((sum w^)^2 - sum w^2) / sum w^.
@@ -66,7 +67,11 @@ def lwr(S, A, w, leaves, qleaves, s, lam, cov="query"):
            for j in range(ds)]
     lamf = F(lam) / tot
     N = [[Css[j][k] + (lamf * Css[j][j] if j == k else 0) for k in range(ds)] for j in range(ds)]
-    B = solve(N, Csa)
+    if sum(1 for x in wh if x > 0) < ds + 1:
+        # fewer weighted samples than coefficients: no slope, the weighted mean
+        B = [[F(0)] * da for _ in range(ds)]
+    else:
+        B = solve(N, Csa)
     if B is None:
         return None
     sq = [F(x) for x in s]

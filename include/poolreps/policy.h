@@ -66,7 +66,8 @@ enum {
 	                           coordinate without spread, or collinear ones):
 	                           minimum-norm slopes in standardised units, i.e.
 	                           slope 0 along the directions the data do not span */
-	PR_POLICY_MEANONLY = 4, /* no weighted state spread at all: weighted mean only */
+	PR_POLICY_MEANONLY = 4, /* fewer weighted samples than ds + 1, or no weighted
+	                           state spread: weighted mean only */
 	PR_POLICY_COVFALL = 8,  /* Z <= 0 (one effective sample): covariance of the
 	                           global weights, or min_std^2 I if that fails too */
 	PR_POLICY_FLOOR = 16    /* min_std raised some variance (eigenvalue floor) */
