@@ -16,8 +16,8 @@ ifeq ($(SAN),1)
 else
   BUILD := build/rel
 endif
-ALL_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc $(shell pkg-config --cflags $(PKGS)) $(CFLAGS) -MMD -MP
-LIBS    := $(shell pkg-config --libs $(PKGS)) -lcsv -linih -lpthread -lm
+ALL_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc $(shell pkg-config --cflags $(PKGS) 2>/dev/null) $(CFLAGS) -MMD -MP
+LIBS    := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lcsv -linih -lpthread -lm
 
 LIB_SRC := $(filter-out src/main.c,$(wildcard src/*.c))
 LIB_OBJ := $(LIB_SRC:src/%.c=$(BUILD)/%.o)
@@ -26,6 +26,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
 .PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man FORCE
+.PHONY: shared install-lib examples python
 
 all: poolreps
 
@@ -59,9 +60,8 @@ poolreps: $(BUILD)/poolreps
 $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)
 	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(LIB) $(LIBS) -lcmocka -o $@
 
-# deps first (a no-op when everything is installed), then a sub-make that
-# looks up PYTHON and pkg-config flags with the packages in place
-check: deps
+# the packages are probed when make starts (below); nothing is installed here
+check:
 	$(MAKE) check-c check-py
 
 check-c: $(TEST_BIN)
@@ -87,7 +87,7 @@ man: $(BUILD)/poolreps
 	sh scripts/gen-readme-keys.sh $(BUILD)/poolreps README.md
 
 deps:
-	sh scripts/install-deps.sh
+	sh scripts/install-deps.sh $(if $(EXTRAS),--extras)
 
 # a sub-make, so that PYTHON and pkg-config are looked up after deps installed them
 reproduce: deps
@@ -106,6 +106,78 @@ install: all
 	install -m 644 docs/poolreps.1 $(DESTDIR)$(PREFIX)/share/man/man1
 
 clean:
-	rm -rf build poolreps
+	rm -rf build poolreps python/poolreps/libpoolreps.so.*
+
+# ---- the library for other programs: shared object, install, examples ----
+# Every library object is compiled once, position-independent, and goes into
+# both libpoolreps.a and libpoolreps.so: Debian's gcc builds PIE executables,
+# so the CLI's objects were position-independent already, and
+# -fno-semantic-interposition keeps calls inside the library direct.
+LIB_VERSION := 0.1.0
+SO_MAJOR := 0
+SONAME   := libpoolreps.so.$(SO_MAJOR)
+SOLIB    := $(BUILD)/libpoolreps.so.$(LIB_VERSION)
+LIBDIR   ?= $(PREFIX)/lib
+INCLUDEDIR ?= $(PREFIX)/include
+STAGE    := $(abspath $(BUILD)/stage)
+
+$(LIB_OBJ): CFLAGS += -fPIC -fno-semantic-interposition
+
+all: $(SOLIB)
+shared: $(SOLIB)
+
+$(SOLIB): $(LIB_OBJ)
+	$(CC) -shared -Wl,-soname,$(SONAME) -Wl,-z,defs $(LDFLAGS) $^ $(LIBS) -o $@
+	ln -sf libpoolreps.so.$(LIB_VERSION) $(BUILD)/$(SONAME)
+	ln -sf $(SONAME) $(BUILD)/libpoolreps.so
+
+install: install-lib
+
+install-lib: $(LIB) $(SOLIB)
+	install -d $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/poolreps
+	install -m 644 $(LIB) $(DESTDIR)$(LIBDIR)/libpoolreps.a
+	install -m 755 $(SOLIB) $(DESTDIR)$(LIBDIR)/libpoolreps.so.$(LIB_VERSION)
+	ln -sf libpoolreps.so.$(LIB_VERSION) $(DESTDIR)$(LIBDIR)/$(SONAME)
+	ln -sf $(SONAME) $(DESTDIR)$(LIBDIR)/libpoolreps.so
+	install -m 644 include/poolreps/*.h $(DESTDIR)$(INCLUDEDIR)/poolreps
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@LIBDIR@|$(LIBDIR)|' -e 's|@INCLUDEDIR@|$(INCLUDEDIR)|' \
+	  -e 's|@VERSION@|$(LIB_VERSION)|' poolreps.pc.in > $(DESTDIR)$(LIBDIR)/pkgconfig/poolreps.pc
+
+# examples/*.c built the way a user builds them: against an installed tree
+# (staged under $(STAGE)) through pkg-config; tests/test_examples.py runs them
+examples: $(LIB) $(SOLIB)
+	rm -rf $(STAGE)
+	$(MAKE) --no-print-directory install-lib DESTDIR=$(STAGE) PREFIX=/usr/local LIBDIR=/usr/local/lib
+	sh scripts/build-examples.sh "$(STAGE)" /usr/local/lib $(BUILD)/examples "$(CC)" "$(CFLAGS) $(LDFLAGS)"
+
+check-py: examples $(SOLIB)
+check-py: export POOLREPS_LIB := $(abspath $(SOLIB))
+check-py: export POOLREPS_EXAMPLES := $(abspath $(BUILD)/examples)
+check-py: export POOLREPS_STAGE := $(STAGE)
+
+# the Python package: the library next to it, so that `pip install ./python`
+# carries it (the package also finds build/rel or an installed copy)
+python: $(SOLIB)
+	cp $(SOLIB) python/poolreps/$(SONAME)
+	cd python && PYTHONPATH=. $(PYTHON) -c 'import poolreps; print("poolreps", poolreps.__version__, "from", poolreps.library_path())'
+
+# Before compiling anything, one line naming the missing Debian packages
+# rather than a wall of compiler errors (probed once per build folder; the
+# test packages each time a check target runs).
+ifeq ($(filter clean deps,$(MAKECMDGOALS)),)
+  ifeq ($(wildcard $(BUILD)/deps.ok),)
+    DEPS_MISSING := $(shell CC='$(CC)' sh scripts/check-deps.sh build)
+    ifneq ($(DEPS_MISSING),)
+      $(error $(DEPS_MISSING))
+    endif
+    $(shell mkdir -p $(BUILD) && touch $(BUILD)/deps.ok)
+  endif
+  ifneq ($(filter check check-c check-py,$(MAKECMDGOALS)),)
+    DEPS_MISSING := $(shell CC='$(CC)' sh scripts/check-deps.sh check "$(PYTHON)")
+    ifneq ($(DEPS_MISSING),)
+      $(error $(DEPS_MISSING))
+    endif
+  endif
+endif
 
 -include $(LIB_OBJ:.o=.d) $(BUILD)/main.d
