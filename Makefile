@@ -26,7 +26,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
 .PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man FORCE
-.PHONY: shared install-lib examples python
+.PHONY: shared install-lib examples python check-pybind
 
 all: poolreps
 
@@ -155,11 +155,28 @@ check-py: export POOLREPS_LIB := $(abspath $(SOLIB))
 check-py: export POOLREPS_EXAMPLES := $(abspath $(BUILD)/examples)
 check-py: export POOLREPS_STAGE := $(STAGE)
 
+# Under SAN=1 Python loads the sanitized library only with the sanitizer
+# runtimes preloaded: the binding's tests run apart, with them and with the
+# interpreter's own leaks suppressed (the pip test needs no second run)
+ifeq ($(SAN),1)
+check-py: export PYTEST_ADDOPTS := --ignore=tests/test_python.py --ignore=tests/test_python_install.py
+check-py: check-pybind
+check-pybind: $(SOLIB) $(BUILD)/poolreps
+	PYTEST_ADDOPTS= LC_ALL=C POOLREPS=$(abspath $(BUILD)/poolreps) POOLREPS_LIB=$(abspath $(SOLIB)) \
+	  LD_PRELOAD="$(shell $(CC) -print-file-name=libasan.so) $(shell $(CC) -print-file-name=libubsan.so)" \
+	  LSAN_OPTIONS=suppressions=$(abspath tests/lsan-python.supp):print_suppressions=0 \
+	  $(PYTHON) -m pytest -q -p no:cacheprovider tests/test_python.py
+endif
+
 # the Python package: the library next to it, so that `pip install ./python`
 # carries it (the package also finds build/rel or an installed copy)
 python: $(SOLIB)
 	cp $(SOLIB) python/poolreps/$(SONAME)
 	cd python && PYTHONPATH=. $(PYTHON) -c 'import poolreps; print("poolreps", poolreps.__version__, "from", poolreps.library_path())'
+
+# the simulator bench that scripts/bench_python.sh compares poolreps.shoot with
+$(BUILD)/bench_sim: tests/bench/bench_sim.c $(LIB)
+	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(LIB) $(LIBS) -o $@
 
 # Before compiling anything, one line naming the missing Debian packages
 # rather than a wall of compiler errors (probed once per build folder; the
@@ -170,7 +187,7 @@ ifeq ($(filter clean deps,$(MAKECMDGOALS)),)
     ifneq ($(DEPS_MISSING),)
       $(error $(DEPS_MISSING))
     endif
-    $(shell mkdir -p $(BUILD) && touch $(BUILD)/deps.ok)
+    $(shell mkdir -p $(BUILD)/tests && touch $(BUILD)/deps.ok)
   endif
   ifneq ($(filter check check-c check-py,$(MAKECMDGOALS)),)
     DEPS_MISSING := $(shell CC='$(CC)' sh scripts/check-deps.sh check "$(PYTHON)")

@@ -39,3 +39,4 @@ if [ "$mode" = check ]; then
 fi
 [ -z "$missing" ] && exit 0
 echo "poolreps: missing Debian packages:$missing; install them with 'make deps' as root (or: apt-get install$missing)"
+exit 1

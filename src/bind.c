@@ -68,7 +68,7 @@ int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
 	char why[PR_ERRLEN];
 	pr_sim *sim;
 	long r;
-	int rc = PR_OK;
+	int j, rc = PR_OK;
 
 	if (nballs > PR_SIM_MAX_BALLS || nballs < 1 + c->table.reward_balls)
 		return pr_err(err, PR_EINVAL, "%d balls: need 1 + table.reward_balls (%d) to %d",
@@ -83,8 +83,12 @@ int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
 			pr_err(err, rc, "row %ld: %s", r, why);
 			break;
 		}
-		memcpy(final + 2 * k, res.final, 2 * (size_t)nballs * sizeof *final);
-		memcpy(pocket + k, res.pocket, (size_t)nballs * sizeof *pocket);
+		/* plain loops: for a few balls a memcpy call costs more than the copy */
+		for (j = 0; j < nballs; ++j) {
+			final[2 * (k + j)] = res.final[2 * j];
+			final[2 * (k + j) + 1] = res.final[2 * j + 1];
+			pocket[k + j] = res.pocket[j];
+		}
 		hit[r] = (unsigned char)res.hit;
 		min_gap[r] = res.min_gap;
 		reward[r] = pr_sim_reward(&c->table, &c->reward, &res);

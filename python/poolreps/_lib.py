@@ -255,10 +255,10 @@ def config(sets):
 
 # ---- arrays -----------------------------------------------------------------
 
-def array(name, a, ndim, cols=None, rows=None, allow_empty=False):
+def array(name, a, ndim, cols=None, rows=None, allow_empty=False, finite=True):
     """a as a C-contiguous float64 array of ndim dimensions, copied only when
     its dtype or layout requires; ValueError for another shape, a dtype that
-    is not real numbers, or a value that is not finite."""
+    is not real numbers, or (with finite) a value that is not finite."""
     try:
         arr = np.asarray(a)
     except Exception as e:  # e.g. ragged nested lists
@@ -274,7 +274,7 @@ def array(name, a, ndim, cols=None, rows=None, allow_empty=False):
     if not allow_empty and arr.size == 0:
         raise ValueError(f"{name}: empty array of shape {arr.shape}")
     arr = np.ascontiguousarray(arr, dtype=np.float64)
-    if not np.isfinite(arr).all():
+    if finite and not np.isfinite(arr).all():
         bad = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
         raise ValueError(f"{name}{list(bad)}: not a finite number ({arr[bad]})")
     return arr

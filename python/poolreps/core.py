@@ -26,12 +26,14 @@ def shoot(balls, actions, mode="event", set=None):
     mode) or steps (stepped mode).
     """
     cfg = config(_lib.assignments({"sim.mode": mode, **(set or {})}))
-    b = array("balls", balls, 2, allow_empty=True)
+    # the simulator checks every row (finite, on the table, not overlapping,
+    # not too fast) before shooting it: no second pass over the arrays here
+    b = array("balls", balls, 2, allow_empty=True, finite=False)
     if b.shape[1] < 2 or b.shape[1] % 2:
         raise ValueError(f"balls: expected 2 columns per ball (x0, y0, x1, y1, ...), "
                          f"got shape {b.shape}")
     return shoot_rows(cfg, b, array("actions", actions, 2, cols=2, rows=b.shape[0],
-                                    allow_empty=True))
+                                    allow_empty=True, finite=False))
 
 
 def shoot_rows(cfg, b, a):

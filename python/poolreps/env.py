@@ -119,7 +119,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         """One shot from each row of states (N, 2*n_balls) with actions
         (N, 2): (observations, rewards, terminated, truncated, info), each
         with N rows; info holds pocket, hit, min_gap, t_end, events, clipped."""
-        S = array("states", states, 2, cols=2 * self.n_balls, allow_empty=True)
+        S = array("states", states, 2, cols=2 * self.n_balls, allow_empty=True, finite=False)
         A = array("actions", actions, 2, cols=2, rows=S.shape[0], allow_empty=True)
         speed = np.hypot(A[:, 0], A[:, 1])
         clipped = speed > self.max_speed
