@@ -222,6 +222,16 @@ static int draw_action(learner *L, int i, int m, gsl_rng *rng, int *flags, char 
 			              "sim.max_speed = %g m/s", i, MAX_REDRAW, su->cfg->sim.max_speed);
 		if ((rc = pr_policy_gauss_sample(2, mean, cov, 1, rng, a, err)))
 			return rc;
+		if (L->cm && hypot(a[0], a[1]) > su->cfg->sim.max_speed) {
+			/* C-CMA-ES: the draw is projected onto the speed limit and the
+			 * projected action is shot and used in the update (a repair
+			 * that keeps the mean near admissible actions; redrawing would
+			 * let it drift past the limit, where every draw is refused) */
+			double shrink = su->cfg->sim.max_speed / hypot(a[0], a[1]) * (1.0 - 1e-12);
+
+			a[0] *= shrink;
+			a[1] *= shrink;
+		}
 	} while (hypot(a[0], a[1]) > su->cfg->sim.max_speed);
 	L->redraws += tries - 1;
 	if ((rc = pr_policy_gauss_logpdf(2, mean, cov, a, &lp, err)))
