@@ -650,6 +650,15 @@ def test_leak_checker_sees_the_library():
     assert p.returncode != 0 and "Direct leak" in p.stderr and "pr_reps_solve" in p.stderr
 
 
+def test_the_calls_in_docs_python_md_run():
+    text = (ROOT / "docs/python.md").read_text()
+    code = text.split("```python\n")[1].split("```")[0]
+    ns = {}
+    exec(compile(code, "docs/python.md", "exec"), ns)
+    assert ns["r"]["pocket"][0, 1] == 2 and ns["r"]["reward"][0] == 0  # the README's shot
+    assert ns["mean"].shape == (5, 2) and abs(ns["w"]["kl"] - 0.5) <= 1e-6
+
+
 # ---- the example -----------------------------------------------------------------
 
 def test_reps_loop_example_learns():
