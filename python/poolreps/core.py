@@ -77,7 +77,8 @@ def _features(features, n):
         m = features.tocsr()
         if m.shape[0] != n:
             raise ValueError(f"features: expected {n} rows, got shape {m.shape}")
-        m.sort_indices()
+        if not m.has_sorted_indices:
+            m = m.sorted_indices()  # a copy: the caller's matrix stays as it was
         data = array("features.data", m.data, 1, allow_empty=True)
         # all ones: the one-hot leaf features of eq. 5.4, solved by blocks
         csr = (np.ascontiguousarray(m.indptr, dtype=np.intc),
