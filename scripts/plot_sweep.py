@@ -114,8 +114,8 @@ def main():
     combos = in_order(tuple(r[k] for k in lines) for r in rows) if lines else [()]
     ncol = min(3, len(panels))
     nrow = math.ceil(len(panels) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.4 * nrow), sharex=True,
-                             sharey=True, squeeze=False)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(max(6.5, 4.2 * ncol), 3.4 * nrow + 0.3),
+                             sharex=True, sharey=True, squeeze=False)
     counts = set()
     for ax, panel in zip(axes.flat, panels):
         for i, combo in enumerate(combos):

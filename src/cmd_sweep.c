@@ -344,6 +344,7 @@ typedef struct {
 	FILE *jobs;
 	pr_csvw *man;
 	long njobs;
+	int cpus;            /* threads a job can use: Slurm's --cpus-per-task */
 } sweep_out;
 
 static int manifest_header(sweep_out *s, char *err)
@@ -370,7 +371,7 @@ static int sweep_point(sweep_out *s, long p, char *err)
 	pr_config pt;
 	pr_variants *vl = malloc(sizeof *vl);
 	char point[64], path[PATHLEN], out[PATHLEN];
-	int r, v, i, nr, nv, rc;
+	int r, v, i, nr, nv, units, rc;
 
 	if (!vl)
 		return pr_err(err, PR_ENOMEM, "out of memory");
@@ -383,6 +384,13 @@ static int sweep_point(sweep_out *s, long p, char *err)
 		            s->g->split & SPLIT_REP ? "both" : "variant", pt.run.name);
 	nr = g->split & SPLIT_REP ? pt.run.repetitions : 1;
 	nv = g->split & SPLIT_VAR ? vl->n : 1;
+	/* a job's threads share its repetitions x variants */
+	units = (g->split & SPLIT_REP ? 1 : pt.run.repetitions) *
+	        (g->split & SPLIT_VAR || !vl->n ? 1 : vl->n);
+	if (units > pt.run.threads)
+		units = pt.run.threads;
+	if (rc == PR_OK && units > s->cpus)
+		s->cpus = units;
 	if (rc == PR_OK && s->njobs + (long)nr * nv > MAX_JOBS)
 		rc = pr_err(err, PR_EINVAL, "sweep: more than %ld jobs", MAX_JOBS);
 	fmt(path, sizeof path, "%s/%s", s->dir, point);
@@ -431,8 +439,8 @@ static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 		*slash = '\0';
 	if (rc == PR_OK && strlen(s.root) > ROOTMAX)
 		rc = pr_err(err, PR_EINVAL, "%.100s...: path too long", s.root);
-	if (rc == PR_OK && ((n = readlink("/proc/self/exe", s.exe, sizeof s.exe - 1)) < 0 ||
-	                    n >= (ssize_t)sizeof s.exe - 1))
+	/* the jobs run this very binary, by its absolute path */
+	if (rc == PR_OK && (n = readlink("/proc/self/exe", s.exe, sizeof s.exe - 1)) < 0)
 		rc = pr_err(err, PR_EIO, "/proc/self/exe: cannot find this executable: %s", strerror(errno));
 	else if (rc == PR_OK)
 		s.exe[n] = '\0';
@@ -456,7 +464,7 @@ static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 	if (rc == PR_OK && mkdir(path, 0777) != 0)
 		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", path, strerror(errno));
 	if (rc == PR_OK)
-		rc = write_runners(dir, s.root, s.njobs, cfg->run.threads, err);
+		rc = write_runners(dir, s.root, s.njobs, s.cpus, err);
 	if (rc != PR_OK) {
 		for (p = 0; p < g.npoints; ++p) {
 			char point[64];

@@ -500,3 +500,60 @@ def test_sweep_refusals_outside_the_grid(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == [
         "config.ini", "jobs.txt", "logs", "manifest.csv", "parallel.sh", "point-0",
         "provenance.txt", "slurm.sbatch"]
+
+
+def test_slurm_script_runs_the_line_of_its_task(tmp_path):
+    """slurm.sbatch outside Slurm: task i (+ POOLREPS_OFFSET) runs line i + 1
+    of jobs.txt or of the file given; a task past the end fails, naming it.
+    (test_cluster.py submits it to a real Slurm.)"""
+    sweep = tmp_path / "s"
+    man, jobs = make_sweep(ROOT / "data" / "quadratic.ini", sweep, ["experiment.repetitions=4",
+                                                                     "bench.iterations=5"])
+
+    def task(i, *args, offset=None):
+        env = dict(os.environ, LC_ALL="C", SLURM_ARRAY_TASK_ID=str(i))
+        if offset is not None:
+            env["POOLREPS_OFFSET"] = str(offset)
+        return subprocess.run(["sh", sweep / "slurm.sbatch", *args], capture_output=True,
+                              text=True, env=env, timeout=60)
+
+    assert task(1, offset=2).returncode == 0
+    assert [m["output"] for m in man if (sweep / m["output"]).is_dir()] == [man[3]["output"]]
+    retry = tmp_path / "retry.txt"
+    retry.write_text(jobs[0] + "\n")
+    assert task(0, retry).returncode == 0
+    assert (sweep / man[0]["output"] / "provenance.txt").is_file()
+    r = task(4)
+    assert r.returncode == 1 and r.stderr == f"slurm.sbatch: no job 4 in {sweep}/jobs.txt\n"
+    head = (sweep / "slurm.sbatch").read_text()
+    assert "#SBATCH --array=0-3\n" in head and "#SBATCH --cpus-per-task=1\n" in head
+    assert f"#SBATCH --output={sweep}/logs/%A_%a.out\n" in head
+
+
+@pytest.mark.slow
+def test_plot_sweep_draws_the_summary_against_the_grid(tmp_path):
+    """scripts/plot_sweep.py on a collected 2 x 2 grid: a PNG, the same bytes
+    twice; a summary without defaults needs -y, and a bad column is named."""
+    py = os.environ.get("PYTHON") or "/usr/bin/python3"
+    sweep = tmp_path / "s"
+    _, jobs = make_sweep(ROOT / "data" / "quadratic.ini", sweep,
+                         ["experiment.repetitions=2", "bench.iterations=5"],
+                         ["bench.init_std=0.5,1", "reps.epsilon=0.5,1"])
+    run_jobs(jobs)
+    run_ok(["collect", "-q", sweep])
+
+    def plot(*args):
+        return subprocess.run([py, ROOT / "scripts" / "plot_sweep.py", sweep, *args],
+                              capture_output=True, text=True, timeout=120)
+
+    pngs = []
+    for name in ("a.png", "b.png"):
+        r = plot("-y", "test_return_mean", "--where", "iteration=4", "-o", tmp_path / name)
+        assert r.returncode == 0, r.stderr
+        pngs.append((tmp_path / name).read_bytes())
+    assert pngs[0][:8] == b"\x89PNG\r\n\x1a\n" and len(pngs[0]) > 10000
+    assert pngs[0] == pngs[1]
+    r = plot()
+    assert r.returncode == 2 and "give -y COLUMN" in r.stderr
+    r = plot("-y", "nope")
+    assert r.returncode == 2 and "-y nope: no such column" in r.stderr
