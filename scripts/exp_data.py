@@ -7,7 +7,7 @@ episodes: scripts/exp3_table.py).
     cfg = config(DIR)                       # DIR/config.ini
     geo = table_geometry(cfg)               # table size, pockets, targets, cue position
     by_sweep, by_setting = exp1_mse(DIR)    # exp1_mse.csv, per forest (repetition)
-    ref, how = exp1_reference("cuts", by_sweep["cuts"], by_setting, exp1_default(cfg))
+    ref, src = exp1_reference("cuts", by_sweep["cuts"], by_setting, exp1_default(cfg))
     ret = exp2_returns(DIR)                 # exp2_returns.csv, per repetition
 """
 import configparser
@@ -81,16 +81,17 @@ def exp1_mse(directory):
 
 
 def exp1_reference(sweep, values, by_setting, default):
-    """({repetition: mse}, note) of the default setting for sweep's paired
+    """({repetition: mse}, source) of the default setting for sweep's paired
     differences: this sweep's own forests when it ran the default value
-    (note "default"), else the first other sweep that ran the default setting
-    (same subsets, other forest draws), else (None, None)."""
+    (source = sweep), else those of the first other sweep that ran the default
+    setting (same subsets, other forest draws; source = that sweep), else
+    (None, None)."""
     dv = default[SWEEP_INDEX[sweep]]
     if dv in values:
-        return values[dv], "default"
+        return values[dv], sweep
     for (other, setting), mse in sorted(by_setting.items()):
         if setting == default:
-            return mse, f"default, forests of the {other} sweep"
+            return mse, other
     return None, None
 
 

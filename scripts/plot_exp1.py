@@ -38,7 +38,7 @@ def plot_sweep(d, sweep, stem, xlabel, panel, values, by_setting, default):
     xs = sorted(values)
     reps = sorted({k for v in values.values() for k in v})
     mse = np.array([[values[x].get(k, np.nan) for k in reps] for x in xs])
-    ref, how = exp_data.exp1_reference(sweep, values, by_setting, default)
+    ref, src = exp_data.exp1_reference(sweep, values, by_setting, default)
     fig, (top, bot) = fs.figure("half", 1.25, nrows=2, sharex=True,
                                 gridspec_kw={"height_ratios": [3, 2]})
     mean, std = np.nanmean(mse, axis=1), np.nanstd(mse, axis=1, ddof=1) if len(reps) > 1 else 0
@@ -57,7 +57,7 @@ def plot_sweep(d, sweep, stem, xlabel, panel, values, by_setting, default):
                 continue
             m, lo, hi = figstats.mean_ci(diffs)
             bot.plot([x] * len(diffs), diffs, ".", color=fs.PALETTE["grey"], ms=3, alpha=0.7)
-            if x == dv and how == "default":
+            if x == dv and src == sweep:
                 bot.plot([x], [0], "o", ms=5, mfc="white", mec="black", zorder=3)
             elif lo is not None:
                 bot.errorbar([x], [m], yerr=[[m - lo], [hi - m]], fmt="o", ms=4, capsize=3,
@@ -66,8 +66,9 @@ def plot_sweep(d, sweep, stem, xlabel, panel, values, by_setting, default):
                 bot.plot([x], [m], "o", ms=4, color=fs.PALETTE["vermillion"])
         bot.axhline(0, color="black", lw=0.8)
         bot.set_ylabel(fs.label("paired difference", MSE_UNIT), fontsize=8)
-        bot.set_title(f"minus the {how} ({names[sweep]} = {dv}) on the same subsets:\n"
-                      "mean and 95 % interval (red), each forest (grey)", fontsize=7.5)
+        other = "" if src == sweep else f"\n(the default's forests from the {src} sweep)"
+        bot.set_title(f"minus the default ({names[sweep]} = {dv}) on the same subsets:\n"
+                      f"mean and 95 % interval (red), each forest (grey){other}", fontsize=7.5)
     else:
         bot.text(0.5, 0.5, "default setting not run: no paired difference",
                  transform=bot.transAxes, ha="center", va="center")
