@@ -82,11 +82,12 @@ def main():
             raise SystemExit(f"plot_benchmarks.py: {path}: no rows")
         draw(axes, curves, name, colour)
         drawn += 1
-    for ax, (_, label, _) in zip(axes, PANELS):
+    for ax, (col, label, _) in zip(axes, PANELS):
         ax.set_yscale("log")
         ax.set_xlabel(fs.label("episodes"))
         ax.set_ylabel(label, fontsize=8)
-        ax.legend(loc="best", fontsize=6.5)
+        # the median std falls to the bottom right: keep the legend off it
+        ax.legend(loc="center right" if col == "test_error" else "best", fontsize=6.5)
     fig.suptitle(f"Episodic contextual REPS on the {title} problem (log scale; thin lines: "
                  "single runs)")
     fs.finish(args.dir, fs.save(fig, args.dir, "bench_curve"), ["bench_curve"])
