@@ -4,7 +4,7 @@
 set -e
 PKGS="build-essential pkg-config git libgsl-dev libnlopt-dev libcsv-dev libinih-dev \
 libcmocka-dev python3 python3-matplotlib python3-pytest python3-venv parallel valgrind clang libclang-rt-14-dev \
-slurm-wlm munge openssh-server"
+slurm-wlm munge openssh-server chromium"
 missing=""
 for p in $PKGS; do
 	dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"

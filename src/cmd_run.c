@@ -247,8 +247,11 @@ int pr_cmd_run(const pr_config *cfg, const pr_cmd_args *a, char *err)
 
 	if (a->output && snprintf(dir, sizeof dir, "%s", a->output) >= (int)sizeof dir)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", a->output);
+	/* the simulator figures' data goes to results/sim: results/figures is
+	 * where `make reproduce` gathers the drawn figures */
 	if (!a->output)
-		snprintf(dir, sizeof dir, "results/%s", cfg->run.name);
+		snprintf(dir, sizeof dir, "results/%s",
+		         strcmp(cfg->run.name, "figures") ? cfg->run.name : "sim");
 	return pr_run_staged(cfg, a, dir, run_work, err);
 }
 

@@ -76,6 +76,8 @@ static const key_def keys[] = {
 
 	{"ghost", "arrival_speed", K_DOUBLE, F(expert.arrival_speed), 0, 10, 1, "m/s",
 	 "ghost-ball expert: reward ball speed at the aim point"},
+	{"ghost", "aim", K_ENUM, F(expert.aim), 0, 0, 0, "centre|corridor",
+	 "ghost-ball expert: aim at the target pocket's centre or its corridor entry"},
 	{"exp1", "aim_speed", K_DOUBLE, F(expert.aim_speed), 0, 100, 1, "m/s",
 	 "Experiment 1 data policy: cue speed aimed at the reward ball"},
 	{"exp1", "train", K_INT, F(exp1.train), 1, 10000000, 0, "", "training shots"},

@@ -18,7 +18,7 @@
 enum {
 	O_SET = 256, O_SEED, O_VERSION, O_TRACE, O_TRAIN, O_TEST, O_TARGET, O_WEIGHT,
 	O_LEAVES, O_RETURN, O_FEATURES, O_BASE, O_EPSILON, O_SUMMARY, O_STATE, O_ACTION,
-	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING
+	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP
 };
 
 static const struct option longopts[] = {
@@ -43,6 +43,7 @@ static const struct option longopts[] = {
 	{"grid", required_argument, 0, O_GRID},
 	{"split", required_argument, 0, O_SPLIT},
 	{"missing", required_argument, 0, O_MISSING},
+	{"keep", no_argument, 0, O_KEEP},
 	{0, 0, 0, 0}
 };
 
@@ -57,11 +58,13 @@ static const command commands[] = {
 	{"run", "", pr_cmd_run,
 	 "poolreps [run] CONFIG [-o DIR] [--set section.key=value]... [--seed N] [-q]\n"
 	 "  Run the experiment a parameter file describes; write CSVs, figures' data and\n"
-	 "  provenance into DIR (default: results/<experiment.name>)."},
-	{"shoot", "trace", pr_cmd_shoot,
-	 "poolreps shoot [-c FILE] [-i IN.csv] [-o OUT.csv] [--trace TRACE.csv]\n"
+	 "  provenance into DIR (default: results/<experiment.name>; figures: results/sim)."},
+	{"shoot", "trace,keep", pr_cmd_shoot,
+	 "poolreps shoot [-c FILE] [-i IN.csv] [-o OUT.csv] [--trace TRACE.csv] [--keep]\n"
 	 "  One shot per input row. Input columns x0,y0,x1,y1,...,vx,vy. Output columns\n"
-	 "  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events."},
+	 "  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events.\n"
+	 "  --keep copies the input columns in front; the final positions are then\n"
+	 "  final_x0,final_y0,..."},
 	{"forest", "train,test,target,weight,leaves", pr_cmd_forest,
 	 "poolreps forest --train FILE --test FILE --target COLS [--weight COL] [--leaves FILE]\n"
 	 "                [-o OUT.csv] [-c FILE] [--set forest.key=value]...\n"
@@ -256,6 +259,7 @@ int main(int argc, char **argv)
 		case O_GRID: grids[a.ngrid++] = optarg; name = "grid"; break;
 		case O_SPLIT: a.split = optarg; name = "split"; break;
 		case O_MISSING: a.missing = optarg; name = "missing"; break;
+		case O_KEEP: a.keep = 1; name = "keep"; break;
 		case O_EPSILON: {
 			char *end;
 			a.epsilon = strtod(optarg, &end);

@@ -15,6 +15,7 @@ typedef struct {
 	int quiet;             /* -q */
 	/* shoot */
 	const char *trace;     /* --trace FILE */
+	int keep;              /* --keep: copy the input columns in front */
 	/* forest */
 	const char *train, *test, *target, *weight, *leaves;
 	/* reps */
