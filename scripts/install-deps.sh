@@ -1,13 +1,16 @@
 #!/bin/sh
 # install-deps.sh [--extras] — install the Debian 12 packages poolreps needs
 # to build and to run `make check`; with --extras also those of CI's extra
-# stages and `make bench` (fuzzers, valgrind, GNU Parallel, venv for pip).
+# stages, `make bench` and the tests that skip without them (fuzzers,
+# valgrind, GNU Parallel, venv for pip, Slurm and sshd, chromium).
 # As root it runs apt-get; otherwise it prints the exact command and stops
 # if anything is missing.
 set -e
 PKGS="build-essential pkg-config git libgsl-dev libnlopt-dev libcsv-dev libinih-dev \
 libcmocka-dev python3 python3-numpy python3-matplotlib python3-pytest"
-EXTRAS="python3-venv python3-wheel parallel valgrind clang libclang-rt-14-dev"
+# tests that need these skip without them
+EXTRAS="python3-venv python3-wheel parallel valgrind clang libclang-rt-14-dev \
+slurm-wlm munge openssh-server chromium"
 [ "${1:-}" = --extras ] && PKGS="$PKGS $EXTRAS"
 missing=""
 for p in $PKGS; do

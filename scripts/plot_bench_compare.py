@@ -7,34 +7,32 @@ scripts/bench_explore.sh writes.
 
 ROOT holds one folder per run, named PROBLEM-METHOD (sphere-creps_new,
 sphere-creps_old, sphere-ccmaes, rosenbrock-...), each with the
-bench_curve.csv of `poolreps`. Writes ROOT/bench_compare.png (per problem,
+bench_curve.csv of `poolreps`. Writes ROOT/bench_compare.png and .svg (per problem,
 the mean over repetitions of the policy mean's test return per generation,
 the band from the worst to the best repetition, -return on a log axis, and
 the goal lines) and ROOT/bench_compare.csv (per problem and method: final
 generation, repetitions, mean, min and max of the final test return, and the
 first generation whose mean reaches each goal), and prints the table as
-markdown. Reads CSV only; the PNG carries no timestamp, so the same CSVs
-give the same bytes.
+markdown. Reads CSV only; the figures carry no timestamp, so the same CSVs
+give the same bytes (scripts/figstyle.py).
 """
 import csv
 import os
 import sys
 from collections import defaultdict
 
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import figstyle as fs
+import numpy as np  # noqa: E402  (after figstyle: it picks the Python)
 
 PROBLEMS = ["sphere", "rosenbrock"]
-METHODS = [("creps_new", "C-REPS, cov_center = new", "tab:red"),
-           ("creps_old", "C-REPS, cov_center = old", "tab:blue"),
-           ("ccmaes", "C-CMA-ES", "tab:green")]
+METHODS = [("creps_new", "C-REPS, cov_center = new", fs.PALETTE["vermillion"]),
+           ("creps_old", "C-REPS, cov_center = old", fs.PALETTE["blue"]),
+           ("ccmaes", "C-CMA-ES", fs.PALETTE["green"])]
 # goals on the mean test return (sphere): the reference C-REPS plateau and
 # C-CMA-ES's target; the reference C-CMA-ES level for comparison
-GOALS = {"sphere": [(-47.0, "reference C-REPS plateau −47", "tab:blue"),
-                    (-1e-3, "C-CMA-ES goal −1e-3", "tab:green"),
-                    (-10 ** -4.5, "reference C-CMA-ES −10^-4.5", "tab:olive")]}
+GOALS = {"sphere": [(-47.0, "reference C-REPS plateau −47", fs.PALETTE["blue"]),
+                    (-1e-3, "C-CMA-ES goal −1e-3", fs.PALETTE["green"]),
+                    (-10 ** -4.5, "reference C-CMA-ES −10^-4.5", fs.PALETTE["black"])]}
 TINY = 1e-300
 
 
@@ -64,7 +62,8 @@ def main():
     if len(sys.argv) != 2:
         raise SystemExit(__doc__.split("\n\n")[1])
     root = sys.argv[1]
-    fig, axes = plt.subplots(1, len(PROBLEMS), figsize=(13, 4.6))
+    fs.setup()
+    fig, axes = fs.figure("full", 0.42, ncols=len(PROBLEMS))
     table = []
     for ax, prob in zip(axes, PROBLEMS):
         for key, label, color in METHODS:
@@ -89,12 +88,11 @@ def main():
         ax.set_yscale("log")
         ax.set_xlabel("generation (50 episodes each)")
         ax.set_ylabel("−(test return of the policy mean)")
-        ax.set_title(f"contextual {prob}, 20-D: mean and range over repetitions")
-        ax.grid(True, which="major", alpha=0.3)
-        ax.legend(loc="center right" if prob == "sphere" else "lower left", fontsize=7.5)
-    fig.tight_layout()
-    out = os.path.join(root, "bench_compare.png")
-    fig.savefig(out, dpi=110, metadata={"Software": None})
+        ax.set_title(f"contextual {prob}, 20-D")
+        ax.legend(loc="center right" if prob == "sphere" else "lower left", fontsize=6.5)
+    fig.suptitle("C-REPS against C-CMA-ES: mean over the repetitions, band from the worst to "
+                 "the best")
+    written = fs.save(fig, root, "bench_compare")
     goal_cols = sorted({k for r in table for k in r if k.startswith("gen_mean_ge_")})
     cols = ["problem", "method", "generations", "repetitions", "final_mean", "final_min",
             "final_max"] + goal_cols
@@ -112,7 +110,7 @@ def main():
               f"{r['final_min']:.3g} … {r['final_max']:.3g} |"
               + "".join(f" {'n/a' if c not in r else '–' if r[c] is None else r[c]} |"
                         for c in goal_cols))
-    print(out)
+    fs.finish(root, written, ["bench_compare"])
 
 
 if __name__ == "__main__":

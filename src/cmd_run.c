@@ -112,9 +112,7 @@ int pr_run_write_config(const pr_config *cfg, const char *dir, char *err)
 	return PR_OK;
 }
 
-/* Write arg so that a POSIX shell reads it back as one word: provenance's
- * command line can be pasted to repeat the run. */
-static void write_shell_word(FILE *fp, const char *arg)
+void pr_run_shell_word(FILE *fp, const char *arg)
 {
 	const char *c;
 
@@ -155,7 +153,7 @@ int pr_run_write_provenance(const pr_config *cfg, const pr_cmd_args *a, const ch
 	fprintf(fp, "command:");
 	for (i = 0; i < a->argc; ++i) {
 		fputc(' ', fp);
-		write_shell_word(fp, a->argv[i]);
+		pr_run_shell_word(fp, a->argv[i]);
 	}
 	fprintf(fp, "\nexperiment: %s\nseed: %lu\nrepetition: %d\nparameter_file: %s\n",
 	        cfg->run.name, cfg->run.seed, cfg->run.repetition,
@@ -228,12 +226,15 @@ int pr_run_staged(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 static int run_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a, char *err)
 {
 	const pr_experiment *e = pr_exp_find(cfg->run.name);
+	pr_variants variants;
 	char at[320];
 	int rc;
 
 	if (!e)
 		return pr_err(err, PR_EINVAL, "%s: experiment.name: '%s' is not available",
 		              pr_config_where(cfg, "experiment.name", at, sizeof at), cfg->run.name);
+	if ((rc = pr_exp_variants(cfg, &variants, err)))
+		return rc;
 	rc = e->run(cfg, dir, &a->progress, err);
 	if (rc == PR_OK && e->summarize)
 		rc = e->summarize(cfg, dir, err);
@@ -246,8 +247,11 @@ int pr_cmd_run(const pr_config *cfg, const pr_cmd_args *a, char *err)
 
 	if (a->output && snprintf(dir, sizeof dir, "%s", a->output) >= (int)sizeof dir)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", a->output);
+	/* the simulator figures' data goes to results/sim: results/figures is
+	 * where `make reproduce` gathers the drawn figures */
 	if (!a->output)
-		snprintf(dir, sizeof dir, "results/%s", cfg->run.name);
+		snprintf(dir, sizeof dir, "results/%s",
+		         strcmp(cfg->run.name, "figures") ? cfg->run.name : "sim");
 	return pr_run_staged(cfg, a, dir, run_work, err);
 }
 
@@ -255,6 +259,7 @@ int pr_cmd_run(const pr_config *cfg, const pr_cmd_args *a, char *err)
 
 typedef struct {
 	long rep;
+	int var;  /* experiment.variant of the input, -1 for all */
 	int src;
 	long order;
 	char *text;
@@ -266,14 +271,18 @@ static int cmp_row(const void *x, const void *y)
 
 	if (a->rep != b->rep)
 		return a->rep < b->rep ? -1 : 1;
+	if (a->var != b->var)
+		return a->var < b->var ? -1 : 1;
 	if (a->src != b->src)
 		return a->src < b->src ? -1 : 1;
 	return a->order < b->order ? -1 : a->order > b->order;
 }
 
 /* Concatenate the raw CSV `name` of every input folder, ordered by the
- * leading repetition column; a repetition present in two inputs is an error. */
-static int merge_csv(const pr_cmd_args *a, const char *name, const char *outdir, char *err)
+ * leading repetition column, then by the input's variant (var[k]); a
+ * repetition of one variant present in two inputs is an error. */
+static int merge_csv(const pr_cmd_args *a, const int *var, const char *name, const char *outdir,
+                     char *err)
 {
 	row *rows = NULL;
 	long n = 0, cap = 0, i;
@@ -319,6 +328,7 @@ static int merge_csv(const pr_cmd_args *a, const char *name, const char *outdir,
 				rows = r2;
 			}
 			rows[n].rep = rep;
+			rows[n].var = var[k];
 			rows[n].src = k;
 			rows[n].order = lineno;
 			if (!(rows[n].text = strdup(line))) {
@@ -333,7 +343,8 @@ static int merge_csv(const pr_cmd_args *a, const char *name, const char *outdir,
 		if (n > 0)
 			qsort(rows, (size_t)n, sizeof *rows, cmp_row);
 		for (i = 1; i < n; ++i)
-			if (rows[i].rep == rows[i - 1].rep && rows[i].src != rows[i - 1].src) {
+			if (rows[i].rep == rows[i - 1].rep && rows[i].src != rows[i - 1].src &&
+			    (rows[i].var == rows[i - 1].var || rows[i - 1].var < 0)) {
 				rc = pr_err(err, PR_EINVAL, "%s/%s and %s/%s both hold repetition %ld",
 				            a->inputs[rows[i - 1].src], name, a->inputs[rows[i].src], name,
 				            rows[i].rep);
@@ -386,19 +397,41 @@ static int is_raw_csv(const char *dir, const char *name)
 	return strncmp(buf, "repetition,", 11) == 0;
 }
 
+/* Merge over variants: experiment.variant of every input, from its
+ * config.ini (an experiment's rows of one repetition come in variant order). */
+static int input_variants(const pr_cmd_args *a, int *var, char *err)
+{
+	char path[PATHLEN];
+	pr_config c;
+	int k, rc;
+
+	for (k = 0; k < a->ninputs; ++k) {
+		pr_config_init(&c);
+		snprintf(path, sizeof path, "%s/config.ini", a->inputs[k]);
+		if ((rc = pr_config_load(&c, path, err)))
+			return rc;
+		var[k] = c.run.variant;
+	}
+	return PR_OK;
+}
+
 static int merge_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a, char *err)
 {
 	const pr_experiment *e = pr_exp_find(cfg->run.name);
+	int *var = malloc((size_t)a->ninputs * sizeof *var);
 	DIR *d = opendir(a->inputs[0]);
 	struct dirent *ent;
-	int rc = PR_OK;
+	int rc = var ? input_variants(a, var, err) : pr_err(err, PR_ENOMEM, "out of memory");
 
-	if (!d)
+	if (!d) {
+		free(var);
 		return pr_err(err, PR_EIO, "%s: cannot read folder: %s", a->inputs[0], strerror(errno));
+	}
 	while (rc == PR_OK && (ent = readdir(d)))
 		if (is_raw_csv(a->inputs[0], ent->d_name))
-			rc = merge_csv(a, ent->d_name, dir, err);
+			rc = merge_csv(a, var, ent->d_name, dir, err);
 	closedir(d);
+	free(var);
 	if (rc == PR_OK && e && e->summarize)
 		rc = e->summarize(cfg, dir, err);
 	return rc;
@@ -428,5 +461,6 @@ int pr_cmd_merge(const pr_config *cfg0, const pr_cmd_args *a, char *err)
 			              path, a->inputs[0]);
 	}
 	cfg.run.repetition = -1;
+	cfg.run.variant = -1;
 	return pr_run_staged(&cfg, a, a->output, merge_work, err);
 }

@@ -41,6 +41,8 @@ static const key_def keys[] = {
 	{"experiment", "repetitions", K_INT, F(run.repetitions), 1, 10000, 0, "", "independent repetitions"},
 	{"experiment", "repetition", K_INT, F(run.repetition), -1, 9999, 0, "",
 	 "-1 runs all repetitions; k runs only repetition k (sweeps)"},
+	{"experiment", "variant", K_INT, F(run.variant), -1, PR_VARIANTS_MAX - 1, 0, "",
+	 "-1 runs all variants; v runs only variant v: exp1 setting, exp3 policy (sweeps)"},
 	{"experiment", "threads", K_INT, F(run.threads), 1, 256, 0, "", "threads for repetitions"},
 
 	{"table", "length", K_DOUBLE, F(table.length), 0, 100, 1, "m", "long side (x)"},
@@ -74,6 +76,8 @@ static const key_def keys[] = {
 
 	{"ghost", "arrival_speed", K_DOUBLE, F(expert.arrival_speed), 0, 10, 1, "m/s",
 	 "ghost-ball expert: reward ball speed at the aim point"},
+	{"ghost", "aim", K_ENUM, F(expert.aim), 0, 0, 0, "centre|corridor",
+	 "ghost-ball expert: aim at the target pocket's centre or its corridor entry"},
 	{"exp1", "aim_speed", K_DOUBLE, F(expert.aim_speed), 0, 100, 1, "m/s",
 	 "Experiment 1 data policy: cue speed aimed at the reward ball"},
 	{"exp1", "train", K_INT, F(exp1.train), 1, 10000000, 0, "", "training shots"},
@@ -257,6 +261,7 @@ void pr_run_opts_init(pr_run_opts *o)
 	o->seed = 1;
 	o->repetitions = 5;
 	o->repetition = -1;
+	o->variant = -1;
 	o->threads = 1;
 }
 

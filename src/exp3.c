@@ -104,6 +104,33 @@ static int parse_variants(const pr_config *cfg, int *var, int *nvar, char *err)
 	return PR_OK;
 }
 
+/* The variants this process runs: all of exp3.policies, or the one
+ * experiment.variant picks. Each draws from its own stream (STREAM_LEARN +
+ * its id), so alone it writes exactly its rows of the full run. */
+static int run_variants(const pr_config *cfg, int *var, int *nvar, char *err)
+{
+	int rc;
+
+	if ((rc = parse_variants(cfg, var, nvar, err)) || (rc = pr_exp_check_variant(cfg, *nvar, err)))
+		return rc;
+	if (cfg->run.variant >= 0) {
+		var[0] = var[cfg->run.variant];
+		*nvar = 1;
+	}
+	return PR_OK;
+}
+
+int pr_exp3_variants(const pr_config *cfg, pr_variants *out, char *err)
+{
+	int var[NVAR], j, rc;
+
+	if ((rc = parse_variants(cfg, var, &out->n, err)))
+		return rc;
+	for (j = 0; j < out->n; ++j)
+		snprintf(out->name[j], sizeof out->name[j], "%s", var_name[var[j]]);
+	return PR_OK;
+}
+
 /* ---- one job ---- */
 
 /* REPS and policy diagnostics of one iteration (raw exp3_reps.csv). */
@@ -839,7 +866,7 @@ int pr_exp3_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 	su.nrep = hi - su.lo;
 	rc = check_setup(cfg, err);
 	if (rc == PR_OK)
-		rc = parse_variants(cfg, su.var, &su.nvar, err);
+		rc = run_variants(cfg, su.var, &su.nvar, err);
 	if (rc == PR_OK)
 		rc = learning_dims(&su, err);
 	if (rc == PR_OK) {
@@ -1325,7 +1352,7 @@ int pr_exp3_summarize(const pr_config *cfg, const char *dir, char *err)
 	char *fin = NULL;
 	int var[NVAR], nvar, rc;
 
-	if ((rc = parse_variants(cfg, var, &nvar, err)))
+	if ((rc = run_variants(cfg, var, &nvar, err)))
 		return rc;
 	rc = read_episodes(cfg, dir, var, nvar, &E, err);
 	if (rc == PR_OK)

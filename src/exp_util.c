@@ -305,6 +305,16 @@ long pr_exp_table_nrows(const pr_exp_table *t)
 	return t->nrows;
 }
 
+int pr_exp_table_ncols(const pr_exp_table *t)
+{
+	return t->ncols;
+}
+
+const char *pr_exp_table_name(const pr_exp_table *t, int j)
+{
+	return t->hdr[j];
+}
+
 const char *pr_exp_table_path(const pr_exp_table *t)
 {
 	return t->path;

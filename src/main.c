@@ -18,7 +18,7 @@
 enum {
 	O_SET = 256, O_SEED, O_VERSION, O_TRACE, O_TRAIN, O_TEST, O_TARGET, O_WEIGHT,
 	O_LEAVES, O_RETURN, O_FEATURES, O_BASE, O_EPSILON, O_SUMMARY, O_STATE, O_ACTION,
-	O_SAMPLE
+	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP
 };
 
 static const struct option longopts[] = {
@@ -40,6 +40,10 @@ static const struct option longopts[] = {
 	{"state", required_argument, 0, O_STATE},
 	{"action", required_argument, 0, O_ACTION},
 	{"sample", required_argument, 0, O_SAMPLE},
+	{"grid", required_argument, 0, O_GRID},
+	{"split", required_argument, 0, O_SPLIT},
+	{"missing", required_argument, 0, O_MISSING},
+	{"keep", no_argument, 0, O_KEEP},
 	{0, 0, 0, 0}
 };
 
@@ -54,11 +58,13 @@ static const command commands[] = {
 	{"run", "", pr_cmd_run,
 	 "poolreps [run] CONFIG [-o DIR] [--set section.key=value]... [--seed N] [-q]\n"
 	 "  Run the experiment a parameter file describes; write CSVs, figures' data and\n"
-	 "  provenance into DIR (default: results/<experiment.name>)."},
-	{"shoot", "trace", pr_cmd_shoot,
-	 "poolreps shoot [-c FILE] [-i IN.csv] [-o OUT.csv] [--trace TRACE.csv]\n"
+	 "  provenance into DIR (default: results/<experiment.name>; figures: results/sim)."},
+	{"shoot", "trace,keep", pr_cmd_shoot,
+	 "poolreps shoot [-c FILE] [-i IN.csv] [-o OUT.csv] [--trace TRACE.csv] [--keep]\n"
 	 "  One shot per input row. Input columns x0,y0,x1,y1,...,vx,vy. Output columns\n"
-	 "  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events."},
+	 "  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events.\n"
+	 "  --keep copies the input columns in front; the final positions are then\n"
+	 "  final_x0,final_y0,..."},
 	{"forest", "train,test,target,weight,leaves", pr_cmd_forest,
 	 "poolreps forest --train FILE --test FILE --target COLS [--weight COL] [--leaves FILE]\n"
 	 "                [-o OUT.csv] [-c FILE] [--set forest.key=value]...\n"
@@ -81,8 +87,21 @@ static const command commands[] = {
 	 "  Write the effective configuration (defaults, file, overrides) as INI to stdout."},
 	{"merge", "", pr_cmd_merge,
 	 "poolreps merge -o DIR RUN_DIR...\n"
-	 "  Combine single-repetition or single-setting outputs into what one process\n"
+	 "  Combine single-repetition or single-variant outputs into what one process\n"
 	 "  would have written."},
+	{"sweep", "grid,split,missing", pr_cmd_sweep,
+	 "poolreps sweep CONFIG [--grid SECTION.KEY=V1,V2,...]... [--split repetition|variant|both]\n"
+	 "               -o SWEEP_DIR      |      poolreps sweep --missing SWEEP_DIR\n"
+	 "  Write jobs over every combination of the grid values: one `poolreps run` per\n"
+	 "  grid point and repetition and/or variant (exp1: setting, exp3: policy), listed\n"
+	 "  in SWEEP_DIR/jobs.txt and manifest.csv, with slurm.sbatch and parallel.sh to run\n"
+	 "  them and point-N/config.ini per grid point. --missing prints the jobs that have\n"
+	 "  not finished, to run again."},
+	{"collect", "", pr_cmd_collect,
+	 "poolreps collect SWEEP_DIR\n"
+	 "  Merge every grid point's jobs into point-N/merged (as `merge` does) and write\n"
+	 "  SWEEP_DIR/sweep_summary.csv: the grid values and the experiment's summary rows.\n"
+	 "  Names the jobs not done if there are any."},
 };
 #define NCOMMANDS (sizeof commands / sizeof commands[0])
 
@@ -192,7 +211,7 @@ int main(int argc, char **argv)
 	const command *cmd = NULL;
 	const char *config_path = NULL, *seed = NULL, *used[32];
 	char err[PR_ERRLEN], msg[PR_ERRLEN + 64];
-	char **orig, **sets;
+	char **orig, **sets, **grids;
 	int nsets = 0, nused = 0, help = 0, c, rc, i;
 	struct timespec t0, t1;
 	clock_t c0 = clock();
@@ -204,11 +223,13 @@ int main(int argc, char **argv)
 	signal(SIGTERM, on_signal);
 	memset(&a, 0, sizeof a);
 	/* getopt_long permutes argv: provenance records the order as typed */
-	orig = calloc(2 * ((size_t)argc + 1), sizeof *orig);
+	orig = calloc(3 * ((size_t)argc + 1), sizeof *orig);
 	if (!orig)
 		return fail("out of memory");
 	memcpy(orig, argv, (size_t)argc * sizeof *orig);
 	sets = orig + argc + 1;
+	grids = sets + argc + 1;
+	a.grid = grids;
 	a.argc = argc;
 	a.argv = orig;
 	opterr = 0;
@@ -235,6 +256,10 @@ int main(int argc, char **argv)
 		case O_SUMMARY: a.summary = optarg; name = "summary"; break;
 		case O_STATE: a.state = optarg; name = "state"; break;
 		case O_ACTION: a.action = optarg; name = "action"; break;
+		case O_GRID: grids[a.ngrid++] = optarg; name = "grid"; break;
+		case O_SPLIT: a.split = optarg; name = "split"; break;
+		case O_MISSING: a.missing = optarg; name = "missing"; break;
+		case O_KEEP: a.keep = 1; name = "keep"; break;
 		case O_EPSILON: {
 			char *end;
 			a.epsilon = strtod(optarg, &end);
@@ -297,7 +322,9 @@ int main(int argc, char **argv)
 			free(orig);
 			return fail("run: no parameter file given (poolreps CONFIG)");
 		}
-	} else if (cmd->fn == pr_cmd_merge) {
+	} else if (cmd->fn == pr_cmd_sweep && !a.missing && optind < argc) {
+		config_path = argv[optind++];
+	} else if (cmd->fn == pr_cmd_merge || cmd->fn == pr_cmd_collect) {
 		a.ninputs = argc - optind;
 		a.inputs = argv + optind;
 		optind = argc;
@@ -316,7 +343,8 @@ int main(int argc, char **argv)
 		}
 	}
 	a.command = cmd->name;
-	graceful = cmd->fn == pr_cmd_run || cmd->fn == pr_cmd_merge;
+	graceful = cmd->fn == pr_cmd_run || cmd->fn == pr_cmd_merge || cmd->fn == pr_cmd_sweep ||
+	           cmd->fn == pr_cmd_collect;
 	if (!a.quiet) {
 		memset(&prog, 0, sizeof prog);
 		prog.t0 = t0;

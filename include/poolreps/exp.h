@@ -19,6 +19,7 @@ typedef struct {
 	unsigned long seed;   /* master seed; --seed overrides */
 	int repetitions;      /* independent repetitions */
 	int repetition;       /* -1: all; k: only repetition k (sweeps) */
+	int variant;          /* -1: all; v: only variant v (sweeps; pr_exp_variants) */
 	int threads;          /* repetitions run on this many threads */
 } pr_run_opts;
 void pr_run_opts_init(pr_run_opts *o);
@@ -87,15 +88,27 @@ typedef struct {
 
 struct pr_config;
 
+/* The variants of an experiment: parts of one repetition that draw from
+ * their own streams, so each can run alone (experiment.variant = its index)
+ * and write exactly the rows it writes inside the full run. */
+#define PR_VARIANTS_MAX (3 * PR_LIST_MAX + 1)
+typedef struct {
+	int n;
+	char name[PR_VARIANTS_MAX][32];  /* in output order */
+} pr_variants;
+
 /* An experiment writes raw per-repetition CSVs whose first column is
  * `repetition` (run), then derived CSVs computed from those alone
  * (summarize), so that `poolreps merge` can rebuild the derived files from
  * merged raw files byte for byte. Repetition k draws only from a stream
- * derived from (experiment.seed, k). */
+ * derived from (experiment.seed, k); within a repetition, rows come in
+ * variant order. */
 typedef struct {
 	const char *name;
 	int (*run)(const struct pr_config *cfg, const char *dir, const pr_progress *prog, char *err);
 	int (*summarize)(const struct pr_config *cfg, const char *dir, char *err); /* or NULL */
+	int (*variants)(const struct pr_config *cfg, pr_variants *out, char *err); /* or NULL: none */
+	const char *summary;  /* the derived CSV `poolreps collect` tabulates, or NULL */
 } pr_experiment;
 
 /* The experiment called `name`, or NULL. */
@@ -107,5 +120,12 @@ gsl_rng *pr_exp_rng(unsigned long seed, unsigned long stream, unsigned long inde
 
 /* The repetitions [*lo, *hi) this process runs (experiment.repetition). */
 void pr_exp_reps(const struct pr_config *cfg, int *lo, int *hi);
+
+/* The variants of cfg's experiment (n = 0 for one without); PR_EINVAL naming
+ * experiment.variant when it is set but not below their count. */
+int pr_exp_variants(const struct pr_config *cfg, pr_variants *out, char *err);
+
+/* PR_EINVAL naming experiment.variant unless it is -1 or below n. */
+int pr_exp_check_variant(const struct pr_config *cfg, int n, char *err);
 
 #endif
