@@ -1,3 +1,4 @@
+#!/usr/bin/env python3
 """bench_python.py [--shots N] [--runs K] [--seed S] — poolreps.shoot throughput.
 
 The workload of tests/bench/bench_sim.c (event mode, "gauss"): 2-ball shots
