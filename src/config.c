@@ -760,6 +760,47 @@ static void write_value(const pr_config *c, const key_def *k, FILE *fp)
 	}
 }
 
+/* The value of key k as pr_config_write writes it, malloc'd (NULL: no memory). */
+static char *value_text(const pr_config *c, const key_def *k)
+{
+	char *buf = NULL;
+	size_t n = 0;
+	FILE *fp = open_memstream(&buf, &n);
+
+	if (!fp)
+		return NULL;
+	write_value(c, k, fp);
+	if (fclose(fp) != 0) {
+		free(buf);
+		return NULL;
+	}
+	return buf;
+}
+
+int pr_config_diff(const pr_config *a, const pr_config *b, const char *skip, char *key,
+                   size_t nkey, char *va, char *vb, size_t n)
+{
+	size_t i;
+
+	for (i = 0; i < NKEYS; ++i) {
+		char *x, *y;
+		int differ;
+		snprintf(key, nkey, "%s.%s", keys[i].section, keys[i].key);
+		if (skip && strcmp(key, skip) == 0)
+			continue;
+		x = value_text(a, &keys[i]);
+		y = value_text(b, &keys[i]);
+		differ = !x || !y || strcmp(x, y) != 0;
+		snprintf(va, n, "%s", x ? x : "?");
+		snprintf(vb, n, "%s", y ? y : "?");
+		free(x);
+		free(y);
+		if (differ)
+			return 1;
+	}
+	return 0;
+}
+
 int pr_config_write(const pr_config *c, FILE *fp)
 {
 	const char *section = "";

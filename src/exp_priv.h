@@ -49,8 +49,11 @@ int pr_exp_parallel(int lo, int hi, int threads, int (*job)(void *ctx, int k, ch
 
 /* A CSV read as text: a header row and rows of equally many fields. */
 typedef struct pr_exp_table pr_exp_table;
-/* Read path; errors name file and line. *out is owned by the caller. */
+/* Read path (it must end with a line end); errors name file and line.
+ * *out is owned by the caller. */
 int pr_exp_table_read(const char *path, pr_exp_table **out, char *err);
+int pr_exp_table_ncols(const pr_exp_table *t);
+const char *pr_exp_table_name(const pr_exp_table *t, int j);
 void pr_exp_table_free(pr_exp_table *t);
 long pr_exp_table_nrows(const pr_exp_table *t);
 const char *pr_exp_table_path(const pr_exp_table *t);
