@@ -201,7 +201,9 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	}
 	gsl_rng_set(rng, cfg->run.seed);
 	if (!(p = pr_policy_tree_fit(&cfg->policy, &d, rng, err))) {
-		rc = PR_EINVAL;
+		/* the options and data were checked above: memory (main turns it
+		 * into exit 4) or a numerical failure */
+		rc = PR_ENUM;
 		goto done;
 	}
 	if (!(ws = pr_policy_work_new(p, err))) {
