@@ -1,5 +1,6 @@
 /* main.c — the poolreps command line: parse options, build the configuration,
  * call one library command, print its one-line error, map status to exit. */
+#include <errno.h>
 #include <getopt.h>
 #include <signal.h>
 #include <stdio.h>
@@ -209,6 +210,16 @@ static int fail(const char *msg)
 	return 1;
 }
 
+/* After --help or --version: report a failed write to stdout. */
+static int stdout_done(void)
+{
+	errno = 0;
+	if (fflush(stdout) == 0 && !ferror(stdout))
+		return 0;
+	fprintf(stderr, "poolreps: <stdout>: write error: %s\n", strerror(errno ? errno : EIO));
+	return 2;
+}
+
 /* The name an option has in the command table ("c", "set", "trace"). */
 static const char *option_name(int c)
 {
@@ -283,7 +294,11 @@ int main(int argc, char **argv)
 		case 'o': a.output = optarg; break;
 		case 'q': a.quiet = 1; break;
 		case 'h': help = 1; break;
-		case O_VERSION: printf("poolreps %s\n", pr_version()); free(orig); free(used); return 0;
+		case O_VERSION:
+			printf("poolreps %s\n", pr_version());
+			free(orig);
+			free(used);
+			return stdout_done();
 		case O_SET: sets[nsets++] = optarg; break;
 		case O_SEED: seed = optarg; break;
 		case O_TRACE: a.trace = optarg; break;
@@ -345,7 +360,7 @@ int main(int argc, char **argv)
 		usage(stdout, cmd);
 		free(orig);
 		free(used);
-		return fflush(stdout) ? 2 : 0;
+		return stdout_done();
 	}
 	if (!cmd)
 		FAIL("Usage: poolreps CONFIG | poolreps COMMAND [options] (see poolreps --help)");
