@@ -2,8 +2,10 @@
  * an output folder with its provenance, and merge per-process outputs.
  *
  * Everything a run writes goes first into a staging folder DIR/.partial-PID
- * and is moved into DIR only when the whole run succeeded, so a failed or
- * interrupted run leaves no partial CSV behind.
+ * and is moved into DIR only when the whole run succeeded, all or nothing
+ * (publish), so a failed or interrupted run leaves no partial CSV behind and
+ * the previous run in DIR untouched. provenance.txt lists the files a run
+ * owns; the next run into DIR replaces exactly those.
  */
 #define _DEFAULT_SOURCE /* flock */
 #include <dirent.h>
@@ -234,6 +236,9 @@ static int publish(const char *staging, const char *dir, char *err)
 			continue;
 		if (S_ISDIR(st.st_mode))
 			rc = pr_err(err, PR_EIO, "%s: is a folder: cannot replace it with the run's file", to);
+		/* like any output: a file the (non-root) user may not write stays */
+		else if (S_ISREG(st.st_mode) && faccessat(AT_FDCWD, to, W_OK, AT_EACCESS) != 0)
+			rc = pr_err(err, PR_EIO, "%s: cannot write: %s", to, strerror(errno));
 		else if (link(to, bak) != 0)
 			rc = pr_err(err, PR_EIO, "%s: cannot keep the earlier file while replacing it: %s",
 			            to, strerror(errno));
@@ -439,7 +444,7 @@ int pr_run_staged(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	sweep_stale(dir);
 	remove_tree(staging);
 	if (mkdir(staging, 0777) != 0) {
-		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", staging, strerror(errno));
+		rc = pr_err(err, PR_EIO, "%s: cannot write into the folder: %s", dir, strerror(errno));
 		if (!existed)
 			rmdir(dir);
 		return rc;

@@ -7,7 +7,7 @@ folder and checks the contract of docs/hardening.md:
   - the documented exit code: 1 bad usage or parameter, 2 I/O or malformed
     CSV, 3 numerical failure, 4 out of memory;
   - nothing written: the -o path does not exist afterwards, and no
-    "*.tmp.*" or ".partial-*" is left anywhere.
+    ".poolreps-tmp-*" or ".partial-*" is left anywhere.
 Valid-but-odd inputs (CRLF, BOM, quoted fields, blanks, comments) must work
 and give the same result as their plain spelling.
 """
@@ -263,7 +263,7 @@ CASES = [
 def leftovers(tmp):
     """Temporary or staging files anywhere under tmp."""
     return sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*")
-                  if ".tmp." in p.name or p.name.startswith(".partial-") or p.name.endswith(".tmp"))
+                  if p.name.startswith((".poolreps-tmp-", ".partial-")) or ".tmp." in p.name)
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])

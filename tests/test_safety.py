@@ -685,7 +685,7 @@ def nobody_dir():
 
 
 @pytest.mark.skipif(os.geteuid() != 0, reason="switching to an unprivileged user needs root")
-@pytest.mark.parametrize("target", ["file", "summary", "run_folder"])
+@pytest.mark.parametrize("target", ["file", "summary", "run_folder", "run_file"])
 def test_read_only_target_for_a_non_root_user(target):
     if shutil.which("setpriv") is None:
         pytest.skip("setpriv not installed")
@@ -699,11 +699,19 @@ def test_read_only_target_for_a_non_root_user(target):
             (d / "out").mkdir()
             (d / "out" / "keep.csv").write_bytes(b"k\n")
             os.chmod(d / "out", 0o555)
+        if target == "run_file":
+            # an earlier run whose summary the user made read-only
+            r = run(RUN_Q + ["-o", d / "out"], d)
+            assert r.returncode == 0, r.stderr
+            os.chmod(d / "out" / "bench_summary.csv", 0o444)
+            for p in (d / "out").iterdir():
+                os.chown(p, 65534, 65534)
         for p in d.iterdir():
             os.chown(p, 65534, 65534)
         args = {"file": ["shoot", "-i", "s.csv", "-o", "ro.csv"],
                 "summary": REPS + ["-o", "new.csv", "--summary", "ro.csv"],
-                "run_folder": RUN_Q + ["-o", "out"]}[target]
+                "run_folder": RUN_Q + ["-o", "out"],
+                "run_file": RUN_Q + ["-o", "out", "--seed", "4"]}[target]
         before = snapshot(d)
         r = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
                             binary()] + [str(a) for a in args], cwd=d, env=env(),
