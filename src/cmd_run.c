@@ -533,7 +533,19 @@ typedef struct {
 	const pr_cmd_args *a;
 	origin *o;
 	int no;
+	int nrep;          /* experiment.repetitions */
+	int *rep;          /* per input: the repetition its config.ini holds, -1 all */
 } merge_ctx;
+
+/* Input k's config.ini into c. */
+static int input_config(const pr_cmd_args *a, int k, pr_config *c, char *err)
+{
+	char path[PATHLEN + 16];
+
+	pr_config_init(c);
+	snprintf(path, sizeof path, "%s/config.ini", a->inputs[k]);
+	return pr_config_load(c, path, err);
+}
 
 /* Read the raw CSV `name` of every input folder (complete files, one header,
  * consistent field counts: the one reader), order the rows by the leading
@@ -568,7 +580,12 @@ static int merge_csv(merge_ctx *m, const char *name, const char *outdir, char *e
 		for (i = 0; rc == PR_OK && i < pr_exp_table_nrows(t[k]); ++i, ++n) {
 			rows[n].src = k;
 			rows[n].row = i;
-			rc = pr_exp_table_int(t[k], i, 0, 0, 9999, &rows[n].rep, err);
+			rc = pr_exp_table_int(t[k], i, 0, 0, m->nrep - 1, &rows[n].rep, err);
+			/* a run of one repetition holds only that one's rows */
+			if (rc == PR_OK && m->rep[k] >= 0 && rows[n].rep != m->rep[k])
+				rc = pr_err(err, PR_EIO, "%s/%s:%ld: repetition %ld, but %s/config.ini ran "
+				            "only repetition %d", a->inputs[k], name, pr_exp_table_line(t[k], i),
+				            rows[n].rep, a->inputs[k], m->rep[k]);
 		}
 	if (rc == PR_OK && n > 0)
 		qsort(rows, (size_t)n, sizeof *rows, cmp_mrow);
@@ -672,10 +689,17 @@ static int merge_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 {
 	const pr_experiment *e = pr_exp_find(cfg->run.name);
 	names raw = {NULL, 0}, other = {NULL, 0};
-	merge_ctx m = {a, NULL, 0};
-	int rc, i, k;
+	merge_ctx m = {a, NULL, 0, cfg->run.repetitions, NULL};
+	pr_config c;
+	int rc = PR_OK, i, k;
 
-	rc = raw_csvs(a->inputs[0], &raw, err);
+	if (!(m.rep = malloc((size_t)a->ninputs * sizeof *m.rep)))
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	for (k = 0; rc == PR_OK && k < a->ninputs; ++k)
+		if ((rc = input_config(a, k, &c, err)) == PR_OK)
+			m.rep[k] = c.run.repetition;
+	if (rc == PR_OK)
+		rc = raw_csvs(a->inputs[0], &raw, err);
 	/* every input holds the same raw CSVs */
 	for (k = 1; rc == PR_OK && k < a->ninputs; ++k) {
 		rc = raw_csvs(a->inputs[k], &other, err);
@@ -699,6 +723,7 @@ static int merge_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 		free(m.o[i].line);
 	}
 	free(m.o);
+	free(m.rep);
 	names_free(&raw);
 	return rc;
 }
@@ -706,9 +731,9 @@ static int merge_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 int pr_cmd_merge(const pr_config *cfg0, const pr_cmd_args *a, char *err)
 {
 	pr_config cfg, other;
-	char path[PATHLEN], first[PATHLEN], key[64], va[160], vb[160];
+	char key[64], va[160], vb[160];
 	char *out, *in;
-	int rc, k;
+	int *held, rc, k, r, j;
 
 	(void)cfg0;
 	if (!a->output)
@@ -717,19 +742,34 @@ int pr_cmd_merge(const pr_config *cfg0, const pr_cmd_args *a, char *err)
 		return pr_err(err, PR_EINVAL, "merge: no input folders given");
 	/* the merged run is described by the inputs' own configuration, which
 	 * must agree in everything but the repetition */
-	snprintf(first, sizeof first, "%s/config.ini", a->inputs[0]);
-	pr_config_init(&cfg);
-	if ((rc = pr_config_load(&cfg, first, err)))
+	if ((rc = input_config(a, 0, &cfg, err)))
 		return rc;
-	for (k = 1; k < a->ninputs; ++k) {
-		pr_config_init(&other);
-		snprintf(path, sizeof path, "%s/config.ini", a->inputs[k]);
-		if ((rc = pr_config_load(&other, path, err)))
-			return rc;
-		if (pr_config_diff(&cfg, &other, "experiment.repetition", key, sizeof key, va, vb, sizeof va))
-			return pr_err(err, PR_EINVAL, "%s: %s = %s, but %s has %s (merged runs may differ "
-			              "only in experiment.repetition)", path, key, vb, first, va);
+	if (!(held = calloc((size_t)cfg.run.repetitions, sizeof *held)))
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	for (k = 0; rc == PR_OK && k < a->ninputs; ++k) {
+		if (k && (rc = input_config(a, k, &other, err)))
+			break;
+		if (k && pr_config_diff(&cfg, &other, "experiment.repetition", key, sizeof key, va, vb, sizeof va))
+			rc = pr_err(err, PR_EINVAL, "%s/config.ini: %s = %s, but %s/config.ini has %s (merged "
+			            "runs may differ only in experiment.repetition)", a->inputs[k], key, vb,
+			            a->inputs[0], va);
+		/* which input holds each repetition (k + 1; 0 none) */
+		r = (k ? &other : &cfg)->run.repetition;
+		for (j = r < 0 ? 0 : r; rc == PR_OK && j < (r < 0 ? cfg.run.repetitions : r + 1); ++j) {
+			if (held[j])
+				rc = pr_err(err, PR_EINVAL, "%s and %s both hold repetition %d",
+				            a->inputs[held[j] - 1], a->inputs[k], j);
+			held[j] = k + 1;
+		}
 	}
+	/* what one process would have written holds every repetition */
+	for (r = 0; rc == PR_OK && r < cfg.run.repetitions; ++r)
+		if (!held[r])
+			rc = pr_err(err, PR_EINVAL, "merge: no input ran repetition %d (experiment.repetitions = %d)",
+			            r, cfg.run.repetitions);
+	free(held);
+	if (rc)
+		return rc;
 	/* writing into one of the inputs would replace what is being read */
 	out = realpath(a->output, NULL);
 	for (k = 0; out && k < a->ninputs; ++k) {

@@ -421,13 +421,10 @@ int main(int argc, char **argv)
 	if (!a.quiet && prog.open)
 		fputs("\r\033[K", stderr);
 	if (rc != PR_OK) {
-		/* exit 4 exactly when an allocation failed somewhere below, whatever
-		 * status the code above it turned that into; a failure reported as
-		 * out of memory without one is a numerical failure */
+		/* an allocation failure anywhere below is the cause of the failure,
+		 * whatever status the code above it turned it into */
 		if (pr_out_of_memory && rc != PR_EINTR)
 			rc = PR_ENOMEM;
-		else if (rc == PR_ENOMEM)
-			rc = PR_ENUM;
 		fprintf(stderr, "poolreps: %s\n", err);
 		return pr_exit_code(rc);
 	}

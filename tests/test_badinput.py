@@ -439,9 +439,10 @@ def test_header_only_csv_gives_header_only(tmp_path, poolreps):
 
 def test_merge_of_header_only_raw_csvs(tmp_path, poolreps):
     """Raw CSVs without rows merge to a header (this once passed NULL to qsort)."""
-    cfg = poolreps(["config", "--set", "experiment.name=figures", "--set", "experiment.repetitions=2"])
-    assert cfg.returncode == 0, cfg.stderr
     for k in (0, 1):
+        cfg = poolreps(["config", "--set", "experiment.name=figures", "--set",
+                        "experiment.repetitions=2", "--set", f"experiment.repetition={k}"])
+        assert cfg.returncode == 0, cfg.stderr
         (tmp_path / f"r{k}").mkdir()
         (tmp_path / f"r{k}" / "config.ini").write_bytes(cfg.stdout)
         (tmp_path / f"r{k}" / "raw.csv").write_bytes(b"repetition,x\n")
