@@ -110,6 +110,8 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	if (reward && !a->target)
 		return pr_err(err, PR_EINVAL,
 		              "policy: policy.target = reward_state needs --target COLS (final reward-ball positions)");
+	if (!reward && a->target)
+		return pr_err(err, PR_EINVAL, "policy: --target applies only with policy.target = reward_state");
 	if ((rc = pr_policy_opts_check(&cfg->policy, err)))
 		return rc;
 	if ((rc = pr_csv_read(a->train, &tr, err)))

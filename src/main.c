@@ -87,8 +87,43 @@ static const command commands[] = {
 };
 #define NCOMMANDS (sizeof commands / sizeof commands[0])
 
-/* "-c, -o, --set" from a command's option list. */
-static void print_options(FILE *fp, const char *options)
+/* The keys a component command reads, so its --set may change ("sim." is
+ * section sim); NULL: every key (run, config). */
+static const char *command_keys(const command *cmd)
+{
+	static const struct {
+		const char *name, *keys;
+	} reads[] = {
+		{"shoot", "table.,sim.,reward."},
+		{"forest", "forest.,experiment.seed"},
+		{"reps", "reps."},
+		{"policy", "policy.,experiment.seed"},
+		{"merge", ""},
+	};
+	size_t i;
+
+	for (i = 0; i < sizeof reads / sizeof reads[0]; ++i)
+		if (strcmp(reads[i].name, cmd->name) == 0)
+			return reads[i].keys;
+	return NULL;
+}
+
+/* 1 if key ("section.key") is in list ("a.,b.c": section a, key b.c). */
+static int key_listed(const char *list, const char *key)
+{
+	while (*list) {
+		size_t n = strcspn(list, ",");
+		if (n && (list[n - 1] == '.' ? strncmp(key, list, n) == 0
+		                             : strlen(key) == n && strncmp(key, list, n) == 0))
+			return 1;
+		list += n + (list[n] == ',');
+	}
+	return 0;
+}
+
+/* "Accepts: -c, -o, --set" from a command's option list, and the keys its
+ * --set may change. */
+static void print_options(FILE *fp, const char *options, const char *keys)
 {
 	const char *p = options;
 
@@ -99,6 +134,14 @@ static void print_options(FILE *fp, const char *options)
 		p += n + (p[n] == ',');
 	}
 	fprintf(fp, " -q, -h.\n");
+	for (p = keys; p && *p;) {
+		size_t n = strcspn(p, ",");
+		fprintf(fp, "%s%.*s%s", p == keys ? "  --set keys: " : ", ", (int)n, p,
+		        p[n - 1] == '.' ? "*" : "");
+		p += n + (p[n] == ',');
+		if (!*p)
+			fprintf(fp, ".\n");
+	}
 }
 
 static void usage(FILE *fp, const command *cmd)
@@ -107,12 +150,12 @@ static void usage(FILE *fp, const command *cmd)
 
 	if (cmd) {
 		fprintf(fp, "Usage: %s\n", cmd->usage);
-		print_options(fp, cmd->options);
+		print_options(fp, cmd->options, command_keys(cmd));
 	} else {
 		fprintf(fp, "Usage: poolreps CONFIG | poolreps COMMAND [options]\n\nCommands:\n");
 		for (i = 0; i < NCOMMANDS; ++i) {
 			fprintf(fp, "  %s\n", commands[i].usage);
-			print_options(fp, commands[i].options);
+			print_options(fp, commands[i].options, command_keys(&commands[i]));
 		}
 	}
 	fprintf(fp,
@@ -386,6 +429,19 @@ int main(int argc, char **argv)
 			FAIL("%s: option %s%s does not apply (see poolreps %s --help)", cmd->name,
 			     n == 1 ? "-" : "--", name, cmd->name);
 	}
+	/* a key the command never reads would be ignored: refuse it */
+	for (i = 0; command_keys(cmd) && i < nsets; ++i) {
+		char key[64];
+		const char *p = sets[i] + strspn(sets[i], " \t");
+		size_t n = strcspn(p, "=");
+		while (n && (p[n - 1] == ' ' || p[n - 1] == '\t'))
+			--n;
+		snprintf(key, sizeof key, "%.*s", (int)n, p);
+		if (!key_listed(command_keys(cmd), key))
+			FAIL("%s: --set %s does not apply (see poolreps %s --help)", cmd->name, key, cmd->name);
+	}
+	if (command_keys(cmd) && seed && !key_listed(command_keys(cmd), "experiment.seed"))
+		FAIL("%s: option --seed does not apply (see poolreps %s --help)", cmd->name, cmd->name);
 #undef FAIL
 	free(used);
 	a.command = cmd->name;

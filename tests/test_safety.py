@@ -311,6 +311,10 @@ CASES = [
     Case("c7_check_past_32_options", ["shoot", "-i", "s.csv"] +
          [a for k in range(40) for a in ("--set", "table.friction=0.2")] + ["--leaves", "x"], USAGE,
          ("--leaves does not apply",), IN),
+    Case("c7_shoot_set_key_it_never_reads", ["shoot", "-i", "s.csv", "--set", "forest.trees=3"], USAGE,
+         ("--set forest.trees does not apply",), IN),
+    Case("c7_reps_seed", REPS + ["--seed", "4"], USAGE, ("--seed does not apply",), IN),
+    Case("c7_policy_target_unused", POLICY + ["--target", "a0"], USAGE, ("reward_state",), IN),
     Case("c7_config_writes_its_output", ["config", "--seed", "5", "-o", "c.ini"], OK, (), {},
          writes=("c.ini",), lines=0),
 
