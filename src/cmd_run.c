@@ -173,16 +173,16 @@ static int list_files(const char *dir, names *out, char *err)
  * provenance.txt. Nothing when dir holds no poolreps run. */
 static int earlier_run(const char *dir, names *out)
 {
-	char path[PATHLEN], *line = NULL;
-	size_t cap = 0;
-	ssize_t len;
+	char path[PATHLEN + 16], line[1 << 16];
+	struct stat st;
 	FILE *fp;
 	int rc = PR_OK, n = 0;
 
 	snprintf(path, sizeof path, "%s/provenance.txt", dir);
-	if (!(fp = fopen(path, "r")))
+	/* a fixed buffer, and only a regular file: never a FIFO or /dev/zero */
+	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode) || !(fp = fopen(path, "r")))
 		return PR_OK;
-	while (rc == PR_OK && n++ < 64 && (len = getline(&line, &cap, fp)) > 0) {
+	while (rc == PR_OK && n++ < 64 && fgets(line, sizeof line, fp)) {
 		const char *p;
 		if (n == 1 && strncmp(line, "version: ", 9) != 0)
 			break;
@@ -199,7 +199,6 @@ static int earlier_run(const char *dir, names *out)
 		}
 		break;
 	}
-	free(line);
 	fclose(fp);
 	return rc;
 }
@@ -541,9 +540,13 @@ typedef struct {
 static int input_config(const pr_cmd_args *a, int k, pr_config *c, char *err)
 {
 	char path[PATHLEN + 16];
+	struct stat st;
 
 	pr_config_init(c);
 	snprintf(path, sizeof path, "%s/config.ini", a->inputs[k]);
+	/* a run folder holds a plain file: a FIFO would block the read */
+	if (stat(path, &st) == 0 && !S_ISREG(st.st_mode))
+		return pr_err(err, PR_EIO, "%s: not a regular file", path);
 	return pr_config_load(c, path, err);
 }
 
@@ -633,11 +636,15 @@ static int is_raw_csv(const char *dir, const char *name)
 {
 	char path[PATHLEN], buf[16] = "";
 	size_t n = strlen(name);
+	struct stat st;
 	FILE *fp;
 
 	if (n < 5 || strcmp(name + n - 4, ".csv") != 0)
 		return 0;
 	snprintf(path, sizeof path, "%s/%s", dir, name);
+	/* a FIFO would block the open */
+	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
+		return 0;
 	fp = fopen(path, "r");
 	if (!fp)
 		return 0;

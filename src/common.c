@@ -110,7 +110,11 @@ const char *pr_version(void)
 
 /* ---- clean-up registry ---- */
 
-const int pr_fatal_signals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGXFSZ, 0};
+/* every signal whose default action ends the process, except the faults a
+ * bug raises (SIGSEGV and the like, which the sanitizers report) */
+const int pr_fatal_signals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGXFSZ, SIGXCPU,
+                                SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPOLL, SIGPWR,
+                                SIGSTKFLT, 0};
 
 #define MAX_TRACKED 64
 static char tracked[MAX_TRACKED][PATH_MAX];

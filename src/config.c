@@ -410,14 +410,20 @@ static int set_value_raw(pr_config *c, const key_def *k, const char *value, cons
 	case K_NAMES: {
 		char item[64];
 		const char *p = value;
+		unsigned seen = 0;
 		if (strlen(value) >= 128)
 			return pr_err(err, PR_EINVAL, "%s%s.%s: list too long", where, k->section, k->key);
 		do {
 			size_t len = strcspn(p, ",");
+			int choice;
 			snprintf(item, sizeof item, "%.*s", (int)(len < 63 ? len : 63), p);
-			if (choice_index(k->unit, trim(item)) < 0)
+			if ((choice = choice_index(k->unit, trim(item))) < 0)
 				return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' is not one of %s",
 				              where, k->section, k->key, trim(item), k->unit);
+			if (seen & 1u << choice)
+				return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' listed twice",
+				              where, k->section, k->key, trim(item));
+			seen |= 1u << choice;
 			p += len;
 		} while (*p++ == ',');
 		snprintf(base, 128, "%s", value);

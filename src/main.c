@@ -190,8 +190,10 @@ static void on_signal(int sig)
 {
 	static const struct { int sig; const char *name; } names[] = {
 		{SIGINT, "SIGINT"}, {SIGTERM, "SIGTERM"}, {SIGHUP, "SIGHUP"}, {SIGQUIT, "SIGQUIT"},
-		{SIGPIPE, "SIGPIPE"}, {SIGXFSZ, "SIGXFSZ"}};
+		{SIGPIPE, "SIGPIPE"}, {SIGXFSZ, "SIGXFSZ"}, {SIGXCPU, "SIGXCPU"}, {SIGUSR1, "SIGUSR1"},
+		{SIGUSR2, "SIGUSR2"}, {SIGALRM, "SIGALRM"}, {SIGVTALRM, "SIGVTALRM"}};
 	size_t i;
+	int named = 0;
 
 	if (graceful && !pr_interrupted) {
 		pr_interrupted = sig;
@@ -201,7 +203,9 @@ static void on_signal(int sig)
 	say_now("poolreps: interrupted by ");
 	for (i = 0; i < sizeof names / sizeof names[0]; ++i)
 		if (names[i].sig == sig)
-			say_now(names[i].name);
+			say_now(names[i].name), named = 1;
+	if (!named)
+		say_now("a signal");
 	say_now(": partial output files removed, existing files left as they were\n");
 	_exit(128 + sig);
 }

@@ -258,6 +258,21 @@ CASES = [
          ("r1/bench_curve.csv:2", "repetition 0", "only repetition 1"), {},
          copy_runs("r0", "r1", edit=edit_file("r1/bench_curve.csv",
                                               lambda b: b.replace(b"\n1,", b"\n0,", 1)))),
+    Case("c2_merge_fifo_config", ["merge", "-q", "-o", "m", "r0", "r1"], IO,
+         ("r1/config.ini", "not a regular file"), {},
+         copy_runs("r0", "r1", edit=lambda t: ((t / "r1" / "config.ini").unlink(),
+                                               os.mkfifo(t / "r1" / "config.ini")))),
+    Case("c2_merge_fifo_raw_csv", ["merge", "-q", "-o", "m", "r0", "r1"], IO,
+         ("bench_curve.csv",), {},
+         copy_runs("r0", "r1", edit=lambda t: ((t / "r1" / "bench_curve.csv").unlink(),
+                                               os.mkfifo(t / "r1" / "bench_curve.csv")))),
+    Case("c6_provenance_is_dev_zero", ["run"] + RUN_Q + ["-o", "full", "--seed", "3"], OK, (), {},
+         copy_runs("full", edit=lambda t: ((t / "full" / "provenance.txt").unlink(),
+                                           (t / "full" / "provenance.txt").symlink_to("/dev/zero"))),
+         writes=("full/provenance.txt", "full/bench_curve.csv", "full/bench_summary.csv",
+                 "full/config.ini"), lines=0),
+    Case("c10_names_list_twice", ["config", "--set", "exp3.policies=baseline,baseline"], USAGE,
+         ("listed twice",)),
     Case("c2_merge_into_an_input", ["merge", "-q", "-o", "r0", "r0", "r1"], USAGE,
          ("also an input",), {}, copy_runs("r0", "r1")),
     Case("c2_merge_unterminated_quote", ["merge", "-q", "-o", "m", "r0", "r1"], IO,
@@ -383,7 +398,7 @@ def test_case(case, tmp_path, runs):
     assert changed(before, after) == set(case.writes), changed(before, after)
     for w in case.writes:
         assert after[w][0] == "file"
-        if w in before:
+        if before.get(w, ("",))[0] == "file":
             assert after[w][3] == before[w][3], "permission bits changed"
     if case.id.startswith("c9_dev"):
         assert r.stdout.startswith(b"x0,y0,x1,y1,pocket0")
@@ -570,8 +585,9 @@ def wait_for(pred, timeout):
     return False
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT],
-                         ids=["INT", "TERM", "HUP", "QUIT"])
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT,
+                                 signal.SIGUSR1, signal.SIGALRM],
+                         ids=["INT", "TERM", "HUP", "QUIT", "USR1", "ALRM"])
 def test_signal_mid_shoot(sig, tmp_path):
     args = long_shoot(tmp_path)
     before = snapshot(tmp_path)
@@ -587,6 +603,17 @@ def test_signal_mid_shoot(sig, tmp_path):
         p.wait()
     assert p.returncode == 128 + sig, err
     assert err.count(b"\n") == 1 and b"interrupted by SIG" in err, err
+    assert snapshot(tmp_path) == before
+
+
+def test_ulimit_t_sigxcpu(tmp_path):
+    import resource
+    args = long_shoot(tmp_path)
+    before = snapshot(tmp_path)
+    # soft limit 1 s sends SIGXCPU; the hard limit (SIGKILL) is further off
+    r = run(args, tmp_path, pre=lambda: resource.setrlimit(resource.RLIMIT_CPU, (1, 30)), timeout=120)
+    assert r.returncode == 128 + signal.SIGXCPU, r.stderr
+    assert b"SIGXCPU" in one_line(r).encode()
     assert snapshot(tmp_path) == before
 
 

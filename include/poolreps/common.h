@@ -66,7 +66,9 @@ void pr_cleanup_run(void);
 void pr_cleanup_hold(sigset_t *old);
 void pr_cleanup_release(const sigset_t *old);
 /* The fatal signals the CLI handles: SIGINT, SIGTERM, SIGHUP, SIGQUIT,
- * SIGPIPE, SIGXFSZ; terminated by 0. */
+ * SIGPIPE, SIGXFSZ, SIGXCPU, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPOLL,
+ * SIGPWR, SIGSTKFLT (every one whose default ends the process, but the
+ * faults of a bug); terminated by 0. */
 extern const int pr_fatal_signals[];
 /* 1 if process pid no longer exists (a staging folder or temporary file
  * named after it is left over from a killed run). */
