@@ -30,30 +30,53 @@
 
 #define PATHLEN 4096
 
-static int mkdir_p(const char *dir, char *err)
+/* Remove the folders of dir below its first keep bytes (those mkdir_p
+ * created), deepest first, each only if empty. */
+static void remove_created(const char *dir, size_t keep)
+{
+	char buf[PATHLEN];
+	char *slash;
+
+	snprintf(buf, sizeof buf, "%s", dir);
+	while (strlen(buf) > keep && rmdir(buf) == 0 && (slash = strrchr(buf, '/')))
+		*slash = '\0';
+}
+
+/* Create dir and its missing parents; *keep: the length of its longest
+ * prefix that existed before (strlen(dir) if dir itself did). A failure
+ * removes what it created. */
+static int mkdir_p(const char *dir, size_t *keep, char *err)
 {
 	char buf[PATHLEN];
 	char *p;
 	struct stat st;
+	int rc = PR_OK;
 
+	*keep = strlen(dir);
 	if (!*dir)
 		return pr_err(err, PR_EINVAL, "output folder name is empty");
 	if (snprintf(buf, sizeof buf, "%s", dir) >= (int)sizeof buf)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
-	for (p = buf + 1; ; ++p) {
+	for (p = buf + 1; rc == PR_OK; ++p) {
 		if (*p == '/' || *p == '\0') {
 			char c = *p;
 			*p = '\0';
-			if (mkdir(buf, 0777) != 0 && errno != EEXIST)
-				return pr_err(err, PR_EIO, "%s: cannot create folder: %s", buf, strerror(errno));
+			if (mkdir(buf, 0777) == 0) {
+				if (*keep == strlen(dir))
+					*keep = (size_t)(strrchr(buf, '/') ? strrchr(buf, '/') - buf : 0);
+			} else if (errno != EEXIST) {
+				rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", buf, strerror(errno));
+			}
 			*p = c;
 			if (!c)
 				break;
 		}
 	}
-	if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
-		return pr_err(err, PR_EIO, "%s: exists and is not a folder", dir);
-	return PR_OK;
+	if (rc == PR_OK && (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode)))
+		rc = pr_err(err, PR_EIO, "%s: exists and is not a folder", dir);
+	if (rc)
+		remove_created(dir, *keep);
+	return rc;
 }
 
 static void remove_tree(const char *dir)
@@ -432,11 +455,11 @@ int pr_run_staged(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 {
 	char staging[PATHLEN];
 	struct timespec t0;
-	struct stat st;
-	int rc, existed = stat(dir, &st) == 0;
+	size_t keep;
+	int rc;
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
-	if ((rc = mkdir_p(dir, err)))
+	if ((rc = mkdir_p(dir, &keep, err)))
 		return rc;
 	if (snprintf(staging, sizeof staging, "%s/.partial-%ld", dir, (long)getpid()) >= (int)sizeof staging)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
@@ -444,11 +467,10 @@ int pr_run_staged(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	remove_tree(staging);
 	if (mkdir(staging, 0777) != 0) {
 		rc = pr_err(err, PR_EIO, "%s: cannot write into the folder: %s", dir, strerror(errno));
-		if (!existed)
-			rmdir(dir);
+		remove_created(dir, keep);
 		return rc;
 	}
-	pr_cleanup_set_dir(staging, existed ? NULL : dir);
+	pr_cleanup_set_dir(staging, dir, keep);
 	rc = work(cfg, staging, a, err);
 	if (rc == PR_OK)
 		rc = pr_run_write_config(cfg, staging, err);
@@ -460,16 +482,15 @@ int pr_run_staged(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	pr_cleanup_clear_dir();
 	if (rc == PR_OK && !pr_interrupted)
 		return PR_OK;
-	/* a failed run leaves no trace: drop the folder if we made it (and it is empty) */
-	if (!existed)
-		rmdir(dir);
+	/* a failed run leaves no trace: drop the folders it made (if empty) */
+	remove_created(dir, keep);
 	unstage(err, staging, dir);
 	/* after a signal every failure is its echo (a fit cut short may report
 	 * itself as a numerical failure): say what the user is left with */
 	if (pr_interrupted)
-		rc = pr_err(err, PR_EINTR, existed ?
+		rc = pr_err(err, PR_EINTR, keep == strlen(dir) ?
 		            "interrupted: no output written (signal %d); partial files removed, %s left as it was" :
-		            "interrupted: no output written (signal %d); partial files and the new folder %s removed",
+		            "interrupted: no output written (signal %d); partial files and the new folders of %s removed",
 		            (int)pr_interrupted, dir);
 	return rc;
 }

@@ -119,6 +119,7 @@ const int pr_fatal_signals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGXF
 #define MAX_TRACKED 64
 static char tracked[MAX_TRACKED][PATH_MAX];
 static char staging_dir[PATH_MAX], created_dir[PATH_MAX];
+static size_t created_keep;
 static pthread_mutex_t tracked_mu = PTHREAD_MUTEX_INITIALIZER;
 
 void pr_cleanup_add_file(const char *path)
@@ -147,9 +148,10 @@ void pr_cleanup_remove_file(const char *path)
 	pthread_mutex_unlock(&tracked_mu);
 }
 
-void pr_cleanup_set_dir(const char *staging, const char *created)
+void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep)
 {
-	snprintf(created_dir, sizeof created_dir, "%s", created ? created : "");
+	snprintf(created_dir, sizeof created_dir, "%s", dir);
+	created_keep = keep;
 	snprintf(staging_dir, sizeof staging_dir, "%s", staging);
 }
 
@@ -204,8 +206,13 @@ void pr_cleanup_run(void)
 		}
 	if (staging_dir[0])
 		remove_dir_now(staging_dir);
-	if (created_dir[0])
-		rmdir(created_dir);
+	/* the folders the run created, deepest first, each if empty */
+	while (created_dir[0] && strlen(created_dir) > created_keep && rmdir(created_dir) == 0) {
+		char *slash = strrchr(created_dir, '/');
+		if (!slash)
+			break;
+		*slash = '\0';
+	}
 	staging_dir[0] = created_dir[0] = '\0';
 	errno = saved;
 }

@@ -301,6 +301,7 @@ int main(int argc, char **argv)
 	pr_config cfg;
 	progress_state prog;
 	struct sigaction sa;
+	sigset_t held;
 	const command *cmd = NULL;
 	const char *config_path = NULL, *seed = NULL;
 	char err[PR_ERRLEN], msg[PR_ERRLEN + 64], note[PR_ERRLEN] = "";
@@ -476,6 +477,9 @@ int main(int argc, char **argv)
 		rc = pr_config_validate(&cfg, err);
 	if (rc == PR_OK)
 		rc = cmd->fn(&cfg, &a, err);
+	/* everything is cleaned up or in place: a late signal must not add a
+	 * second line to the one below */
+	pr_cleanup_hold(&held);
 	free(orig);
 	/* an error must not land at the end of an unfinished bar */
 	if (!a.quiet && prog.open)

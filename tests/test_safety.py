@@ -225,6 +225,14 @@ CASES = [
          USAGE, ("bench.dims",), {}, copy_runs("full")),
     Case("c1_merge_bad_input_keeps_output_run", ["merge", "-q", "-o", "full", "r0", "r1_other"], USAGE,
          ("bench.samples",), {}, copy_runs("full", "r0", "r1_other")),
+    Case("c1_failed_run_removes_the_folders_it_made", ["run"] + RUN_Q + ["-o", "a/b/c", "--set",
+                                                                     "experiment.name=rosenbrock",
+                                                                     "--set", "bench.dims=1"],
+         USAGE, ("bench.dims",)),
+    Case("c1_failed_run_keeps_existing_parent", ["run"] + RUN_Q + ["-o", "p/new", "--set",
+                                                              "experiment.name=rosenbrock",
+                                                              "--set", "bench.dims=1"],
+         USAGE, ("bench.dims",), {}, mkdirs("p")),
     Case("c1_run_into_a_file", ["run"] + RUN_Q + ["-o", "old.csv"], IO, ("old.csv",), IN),
 
     # 2. merge refuses what it cannot merge faithfully
@@ -650,6 +658,25 @@ def test_signal_mid_run_removes_staging(sig, tmp_path, runs):
         p.wait()
     assert p.returncode == 128 + sig, err
     assert err.count(b"\n") == 1 and b"left as it was" in err, err
+    assert snapshot(tmp_path) == before
+
+
+def test_signal_mid_run_removes_the_folders_it_made(tmp_path):
+    before = snapshot(tmp_path)
+    p = subprocess.Popen(exp3_run(tmp_path / "a" / "b" / "out"), env=env(), stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE)
+    try:
+        assert wait_for(lambda: any((tmp_path / "a" / "b" / "out").glob(".partial-*")), 60)
+        time.sleep(0.3)
+        p.send_signal(signal.SIGTERM)
+        time.sleep(0.05)
+        p.send_signal(signal.SIGTERM)   # a second signal: the handler cleans up at once
+        _, err = p.communicate(timeout=60)
+    finally:
+        p.kill()
+        p.wait()
+    assert p.returncode == 128 + signal.SIGTERM, err
+    assert err.count(b"\n") == 1, err
     assert snapshot(tmp_path) == before
 
 

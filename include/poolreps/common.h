@@ -58,9 +58,10 @@ extern volatile sig_atomic_t pr_out_of_memory;
  * of finished files into place); pr_cleanup_release delivers them after. */
 void pr_cleanup_add_file(const char *path);
 void pr_cleanup_remove_file(const char *path);
-/* A staging folder (its files, then itself) and, if not NULL, a folder to
- * rmdir after it when it is empty (an output folder the run created). */
-void pr_cleanup_set_dir(const char *staging, const char *created);
+/* A staging folder (its files, then itself), then the output folder dir and
+ * its parents below its first keep bytes (those the run created), each
+ * removed only if empty. */
+void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep);
 void pr_cleanup_clear_dir(void);
 void pr_cleanup_run(void);
 void pr_cleanup_hold(sigset_t *old);
