@@ -74,9 +74,19 @@ void pr_escape(const char *s, char *out, size_t n)
 	out[o] = '\0';
 }
 
+/* A UTF-8 character boundary at or after s (never inside a sequence). */
+static const char *boundary(const char *s)
+{
+	while (((unsigned char)*s & 0xc0) == 0x80)
+		++s;
+	return s;
+}
+
 int pr_err(char *err, int status, const char *fmt, ...)
 {
-	char raw[PR_ERRLEN];
+	/* room for a message around a path of PATH_MAX bytes, each byte escaped */
+	char raw[PATH_MAX + PR_ERRLEN], esc[4 * (PATH_MAX + PR_ERRLEN)];
+	size_t n;
 	va_list ap;
 
 	if (status == PR_ENOMEM)
@@ -85,7 +95,16 @@ int pr_err(char *err, int status, const char *fmt, ...)
 		va_start(ap, fmt);
 		vsnprintf(raw, sizeof raw, fmt, ap);
 		va_end(ap);
-		pr_escape(raw, err, PR_ERRLEN);
+		pr_escape(raw, esc, sizeof esc);
+		n = strlen(esc);
+		if (n < PR_ERRLEN) {
+			memcpy(err, esc, n + 1);
+		} else {
+			/* too long (a long path): keep both ends, where the reason is */
+			const char *tail = boundary(esc + n - (PR_ERRLEN - 1) * 2 / 3);
+			size_t head = (size_t)(boundary(esc + (PR_ERRLEN - 1) / 3 - 4) - esc);
+			snprintf(err, PR_ERRLEN, "%.*s...%s", (int)head, esc, tail);
+		}
 	}
 	return status;
 }

@@ -857,10 +857,13 @@ int pr_csvw_close(pr_csvw *w, char *err)
 	int rc = finish(w, err);
 
 	if (rc == PR_OK && w->kind == W_FILE) {
-		if (rename(w->tmp, w->target) != 0)
+		if (rename(w->tmp, w->target) != 0) {
 			rc = pr_err(err, PR_EIO, "%s: cannot rename into place: %s", w->shown, strerror(errno));
-		else
-			pr_cleanup_remove_file(w->tmp), free(w->tmp), w->tmp = NULL;
+		} else {
+			pr_cleanup_remove_file(w->tmp);
+			free(w->tmp);
+			w->tmp = NULL;
+		}
 	}
 	writer_fail(w);
 	return rc;
@@ -952,23 +955,25 @@ static int rename_all(pr_outset *s, char *err)
 
 	for (w = s->first; w; w = w->next)
 		nfiles += w->kind == W_FILE;
-	for (w = s->first; nfiles > 1 && w; w = w->next) {
+	for (w = s->first; nfiles > 1 && w && rc == PR_OK; w = w->next) {
 		char *folder;
 		int fd;
-		if (w->kind != W_FILE || !w->existed || !(folder = folder_of(w->target)))
+		if (w->kind != W_FILE || !w->existed)
 			continue;
+		if (!(folder = folder_of(w->target))) {
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+			break;
+		}
 		fd = make_temp(folder, &w->backup);
 		free(folder);
 		if (fd >= 0) {
 			close(fd);
 			/* link() cannot replace: make room for it */
 			unlink(w->backup);
-			if (link(w->target, w->backup) != 0) {
-				pr_cleanup_remove_file(w->backup);
-				free(w->backup);
-				w->backup = NULL;
-			}
 		}
+		if (fd < 0 || link(w->target, w->backup) != 0)
+			rc = pr_err(err, PR_EIO, "%s: cannot keep the earlier file while replacing it: %s",
+			            w->shown, strerror(errno));
 	}
 	for (w = s->first; w && rc == PR_OK; w = w->next) {
 		if (w->kind != W_FILE)
@@ -993,6 +998,8 @@ static int rename_all(pr_outset *s, char *err)
 		if (w->backup) {
 			unlink(w->backup);
 			pr_cleanup_remove_file(w->backup);
+			free(w->backup);
+			w->backup = NULL;
 		}
 	return rc;
 }

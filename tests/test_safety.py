@@ -235,6 +235,18 @@ CASES = [
          USAGE, ("bench.dims",), {}, mkdirs("p")),
     Case("c1_run_into_a_file", ["run"] + RUN_Q + ["-o", "old.csv"], IO, ("old.csv",), IN),
 
+    Case("c1_policy_bad_weight_keeps_output", POLICY + ["-o", "old.csv"], USAGE, ("p.csv:2", "'w'"),
+         dict(IN, **{"p.csv": b"s0,a0,w\n0.1,0.2,-1\n0.2,0.3,1\n"})),
+    Case("c1_config_bad_key_keeps_output", ["config", "--set", "forest.leaves=3", "-o", "old.csv"],
+         USAGE, ("forest.leaves", "unknown key"), IN),
+    Case("c1_output_is_the_input", ["shoot", "-i", "s.csv", "-o", "s.csv"], OK, (), IN,
+         writes=("s.csv",), lines=0),
+    Case("c4_unterminated_quote_at_end", ["shoot", "-i", "q.csv"], IO, ("q.csv:2", "unterminated"),
+         {"q.csv": b'x0,y0,x1,y1,vx,vy\n1,2,3,4,5,"6\n'}),
+    Case("c7_epsilon_twice", REPS + ["--epsilon", "0.5", "--epsilon", "0.7"], USAGE,
+         ("--epsilon given twice",), IN),
+    Case("c8_very_long_path_one_line", ["shoot", "-i", "d" * 3000 + "/x\n.csv"], IO, ("cannot open",)),
+
     # 2. merge refuses what it cannot merge faithfully
     Case("c2_merge_different_parameters", ["merge", "-q", "-o", "m", "r0", "r1_other"], USAGE,
          ("r1_other/config.ini", "bench.samples = 30", "r0/config.ini", "50"), {},
