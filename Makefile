@@ -67,7 +67,8 @@ check: deps
 check-c: $(TEST_BIN)
 	@fail=0; for t in $(TEST_BIN); do echo "== $$t"; $$t || fail=1; done; exit $$fail
 
-check-py: $(BUILD)/poolreps
+# tests/ref_driver exposes library calls to the numpy reference tests
+check-py: $(BUILD)/poolreps $(BUILD)/tests/ref_driver
 	LC_ALL=C SAN=$(SAN) POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q tests
 
 bench: all

@@ -101,6 +101,8 @@ static const key_def keys[] = {
 	{"exp3", "baseline_n_min", K_INT, F(exp3.baseline_n_min), 1, 100000000, 0, "", "n_min of the baseline policy"},
 	{"exp3", "final_episodes", K_INT, F(exp3.final_episodes), 1, 100000000, 0, "",
 	 "Figs. 7.8-7.10: each run's last episodes"},
+	{"exp3", "handcrafted_method", K_ENUM, F(exp3.handcrafted_method), 0, 0, 0, "creps|ccmaes",
+	 "hand-crafted variant: REPS + weighted ML, or contextual CMA-ES"},
 
 	{"forest", "trees", K_INT, F(forest.trees), 1, 10000, 0, "", "M trees"},
 	{"forest", "cuts", K_INT, F(forest.cuts), 1, 10000, 0, "", "K random tests per node"},
@@ -141,6 +143,8 @@ static const key_def keys[] = {
 	 "policy forest, two outputs: eq. 6.3 as printed (sum) or each relative to its variance"},
 	{"policy", "cov", K_ENUM, F(policy.cov), 0, 0, 0, "query|residual",
 	 "eq. 6.8 centred on the query mean (as printed) or on each sample's own fit"},
+	{"policy", "cov_center", K_ENUM, F(policy.cov_center), 0, 0, 0, "new|old",
+	 "linear weighted ML: residuals around the new mean or the sampling policy's (benchmarks: old)"},
 
 	/* defaults of bench.* depend on experiment.name (pr_bench_opts_init), as
 	 * do those in exp_defaults: the help text names them */
@@ -155,6 +159,8 @@ static const key_def keys[] = {
 	 "REPS value features: 1 = s, 2 = s and its products (quadratic: 2)"},
 	{"bench", "test_contexts", K_INT, F(bench.test_contexts), 1, 1000000, 0, "",
 	 "fixed contexts scoring the policy mean"},
+	{"bench", "method", K_ENUM, F(bench.method), 0, 0, 0, "creps|ccmaes",
+	 "contextual REPS or contextual CMA-ES"},
 };
 
 #define NKEYS (sizeof keys / sizeof keys[0])
@@ -194,6 +200,9 @@ static const struct {
 	{"exp3", "value.score", "nrvr"},
 	{"sphere", "reps.epsilon", "1"},
 	{"rosenbrock", "reps.epsilon", "1"},
+	{"quadratic", "policy.cov_center", "old"},
+	{"sphere", "policy.cov_center", "old"},
+	{"rosenbrock", "policy.cov_center", "old"},
 };
 #define NEXPDEF (sizeof exp_defaults / sizeof exp_defaults[0])
 

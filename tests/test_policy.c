@@ -75,7 +75,7 @@ static void test_linear_ml_recovers(void **state)
 	const double Lc[2][2] = { { 0.2, 0.0 }, { 0.1, 0.15 } };
 	double *S = malloc(2 * N * sizeof *S), *A = malloc(2 * N * sizeof *A), *w = malloc(N * sizeof *w);
 	double mean[2], cov[4], s[2] = { 0.4, -0.6 };
-	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w };
+	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w, NULL };
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(2);
 	pr_policy *p;
@@ -92,7 +92,7 @@ static void test_linear_ml_recovers(void **state)
 		               Lc[1][0] * z0 + Lc[1][1] * z1;
 		w[i] = 0.1 + S[2 * i] * S[2 * i]; /* depends on the state only */
 	}
-	p = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, 1e-10, 1e-6, &flags, err);
+	p = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, 1e-10, 1e-6, PR_COV_CENTER_NEW, &flags, err);
 	assert_non_null(p);
 	assert_int_equal(flags, 0);
 	assert_int_equal(pr_policy_eval(p, s, mean, cov, NULL, NULL, err), PR_OK);
@@ -103,7 +103,7 @@ static void test_linear_ml_recovers(void **state)
 	assert_true(fabs(cov[3] - (0.01 + 0.0225)) < 0.002);
 	pr_policy_free(p);
 	/* quadratic features contain the affine ones: same answer */
-	p = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &d, 1e-10, 1e-6, &flags, err);
+	p = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &d, 1e-10, 1e-6, PR_COV_CENTER_NEW, &flags, err);
 	assert_non_null(p);
 	assert_int_equal(pr_policy_eval(p, s, mean, cov, NULL, NULL, err), PR_OK);
 	assert_true(fabs(mean[0] - 0.8) < 0.01);
@@ -137,7 +137,7 @@ static void test_single_node_is_global(void **state)
 	enum { N = 40, DS = 2, DA = 2 };
 	double S[N * DS], A[N * DA], w[N], s[DS] = { 0.2, -0.1 }, mean[DA], cov[DA * DA];
 	double want_cov[DA * DA] = { 0 }, sw = 0, sw2 = 0, mu[DA];
-	pr_policy_data d = { N, DS, DA, 0, S, A, NULL, w };
+	pr_policy_data d = { N, DS, DA, 0, S, A, NULL, w, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(3);
@@ -201,7 +201,7 @@ static void test_single_node_is_global(void **state)
 static void test_covariance_hand(void **state)
 {
 	double S[3] = { 0, 1, 2 }, A[3] = { 0, 1, 3 }, w[3] = { 1, 1, 2 }, s = 1.0, mean, cov;
-	pr_policy_data d = { 3, 1, 1, 0, S, A, NULL, w };
+	pr_policy_data d = { 3, 1, 1, 0, S, A, NULL, w, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(4);
@@ -234,7 +234,7 @@ static void test_tree_is_local(void **state)
 {
 	enum { N = 400 };
 	double S[N], A[N], mean, cov, lo = -0.6, hi = 0.6, lp;
-	pr_policy_data d = { N, 1, 1, 0, S, A, NULL, NULL };
+	pr_policy_data d = { N, 1, 1, 0, S, A, NULL, NULL, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(5);
@@ -287,7 +287,7 @@ static void test_degenerate(void **state)
 {
 	enum { N = 30 };
 	double S[N * 2], A[N * 2], w[N], mean[2], cov[4], s[2], Y[N * 2];
-	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w };
+	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(6);

@@ -45,6 +45,11 @@ typedef struct {
 } pr_exp2_opts;
 void pr_exp2_opts_init(pr_exp2_opts *o);
 
+/* Contextual policy-search methods of the REPS benchmarks and of Experiment
+ * 3's hand-crafted loop: episodic contextual REPS with a weighted-ML
+ * linear-Gaussian policy, or contextual CMA-ES (cmaes.h). */
+enum { PR_METHOD_CREPS = 0, PR_METHOD_CCMAES = 1 };
+
 /* Experiment 3 (thesis 7.5, keys exp3.*). */
 typedef struct {
 	int init_samples;      /* samples of the initial policy */
@@ -55,6 +60,7 @@ typedef struct {
 	char policies[128];    /* comma list of variants */
 	int baseline_n_min;    /* n_min of the single-node baseline policy */
 	int final_episodes;    /* Figs. 7.8-7.10 use each run's last episodes */
+	int handcrafted_method; /* PR_METHOD_*: the hand-crafted variant's learner */
 } pr_exp3_opts;
 void pr_exp3_opts_init(pr_exp3_opts *o);
 
@@ -69,6 +75,7 @@ typedef struct {
 	double min_std;     /* eigenvalue floor of the policy covariance (as a std) */
 	int value_degree;   /* REPS value features: 1 = s, 2 = s and s_j s_k */
 	int test_contexts;  /* fixed contexts on which the policy mean is scored */
+	int method;         /* PR_METHOD_CREPS or PR_METHOD_CCMAES */
 } pr_bench_opts;
 
 /* Progress callback: `done` of `total` units of `what` finished. The CLI
