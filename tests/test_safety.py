@@ -308,6 +308,10 @@ CASES = [
     Case("c3_infinite_prediction_is_numerical", FOREST[:-1] + ["-q", "--set", "forest.n_min=10", "-o", "p.csv",
                                                             "--leaves", "l.csv"],
          NUM, ("p.csv:2", "non-finite"), {"tr.csv": b"s,y\n0,1.7e308\n0.1,1.7e308\n0.2,1.7e308\n"}),
+    Case("c3_event_limit_is_numerical", ["shoot", "-i", "s.csv", "-o", "old.csv", "--trace", "t.csv",
+                                         "--set", "sim.max_events=1"], NUM, ("s.csv:2", "sim.max_events"), IN),
+    Case("c3_key_combination_is_usage", ["config", "--set", "table.reward_balls=3", "-o", "old.csv"],
+         USAGE, ("table.reward_balls",), IN),
     Case("c3_bad_csv_is_io", ["shoot", "-i", "s.csv"], IO, ("s.csv:2",),
          {"s.csv": b"x0,y0,x1,y1,vx,vy\n1,2,3\n"}),
 
@@ -526,18 +530,27 @@ def leftovers(root):
     return [p for p in Path(root).rglob("*") if p.name.startswith((".partial-", ".poolreps-tmp-"))]
 
 
-def test_ulimit_v_is_out_of_memory(tmp_path):
-    """A table too large for the address space: exit 4, one line, nothing written."""
+@pytest.mark.parametrize("what", ["forest", "policy_samples", "run_exp1"])
+def test_ulimit_v_is_out_of_memory(what, tmp_path):
+    """More than the address space allows: exit 4, one line, nothing written."""
     import resource
     if SAN:
         pytest.skip("AddressSanitizer reserves terabytes of address space: ulimit -v cannot apply")
     rows = b"".join(b"%d,0,0.1,0,0.6,0.03\n" % i for i in range(200000))
     (tmp_path / "in.csv").write_bytes(b"x0,y0,x1,y1,vx,vy\n" + rows)
+    (tmp_path / "p.csv").write_bytes(POLICY_TRAIN)
     (tmp_path / "old.csv").write_bytes(b"keep\n")
+    args = {"forest": ["forest", "--train", "in.csv", "--test", "in.csv", "--target", "vx", "-q", "-o",
+                       "old.csv", "--set", "forest.trees=10000", "--set", "forest.n_min=2",
+                       "--set", "forest.n_c=1"],
+            "policy_samples": POLICY + ["-o", "old.csv", "--sample", "1000000"],
+            # forests inside an experiment, on worker threads
+            "run_exp1": [ROOT / "data" / "exp1.ini", "-q", "-o", "out", "--set", "exp1.subset=100000",
+                         "--set", "exp1.train=100000", "--set", "experiment.repetitions=1",
+                         "--set", "exp1.trees_list=10000", "--set", "exp1.n_min_list=2",
+                         "--set", "experiment.threads=2"]}[what]
     before = snapshot(tmp_path)
-    r = run(["forest", "--train", "in.csv", "--test", "in.csv", "--target", "vx", "-q", "-o", "old.csv",
-             "--set", "forest.trees=10000", "--set", "forest.n_min=2", "--set", "forest.n_c=1"],
-            tmp_path, pre=limit(resource.RLIMIT_AS, 300 << 20), timeout=300)
+    r = run(args, tmp_path, pre=limit(resource.RLIMIT_AS, 300 << 20), timeout=300)
     assert r.returncode == NOMEM, r.stderr
     one_line(r)
     assert snapshot(tmp_path) == before
