@@ -69,7 +69,7 @@ check-c: $(TEST_BIN)
 
 # tests/ref_driver exposes library calls to the numpy reference tests
 check-py: $(BUILD)/poolreps $(BUILD)/tests/ref_driver
-	LC_ALL=C POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q tests
+	LC_ALL=C SAN=$(SAN) POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q tests
 
 bench: all
 	@for b in scripts/bench_*.sh; do echo "== $$b"; CC="$(CC)" PYTHON="$(PYTHON)" sh $$b || exit 1; done

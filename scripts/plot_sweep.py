@@ -23,9 +23,8 @@ import math
 import os
 import statistics
 
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import figstyle as fs
+import matplotlib.pyplot as plt  # noqa: E402  (after figstyle: it picks the Python)
 
 DEFAULTS = [  # (columns that identify a summary, its defaults)
     ({"policy", "repetition", "mean_return"},
@@ -107,6 +106,7 @@ def main():
     if not rows:
         ap.error("no rows left after --where/--exclude")
 
+    fs.setup()
     lines = [k for k in keys if k != x]
     panels = in_order(r[a.panel] for r in rows) if a.panel else [None]
     xs = in_order(r[x] for r in rows)
@@ -132,7 +132,7 @@ def main():
                 pe.append(2 * statistics.stdev(ys) / math.sqrt(len(ys)) if len(ys) > 1 else 0.0)
             label = ", ".join(f"{k} = {v}" for k, v in zip(lines, combo)) or None
             ax.errorbar(px, py, yerr=pe if any(pe) else None, marker="o", capsize=3,
-                        color=f"C{i % 10}", label=label)
+                        color=fs.CYCLE[i % len(fs.CYCLE)], label=label)
         if panel is not None:
             ax.set_title(f"{a.panel} = {panel}", fontsize=10)
         ax.grid(alpha=0.3)
@@ -160,8 +160,8 @@ def main():
     fig.suptitle(f"{a.y} against {x} ({what})", fontsize=11)
     fig.tight_layout()
     out = a.out or os.path.join(a.sweep, "sweep_summary.png")
-    fig.savefig(out, dpi=110)
-    print(out)
+    for p in fs.save(fig, os.path.dirname(out) or ".", os.path.splitext(os.path.basename(out))[0]):
+        print(p)
 
 
 if __name__ == "__main__":

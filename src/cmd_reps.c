@@ -63,6 +63,7 @@ int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pr_reps_problem pb = { 0 };
 	pr_reps_result *r = NULL;
 	pr_csv *in = NULL;
+	pr_outset *set = NULL;
 	pr_csvw *w = NULL, *sw = NULL;
 	double *R = NULL, *q = NULL, *phi = NULL, sq = 0.0;
 	int *fc = NULL, rcol, bcol = -1, d = 0, j, rc;
@@ -143,33 +144,23 @@ int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pb.phi = phi;
 	if ((rc = pr_reps_solve(&o, &pb, &r, err)))
 		goto done;
-	if (!r->bound && !a->quiet)
-		fprintf(stderr, "poolreps: reps: KL bound inactive: %s (KL = %.6g < epsilon = %g)\n",
-		        r->constant ? "all returns are equal" : "eta is at its lower bound",
-		        r->kl, o.epsilon);
-	w = pr_csvw_open(a->output, err);
-	if (!w) {
-		rc = PR_EIO;
+	if (!r->bound)
+		pr_err(a->note, PR_OK, "reps: KL bound inactive: %s (KL = %.6g < epsilon = %g)",
+		       r->constant ? "all returns are equal" : "eta is at its lower bound",
+		       r->kl, o.epsilon);
+	/* weights and summary are committed together, only if both are complete */
+	if (!(set = pr_outset_new(err))) {
+		rc = PR_ENOMEM;
 		goto done;
 	}
-	if (a->summary && !(sw = pr_csvw_open(a->summary, err))) {
-		rc = PR_EIO;
+	if ((rc = pr_outset_add(set, a->output, &w, err)) ||
+	    (a->summary && (rc = pr_outset_add(set, a->summary, &sw, err))))
 		goto done;
-	}
-	if (write_weights(w, r) || (sw && write_summary(sw, r))) {
-		rc = pr_err(err, PR_EIO, "%s: write error",
-		            a->output && *a->output ? a->output : "<stdout>");
-		goto done;
-	}
-	rc = pr_csvw_close(w, err);
-	w = NULL;
-	if (!rc && sw) {
-		rc = pr_csvw_close(sw, err);
-		sw = NULL;
-	}
+	write_weights(w, r);
+	if (sw)
+		write_summary(sw, r);
 done:
-	pr_csvw_abort(w);
-	pr_csvw_abort(sw);
+	rc = pr_outset_commit(set, rc, err);
 	pr_reps_result_free(r);
 	pr_csv_free(in);
 	free(fc);

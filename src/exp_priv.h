@@ -54,7 +54,8 @@ int pr_exp_parallel(int lo, int hi, int threads, int (*job)(void *ctx, int k, ch
 
 /* A CSV read as text: a header row and rows of equally many fields. */
 typedef struct pr_exp_table pr_exp_table;
-/* Read path; errors name file and line. *out is owned by the caller. */
+/* Read path (it must end with a line end); errors name file and line.
+ * *out is owned by the caller. */
 int pr_exp_table_read(const char *path, pr_exp_table **out, char *err);
 void pr_exp_table_free(pr_exp_table *t);
 long pr_exp_table_nrows(const pr_exp_table *t);

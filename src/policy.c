@@ -401,7 +401,7 @@ static pr_policy *fixed_new(int kind, int features, int ds, int da, const double
 	if (st != PR_OK) {
 		eig_free(&e);
 		pr_policy_free(p);
-		pr_err(err, PR_EINVAL, "policy: covariance is not positive definite");
+		pr_err(err, PR_ENUM, "policy: covariance is not positive definite");
 		return NULL;
 	}
 	keep_eig(da, &e, p->V, p->lam, &p->logdet);
@@ -920,7 +920,7 @@ static int helper_eig(int da, const double *cov, double *V, double *lam, double 
 		keep_eig(da, &e, V, lam, logdet);
 	eig_free(&e);
 	return st == PR_OK ? PR_OK
-	                   : pr_err(err, PR_EINVAL, "policy: covariance is not positive definite");
+	                   : pr_err(err, PR_ENUM, "policy: covariance is not positive definite");
 }
 
 int pr_policy_gauss_sample(int da, const double *mean, const double *cov, int k,

@@ -170,7 +170,7 @@ def test_interrupted_run_leaves_no_partial_output(tmp_path, sig, existing):
         p.wait()
     err = err.decode()
     assert started, err
-    assert p.returncode == 130, err
+    assert p.returncode == 128 + sig, err
     last = err.splitlines()[-1]
     assert last.startswith("poolreps: interrupted: no output written"), err
     assert str(out) in last

@@ -9,7 +9,7 @@
 #include "poolreps/config.h"
 
 typedef struct {
-	const char *command;   /* "run", "shoot", "forest", "reps", "policy", "merge", ... */
+	const char *command;   /* "run", "shoot", "forest", "reps", "policy", "merge", "config", ... */
 	const char *input;     /* -i, NULL = stdin */
 	const char *output;    /* -o, NULL = stdout (a directory for run) */
 	int quiet;             /* -q */
@@ -34,6 +34,8 @@ typedef struct {
 	const char *split;     /* --split repetition|variant|both, NULL = repetition */
 	const char *missing;   /* --missing SWEEP_DIR: print the jobs not done */
 	pr_progress progress;  /* set by main unless -q */
+	char *note;            /* PR_ERRLEN bytes: a one-line remark (a warning, timings)
+	                        * main prints only when the command succeeded */
 	/* provenance */
 	int argc;
 	char **argv;
@@ -50,5 +52,7 @@ int pr_cmd_merge(const pr_config *cfg, const pr_cmd_args *a, char *err);
 int pr_cmd_sweep(const pr_config *cfg, const pr_cmd_args *a, char *err);
 /* Merge every grid point of a finished sweep and write sweep_summary.csv. */
 int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err);
+/* The effective configuration as INI to -o (default stdout). */
+int pr_cmd_config(const pr_config *cfg, const pr_cmd_args *a, char *err);
 
 #endif
