@@ -14,14 +14,17 @@ libs=$(pkg-config --libs poolreps)
 static=$(pkg-config --static --libs poolreps | sed "s|-lpoolreps|$stage$libdir/libpoolreps.a|")
 soname=$(readelf -d "$stage$libdir/libpoolreps.so" | sed -n 's/.*(SONAME).*\[\(.*\)\]/\1/p')
 [ "$soname" = libpoolreps.so.0 ] || { echo "build-examples: SONAME is '$soname'" >&2; exit 1; }
+# -std=c11 as the project compiles; the headers use POSIX types (sigset_t), so
+# strict C11 needs a POSIX feature macro (GNU mode, cc's default, has them)
+std="-std=c11 -D_POSIX_C_SOURCE=200809L"
 mkdir -p "$out"
 for src in examples/*.c; do
 	name=$(basename "$src" .c)
 	# shellcheck disable=SC2086 # word splitting of the flag lists is intended
-	$cc -std=c11 -Wall -Wextra -Werror $flags $cflags "$src" $libs -o "$out/$name"
+	$cc $std -Wall -Wextra -Werror $flags $cflags "$src" $libs -o "$out/$name"
 	readelf -d "$out/$name" | grep -q 'NEEDED.*\[libpoolreps.so.0\]' ||
 		{ echo "build-examples: $out/$name does not link libpoolreps.so.0" >&2; exit 1; }
 	# shellcheck disable=SC2086
-	$cc -std=c11 -Wall -Wextra -Werror $flags $cflags "$src" $static -o "$out/$name-static"
+	$cc $std -Wall -Wextra -Werror $flags $cflags "$src" $static -o "$out/$name-static"
 done
 echo "build-examples: $(ls examples/*.c | wc -l) examples built against $stage$libdir (shared and static)"
