@@ -115,6 +115,7 @@ install: all
 	install -m 755 poolreps $(DESTDIR)$(PREFIX)/bin/poolreps
 	install -m 644 data/*.ini $(DESTDIR)$(PREFIX)/share/poolreps/data
 	install -m 755 scripts/*.py scripts/*.sh scripts/slurm.sbatch $(DESTDIR)$(PREFIX)/share/poolreps/scripts
+	install -m 644 scripts/power_template.md $(DESTDIR)$(PREFIX)/share/poolreps/scripts
 	install -m 644 docs/poolreps.1 $(DESTDIR)$(PREFIX)/share/man/man1
 
 clean:
