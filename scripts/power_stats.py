@@ -19,6 +19,7 @@ import csv
 import math
 import os
 import re
+import shlex
 import sys
 
 import numpy as np
@@ -761,8 +762,11 @@ def render(study, timing, template):
         "reps": str(len(first.reps)), "boot": str(study.boot), "seed": str(study.seed),
         "final": str(first.final), "version": first.version, "exp_seed": str(first.seed),
         "episodes": str(first.init + first.iterations * first.samples),
-        "arms": ", ".join(f"{a.name} ({a.label})" for a in arms),
-        "conv": f"iterations {k0 + 1}–{k1} and {k1 + 1}–{kn}",
+        "arms": "; ".join(f"`{a.name}`: {a.label}" for a in arms),
+        "conv": f"iterations {span(k0 + 1, k1)} against {span(k1 + 1, kn)}",
+        "init": str(first.init),
+        "policies": ", ".join(first.policies),
+        "overrides": overrides(first),
         "claims": md_table(["claim (thesis 7.5.2)", "quantity: the claim agrees when"] + head,
                            claim_rows, ["---"] * (2 + len(head))),
         "effects": "\n\n".join(effect_tables),
@@ -783,6 +787,23 @@ def render(study, timing, template):
     if used - values.keys():
         raise Fail(f"template: unknown placeholder {sorted(used - values.keys())[0]}", 2)
     return re.sub(r"\{\{(\w+)\}\}", lambda m: values[m.group(1)], template)
+
+
+def span(a, b):
+    return str(a) if a == b else f"{a}–{b}"
+
+
+def overrides(arm):
+    """The study-wide --set options of the arm's runs (their provenance),
+    less what power.sh sets per arm and per job."""
+    prov = provenance(os.path.join(os.path.dirname(arm.folder), "runs", arm.name, "rep-0",
+                                   "provenance.txt"))
+    words = shlex.split(prov.get("command", ""))
+    own = ("sim.mode=", "sim.dt=", "experiment.repetitions=", "experiment.repetition=",
+           "experiment.threads=")
+    sets = [v for k, v in zip(words, words[1:]) if k == "--set" and not v.startswith(own)]
+    return ("no other overrides" if not sets else
+            "these overrides: " + ", ".join(f"`{v}`" for v in sets))
 
 
 def cpu_seconds(arm):

@@ -11,6 +11,7 @@ import importlib.util
 import math
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -387,3 +388,23 @@ def test_repository_readme_cells_are_the_report():
         assert f"- `{cid}`: {text}\n" in md, cid
     assert (ROOT / "docs" / "figures" / "power_effects.png").is_file()
     assert (ROOT / "docs" / "figures" / "power_effects.svg").is_file()
+
+
+def test_only_the_default_study_writes_docs():
+    """make power writes docs/ (and so the README column) only at its
+    defaults; a quick or modified study reports into OUT/power."""
+    make = shutil.which("make")
+    if make is None:
+        pytest.skip("make not installed")
+
+    def recipe(*args):
+        p = subprocess.run([make, "-n", "-s", "power", *args], cwd=ROOT, capture_output=True,
+                           text=True, timeout=60)
+        assert p.returncode == 0, p.stderr
+        line = [x for x in p.stdout.splitlines() if "scripts/power.sh" in x]
+        assert len(line) == 1, p.stdout
+        return shlex.split(line[0])[2:6]
+
+    assert recipe("OUT=/o") == ["/o/power", "50", "docs", recipe("OUT=/o")[3]]
+    assert recipe("POWER_REPS=4", "OUT=/o")[:3] == ["/o/power", "4", "/o/power"]
+    assert recipe("POWER_ARGS=--set exp3.iterations=5", "OUT=/o")[2] == "/o/power"
