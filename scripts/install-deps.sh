@@ -3,7 +3,7 @@
 # otherwise it prints the exact command and stops if anything is missing.
 set -e
 PKGS="build-essential pkg-config git libgsl-dev libnlopt-dev libcsv-dev libinih-dev \
-libcmocka-dev python3 python3-matplotlib python3-pytest python3-venv parallel valgrind clang libclang-rt-14-dev \
+libcmocka-dev python3 python3-matplotlib python3-numpy python3-scipy python3-pytest python3-venv parallel valgrind clang libclang-rt-14-dev \
 slurm-wlm munge openssh-server chromium"
 missing=""
 for p in $PKGS; do
