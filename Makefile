@@ -25,7 +25,7 @@ LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
-.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man FORCE
+.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power FORCE
 .PHONY: shared install-lib examples python check-pybind
 
 all: poolreps
@@ -98,12 +98,25 @@ reproduce: deps
 reproduce-run:
 	sh scripts/reproduce.sh "$(OUT)" "$(PYTHON)" "$(QUICK)"
 
+# Experiment 3 power study (docs/power.md; not part of reproduce). Only the
+# default study writes docs/ and the README column; others write OUT/power.
+POWER_REPS ?= 50
+POWER_ARGS ?=
+ifeq ($(POWER_REPS)$(POWER_ARGS),50)
+  POWER_DOCS ?= docs
+else
+  POWER_DOCS ?= $(OUT)/power
+endif
+power: all
+	sh scripts/power.sh "$(OUT)/power" "$(POWER_REPS)" "$(POWER_DOCS)" "$(PYTHON)" $(POWER_ARGS)
+
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/poolreps/data \
 	  $(DESTDIR)$(PREFIX)/share/poolreps/scripts $(DESTDIR)$(PREFIX)/share/man/man1
 	install -m 755 poolreps $(DESTDIR)$(PREFIX)/bin/poolreps
 	install -m 644 data/*.ini $(DESTDIR)$(PREFIX)/share/poolreps/data
 	install -m 755 scripts/*.py scripts/*.sh scripts/plot $(DESTDIR)$(PREFIX)/share/poolreps/scripts
+	install -m 644 scripts/power_template.md $(DESTDIR)$(PREFIX)/share/poolreps/scripts
 	install -m 644 docs/poolreps.1 $(DESTDIR)$(PREFIX)/share/man/man1
 
 clean:

@@ -29,12 +29,12 @@ if [ "$mode" = check ]; then
 		$CC -E -x c - >/dev/null 2>&1 || need libcmocka-dev
 	[ -n "$py" ] || py=python3
 	if command -v "$py" >/dev/null 2>&1; then
-		for m in pytest:python3-pytest numpy:python3-numpy matplotlib:python3-matplotlib; do
+		for m in pytest:python3-pytest numpy:python3-numpy scipy:python3-scipy matplotlib:python3-matplotlib; do
 			"$py" -c "import importlib.util as u, sys; sys.exit(u.find_spec('${m%%:*}') is None)" \
 				2>/dev/null || need "${m#*:}"
 		done
 	else
-		need "python3 python3-pytest python3-numpy python3-matplotlib"
+		need "python3 python3-pytest python3-numpy python3-scipy python3-matplotlib"
 	fi
 fi
 [ -z "$missing" ] && exit 0

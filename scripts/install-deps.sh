@@ -7,7 +7,7 @@
 # if anything is missing.
 set -e
 PKGS="build-essential pkg-config git libgsl-dev libnlopt-dev libcsv-dev libinih-dev \
-libcmocka-dev python3 python3-numpy python3-matplotlib python3-pytest"
+libcmocka-dev python3 python3-numpy python3-scipy python3-matplotlib python3-pytest"
 # tests that need these skip without them
 EXTRAS="python3-venv python3-wheel parallel valgrind clang libclang-rt-14-dev \
 slurm-wlm munge openssh-server chromium"

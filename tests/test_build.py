@@ -33,7 +33,7 @@ def test_missing_test_packages_are_named():
     p = subprocess.run(["sh", str(ROOT / "scripts/check-deps.sh"), "check", "/bin/false"],
                        capture_output=True, text=True, timeout=60)
     assert p.returncode == 1 and p.stdout.count("\n") == 1
-    assert "python3-pytest python3-numpy python3-matplotlib" in p.stdout
+    assert "python3-pytest python3-numpy python3-scipy python3-matplotlib" in p.stdout
     ok = subprocess.run(["sh", str(ROOT / "scripts/check-deps.sh"), "build"],
                         capture_output=True, text=True, timeout=60)
     assert ok.returncode == 0 and ok.stdout == ""
