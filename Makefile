@@ -188,8 +188,8 @@ python: $(SOLIB)
 	cp $(SOLIB) python/poolreps/$(SONAME)
 	cd python && PYTHONPATH=. $(PYTHON) -c 'import poolreps; print("poolreps", poolreps.__version__, "from", poolreps.library_path())'
 
-# the simulator bench that scripts/bench_python.sh compares poolreps.shoot with
-$(BUILD)/bench_sim: tests/bench/bench_sim.c $(LIB)
+# the C benches that scripts/bench_python.sh compares poolreps.shoot with
+$(BUILD)/bench_sim $(BUILD)/bench_bind: $(BUILD)/bench_%: tests/bench/bench_%.c $(LIB)
 	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(LIB) $(LIBS) -o $@
 
 # Before compiling anything, one line naming the missing Debian packages
