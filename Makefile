@@ -16,8 +16,8 @@ ifeq ($(SAN),1)
 else
   BUILD := build/rel
 endif
-ALL_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc $(shell pkg-config --cflags $(PKGS)) $(CFLAGS) -MMD -MP
-LIBS    := $(shell pkg-config --libs $(PKGS)) -lglpk -lcsv -linih -lpthread -lm
+ALL_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc $(shell pkg-config --cflags $(PKGS) 2>/dev/null) $(CFLAGS) -MMD -MP
+LIBS    := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lglpk -lcsv -linih -lpthread -lm
 
 LIB_SRC := $(filter-out src/main.c,$(wildcard src/*.c))
 LIB_OBJ := $(LIB_SRC:src/%.c=$(BUILD)/%.o)
@@ -25,7 +25,8 @@ LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
-.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man FORCE
+.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power FORCE
+.PHONY: shared install-lib examples python check-pybind
 
 all: poolreps
 
@@ -59,16 +60,16 @@ poolreps: $(BUILD)/poolreps
 $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)
 	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(LIB) $(LIBS) -lcmocka -o $@
 
-# deps first (a no-op when everything is installed), then a sub-make that
-# looks up PYTHON and pkg-config flags with the packages in place
-check: deps
+# the packages are probed when make starts (below); nothing is installed here
+check:
 	$(MAKE) check-c check-py
 
 check-c: $(TEST_BIN)
 	@fail=0; for t in $(TEST_BIN); do echo "== $$t"; $$t || fail=1; done; exit $$fail
 
-check-py: $(BUILD)/poolreps
-	LC_ALL=C POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q tests
+# tests/ref_driver exposes library calls to the numpy reference tests
+check-py: $(BUILD)/poolreps $(BUILD)/tests/ref_driver
+	LC_ALL=C SAN=$(SAN) POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q tests
 
 bench: all
 	@for b in scripts/bench_*.sh; do echo "== $$b"; CC="$(CC)" PYTHON="$(PYTHON)" sh $$b || exit 1; done
@@ -87,7 +88,7 @@ man: $(BUILD)/poolreps
 	sh scripts/gen-readme-keys.sh $(BUILD)/poolreps README.md
 
 deps:
-	sh scripts/install-deps.sh
+	sh scripts/install-deps.sh $(if $(EXTRAS),--extras)
 
 # a sub-make, so that PYTHON and pkg-config are looked up after deps installed them
 reproduce: deps
@@ -97,15 +98,117 @@ reproduce: deps
 reproduce-run:
 	sh scripts/reproduce.sh "$(OUT)" "$(PYTHON)" "$(QUICK)"
 
+# Experiment 3 power study (docs/power.md; not part of reproduce). Only the
+# default study writes docs/ and the README column; others write OUT/power.
+POWER_REPS ?= 50
+POWER_ARGS ?=
+ifeq ($(POWER_REPS)$(POWER_ARGS),50)
+  POWER_DOCS ?= docs
+else
+  POWER_DOCS ?= $(OUT)/power
+endif
+power: all
+	sh scripts/power.sh "$(OUT)/power" "$(POWER_REPS)" "$(POWER_DOCS)" "$(PYTHON)" $(POWER_ARGS)
+
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/poolreps/data \
 	  $(DESTDIR)$(PREFIX)/share/poolreps/scripts $(DESTDIR)$(PREFIX)/share/man/man1
 	install -m 755 poolreps $(DESTDIR)$(PREFIX)/bin/poolreps
 	install -m 644 data/*.ini $(DESTDIR)$(PREFIX)/share/poolreps/data
-	install -m 755 scripts/*.py scripts/*.sh scripts/slurm.sbatch $(DESTDIR)$(PREFIX)/share/poolreps/scripts
+	install -m 755 scripts/*.py scripts/*.sh scripts/plot $(DESTDIR)$(PREFIX)/share/poolreps/scripts
+	install -m 644 scripts/power_template.md $(DESTDIR)$(PREFIX)/share/poolreps/scripts
 	install -m 644 docs/poolreps.1 $(DESTDIR)$(PREFIX)/share/man/man1
 
 clean:
-	rm -rf build poolreps
+	rm -rf build poolreps python/poolreps/libpoolreps.so.*
+
+# ---- the library for other programs: shared object, install, examples ----
+# Every library object is compiled once, position-independent, and goes into
+# both libpoolreps.a and libpoolreps.so: Debian's gcc builds PIE executables,
+# so the CLI's objects were position-independent already, and
+# -fno-semantic-interposition keeps calls inside the library direct.
+LIB_VERSION := 0.1.0
+SO_MAJOR := 0
+SONAME   := libpoolreps.so.$(SO_MAJOR)
+SOLIB    := $(BUILD)/libpoolreps.so.$(LIB_VERSION)
+LIBDIR   ?= $(PREFIX)/lib
+INCLUDEDIR ?= $(PREFIX)/include
+STAGE    := $(abspath $(BUILD)/stage)
+
+$(LIB_OBJ): CFLAGS += -fPIC -fno-semantic-interposition
+
+all: $(SOLIB)
+shared: $(SOLIB)
+
+$(SOLIB): $(LIB_OBJ)
+	$(CC) -shared -Wl,-soname,$(SONAME) -Wl,-z,defs $(LDFLAGS) $^ $(LIBS) -o $@
+	ln -sf libpoolreps.so.$(LIB_VERSION) $(BUILD)/$(SONAME)
+	ln -sf $(SONAME) $(BUILD)/libpoolreps.so
+
+install: install-lib
+
+install-lib: $(LIB) $(SOLIB)
+	install -d $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/poolreps
+	install -m 644 $(LIB) $(DESTDIR)$(LIBDIR)/libpoolreps.a
+	install -m 755 $(SOLIB) $(DESTDIR)$(LIBDIR)/libpoolreps.so.$(LIB_VERSION)
+	ln -sf libpoolreps.so.$(LIB_VERSION) $(DESTDIR)$(LIBDIR)/$(SONAME)
+	ln -sf $(SONAME) $(DESTDIR)$(LIBDIR)/libpoolreps.so
+	install -m 644 include/poolreps/*.h $(DESTDIR)$(INCLUDEDIR)/poolreps
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@LIBDIR@|$(LIBDIR)|' -e 's|@INCLUDEDIR@|$(INCLUDEDIR)|' \
+	  -e 's|@VERSION@|$(LIB_VERSION)|' poolreps.pc.in > $(DESTDIR)$(LIBDIR)/pkgconfig/poolreps.pc
+
+# examples/*.c built the way a user builds them: against an installed tree
+# (staged under $(STAGE)) through pkg-config; tests/test_examples.py runs them
+examples: $(LIB) $(SOLIB)
+	rm -rf $(STAGE)
+	$(MAKE) --no-print-directory install-lib DESTDIR=$(STAGE) PREFIX=/usr/local LIBDIR=/usr/local/lib
+	sh scripts/build-examples.sh "$(STAGE)" /usr/local/lib $(BUILD)/examples "$(CC)" "$(CFLAGS) $(LDFLAGS)"
+
+check-py: examples $(SOLIB)
+check-py: export POOLREPS_LIB := $(abspath $(SOLIB))
+check-py: export POOLREPS_EXAMPLES := $(abspath $(BUILD)/examples)
+check-py: export POOLREPS_STAGE := $(STAGE)
+
+# Under SAN=1 Python loads the sanitized library only with the sanitizer
+# runtimes preloaded: the binding's tests run apart, with them and with the
+# interpreter's own leaks suppressed (the pip test needs no second run)
+ifeq ($(SAN),1)
+check-py: export PYTEST_ADDOPTS := --ignore=tests/test_python.py --ignore=tests/test_python_install.py
+check-py: check-pybind
+check-pybind: $(SOLIB) $(BUILD)/poolreps
+	PYTEST_ADDOPTS= LC_ALL=C POOLREPS=$(abspath $(BUILD)/poolreps) POOLREPS_LIB=$(abspath $(SOLIB)) \
+	  LD_PRELOAD="$(shell $(CC) -print-file-name=libasan.so) $(shell $(CC) -print-file-name=libubsan.so)" \
+	  LSAN_OPTIONS=suppressions=$(abspath tests/lsan-python.supp):print_suppressions=0 \
+	  $(PYTHON) -m pytest -q -p no:cacheprovider tests/test_python.py
+endif
+
+# the Python package: the library next to it, so that `pip install ./python`
+# carries it (the package also finds build/rel or an installed copy)
+python: $(SOLIB)
+	cp $(SOLIB) python/poolreps/$(SONAME)
+	cd python && PYTHONPATH=. $(PYTHON) -c 'import poolreps; print("poolreps", poolreps.__version__, "from", poolreps.library_path())'
+
+# the C benches that scripts/bench_python.sh compares poolreps.shoot with
+$(BUILD)/bench_sim $(BUILD)/bench_bind: $(BUILD)/bench_%: tests/bench/bench_%.c $(LIB)
+	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(LIB) $(LIBS) -o $@
+
+# Before compiling anything, one line naming the missing Debian packages
+# rather than a wall of compiler errors (probed once per build folder; the
+# test packages each time a check target runs).
+ifeq ($(filter clean deps,$(MAKECMDGOALS)),)
+  ifeq ($(wildcard $(BUILD)/deps.ok),)
+    DEPS_MISSING := $(shell CC='$(CC)' sh scripts/check-deps.sh build)
+    ifneq ($(DEPS_MISSING),)
+      $(error $(DEPS_MISSING))
+    endif
+    $(shell mkdir -p $(BUILD)/tests && touch $(BUILD)/deps.ok)
+  endif
+  ifneq ($(filter check check-c check-py,$(MAKECMDGOALS)),)
+    DEPS_MISSING := $(shell CC='$(CC)' sh scripts/check-deps.sh check "$(PYTHON)")
+    ifneq ($(DEPS_MISSING),)
+      $(error $(DEPS_MISSING))
+    endif
+  endif
+endif
 
 -include $(LIB_OBJ:.o=.d) $(BUILD)/main.d

@@ -1,12 +1,18 @@
 #!/bin/sh
 # CI stages beyond `make check` and `make check SAN=1`: the quick
-# reproduction (figures drawn), each fuzz harness for 60 s plus the kept
-# regression inputs, and the end-to-end tests under valgrind.
+# reproduction (every figure as PNG and SVG, and the report page), each fuzz
+# harness for 60 s plus the kept regression inputs, and the end-to-end tests
+# under valgrind.
 set -e
 make reproduce QUICK=1 OUT=build/ci-results
 for f in fig7_1_table fig7_2_reward fig7_3_shots fig7_4a_nmin fig7_4b_trees fig7_4c_cuts \
-	fig7_5_ghost fig7_6 fig7_7 fig7_8 fig7_9 fig7_10 bench_quadratic bench_sphere bench_rosenbrock; do
-	[ -s "build/ci-results/figures/$f.png" ] || { echo "ci-extra: figure $f.png missing" >&2; exit 1; }
+	exp1_map fig7_5_ghost fig7_6 fig7_7 fig7_8 fig7_9 fig7_10 \
+	bench_quadratic bench_sphere bench_rosenbrock; do
+	for ext in png svg; do
+		[ -s "build/ci-results/figures/$f.$ext" ] || { echo "ci-extra: figure $f.$ext missing" >&2; exit 1; }
+	done
+	grep -q "src=\"figures/$f.png\"" build/ci-results/report.html ||
+		{ echo "ci-extra: report.html does not show $f" >&2; exit 1; }
 done
 make fuzz FUZZ_SECONDS=60
 make valgrind

@@ -1,9 +1,17 @@
 #!/bin/sh
-# Install the Debian 12 packages poolreps needs. As root it runs apt-get;
-# otherwise it prints the exact command and stops if anything is missing.
+# install-deps.sh [--extras] — install the Debian 12 packages poolreps needs
+# to build and to run `make check`; with --extras also those of CI's extra
+# stages, `make bench` and the tests that skip without them (fuzzers,
+# valgrind, GNU Parallel, venv for pip, Slurm and sshd, chromium).
+# As root it runs apt-get; otherwise it prints the exact command and stops
+# if anything is missing.
 set -e
 PKGS="build-essential pkg-config git libgsl-dev libnlopt-dev libglpk-dev libcsv-dev libinih-dev \
-libcmocka-dev python3 python3-matplotlib python3-numpy python3-scipy python3-pytest python3-venv parallel valgrind clang libclang-rt-14-dev"
+libcmocka-dev python3 python3-numpy python3-scipy python3-matplotlib python3-pytest"
+# tests that need these skip without them
+EXTRAS="python3-venv python3-wheel parallel valgrind clang libclang-rt-14-dev \
+slurm-wlm munge openssh-server chromium"
+[ "${1:-}" = --extras ] && PKGS="$PKGS $EXTRAS"
 missing=""
 for p in $PKGS; do
 	dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"

@@ -4,48 +4,64 @@ rosenbrock) from a `poolreps data/<problem>.ini` folder.
 
     plot_benchmarks.py DIR [--title TEXT]
 
-Reads DIR/bench_curve.csv (CSV only) and writes DIR/bench_curve.png with
-three log-scale panels against the number of episodes: the negated mean
-return of each iteration's samples, the negated return of the policy mean
-on the fixed test contexts, and the RMS distance of the policy mean to the
-optimum x*(s), plus the policy's root mean variance. Thin lines are single
-repetitions, the thick line their median.
+Reads DIR/bench_curve.csv and writes DIR/bench_curve.png and .svg with three
+log-scale panels against the number of episodes: the negated mean return of
+each iteration's samples, the negated return of the policy mean on the fixed
+test contexts, and the RMS distance of the policy mean to the optimum x*(s),
+plus the policy's root mean variance. Thin lines are single repetitions, the
+thick line their median. Every method in METHODS whose CSV is in DIR is
+drawn (same columns as bench_curve.csv), each in its own colour.
 """
 import argparse
-import csv
 import os
 from collections import defaultdict
 
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import exp_data
+import figstyle as fs
+import numpy as np  # noqa: E402  (after figstyle: it picks the Python)
 
 PANELS = [
     ("mean_return", "−(mean return of the samples)", True),
     ("test_return", "−(return of the policy mean)", True),
     ("test_error", "RMS distance of the mean to x*(s)", False),
 ]
+# (CSV in DIR, legend name, colour); add a method by adding its CSV here
+METHODS = [
+    ("bench_curve.csv", "REPS", fs.PALETTE["blue"]),
+]
+NEED = ("repetition", "iteration", "samples", "mean_return", "test_return", "test_error",
+        "mean_std")
 TINY = 1e-300
 
 
 def read_curves(path):
     """{repetition: {column: np.array}} ordered by iteration."""
     rows = defaultdict(list)
-    with open(path, newline="") as fp:
-        reader = csv.DictReader(fp)
-        need = {"repetition", "iteration", "samples", "mean_return", "test_return",
-                "test_error", "mean_std"}
-        missing = need - set(reader.fieldnames or [])
-        if missing:
-            raise SystemExit(f"{path}: missing columns {sorted(missing)}")
-        for r in reader:
-            rows[int(r["repetition"])].append(r)
+    for r in exp_data.read_csv(path, need=NEED):
+        rows[int(r["repetition"])].append(r)
     curves = {}
     for rep, rs in rows.items():
         rs.sort(key=lambda r: int(r["iteration"]))
-        curves[rep] = {k: np.array([float(r[k]) for r in rs]) for k in rs[0]}
+        curves[rep] = {k: np.array([float(r[k]) for r in rs]) for k in NEED}
     return curves
+
+
+def draw(axes, curves, name, colour):
+    for ax, (col, _, negate) in zip(axes, PANELS):
+        stack = []
+        for rep in sorted(curves):
+            c = curves[rep]
+            y = np.maximum(-c[col] if negate else c[col], TINY)
+            ax.plot(c["samples"], y, color=colour, alpha=0.25, lw=0.7)
+            stack.append(y)
+        n = min(len(y) for y in stack)
+        x = curves[sorted(curves)[0]]["samples"][:n]
+        ax.plot(x, np.median(np.array([y[:n] for y in stack]), axis=0), color=colour, lw=1.8,
+                label=f"{name}: median of {len(stack)} runs")
+        if col == "test_error":
+            std = np.median(np.array([curves[r]["mean_std"][:n] for r in sorted(curves)]), axis=0)
+            ax.plot(x, np.maximum(std, TINY), color=colour, lw=1.2, ls="--",
+                    label=f"{name}: policy std (median)")
 
 
 def main():
@@ -53,38 +69,28 @@ def main():
     ap.add_argument("dir")
     ap.add_argument("--title", default=None)
     args = ap.parse_args()
-    curves = read_curves(os.path.join(args.dir, "bench_curve.csv"))
-    if not curves:
-        raise SystemExit(f"{args.dir}/bench_curve.csv: no rows")
+    fs.setup()
     title = args.title or os.path.basename(os.path.normpath(args.dir))
-
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
-    for ax, (col, label, negate) in zip(axes, PANELS):
-        stack = []
-        for rep in sorted(curves):
-            c = curves[rep]
-            y = -c[col] if negate else c[col]
-            y = np.maximum(y, TINY)
-            ax.plot(c["samples"], y, color="tab:blue", alpha=0.25, lw=0.8)
-            stack.append(y)
-        n = min(len(y) for y in stack)
-        med = np.median(np.array([y[:n] for y in stack]), axis=0)
-        x = curves[sorted(curves)[0]]["samples"][:n]
-        ax.plot(x, med, color="tab:blue", lw=2, label=f"median of {len(stack)}")
-        if col == "test_error":
-            std = np.median(np.array([curves[r]["mean_std"][:n] for r in sorted(curves)]), axis=0)
-            ax.plot(x, np.maximum(std, TINY), color="tab:red", lw=1.5, ls="--",
-                    label="policy std (median)")
+    fig, axes = fs.figure("full", 0.36, ncols=3)
+    drawn = 0
+    for csv_name, name, colour in METHODS:
+        path = os.path.join(args.dir, csv_name)
+        if csv_name != METHODS[0][0] and not os.path.exists(path):
+            continue
+        curves = read_curves(path)
+        if not curves:
+            raise SystemExit(f"plot_benchmarks.py: {path}: no rows")
+        draw(axes, curves, name, colour)
+        drawn += 1
+    for ax, (col, label, _) in zip(axes, PANELS):
         ax.set_yscale("log")
-        ax.set_xlabel("episodes")
-        ax.set_ylabel(label)
-        ax.grid(True, which="major", alpha=0.3)
-        ax.legend(loc="upper right", fontsize=8)
-    fig.suptitle(f"REPS on {title}")
-    fig.tight_layout()
-    out = os.path.join(args.dir, "bench_curve.png")
-    fig.savefig(out, dpi=110)
-    print(out)
+        ax.set_xlabel(fs.label("episodes"))
+        ax.set_ylabel(label, fontsize=8)
+        # the median std falls to the bottom right: keep the legend off it
+        ax.legend(loc="center right" if col == "test_error" else "best", fontsize=6.5)
+    fig.suptitle(f"Episodic contextual REPS on the {title} problem (log scale; thin lines: "
+                 "single runs)")
+    fs.finish(args.dir, fs.save(fig, args.dir, "bench_curve"), ["bench_curve"])
 
 
 if __name__ == "__main__":

@@ -3,26 +3,34 @@
 
     plot_exp3.py DIR
 
-Reads the derived CSVs of DIR (exp3_curve.csv, exp3_final.csv,
-exp3_pockets.csv, exp3_dist.csv) and writes
-  fig7_7.png   average return per iteration, panels a-d (value score x policy
-               target), each with the baseline and the hand-crafted variant;
-               bands: one std over the repetitions;
-  fig7_8.png   returns over each run's last episodes (mean +- one std), per
-               repetition, panels a-d, with the pooled baseline and hand-crafted;
-  fig7_9.png   balls pocketed per pocket (targets and others) per policy;
-  fig7_10.png  histograms of the final distance to the nearest target pocket.
+Reads DIR/exp3_episodes.csv and DIR/config.ini, and writes as PNG and SVG:
+  fig7_7   average return per iteration, panels a-d (value score x policy
+           target), each with the baseline and the hand-crafted variant; the
+           mean over the repetitions, bands from the lowest to the highest;
+  fig7_8   the returns of each run's last episodes (exp3.final_episodes): a
+           box per run (quartiles, whiskers at the 5th and 95th percentiles,
+           diamond: the run's mean), and the mean of the run means with their
+           range; every policy once;
+  fig7_9   reward balls pocketed in each pocket group, as a share of the N
+           last episodes of all runs (bars) and of each run (dots);
+  fig7_10  the outcome of those episodes (pocketed in a target, pocketed
+           elsewhere, reward ball never hit, on the table after a hit), with
+           each run's share, and the final distance of the reward ball to the
+           nearest target pocket for the episodes left on the table.
 Policies missing from the CSVs (exp3.policies) are left out.
 """
 import argparse
-import csv
-import os
+import math
+from collections import defaultdict
 
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import exp3_table
+import exp_data
+import figstyle as fs
+import numpy as np  # noqa: E402  (after figstyle: it picks the Python)
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.patches import Patch  # noqa: E402
 
+STEMS = ["fig7_7", "fig7_8", "fig7_9", "fig7_10"]
 # panels a-d of Figs. 7.7 and 7.8, in the thesis's order
 PANELS = [
     ("nrvr_rs", "(a) nrvr value features, policy s → rs"),
@@ -34,158 +42,286 @@ LABEL = {
     "nrvr_rs": "nrvr, s→rs", "rvr_rs": "rvr, s→rs", "nrvr_a": "nrvr, s→a",
     "rvr_a": "rvr, s→a", "baseline": "baseline (1 node)", "handcrafted": "hand-crafted",
 }
-COLOR = {
-    "nrvr_rs": "tab:red", "rvr_rs": "tab:orange", "nrvr_a": "tab:blue", "rvr_a": "tab:cyan",
-    "baseline": "tab:gray", "handcrafted": "tab:green",
+COLOUR = {
+    "nrvr_rs": fs.PALETTE["vermillion"], "rvr_rs": fs.PALETTE["orange"],
+    "nrvr_a": fs.PALETTE["blue"], "rvr_a": fs.PALETTE["skyblue"],
+    "baseline": fs.PALETTE["grey"], "handcrafted": fs.PALETTE["green"],
 }
 REFS = ("baseline", "handcrafted")
+RETURN = fs.label("return", "m")
+# outcome of an episode (Fig. 7.10), in the order they are decided
+# (colours apart from the policies' own)
+OUTCOMES = [
+    ("target", "pocketed in a target", fs.PALETTE["black"]),
+    ("elsewhere", "pocketed elsewhere", fs.PALETTE["purple"]),
+    ("missed", "reward ball never hit", fs.PALETTE["lightgrey"]),
+    ("table", "hit, left on the table", fs.PALETTE["yellow"]),
+]
+BIN = 0.05  # m, Fig. 7.10's histogram bins
 
 
-def read(path):
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
+def label_of(p):
+    return LABEL.get(p, p)
 
 
-def ordered(names):
-    order = [p for p, _ in PANELS] + list(REFS)
-    return [p for p in order if p in names]
+def colour_of(p):
+    return COLOUR.get(p, "black")
 
 
-def curves(d):
+def curves(all_runs):
+    """{policy: (episodes, mean, low, high)}: per iteration, the episodes run so
+    far, the mean over the repetitions of the iteration's average return and
+    the lowest and highest of those averages (a band that, unlike mean +- std,
+    never leaves the possible returns)."""
     out = {}
-    for r in read(os.path.join(d, "exp3_curve.csv")):
-        c = out.setdefault(r["policy"], ([], [], []))
-        c[0].append(int(r["episodes"]))
-        c[1].append(float(r["mean_return"]))
-        c[2].append(float(r["std_return"]))
-    return {k: tuple(np.array(x) for x in v) for k, v in out.items()}
+    for p in exp3_table.policies(all_runs):
+        per_rep = []
+        for (q, r), eps in sorted(all_runs.items()):
+            if q != p:
+                continue
+            its = defaultdict(list)
+            for e in eps:
+                its[int(e["iteration"])].append(float(e["return"]))
+            per_rep.append(its)
+        iters = sorted(set.intersection(*(set(i) for i in per_rep)))
+        count = np.cumsum([len(per_rep[0][i]) for i in iters])
+        avg = np.array([[np.mean(its[i]) for i in iters] for its in per_rep])
+        out[p] = (count, avg.mean(axis=0), avg.min(axis=0), avg.max(axis=0))
+    return out
 
 
-def fig7_7(d, cur):
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True, sharey=True)
-    lo = min(float(np.min(m - s)) for _, m, s in cur.values())
+def outcome(e, targets):
+    """Category of one episode row: target, elsewhere, missed or table."""
+    if e["pocket"] in targets:
+        return "target"
+    if e["pocket"] != "-1":
+        return "elsewhere"
+    return "missed" if e["hit"] == "0" else "table"
+
+
+def target_distance(e, geo):
+    """Final distance of the reward ball to the nearest target pocket [m]."""
+    x, y = float(e["rx"]), float(e["ry"])
+    return min(math.hypot(x - geo["pockets"][t][0], y - geo["pockets"][t][1])
+               for t in geo["targets"])
+
+
+def shares(runs, policy, key):
+    """{category: (pooled share, [share of each run])} of policy's episodes,
+    key(episode) giving the category."""
+    reps = sorted(r for p, r in runs if p == policy)
+    per_run = []
+    pooled = defaultdict(int)
+    total = 0
+    for r in reps:
+        c = defaultdict(int)
+        for e in runs[(policy, r)]:
+            c[key(e)] += 1
+        per_run.append((c, len(runs[(policy, r)])))
+        for k, v in c.items():
+            pooled[k] += v
+        total += len(runs[(policy, r)])
+    cats = set(pooled) | {k for c, _ in per_run for k in c}
+    return {k: (pooled[k] / total, [c[k] / n for c, n in per_run]) for k in cats}, total
+
+
+def iterations(runs):
+    """'iterations 76-100': the iterations the selected episodes come from."""
+    its = {int(e["iteration"]) for eps in runs.values() for e in eps}
+    return f"iterations {min(its)}–{max(its)}" if len(its) > 1 else f"iteration {min(its)}"
+
+
+def fig7_7(d, cur, nreps):
+    fig, axes = fs.figure("full", 0.72, nrows=2, ncols=2, sharex=True, sharey=True)
+    lo = min(float(np.min(low)) for _, _, low, _ in cur.values())
     for ax, (pol, title) in zip(axes.flat, PANELS):
-        for p in [pol] + list(REFS):
+        for p in list(REFS) + [pol]:
             if p not in cur:
                 continue
-            x, m, s = cur[p]
-            main = p == pol
-            ax.plot(x, m, color=COLOR[p], lw=2 if main else 1.2, ls="-" if main else "--",
-                    label=LABEL[p])
-            ax.fill_between(x, m - s, m + s, color=COLOR[p], alpha=0.25 if main else 0.1, lw=0)
+            x, m, low, high = cur[p]
+            if p == pol:
+                ax.fill_between(x, low, high, color=colour_of(p), alpha=0.3, lw=0)
+                ax.plot(x, m, color=colour_of(p), lw=1.8)
+            elif p == "baseline":
+                # the reference the thesis compares against: a hatched, outlined band
+                ax.fill_between(x, low, high, facecolor="0.85", edgecolor="0.45",
+                                hatch="////", lw=0.6, alpha=0.8)
+                ax.plot(x, m, color="black", lw=1.2, ls="--")
+            else:
+                ax.fill_between(x, low, high, color=colour_of(p), alpha=0.15, lw=0)
+                ax.plot(x, m, color=colour_of(p), lw=1.2, ls=":")
         if pol not in cur:
             ax.text(0.5, 0.5, f"{pol}: not run", transform=ax.transAxes, ha="center")
-        ax.set_title(title, fontsize=10)
-        ax.axhline(0, color="k", lw=0.5)
-        ax.set_ylim(max(lo, -4.0), 0.05)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="lower right")
+        ax.set_title(title, fontsize=8.5)
+        ax.axhline(0, color="black", lw=0.5)
+        ax.set_ylim(max(lo, -4.0) - 0.05, 0.05)
     for ax in axes[1]:
-        ax.set_xlabel("episodes")
+        ax.set_xlabel(fs.label("episodes"))
     for ax in axes[:, 0]:
-        ax.set_ylabel("average return per iteration")
-    fig.suptitle("Fig. 7.7: average return per iteration (mean ± 1 std over repetitions)",
-                 fontsize=11)
-    fig.tight_layout()
-    fig.savefig(os.path.join(d, "fig7_7.png"), dpi=110)
-    plt.close(fig)
+        ax.set_ylabel(fs.label("average return per iteration", "m"), fontsize=8)
+    handles = [Line2D([], [], color="0.2", lw=1.8, label="the panel's tree policy (its colour)")]
+    if "baseline" in cur:
+        handles.append(Patch(facecolor="0.85", edgecolor="0.45", hatch="////",
+                             label="baseline (1 node), dashed: mean"))
+    if "handcrafted" in cur:
+        handles.append(Line2D([], [], color=colour_of("handcrafted"), ls=":", lw=1.2,
+                              label="hand-crafted features (beyond the thesis)"))
+    fs.legend_below(fig, handles, ncol=3, height=0.07)
+    fig.suptitle(f"Fig. 7.7: average return per iteration (mean over {nreps} repetitions; "
+                 "bands: lowest to highest)")
+    return fs.save(fig, d, "fig7_7")
 
 
-def fig7_8(d, fin):
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharey=True)
-    pooled = {r["policy"]: r for r in fin if r["repetition"] == "-1"}
-    for ax, (pol, title) in zip(axes.flat, PANELS):
-        reps = [r for r in fin if r["policy"] == pol and r["repetition"] != "-1"]
-        labels, m, s, colors = [], [], [], []
-        for r in reps:
-            labels.append(f"rep {r['repetition']}")
-            m.append(float(r["mean_return"]))
-            s.append(float(r["std_return"]))
-            colors.append(COLOR[pol])
-        for p in [pol] + list(REFS):
-            if p in pooled:
-                labels.append("all: " + LABEL[p])
-                m.append(float(pooled[p]["mean_return"]))
-                s.append(float(pooled[p]["std_return"]))
-                colors.append(COLOR[p])
-        if not reps:
-            ax.text(0.5, 0.5, f"{pol}: not run", transform=ax.transAxes, ha="center")
-        x = np.arange(len(m))
-        ax.bar(x, m, yerr=s, color=colors, capsize=3, alpha=0.85)
-        ax.set_xticks(x)
-        ax.set_xticklabels(labels, rotation=35, ha="right", fontsize=8)
-        ax.axhline(0, color="k", lw=0.5)
-        ax.set_title(title, fontsize=10)
-        ax.grid(axis="y", alpha=0.3)
-    for ax in axes[:, 0]:
-        ax.set_ylabel("return (mean ± 1 std)")
-    n = fin[0]["episodes"] if fin else "?"
-    fig.suptitle(f"Fig. 7.8: returns over the last {n} episodes of each run", fontsize=11)
-    fig.tight_layout()
-    fig.savefig(os.path.join(d, "fig7_8.png"), dpi=110)
-    plt.close(fig)
+def fig7_8(d, runs, last):
+    pols = exp3_table.policies(runs)
+    fig, ax = fs.figure("full", 0.5)
+    pos, ticks, lows = 0.0, [], []
+    for p in pols:
+        reps = sorted(r for q, r in runs if q == p)
+        data = [[float(e["return"]) for e in runs[(p, r)]] for r in reps]
+        x = pos + np.arange(len(reps))
+        ax.boxplot(data, positions=x, widths=0.7, whis=(5, 95), showfliers=False,
+                   showmeans=True, patch_artist=True,
+                   boxprops={"facecolor": colour_of(p), "alpha": 0.55, "lw": 0.8},
+                   medianprops={"color": "black", "lw": 1},
+                   meanprops={"marker": "D", "mfc": "white", "mec": "black", "ms": 3.5},
+                   whiskerprops={"lw": 0.8}, capprops={"lw": 0.8})
+        lows.extend(np.percentile(v, 5) for v in data)
+        # the range of the run means: unlike a t interval it never passes 0
+        means = [float(np.mean(v)) for v in data]
+        m = float(np.mean(means))
+        ax.errorbar([pos + len(reps) + 0.1], [m], yerr=[[m - min(means)], [max(means) - m]],
+                    fmt="o", color="black", ms=4, capsize=3)
+        ticks.append((pos + (len(reps) - 1) / 2 + 0.3, label_of(p)))
+        pos += len(reps) + 1.6
+    ax.set_xticks([t for t, _ in ticks], [lab for _, lab in ticks])
+    ax.tick_params(axis="x", length=0)
+    ax.axhline(0, color="black", lw=0.8)
+    ax.set_ylim(min(lows) * 1.05, 0.08)
+    ax.set_ylabel(RETURN)
+    ax.grid(axis="x", visible=False)
+    handles = [Patch(facecolor="0.7", label="one run: quartiles, whiskers 5–95 %"),
+               Line2D([], [], ls="", marker="D", mfc="white", mec="black", ms=3.5,
+                      label="the run's mean"),
+               Line2D([], [], ls="-", marker="o", color="black", ms=4,
+                      label="mean of the run means, their range")]
+    ax.legend(handles=handles, loc="lower right")
+    fig.suptitle(f"Fig. 7.8: returns of the last {last} episodes of each run ({iterations(runs)})\n"
+                 "0 m: pocketed in a target, the best possible")
+    return fs.save(fig, d, "fig7_8")
 
 
-def fig7_9(d, pk):
-    pols = ordered({r["policy"] for r in pk})
-    pockets = sorted({int(r["pocket"]) for r in pk if r["target"] == "1"})
-    fig, ax = plt.subplots(figsize=(9, 4.5))
-    x = np.arange(len(pols))
-    cols = [(f"pocket {p} (target)", [p]) for p in pockets]
-    cols.append(("other pockets", [p for p in range(6) if p not in pockets]))
-    w = 0.8 / len(cols)
-    for j, (lab, ids) in enumerate(cols):
-        h = [sum(int(r["count"]) for r in pk if r["policy"] == p and int(r["pocket"]) in ids)
-             for p in pols]
-        b = ax.bar(x + (j - (len(cols) - 1) / 2) * w, h, w, label=lab)
-        ax.bar_label(b, fontsize=7)
-    ax.set_xticks(x)
-    ax.set_xticklabels([LABEL[p] for p in pols])
-    ax.set_ylabel("balls pocketed (all repetitions)")
-    ax.set_title("Fig. 7.9: pocketed reward balls per pocket, last episodes of each run",
-                 fontsize=11)
-    ax.legend(fontsize=8)
-    ax.grid(axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(os.path.join(d, "fig7_9.png"), dpi=110)
-    plt.close(fig)
+POCKET_GROUPS = [("2", "pocket 2 (target)", ("2",)), ("5", "pocket 5 (target)", ("5",)),
+                 ("middle", "middle pockets 1, 4", ("1", "4")),
+                 ("far", "far corners 0, 3", ("0", "3"))]
 
 
-def fig7_10(d, dist):
-    pols = ordered({r["policy"] for r in dist})
+def fig7_9(d, runs, last):
+    pols = exp3_table.policies(runs)
+    group_of = {pk: g for g, _, ids in POCKET_GROUPS for pk in ids}
+    colours = [fs.PALETTE["blue"], fs.PALETTE["orange"], fs.PALETTE["purple"], fs.PALETTE["grey"]]
+    fig, ax = fs.figure("full", 0.48)
+    w = 0.8 / len(POCKET_GROUPS)
+    n_eps, top = {}, 0.0
+    for i, p in enumerate(pols):
+        sh, n_eps[p] = shares(runs, p, lambda e: group_of.get(e["pocket"], "none"))
+        for j, ((g, lab, _), col) in enumerate(zip(POCKET_GROUPS, colours)):
+            pooled, per_run = sh.get(g, (0.0, []))
+            x = i + (j - (len(POCKET_GROUPS) - 1) / 2) * w
+            b = ax.bar([x], [100 * pooled], w, color=col, label=lab if i == 0 else None)
+            ax.bar_label(b, [f"{round(pooled * n_eps[p])}"], fontsize=6.5, padding=1)
+            top = max(top, 100 * pooled)
+    ax.set_xticks(range(len(pols)), [label_of(p) for p in pols])
+    ax.set_ylabel(fs.label("reward balls pocketed", "% of N"))
+    ax.grid(axis="x", visible=False)
+    ax.set_ylim(0, top * 1.25)
+    ax.legend(loc="upper right", ncol=2)
+    runs_n = len({r for _, r in runs})
+    n = sorted(set(n_eps.values()))
+    ax.set_title(f"Fig. 7.9: where the reward ball was pocketed in the last {last} episodes of "
+                 f"each of the {runs_n} runs ({iterations(runs)})\n(N = "
+                 f"{', '.join(map(str, n))} episodes per policy; bars: share of the N episodes; "
+                 "numbers: balls)", fontsize=8.5)
+    return fs.save(fig, d, "fig7_9")
+
+
+def fig7_10(d, runs, last, geo):
+    pols = exp3_table.policies(runs)
+    targets = {str(t) for t in geo["targets"]}
     ncol = 3
-    nrow = max(1, (len(pols) + ncol - 1) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(12, 3.4 * nrow), sharex=True, sharey=True,
-                             squeeze=False)
-    for ax, p in zip(axes.flat, pols):
-        r = [x for x in dist if x["policy"] == p]
-        lo = np.array([float(x["bin_lo"]) for x in r])
-        hi = np.array([float(x["bin_hi"]) for x in r])
-        c = np.array([int(x["count"]) for x in r])
-        ax.bar(lo, c, hi - lo, align="edge", color=COLOR[p], edgecolor="k", lw=0.3)
-        ax.set_title(LABEL[p], fontsize=10)
-        ax.grid(axis="y", alpha=0.3)
-    for ax in axes.flat[len(pols):]:
-        ax.axis("off")
-    for ax in axes[:, 0]:
-        ax.set_ylabel("episodes")
-    fig.supxlabel("final distance of the reward ball to the nearest target pocket [m] "
-                  "(0: pocketed there)", fontsize=10)
-    fig.suptitle("Fig. 7.10: final distance of the reward ball, last episodes of each run",
-                 fontsize=11)
-    fig.tight_layout()
-    fig.savefig(os.path.join(d, "fig7_10.png"), dpi=110)
-    plt.close(fig)
+    nrow = (len(pols) + ncol - 1) // ncol
+    fig = fs.figure("full", 0.42 + 0.3 * nrow)[0]
+    fig.clf()
+    gs = fig.add_gridspec(1 + nrow, ncol, height_ratios=[1.25] + [1] * nrow)
+    top = fig.add_subplot(gs[0, :])
+    w = 0.8 / len(OUTCOMES)
+    dist_all = {}
+    for i, p in enumerate(pols):
+        sh, _ = shares(runs, p, lambda e: outcome(e, targets))
+        for j, (k, lab, col) in enumerate(OUTCOMES):
+            pooled, per_run = sh.get(k, (0.0, []))
+            x = i + (j - (len(OUTCOMES) - 1) / 2) * w
+            top.bar([x], [100 * pooled], w, color=col, edgecolor="black", lw=0.4,
+                    label=lab if i == 0 else None)
+            top.plot([x] * len(per_run), [100 * s for s in per_run], "o", mfc="white", mec="black",
+                     mew=0.6, ms=2.8, label="one run" if i == 0 and j == 0 else None)
+        dist_all[p] = {r: [target_distance(e, geo) for e in runs[(p, r)]
+                           if outcome(e, targets) == "table"]
+                       for q, r in runs if q == p}
+    top.set_xticks(range(len(pols)), [label_of(p) for p in pols])
+    top.set_ylabel(fs.label("share of the episodes", "%"))
+    top.grid(axis="x", visible=False)
+    top.legend(loc="upper left", ncol=3, fontsize=7)
+    top.set_ylim(0, 130)
+    top.set_title("outcome of each episode (bars: all runs, dots: each run)", fontsize=8.5)
+    dmax = max((max(v) for runs_d in dist_all.values() for v in runs_d.values() if v), default=BIN)
+    edges = np.arange(0, dmax + BIN, BIN)
+    if len(edges) < 2:
+        edges = np.array([0, BIN])
+    axes = [fig.add_subplot(gs[1 + k // ncol, k % ncol]) for k in range(len(pols))]
+    for ax in axes[1:]:
+        ax.sharex(axes[0])
+    for ax, p in zip(axes, pols):
+        per_run = []
+        for r, dist in sorted(dist_all[p].items()):
+            n = len(runs[(p, r)])
+            per_run.append(100 * np.histogram(dist, edges)[0] / n)
+        per_run = np.array(per_run)
+        pooled = 100 * np.histogram([x for v in dist_all[p].values() for x in v], edges)[0] / \
+            sum(len(runs[(p, r)]) for r in dist_all[p])
+        centres = (edges[:-1] + edges[1:]) / 2
+        ax.bar(edges[:-1], pooled, BIN, align="edge", color=colour_of(p), alpha=0.8,
+               edgecolor="black", lw=0.3)
+        if len(per_run) > 1:
+            ax.vlines(centres, per_run.min(axis=0), per_run.max(axis=0), color="black", lw=0.8)
+        ax.set_title(label_of(p), fontsize=8.5)
+        ax.set_xlim(0, edges[-1])
+    for k, ax in enumerate(axes):
+        if k % ncol == 0:
+            ax.set_ylabel(fs.label("share of the episodes", "%"), fontsize=8)
+    fig.supxlabel(fs.label("final distance of the reward ball to the nearest target pocket", "m"),
+                  fontsize=8.5)
+    fig.suptitle(f"Fig. 7.10: the last {last} episodes of each run ({iterations(runs)})\n"
+                 "top: their outcome; below: the final distance of the reward balls left on "
+                 "the table after a hit\n(bars: share of all the policy's episodes per "
+                 f"{BIN:g} m bin; lines: range over the runs)", fontsize=9)
+    return fs.save(fig, d, "fig7_10")
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dir")
-    a = ap.parse_args()
-    fig7_7(a.dir, curves(a.dir))
-    fig7_8(a.dir, read(os.path.join(a.dir, "exp3_final.csv")))
-    fig7_9(a.dir, read(os.path.join(a.dir, "exp3_pockets.csv")))
-    fig7_10(a.dir, read(os.path.join(a.dir, "exp3_dist.csv")))
+    d = ap.parse_args().dir
+    fs.setup()
+    runs, last = exp3_table.load(d)
+    if not runs:
+        raise SystemExit(f"plot_exp3.py: {d}/exp3_episodes.csv: no episodes")
+    geo = exp_data.table_geometry(exp_data.config(d))
+    nreps = len({r for _, r in runs})
+    written = fig7_7(d, curves(exp3_table.load(d, 10**12)[0]), nreps) + fig7_8(d, runs, last) + \
+        fig7_9(d, runs, last) + \
+        fig7_10(d, runs, last, geo)
+    fs.finish(d, written, STEMS)
 
 
 if __name__ == "__main__":

@@ -12,9 +12,7 @@
  */
 #include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
 #include <time.h>
-#include <unistd.h>
 
 #include <gsl/gsl_rng.h>
 
@@ -28,11 +26,6 @@ static double seconds(void)
 
 	clock_gettime(CLOCK_MONOTONIC, &ts);
 	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static const char *out_name(const char *path)
-{
-	return path && strcmp(path, "-") ? path : "<stdout>";
 }
 
 static int write_pred(pr_csvw *w, const pr_csv *tr, const int *tc, int dy, const double *P,
@@ -85,6 +78,7 @@ int pr_cmd_forest(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	pr_csv *tr = NULL, *te = NULL;
 	pr_forest *f = NULL;
+	pr_outset *set = NULL;
 	pr_csvw *pw = NULL, *lw = NULL;
 	gsl_rng *rng = NULL;
 	double *X = NULL, *Y = NULL, *W = NULL, *Xt = NULL, *P = NULL;
@@ -231,54 +225,34 @@ int pr_cmd_forest(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pr_forest_predict_many(f, Xt, (int)nt, P);
 	tpred = seconds() - t0;
 
-	pw = pr_csvw_open(a->output, err);
-	if (!pw) {
-		rc = PR_EIO;
+	/* predictions and leaves are committed together, only if both are complete */
+	if (!(set = pr_outset_new(err))) {
+		rc = PR_ENOMEM;
 		goto done;
 	}
-	if (a->leaves && !(lw = pr_csvw_open(a->leaves, err))) {
-		rc = PR_EIO;
+	if ((rc = pr_outset_add(set, a->output, &pw, err)) ||
+	    (a->leaves && (rc = pr_outset_add(set, a->leaves, &lw, err))))
+		goto done;
+	write_pred(pw, tr, tc, dy, P, nt);
+	if (lw && write_leaves(lw, f, Xt, dx, nt, act) == PR_EINVAL) {
+		rc = pr_err(err, PR_ENUM, "%s: a test row reaches no leaf of some tree", pr_csv_path(te));
 		goto done;
 	}
-	if (write_pred(pw, tr, tc, dy, P, nt)) {
-		rc = pr_err(err, PR_EIO, "%s: write error", out_name(a->output));
-		goto done;
-	}
-	if (lw && write_leaves(lw, f, Xt, dx, nt, act)) {
-		rc = pr_err(err, PR_EIO, "%s: write error", a->leaves);
-		goto done;
-	}
-	/* The leaves file first: if the predictions then fail, remove it, so a
-	 * failed run leaves neither. */
-	if (lw) {
-		rc = pr_csvw_close(lw, err);
-		lw = NULL;
-		if (rc)
-			goto done;
-	}
-	rc = pr_csvw_close(pw, err);
-	pw = NULL;
-	if (rc && a->leaves && strcmp(a->leaves, "-"))
-		unlink(a->leaves);
-	if (rc)
-		goto done;
 	if (!a->quiet) {
-		fprintf(stderr, "poolreps: forest: %d trees, %d leaves, fit %.3f s, predict %.3f s",
-		        pr_forest_ntrees(f), pr_forest_nleaves(f), tfit, tpred);
-		if (have_y && nt > 0) {
+		int len = snprintf(a->note, PR_ERRLEN, "forest: %d trees, %d leaves, fit %.3f s, predict %.3f s",
+		                   pr_forest_ntrees(f), pr_forest_nleaves(f), tfit, tpred);
+		if (have_y && nt > 0 && len > 0 && len < PR_ERRLEN) {
 			double sse = 0;
 			for (long i = 0; i < nt; i++)
 				for (int k = 0; k < dy; k++) {
 					double e = P[(size_t)i * dy + k] - pr_csv_get(te, i, yt[k]);
 					sse += e * e;
 				}
-			fprintf(stderr, ", test MSE %.6g", sse / ((double)nt * dy));
+			snprintf(a->note + len, (size_t)(PR_ERRLEN - len), ", test MSE %.6g", sse / ((double)nt * dy));
 		}
-		fprintf(stderr, "\n");
 	}
 done:
-	pr_csvw_abort(pw);
-	pr_csvw_abort(lw);
+	rc = pr_outset_commit(set, rc, err);
 	pr_forest_free(f);
 	gsl_rng_free(rng);
 	pr_csv_free(tr);

@@ -93,6 +93,7 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	const int reward = cfg->policy.target == PR_TARGET_REWARD_STATE;
 	pr_csv *tr = NULL, *in = NULL;
+	pr_outset *set = NULL;
 	pr_csvw *w = NULL;
 	pr_policy *p = NULL;
 	pr_policy_work *ws = NULL;
@@ -109,6 +110,8 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	if (reward && !a->target)
 		return pr_err(err, PR_EINVAL,
 		              "policy: policy.target = reward_state needs --target COLS (final reward-ball positions)");
+	if (!reward && a->target)
+		return pr_err(err, PR_EINVAL, "policy: --target applies only with policy.target = reward_state");
 	if ((rc = pr_policy_opts_check(&cfg->policy, err)))
 		return rc;
 	if ((rc = pr_csv_read(a->train, &tr, err)))
@@ -200,7 +203,9 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	}
 	gsl_rng_set(rng, cfg->run.seed);
 	if (!(p = pr_policy_tree_fit(&cfg->policy, &d, rng, err))) {
-		rc = PR_EINVAL;
+		/* the options and data were checked above: memory (main turns it
+		 * into exit 4) or a numerical failure */
+		rc = PR_ENUM;
 		goto done;
 	}
 	if (!(ws = pr_policy_work_new(p, err))) {
@@ -217,24 +222,19 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 			goto done;
 	}
 
-	if (!(w = pr_csvw_open(a->output, err))) {
-		rc = PR_EIO;
+	if (!(set = pr_outset_new(err))) {
+		rc = PR_ENOMEM;
 		goto done;
 	}
-	rc = write_header(w, tr, sc, ds, ac, da, ns > 0);
-	for (i = 0; i < nq && !rc; i++)
-		for (k = 0; k < (ns ? ns : 1) && !rc; k++)
-			rc = write_row(w, Q + (size_t)i * ds, ds, k,
-			               ns ? draws + ((size_t)i * ns + k) * da : NULL,
-			               mean + (size_t)i * da, cov + (size_t)i * da * da, da, status[i]);
-	if (rc) {
-		rc = pr_err(err, PR_EIO, "%s: write error", a->output && *a->output ? a->output : "<stdout>");
+	if ((rc = pr_outset_add(set, a->output, &w, err)))
 		goto done;
-	}
-	rc = pr_csvw_close(w, err);
-	w = NULL;
+	write_header(w, tr, sc, ds, ac, da, ns > 0);
+	for (i = 0; i < nq && !pr_csvw_status(w); i++)
+		for (k = 0; k < (ns ? ns : 1); k++)
+			write_row(w, Q + (size_t)i * ds, ds, k, ns ? draws + ((size_t)i * ns + k) * da : NULL,
+			          mean + (size_t)i * da, cov + (size_t)i * da * da, da, status[i]);
 done:
-	pr_csvw_abort(w);
+	rc = pr_outset_commit(set, rc, err);
 	pr_policy_work_free(ws);
 	pr_policy_free(p);
 	if (rng)

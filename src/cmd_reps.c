@@ -8,8 +8,8 @@
  * writes one row eta,dual,kl,ess,bound,residual,iterations,kl_gap,
  * residual_rel,status (the certificate, reps.h). A solve that cannot be
  * certified exits 3 with one line naming what failed (e.g. the feature
- * residual). Features that are all 0 or 1 are handed to the solver as
- * sparse one-hot rows. Every input check runs before anything is written;
+ * residual). Features that are all 0 or 1 take the solver's one-hot path
+ * (reps.h). Every input check runs before anything is written;
  * on an error no file is left.
  */
 #include <math.h>
@@ -52,47 +52,16 @@ static int write_summary(pr_csvw *w, const pr_reps_result *r)
 	return rc ? rc : pr_csvw_endrow(w);
 }
 
-/* Features that are all 0 or 1 (one-hot leaves, eq. 5.4) go to the solver
- * in sparse form, as the experiments hand them over: the one-hot path. */
-static int sparse_if_binary(pr_reps_problem *pb, int **rowptr, int **col, char *err)
-{
-	size_t i, nnz = 0, nd = (size_t)pb->n * (size_t)pb->d;
-	int r;
-
-	for (i = 0; i < nd; i++) {
-		if (pb->phi[i] != 0.0 && pb->phi[i] != 1.0)
-			return PR_OK;
-		nnz += pb->phi[i] == 1.0;
-	}
-	*rowptr = malloc(((size_t)pb->n + 1) * sizeof **rowptr);
-	*col = malloc((nnz > 0 ? nnz : 1) * sizeof **col);
-	if (!*rowptr || !*col)
-		return pr_err(err, PR_ENOMEM, "reps: out of memory");
-	for (r = 0, nnz = 0; r < pb->n; r++) {
-		int j;
-
-		(*rowptr)[r] = (int)nnz;
-		for (j = 0; j < pb->d; j++)
-			if (pb->phi[(size_t)r * pb->d + j] == 1.0)
-				(*col)[nnz++] = j;
-	}
-	(*rowptr)[pb->n] = (int)nnz;
-	pb->phi = NULL;
-	pb->rowptr = *rowptr;
-	pb->col = *col;
-	pb->val = NULL;
-	return PR_OK;
-}
-
 int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	pr_reps_opts o = cfg->reps;
 	pr_reps_problem pb = { 0 };
 	pr_reps_result *r = NULL;
 	pr_csv *in = NULL;
+	pr_outset *set = NULL;
 	pr_csvw *w = NULL, *sw = NULL;
 	double *R = NULL, *q = NULL, *phi = NULL, sq = 0.0;
-	int *fc = NULL, *rowptr = NULL, *col = NULL, rcol, bcol = -1, d = 0, j, rc;
+	int *fc = NULL, rcol, bcol = -1, d = 0, j, rc;
 	long i, n;
 
 	if (a->epsilon_set) {
@@ -168,47 +137,33 @@ int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pb.R = R;
 	pb.q = q;
 	pb.phi = phi;
-	if (d > 0 && (rc = sparse_if_binary(&pb, &rowptr, &col, err)))
-		goto done;
 	if ((rc = pr_reps_solve(&o, &pb, &r, err)))
 		goto done;
 	if (r->status == PR_REPS_FAILED) {
 		rc = pr_err(err, PR_ENUM, "reps: %s: no certified answer: %s", pr_csv_path(in), r->reason);
 		goto done;
 	}
-	if (r->status == PR_REPS_UNREACHABLE && !a->quiet)
-		fprintf(stderr, "poolreps: reps: KL bound unreachable: %s (KL = %.6g < epsilon = %g, "
-		        "eta = 0)\n", r->constant ? "all returns are equal" :
-		        "p is the eta -> 0 limit, the feature-matching solution closest to q",
-		        r->kl, o.epsilon);
-	w = pr_csvw_open(a->output, err);
-	if (!w) {
-		rc = PR_EIO;
+	if (r->status == PR_REPS_UNREACHABLE)
+		pr_err(a->note, PR_OK, "reps: KL bound unreachable: %s (KL = %.6g < epsilon = %g, eta = 0)",
+		       r->constant ? "all returns are equal" :
+		       "p is the eta -> 0 limit, the feature-matching solution closest to q",
+		       r->kl, o.epsilon);
+	/* weights and summary are committed together, only if both are complete */
+	if (!(set = pr_outset_new(err))) {
+		rc = PR_ENOMEM;
 		goto done;
 	}
-	if (a->summary && !(sw = pr_csvw_open(a->summary, err))) {
-		rc = PR_EIO;
+	if ((rc = pr_outset_add(set, a->output, &w, err)) ||
+	    (a->summary && (rc = pr_outset_add(set, a->summary, &sw, err))))
 		goto done;
-	}
-	if (write_weights(w, r) || (sw && write_summary(sw, r))) {
-		rc = pr_err(err, PR_EIO, "%s: write error",
-		            a->output && *a->output ? a->output : "<stdout>");
-		goto done;
-	}
-	rc = pr_csvw_close(w, err);
-	w = NULL;
-	if (!rc && sw) {
-		rc = pr_csvw_close(sw, err);
-		sw = NULL;
-	}
+	write_weights(w, r);
+	if (sw)
+		write_summary(sw, r);
 done:
-	pr_csvw_abort(w);
-	pr_csvw_abort(sw);
+	rc = pr_outset_commit(set, rc, err);
 	pr_reps_result_free(r);
 	pr_csv_free(in);
 	free(fc);
-	free(rowptr);
-	free(col);
 	free(R);
 	free(q);
 	free(phi);

@@ -4,7 +4,10 @@
  * ball count n comes from them. Every row is checked before anything is
  * written, so a bad row leaves no output. Output columns x0,y0,... (final),
  * pocket0,..., hit, min_gap, reward, t_end, events; --trace FILE writes
- * shot,t,ball,x,y,vx,vy.
+ * shot,t,ball,x,y,vx,vy. --keep copies the input columns, as read, in front
+ * of the results and names the final positions final_x0,final_y0,..., so
+ * that the output holds whole samples (state, action, outcome) for the
+ * other commands.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -43,14 +46,16 @@ static void get_row(const pr_csv *in, long r, int n, const int *col, double *sta
 	act[1] = row[col[2 * n + 1]];
 }
 
-static int write_header(pr_csvw *w, int n)
+static int write_header(pr_csvw *w, const pr_csv *keep, int n)
 {
-	char name[32];
+	char name[40];
 	int i, rc = 0;
 	static const char *const tail[] = {"hit", "min_gap", "reward", "t_end", "events"};
 
+	for (i = 0; keep && i < pr_csv_ncols(keep) && !rc; ++i)
+		rc = pr_csvw_str(w, pr_csv_name(keep, i));
 	for (i = 0; i < 2 * n && !rc; ++i) {
-		snprintf(name, sizeof name, "%c%d", i % 2 ? 'y' : 'x', i / 2);
+		snprintf(name, sizeof name, "%s%c%d", keep ? "final_" : "", i % 2 ? 'y' : 'x', i / 2);
 		rc = pr_csvw_str(w, name);
 	}
 	for (i = 0; i < n && !rc; ++i) {
@@ -62,10 +67,13 @@ static int write_header(pr_csvw *w, int n)
 	return rc ? rc : pr_csvw_endrow(w);
 }
 
-static int write_shot(pr_csvw *w, const pr_shot *r, double reward)
+/* keep: the input row copied in front (--keep), or NULL */
+static int write_shot(pr_csvw *w, const double *keep, int nkeep, const pr_shot *r, double reward)
 {
 	int i, rc = 0;
 
+	for (i = 0; keep && i < nkeep && !rc; ++i)
+		rc = pr_csvw_num(w, keep[i]);
 	for (i = 0; i < 2 * r->nballs && !rc; ++i)
 		rc = pr_csvw_num(w, r->final[i]);
 	for (i = 0; i < r->nballs && !rc; ++i)
@@ -111,13 +119,13 @@ static int write_trace(pr_csvw *w, long shot, const pr_sim_trace *tr)
 
 int pr_cmd_shoot(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
-	static const char *const trace_cols[] = {"shot", "t", "ball", "x", "y", "vx", "vy"};
 	pr_csv *in = NULL;
 	pr_sim *sim = NULL;
 	pr_sim_trace *tr = NULL;
+	pr_outset *set = NULL;
 	pr_csvw *w = NULL, *tw = NULL;
 	double *state = NULL, act[2];
-	int *col = NULL, n, i, rc;
+	int *col = NULL, n, rc;
 	char why[PR_ERRLEN];
 	long r, nrows;
 
@@ -160,17 +168,19 @@ int pr_cmd_shoot(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		rc = PR_ENOMEM;
 		goto done;
 	}
-	if (!(w = pr_csvw_open(a->output, err)) || (a->trace && !(tw = pr_csvw_open(a->trace, err)))) {
-		rc = PR_EIO;
+	/* output and trace are committed together, only if both are complete */
+	if (!(set = pr_outset_new(err))) {
+		rc = PR_ENOMEM;
 		goto done;
 	}
-	if ((rc = write_header(w, n)))
-		goto write_failed;
-	for (i = 0; tw && i < 7 && !rc; ++i)
-		rc = pr_csvw_str(tw, trace_cols[i]);
-	if (tw && (rc || (rc = pr_csvw_endrow(tw))))
-		goto write_failed;
-	for (r = 0; r < nrows; ++r) {
+	if ((rc = pr_outset_add(set, a->output, &w, err)) ||
+	    (a->trace && (rc = pr_outset_add(set, a->trace, &tw, err))))
+		goto done;
+	write_header(w, a->keep ? in : NULL, n);
+	if (tw)
+		pr_csvw_header(tw, "shot,t,ball,x,y,vx,vy");
+	/* a write error sticks in its writer: stop, the commit reports it */
+	for (r = 0; r < nrows && !pr_csvw_status(w) && !(tw && pr_csvw_status(tw)); ++r) {
 		pr_shot res;
 		if (pr_interrupted) {
 			rc = pr_err(err, PR_EINTR, "shoot: interrupted");
@@ -181,24 +191,13 @@ int pr_cmd_shoot(const pr_config *cfg, const pr_cmd_args *a, char *err)
 			rc = pr_err(err, rc, "%s:%ld: %s", pr_csv_path(in), pr_csv_line(in, r), why);
 			goto done;
 		}
-		if ((rc = write_shot(w, &res, pr_sim_reward(&cfg->table, &cfg->reward, &res))) ||
-		    (tw && (rc = write_trace(tw, r, tr))))
-			goto write_failed;
+		write_shot(w, a->keep ? pr_csv_row(in, r) : NULL, pr_csv_ncols(in), &res,
+		           pr_sim_reward(&cfg->table, &cfg->reward, &res));
+		if (tw)
+			write_trace(tw, r, tr);
 	}
-	if (tw) {
-		rc = pr_csvw_close(tw, err);
-		tw = NULL;
-		if (rc)
-			goto done;
-	}
-	rc = pr_csvw_close(w, err);
-	w = NULL;
-	goto done;
-write_failed:
-	rc = pr_err(err, rc, "shoot: writing %s failed", a->trace ? "the output or trace" : "the output");
 done:
-	pr_csvw_abort(tw);
-	pr_csvw_abort(w);
+	rc = pr_outset_commit(set, rc, err);
 	pr_sim_trace_free(tr);
 	pr_sim_free(sim);
 	free(state);

@@ -1,6 +1,16 @@
-/* common.c — status helpers shared by every module. */
+/* common.c — status helpers shared by every module, one-line messages, and
+ * the registry of temporary paths that a fatal signal removes. */
+#define _GNU_SOURCE /* syscall(SYS_getdents64): listing a folder inside a signal handler */
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <pthread.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
+#include <string.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include "poolreps/common.h"
 
@@ -9,15 +19,92 @@
 #endif
 
 volatile sig_atomic_t pr_interrupted = 0;
+volatile sig_atomic_t pr_out_of_memory = 0;
+
+/* Length of the UTF-8 sequence at s (1..4) if it is valid and not a control
+ * character, else 0. */
+static int utf8_ok(const unsigned char *s)
+{
+	unsigned c = s[0], cp;
+	int n, i;
+
+	if (c < 0x80)
+		return c >= 0x20 && c != 0x7f;
+	if (c >= 0xc2 && c <= 0xdf)
+		n = 2, cp = c & 0x1f;
+	else if (c >= 0xe0 && c <= 0xef)
+		n = 3, cp = c & 0x0f;
+	else if (c >= 0xf0 && c <= 0xf4)
+		n = 4, cp = c & 0x07;
+	else
+		return 0;
+	for (i = 1; i < n; ++i) {
+		if ((s[i] & 0xc0) != 0x80)
+			return 0;
+		cp = cp << 6 | (s[i] & 0x3f);
+	}
+	/* overlong forms, surrogates, beyond U+10FFFF, C1 controls */
+	if ((n == 3 && cp < 0x800) || (n == 4 && (cp < 0x10000 || cp > 0x10ffff)) ||
+	    (cp >= 0xd800 && cp <= 0xdfff) || (cp >= 0x80 && cp <= 0x9f))
+		return 0;
+	return n;
+}
+
+void pr_escape(const char *s, char *out, size_t n)
+{
+	const unsigned char *p = (const unsigned char *)s;
+	size_t o = 0;
+
+	while (*p) {
+		int k = utf8_ok(p);
+		if (k) {
+			if (o + (size_t)k >= n)
+				break;
+			memcpy(out + o, p, (size_t)k);
+			o += (size_t)k;
+			p += k;
+		} else {
+			if (o + 4 >= n)
+				break;
+			snprintf(out + o, 5, "\\x%02x", *p);
+			o += 4;
+			++p;
+		}
+	}
+	out[o] = '\0';
+}
+
+/* A UTF-8 character boundary at or after s (never inside a sequence). */
+static const char *boundary(const char *s)
+{
+	while (((unsigned char)*s & 0xc0) == 0x80)
+		++s;
+	return s;
+}
 
 int pr_err(char *err, int status, const char *fmt, ...)
 {
+	/* room for a message around a path of PATH_MAX bytes, each byte escaped */
+	char raw[PATH_MAX + PR_ERRLEN], esc[4 * (PATH_MAX + PR_ERRLEN)];
+	size_t n;
 	va_list ap;
 
+	if (status == PR_ENOMEM)
+		pr_out_of_memory = 1;
 	if (err) {
 		va_start(ap, fmt);
-		vsnprintf(err, PR_ERRLEN, fmt, ap);
+		vsnprintf(raw, sizeof raw, fmt, ap);
 		va_end(ap);
+		pr_escape(raw, esc, sizeof esc);
+		n = strlen(esc);
+		if (n < PR_ERRLEN) {
+			memcpy(err, esc, n + 1);
+		} else {
+			/* too long (a long path): keep both ends, where the reason is */
+			const char *tail = boundary(esc + n - (PR_ERRLEN - 1) * 2 / 3);
+			size_t head = (size_t)(boundary(esc + (PR_ERRLEN - 1) / 3 - 4) - esc);
+			snprintf(err, PR_ERRLEN, "%.*s...%s", (int)head, esc, tail);
+		}
 	}
 	return status;
 }
@@ -30,7 +117,7 @@ int pr_exit_code(int status)
 	case PR_EIO: return 2;
 	case PR_ENUM: return 3;
 	case PR_ENOMEM: return 4;
-	case PR_EINTR: return 130;
+	case PR_EINTR: return 128 + (pr_interrupted > 0 ? pr_interrupted : SIGINT);
 	default: return 1;
 	}
 }
@@ -38,4 +125,134 @@ int pr_exit_code(int status)
 const char *pr_version(void)
 {
 	return PR_VERSION_STR;
+}
+
+/* ---- clean-up registry ---- */
+
+/* every signal whose default action ends the process, except the faults a
+ * bug raises (SIGSEGV and the like, which the sanitizers report) */
+const int pr_fatal_signals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGXFSZ, SIGXCPU,
+                                SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPOLL, SIGPWR,
+                                SIGSTKFLT, 0};
+
+#define MAX_TRACKED 64
+static char tracked[MAX_TRACKED][PATH_MAX];
+static char staging_dir[PATH_MAX], created_dir[PATH_MAX];
+static size_t created_keep;
+static pthread_mutex_t tracked_mu = PTHREAD_MUTEX_INITIALIZER;
+
+void pr_cleanup_add_file(const char *path)
+{
+	int i;
+
+	pthread_mutex_lock(&tracked_mu);
+	for (i = 0; i < MAX_TRACKED; ++i)
+		if (!tracked[i][0]) {
+			snprintf(tracked[i], sizeof tracked[i], "%s", path);
+			break;
+		}
+	pthread_mutex_unlock(&tracked_mu);
+}
+
+void pr_cleanup_remove_file(const char *path)
+{
+	int i;
+
+	pthread_mutex_lock(&tracked_mu);
+	for (i = 0; i < MAX_TRACKED; ++i)
+		if (strcmp(tracked[i], path) == 0) {
+			tracked[i][0] = '\0';
+			break;
+		}
+	pthread_mutex_unlock(&tracked_mu);
+}
+
+void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep)
+{
+	snprintf(created_dir, sizeof created_dir, "%s", dir);
+	created_keep = keep;
+	snprintf(staging_dir, sizeof staging_dir, "%s", staging);
+}
+
+void pr_cleanup_clear_dir(void)
+{
+	staging_dir[0] = '\0';
+	created_dir[0] = '\0';
+}
+
+struct dirent64_raw {
+	uint64_t ino;
+	int64_t off;
+	unsigned short reclen;
+	unsigned char type;
+	char name[];
+};
+
+/* Remove the files of dir, then dir, with async-signal-safe calls only.
+ * Another thread may still add a file: list again until rmdir succeeds. */
+static void remove_dir_now(const char *dir)
+{
+	long buf[1024];
+	int pass, fd;
+
+	for (pass = 0; pass < 8; ++pass) {
+		long n;
+		if ((fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC)) < 0)
+			return;
+		while ((n = syscall(SYS_getdents64, fd, buf, sizeof buf)) > 0) {
+			long off = 0;
+			while (off < n) {
+				const struct dirent64_raw *d = (const void *)((const char *)buf + off);
+				off += d->reclen;
+				if (strcmp(d->name, ".") && strcmp(d->name, ".."))
+					unlinkat(fd, d->name, 0);
+			}
+		}
+		close(fd);
+		if (rmdir(dir) == 0 || errno != ENOTEMPTY)
+			return;
+	}
+}
+
+void pr_cleanup_run(void)
+{
+	int i, saved = errno;
+
+	for (i = 0; i < MAX_TRACKED; ++i)
+		if (tracked[i][0]) {
+			unlink(tracked[i]);
+			tracked[i][0] = '\0';
+		}
+	if (staging_dir[0])
+		remove_dir_now(staging_dir);
+	/* the folders the run created, deepest first, each if empty */
+	while (created_dir[0] && strlen(created_dir) > created_keep && rmdir(created_dir) == 0) {
+		char *slash = strrchr(created_dir, '/');
+		if (!slash)
+			break;
+		*slash = '\0';
+	}
+	staging_dir[0] = created_dir[0] = '\0';
+	errno = saved;
+}
+
+void pr_cleanup_hold(sigset_t *old)
+{
+	sigset_t set;
+	int i;
+
+	sigemptyset(&set);
+	for (i = 0; pr_fatal_signals[i]; ++i)
+		sigaddset(&set, pr_fatal_signals[i]);
+	pthread_sigmask(SIG_BLOCK, &set, old);
+}
+
+void pr_cleanup_release(const sigset_t *old)
+{
+	pthread_sigmask(SIG_SETMASK, old, NULL);
+}
+
+int pr_pid_gone(long pid)
+{
+	return pid > 0 && pid != (long)getpid() && kill((pid_t)pid, 0) != 0 && errno == ESRCH;
 }

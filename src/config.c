@@ -19,14 +19,16 @@
 #include "poolreps/config.h"
 #include "csvio_priv.h"
 
-enum { K_DOUBLE, K_INT, K_LONG, K_ULONG, K_ENUM, K_NAME, K_NAMES, K_POCKETS, K_BOX, K_LIST };
+enum { K_DOUBLE, K_INT, K_LONG, K_ULONG, K_ENUM, K_NAME, K_NAMES, K_POCKETS, K_BOX, K_LIST, K_ILIST };
+/* open bounds (key_def.lo_open) */
+enum { OPEN_LO = 1, OPEN_HI = 2 };
 
 typedef struct {
 	const char *section, *key;
 	int type;
 	size_t off;
-	double lo, hi;     /* inclusive range (for K_LIST: of each element) */
-	int lo_open;       /* 1: the lower bound itself is excluded */
+	double lo, hi;     /* range (for K_LIST, K_ILIST: of each element) */
+	int lo_open;       /* OPEN_LO, OPEN_HI: that bound itself is excluded */
 	const char *unit;  /* or, for K_ENUM/K_NAME, the choices "a|b|c" */
 	const char *help;
 } key_def;
@@ -41,6 +43,8 @@ static const key_def keys[] = {
 	{"experiment", "repetitions", K_INT, F(run.repetitions), 1, 10000, 0, "", "independent repetitions"},
 	{"experiment", "repetition", K_INT, F(run.repetition), -1, 9999, 0, "",
 	 "-1 runs all repetitions; k runs only repetition k (sweeps)"},
+	{"experiment", "variant", K_INT, F(run.variant), -1, PR_VARIANTS_MAX - 1, 0, "",
+	 "-1 runs all variants; v runs only variant v: exp1 setting, exp3 policy (sweeps)"},
 	{"experiment", "threads", K_INT, F(run.threads), 1, 256, 0, "", "threads for repetitions"},
 
 	{"table", "length", K_DOUBLE, F(table.length), 0, 100, 1, "m", "long side (x)"},
@@ -74,31 +78,35 @@ static const key_def keys[] = {
 
 	{"ghost", "arrival_speed", K_DOUBLE, F(expert.arrival_speed), 0, 10, 1, "m/s",
 	 "ghost-ball expert: reward ball speed at the aim point"},
+	{"ghost", "aim", K_ENUM, F(expert.aim), 0, 0, 0, "centre|corridor",
+	 "ghost-ball expert: aim at the target pocket's centre or its corridor entry"},
 	{"exp1", "aim_speed", K_DOUBLE, F(expert.aim_speed), 0, 100, 1, "m/s",
 	 "Experiment 1 data policy: cue speed aimed at the reward ball"},
 	{"exp1", "train", K_INT, F(exp1.train), 1, 10000000, 0, "", "training shots"},
 	{"exp1", "test", K_INT, F(exp1.test), 1, 10000000, 0, "", "test shots"},
 	{"exp1", "subset", K_INT, F(exp1.subset), 1, 10000000, 0, "", "training samples per forest"},
 	{"exp1", "test_subset", K_INT, F(exp1.test_subset), 1, 10000000, 0, "", "test samples per forest"},
-	{"exp1", "n_min_list", K_LIST, F(exp1.n_min_list), 1, 10000000, 0, "", "n_min sweep (Fig. 7.4a)"},
-	{"exp1", "trees_list", K_LIST, F(exp1.trees_list), 1, 10000, 0, "", "M sweep (Fig. 7.4b)"},
-	{"exp1", "cuts_list", K_LIST, F(exp1.cuts_list), 1, 10000, 0, "", "K sweep (Fig. 7.4c)"},
+	{"exp1", "n_min_list", K_ILIST, F(exp1.n_min_list), 1, 10000000, 0, "", "n_min sweep (Fig. 7.4a)"},
+	{"exp1", "trees_list", K_ILIST, F(exp1.trees_list), 1, 10000, 0, "", "M sweep (Fig. 7.4b)"},
+	{"exp1", "cuts_list", K_ILIST, F(exp1.cuts_list), 1, 10000, 0, "", "K sweep (Fig. 7.4c)"},
 	{"exp1", "map_grid", K_INT, F(exp1.map_grid), 2, 1000, 0, "", "reward map grid points per side"},
 
-	{"exp2", "sizes", K_LIST, F(exp2.sizes), 2, 10000000, 0, "", "training-set sizes"},
+	{"exp2", "sizes", K_ILIST, F(exp2.sizes), 2, 10000000, 0, "", "training-set sizes"},
 	{"exp2", "test", K_INT, F(exp2.test), 1, 10000000, 0, "", "test shots per size and policy"},
 	{"exp2", "n_min_frac", K_DOUBLE, F(exp2.n_min_frac), 0, 1, 1, "", "tree policies: n_min = frac * size"},
 
 	{"exp3", "init_samples", K_INT, F(exp3.init_samples), 1, 10000000, 0, "", "samples of the initial policy"},
-	{"exp3", "init_std", K_DOUBLE, F(exp3.init_std), 0, 100, 1, "m/s", "initial policy N(0, init_std^2 I)"},
+	{"exp3", "init_std", K_DOUBLE, F(exp3.init_std), 1e-100, 100, 0, "m/s", "initial policy N(0, init_std^2 I)"},
 	{"exp3", "iterations", K_INT, F(exp3.iterations), 0, 1000000, 0, "", "REPS iterations"},
 	{"exp3", "samples", K_INT, F(exp3.samples), 1, 10000000, 0, "", "new samples per iteration"},
-	{"exp3", "window", K_INT, F(exp3.window), 1, 10000000, 0, "", "latest samples REPS reuses"},
+	{"exp3", "window", K_INT, F(exp3.window), 2, 10000000, 0, "", "latest samples REPS reuses"},
 	{"exp3", "policies", K_NAMES, F(exp3.policies), 0, 0, 0,
 	 "nrvr_rs|rvr_rs|nrvr_a|rvr_a|baseline|handcrafted", "comma list of variants to run"},
 	{"exp3", "baseline_n_min", K_INT, F(exp3.baseline_n_min), 1, 100000000, 0, "", "n_min of the baseline policy"},
 	{"exp3", "final_episodes", K_INT, F(exp3.final_episodes), 1, 100000000, 0, "",
 	 "Figs. 7.8-7.10: each run's last episodes"},
+	{"exp3", "handcrafted_method", K_ENUM, F(exp3.handcrafted_method), 0, 0, 0, "creps|ccmaes",
+	 "hand-crafted variant: REPS + weighted ML, or contextual CMA-ES"},
 
 	{"forest", "trees", K_INT, F(forest.trees), 1, 10000, 0, "", "M trees"},
 	{"forest", "cuts", K_INT, F(forest.cuts), 1, 10000, 0, "", "K random tests per node"},
@@ -122,7 +130,7 @@ static const key_def keys[] = {
 
 	{"reps", "epsilon", K_DOUBLE, F(reps.epsilon), 0, 1e6, 1, "nats", "KL bound (eq. 3.2; sphere, rosenbrock: 1)"},
 	{"reps", "ridge", K_DOUBLE, F(reps.ridge), 0, 1e12, 0, "", "ridge on theta in the dual"},
-	{"reps", "eta_min", K_DOUBLE, F(reps.eta_min), 0, 1, 1, "",
+	{"reps", "eta_min", K_DOUBLE, F(reps.eta_min), 0, 1, OPEN_LO | OPEN_HI, "",
 	 "eta (return standard deviations) below which the eta -> 0 limit decides if KL = epsilon is reachable"},
 	{"reps", "max_iter", K_INT, F(reps.max_iter), 1, 10000000, 0, "", "dual evaluations per solve"},
 	{"reps", "allow_failed", K_INT, F(reps.allow_failed), 0, 1, 0, "",
@@ -130,7 +138,7 @@ static const key_def keys[] = {
 
 	{"policy", "target", K_ENUM, F(policy.target), 0, 0, 0, "action|reward_state", "policy forest output"},
 	{"policy", "lambda", K_DOUBLE, F(policy.lambda), 0, 1e12, 0, "", "ridge of eq. 6.6"},
-	{"policy", "min_std", K_DOUBLE, F(policy.min_std), 0, 100, 1, "m/s", "floor on action standard deviations"},
+	{"policy", "min_std", K_DOUBLE, F(policy.min_std), 1e-100, 100, 0, "m/s", "floor on action standard deviations"},
 	{"policy", "trees", K_INT, F(policy.forest.trees), 1, 10000, 0, "", "policy forest: M (exp2: 30)"},
 	{"policy", "cuts", K_INT, F(policy.forest.cuts), 1, 10000, 0, "", "policy forest: K (exp2: 10)"},
 	{"policy", "n_min", K_INT, F(policy.forest.n_min), 1, 100000000, 0, "", "policy forest: n_min"},
@@ -141,6 +149,8 @@ static const key_def keys[] = {
 	 "policy forest, two outputs: eq. 6.3 as printed (sum) or each relative to its variance"},
 	{"policy", "cov", K_ENUM, F(policy.cov), 0, 0, 0, "query|residual",
 	 "eq. 6.8 centred on the query mean (as printed) or on each sample's own fit"},
+	{"policy", "cov_center", K_ENUM, F(policy.cov_center), 0, 0, 0, "new|old",
+	 "linear weighted ML: residuals around the new mean or the sampling policy's (benchmarks: old)"},
 
 	/* defaults of bench.* depend on experiment.name (pr_bench_opts_init), as
 	 * do those in exp_defaults: the help text names them */
@@ -149,12 +159,14 @@ static const key_def keys[] = {
 	{"bench", "dims", K_INT, F(bench.dims), 1, 10000, 0, "", "action (parameter) dimensions (quadratic: 1)"},
 	{"bench", "context_dims", K_INT, F(bench.context_dims), 1, 100, 0, "",
 	 "context dimensions k (quadratic, rosenbrock: 1)"},
-	{"bench", "init_std", K_DOUBLE, F(bench.init_std), 0, 1e6, 1, "", "initial policy standard deviation"},
-	{"bench", "min_std", K_DOUBLE, F(bench.min_std), 0, 1e6, 1, "", "floor on policy standard deviations"},
+	{"bench", "init_std", K_DOUBLE, F(bench.init_std), 1e-100, 1e6, 0, "", "initial policy standard deviation"},
+	{"bench", "min_std", K_DOUBLE, F(bench.min_std), 1e-100, 1e6, 0, "", "floor on policy standard deviations"},
 	{"bench", "value_degree", K_INT, F(bench.value_degree), 1, 2, 0, "",
 	 "REPS value features: 1 = s, 2 = s and its products (quadratic: 2)"},
 	{"bench", "test_contexts", K_INT, F(bench.test_contexts), 1, 1000000, 0, "",
 	 "fixed contexts scoring the policy mean"},
+	{"bench", "method", K_ENUM, F(bench.method), 0, 0, 0, "creps|ccmaes",
+	 "contextual REPS or contextual CMA-ES"},
 };
 
 #define NKEYS (sizeof keys / sizeof keys[0])
@@ -194,6 +206,9 @@ static const struct {
 	{"exp3", "value.score", "nrvr"},
 	{"sphere", "reps.epsilon", "1"},
 	{"rosenbrock", "reps.epsilon", "1"},
+	{"quadratic", "policy.cov_center", "old"},
+	{"sphere", "policy.cov_center", "old"},
+	{"rosenbrock", "policy.cov_center", "old"},
 };
 #define NEXPDEF (sizeof exp_defaults / sizeof exp_defaults[0])
 
@@ -250,6 +265,7 @@ void pr_run_opts_init(pr_run_opts *o)
 	o->seed = 1;
 	o->repetitions = 5;
 	o->repetition = -1;
+	o->variant = -1;
 	o->threads = 1;
 }
 
@@ -308,7 +324,8 @@ static const key_def *find_dotted(const char *name)
 
 static int in_range(const key_def *k, double v)
 {
-	return (k->lo_open ? v > k->lo : v >= k->lo) && v <= k->hi;
+	return (k->lo_open & OPEN_LO ? v > k->lo : v >= k->lo) &&
+	       (k->lo_open & OPEN_HI ? v < k->hi : v <= k->hi);
 }
 
 static int range_err(const key_def *k, const char *where, const char *value, char *err)
@@ -317,8 +334,10 @@ static int range_err(const key_def *k, const char *where, const char *value, cha
 
 	pr_csv_format_double(k->lo, lo, sizeof lo);
 	pr_csv_format_double(k->hi, hi, sizeof hi);
-	return pr_err(err, PR_EINVAL, "%s%s.%s: %s out of range: must be %s %s and <= %s",
-	              where, k->section, k->key, value, k->lo_open ? ">" : ">=", lo, hi);
+	return pr_err(err, PR_EINVAL, "%s%s.%s: %s out of range: must be %s %s and %s %s%s",
+	              where, k->section, k->key, value, k->lo_open & OPEN_LO ? ">" : ">=", lo,
+	              k->lo_open & OPEN_HI ? "<" : "<=", hi,
+	              k->type == K_ILIST ? ", whole numbers" : "");
 }
 
 /* Split a comma list of finite numbers into v (capacity cap); returns count or -1. */
@@ -407,14 +426,20 @@ static int set_value_raw(pr_config *c, const key_def *k, const char *value, cons
 	case K_NAMES: {
 		char item[64];
 		const char *p = value;
+		unsigned seen = 0;
 		if (strlen(value) >= 128)
 			return pr_err(err, PR_EINVAL, "%s%s.%s: list too long", where, k->section, k->key);
 		do {
 			size_t len = strcspn(p, ",");
+			int choice;
 			snprintf(item, sizeof item, "%.*s", (int)(len < 63 ? len : 63), p);
-			if (choice_index(k->unit, trim(item)) < 0)
+			if ((choice = choice_index(k->unit, trim(item))) < 0)
 				return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' is not one of %s",
 				              where, k->section, k->key, trim(item), k->unit);
+			if (seen & 1u << choice)
+				return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' listed twice",
+				              where, k->section, k->key, trim(item));
+			seen |= 1u << choice;
 			p += len;
 		} while (*p++ == ',');
 		snprintf(base, 128, "%s", value);
@@ -448,14 +473,15 @@ static int set_value_raw(pr_config *c, const key_def *k, const char *value, cons
 			              where, k->section, k->key, value);
 		memcpy(base, list, 4 * sizeof *list);
 		return PR_OK;
-	case K_LIST: {
+	case K_LIST:
+	case K_ILIST: {
 		pr_list *l = (pr_list *)base;
 		n = parse_numbers(value, list, PR_LIST_MAX);
 		if (n < 1)
 			return pr_err(err, PR_EINVAL, "%s%s.%s: expected a comma list of 1 to %d numbers, "
 			              "got '%.40s'", where, k->section, k->key, PR_LIST_MAX, value);
 		for (i = 0; i < n; ++i)
-			if (!in_range(k, list[i]))
+			if (!in_range(k, list[i]) || (k->type == K_ILIST && list[i] != floor(list[i])))
 				return range_err(k, where, value, err);
 		l->n = n;
 		memcpy(l->v, list, (size_t)n * sizeof *list);
@@ -477,8 +503,7 @@ typedef struct {
 	char section[64];
 	char seen[sizeof keys / sizeof keys[0]];
 	long seen_line[sizeof keys / sizeof keys[0]];
-	char *buf;
-	size_t cap;
+	char buf[4100];    /* one line: above ini_max_line, the limit checked */
 } loader;
 
 static char *trim(char *s)
@@ -494,27 +519,35 @@ static char *trim(char *s)
 }
 
 /* One physical line per call, so inih's line numbers and ours agree; also
- * catches long lines, NUL bytes and unknown sections at their line. */
+ * catches long lines, NUL bytes and unknown sections at their line. Bytes are
+ * read one by one into a buffer of the line limit, so no input (/dev/zero, an
+ * endless line) makes it grow. */
 static char *read_line(char *str, int num, void *stream)
 {
 	loader *L = stream;
-	ssize_t len;
+	size_t len = 0;
+	int ch = EOF;
 	char *s;
 
 	if (L->status)
 		return NULL;
-	len = getline(&L->buf, &L->cap, L->fp);
-	if (len < 0)
+	while (len + 1 < sizeof L->buf && (ch = getc(L->fp)) != EOF) {
+		if (ch == '\0') {
+			L->status = pr_err(L->err, PR_EINVAL, "%s:%ld: NUL byte in parameter file",
+			                   L->path, L->line + 1);
+			return NULL;
+		}
+		L->buf[len++] = (char)ch;
+		if (ch == '\n')
+			break;
+	}
+	L->buf[len] = '\0';
+	if (len == 0)
 		return NULL;
 	L->line++;
-	if (len >= num - 1) {
+	if (len >= (size_t)num - 1 || (ch != '\n' && ch != EOF)) {
 		L->status = pr_err(L->err, PR_EINVAL, "%s:%ld: line longer than %d bytes",
 		                   L->path, L->line, num - 2);
-		return NULL;
-	}
-	if ((size_t)len != strlen(L->buf)) {
-		L->status = pr_err(L->err, PR_EINVAL, "%s:%ld: NUL byte in parameter file",
-		                   L->path, L->line);
 		return NULL;
 	}
 	/* binary junk, and a control character would break the one-line message */
@@ -545,7 +578,7 @@ static char *read_line(char *str, int num, void *stream)
 			}
 		}
 	}
-	memcpy(str, L->buf, (size_t)len + 1);
+	memcpy(str, L->buf, len + 1);
 	return str;
 }
 
@@ -613,7 +646,6 @@ int pr_config_load(pr_config *c, const char *path, char *err)
 	if (!L.status && ferror(L.fp))
 		L.status = pr_err(err, PR_EIO, "%s: read error", path);
 	fclose(L.fp);
-	free(L.buf);
 	if (L.status)
 		return L.status;
 	if (rc == -2)
@@ -710,6 +742,17 @@ int pr_config_validate(const pr_config *c, char *err)
 	if (c->run.repetition >= c->run.repetitions)
 		return pr_err(err, PR_EINVAL, "%s: experiment.repetition: %d, but there are only %d repetitions",
 		              AT("experiment.repetition"), c->run.repetition, c->run.repetitions);
+	/* the modules' own checks, so that `config` refuses what a run would,
+	 * naming where the key was set */
+	if ((rc = pr_forest_opts_check(&c->forest, "forest", err)) ||
+	    (rc = pr_forest_opts_check(&c->value, "value", err)) ||
+	    (rc = pr_policy_opts_check(&c->policy, err)) ||
+	    (rc = pr_bench_opts_check(&c->bench, err))) {
+		char key[64], msg[PR_ERRLEN];
+		snprintf(key, sizeof key, "%.*s", (int)strcspn(err, ":"), err);
+		snprintf(msg, sizeof msg, "%s", err);
+		return pr_err(err, rc, "%s: %s", AT(key), msg);
+	}
 #undef AT
 	return PR_OK;
 }
@@ -751,7 +794,8 @@ static void write_value(const pr_config *c, const key_def *k, FILE *fp)
 			fprintf(fp, "%s%s", i ? "," : "", buf);
 		}
 		break;
-	case K_LIST: {
+	case K_LIST:
+	case K_ILIST: {
 		const pr_list *l = (const pr_list *)base;
 		for (i = 0; i < l->n; ++i) {
 			pr_csv_format_double(l->v[i], buf, sizeof buf);
@@ -760,6 +804,49 @@ static void write_value(const pr_config *c, const key_def *k, FILE *fp)
 		break;
 	}
 	}
+}
+
+/* The value of key k as pr_config_write writes it, malloc'd (NULL: no memory). */
+static char *value_text(const pr_config *c, const key_def *k)
+{
+	char *buf = NULL;
+	size_t n = 0;
+	FILE *fp = open_memstream(&buf, &n);
+
+	if (!fp)
+		return NULL;
+	write_value(c, k, fp);
+	if (fclose(fp) != 0) {
+		free(buf);
+		return NULL;
+	}
+	return buf;
+}
+
+int pr_config_diff(const pr_config *a, const pr_config *b, const char *const *skip, char *key,
+                   size_t nkey, char *va, char *vb, size_t n)
+{
+	size_t i, j;
+
+	for (i = 0; i < NKEYS; ++i) {
+		char *x, *y;
+		int differ;
+		snprintf(key, nkey, "%s.%s", keys[i].section, keys[i].key);
+		for (j = 0; skip && skip[j] && strcmp(key, skip[j]) != 0; ++j)
+			;
+		if (skip && skip[j])
+			continue;
+		x = value_text(a, &keys[i]);
+		y = value_text(b, &keys[i]);
+		differ = !x || !y || strcmp(x, y) != 0;
+		snprintf(va, n, "%s", x ? x : "?");
+		snprintf(vb, n, "%s", y ? y : "?");
+		free(x);
+		free(y);
+		if (differ)
+			return 1;
+	}
+	return 0;
 }
 
 int pr_config_write(const pr_config *c, FILE *fp)
@@ -800,7 +887,8 @@ void pr_config_help(FILE *fp)
 			pr_csv_format_double(k->hi, hi, sizeof hi);
 			if (k->unit[0])
 				fprintf(fp, " %s", k->unit);
-			fprintf(fp, "  %s%s..%s]", k->lo_open ? "(" : "[", lo, hi);
+			fprintf(fp, "  %s%s..%s%s%s", k->lo_open & OPEN_LO ? "(" : "[", lo, hi,
+			        k->lo_open & OPEN_HI ? ")" : "]", k->type == K_ILIST ? " whole numbers" : "");
 		} else if (k->unit[0]) {
 			fprintf(fp, " %s", k->unit);
 		}

@@ -1,12 +1,17 @@
-/* csvio.c — numeric CSV tables read through libcsv, and an atomic writer.
+/* csvio.c — the one CSV reader (libcsv, strict, limits applied as bytes
+ * arrive), numeric tables on top of it, and the atomic writer with its
+ * sticky status and output sets (see csvio.h and csvio_priv.h).
  *
- * The reader feeds libcsv one physical line at a time so that every record
- * can be reported with the file line it ends on. The writer never writes a
- * non-finite number and writes files under a temporary name that is renamed
- * only when the file is complete (pr_csvw_close).
+ * The reader feeds libcsv block by block, split at line ends, so that every
+ * record is reported with the file line it ends on.
  */
+#define _DEFAULT_SOURCE /* realpath */
+#include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,9 +23,6 @@
 #include "poolreps/csvio.h"
 #include "csvio_priv.h"
 
-#define MAX_FIELD 4096        /* bytes in one field */
-#define MAX_LINE (1L << 24)   /* bytes in one physical line */
-#define MAX_COLS 100000
 
 struct pr_csv {
 	int ncols;
@@ -28,7 +30,7 @@ struct pr_csv {
 	long nrows, cap;
 	double *data;
 	long *lines;
-	char path[256];
+	char *path;
 };
 
 pr_csv *pr_csv_new(int ncols, const char *const *names, char *err)
@@ -36,8 +38,8 @@ pr_csv *pr_csv_new(int ncols, const char *const *names, char *err)
 	pr_csv *t;
 	int j;
 
-	if (ncols < 1 || ncols > MAX_COLS) {
-		pr_err(err, PR_EINVAL, "table: %d columns (must be 1..%d)", ncols, MAX_COLS);
+	if (ncols < 1 || ncols > PR_CSV_MAX_COLS) {
+		pr_err(err, PR_EINVAL, "table: %d columns (must be 1..%d)", ncols, PR_CSV_MAX_COLS);
 		return NULL;
 	}
 	t = calloc(1, sizeof *t);
@@ -69,6 +71,7 @@ void pr_csv_free(pr_csv *t)
 	free(t->names);
 	free(t->data);
 	free(t->lines);
+	free(t->path);
 	free(t);
 }
 
@@ -78,7 +81,7 @@ const char *pr_csv_name(const pr_csv *t, int j) { return t->names[j]; }
 double pr_csv_get(const pr_csv *t, long i, int j) { return t->data[i * t->ncols + j]; }
 const double *pr_csv_row(const pr_csv *t, long i) { return t->data + i * t->ncols; }
 long pr_csv_line(const pr_csv *t, long i) { return t->lines ? t->lines[i] : i + 2; }
-const char *pr_csv_path(const pr_csv *t) { return t->path[0] ? t->path : "<table>"; }
+const char *pr_csv_path(const pr_csv *t) { return t->path ? t->path : "<table>"; }
 
 int pr_csv_find(const pr_csv *t, const char *name)
 {
@@ -141,99 +144,79 @@ int pr_csv_parse_double(const char *s, double *v)
 	return PR_OK;
 }
 
-/* Control characters in a quoted field would break a one-line error message:
- * header names may not hold them, and rejected values show them as '?'. */
-static int has_control(const char *s)
-{
-	for (; *s; ++s)
-		if ((unsigned char)*s < 0x20 || *s == 0x7f)
-			return 1;
-	return 0;
-}
+/* ---- the one reader ---- */
 
-static void visible(char *s)
-{
-	for (; *s; ++s)
-		if ((unsigned char)*s < 0x20 || *s == 0x7f)
-			*s = '?';
-}
-
-/* State shared with the libcsv callbacks. */
 typedef struct {
-	pr_csv *t;
 	const char *path;
-	long line;
-	int nfield, header_done, status;
-	char **hdr;
-	int nhdr, cap_hdr;
-	double *row;
+	unsigned flags;
+	pr_csv_record_fn header, row;
+	void *user;
 	char *err;
-} reader;
+	long line;                 /* current physical line, 1-based */
+	int status, header_done, ncols;
+	long nfields_seen;         /* fields completed so far (limit bookkeeping) */
+	int nfield, capfield;
+	size_t *off;               /* start of each field of the record in text */
+	char *text;                /* the record's fields, NUL-terminated, end to end */
+	size_t len, cap;
+	char **ptr;                /* handed to the callbacks */
+} scanner;
 
 static void on_field(void *s, size_t len, void *data)
 {
-	reader *r = data;
-	char buf[MAX_FIELD + 1];
-	double v;
+	scanner *r = data;
 
 	if (r->status)
 		return;
-	if (len > MAX_FIELD) {
+	r->nfields_seen++;
+	if (r->nfield >= PR_CSV_MAX_COLS) {
+		r->status = pr_err(r->err, PR_EIO, "%s:%ld: more than %d fields", r->path, r->line,
+		                   PR_CSV_MAX_COLS);
+		return;
+	}
+	if (len > PR_CSV_MAX_FIELD) {
 		r->status = pr_err(r->err, PR_EIO, "%s:%ld: field %d is longer than %d bytes",
-		                   r->path, r->line, r->nfield + 1, MAX_FIELD);
+		                   r->path, r->line, r->nfield + 1, PR_CSV_MAX_FIELD);
 		return;
 	}
-	if (s)
-		memcpy(buf, s, len);
-	buf[len] = '\0';
-	if (len && memchr(buf, '\0', len)) {
-		r->status = pr_err(r->err, PR_EIO, "%s:%ld: field %d contains a NUL byte",
-		                   r->path, r->line, r->nfield + 1);
-		return;
-	}
-	if (!r->header_done) {
-		if (r->nhdr >= MAX_COLS) {
-			r->status = pr_err(r->err, PR_EIO, "%s:%ld: more than %d columns",
-			                   r->path, r->line, MAX_COLS);
+	if (r->nfield == r->capfield) {
+		int cap = r->capfield ? 2 * r->capfield : 16;
+		size_t *o = realloc(r->off, (size_t)cap * sizeof *o);
+		char **q = o ? realloc(r->ptr, (size_t)cap * sizeof *q) : NULL;
+		if (o)
+			r->off = o;
+		if (!q) {
+			r->status = pr_err(r->err, PR_ENOMEM, "%s:%ld: out of memory", r->path, r->line);
 			return;
 		}
-		if (r->nhdr == r->cap_hdr) {
-			int cap = r->cap_hdr ? 2 * r->cap_hdr : 16;
-			char **h = realloc(r->hdr, (size_t)cap * sizeof *h);
-			if (!h) {
-				r->status = pr_err(r->err, PR_ENOMEM, "out of memory");
-				return;
-			}
-			r->hdr = h;
-			r->cap_hdr = cap;
-		}
-		if (!(r->hdr[r->nhdr] = strdup(buf))) {
-			r->status = pr_err(r->err, PR_ENOMEM, "out of memory");
+		r->ptr = q;
+		r->capfield = cap;
+	}
+	if (r->len + len + 1 > r->cap) {
+		size_t cap = 2 * (r->len + len + 1) + 256;
+		char *t = realloc(r->text, cap);
+		if (!t) {
+			r->status = pr_err(r->err, PR_ENOMEM, "%s:%ld: out of memory", r->path, r->line);
 			return;
 		}
-		r->nhdr++;
-		r->nfield++;
-		return;
+		r->text = t;
+		r->cap = cap;
 	}
-	if (r->nfield >= r->t->ncols) {
-		r->nfield++;
-		return;
-	}
-	if (pr_csv_parse_double(buf, &v)) {
-		visible(buf);
-		r->status = pr_err(r->err, PR_EIO, "%s:%ld: column '%s': not a finite number: '%.40s'",
-		                   r->path, r->line, r->t->names[r->nfield], buf);
-		return;
-	}
-	r->row[r->nfield++] = v;
+	r->off[r->nfield++] = r->len;
+	if (len)
+		memcpy(r->text + r->len, s, len);
+	r->len += len;
+	r->text[r->len++] = '\0';
 }
 
-static int start_table(reader *r)
+/* Header names: trailing blanks trimmed, non-empty, no control character,
+ * no name twice. */
+static int check_header(scanner *r)
 {
 	int j, k;
 
-	for (j = 0; j < r->nhdr; ++j) {
-		char *h = r->hdr[j];
+	for (j = 0; j < r->nfield; ++j) {
+		char *h = r->ptr[j];
 		size_t n = strlen(h);
 
 		while (n && (h[n - 1] == ' ' || h[n - 1] == '\t' || h[n - 1] == '\r'))
@@ -241,58 +224,89 @@ static int start_table(reader *r)
 		if (!n)
 			return pr_err(r->err, PR_EIO, "%s:%ld: header column %d is empty",
 			              r->path, r->line, j + 1);
-		if (has_control(h))
-			return pr_err(r->err, PR_EIO, "%s:%ld: header column %d contains a control character",
-			              r->path, r->line, j + 1);
+		for (k = 0; h[k]; ++k)
+			if ((unsigned char)h[k] < 0x20 || h[k] == 0x7f)
+				return pr_err(r->err, PR_EIO, "%s:%ld: header column %d contains a control character",
+				              r->path, r->line, j + 1);
 		for (k = 0; k < j; ++k)
-			if (strcmp(r->hdr[k], h) == 0)
+			if (strcmp(r->ptr[k], h) == 0)
 				return pr_err(r->err, PR_EIO, "%s:%ld: header column '%s' appears twice",
 				              r->path, r->line, h);
 	}
-	r->t = pr_csv_new(r->nhdr, (const char *const *)r->hdr, r->err);
-	if (!r->t)
-		return PR_ENOMEM;
-	snprintf(r->t->path, sizeof r->t->path, "%s", r->path);
-	r->row = malloc((size_t)r->nhdr * sizeof *r->row);
-	if (!r->row)
-		return pr_err(r->err, PR_ENOMEM, "out of memory");
 	return PR_OK;
 }
 
-static void on_row(int c, void *data)
+static void on_record(int c, void *data)
 {
-	reader *r = data;
+	scanner *r = data;
+	int j;
 
 	(void)c;
-	if (r->status)
-		return;
-	if (!r->header_done) {
-		r->header_done = 1;
-		r->status = start_table(r);
-	} else if (r->nfield != r->t->ncols) {
-		r->status = pr_err(r->err, PR_EIO, "%s:%ld: %d fields, but the header has %d",
-		                   r->path, r->line, r->nfield, r->t->ncols);
-	} else {
-		r->status = add_row(r->t, r->row, r->line, r->err);
+	if (!r->status) {
+		for (j = 0; j < r->nfield; ++j)
+			r->ptr[j] = r->text + r->off[j];
+		if (!r->header_done) {
+			r->header_done = 1;
+			r->ncols = r->nfield;
+			if (!(r->status = check_header(r)))
+				r->status = r->header(r->user, r->path, r->line, r->nfield, r->ptr, r->err);
+		} else if (r->nfield != r->ncols) {
+			r->status = pr_err(r->err, PR_EIO, "%s:%ld: %d fields, but the header has %d",
+			                   r->path, r->line, r->nfield, r->ncols);
+		} else {
+			r->status = r->row(r->user, r->path, r->line, r->nfield, r->ptr, r->err);
+		}
 	}
 	r->nfield = 0;
+	r->len = 0;
 }
 
-int pr_csv_read(const char *path, pr_csv **out, char *err)
+/* Feed one piece (at most one line end, at its end) to libcsv. pending
+ * counts the bytes since the last completed field, which libcsv buffers: a
+ * quoted field may double its quotes, so more than twice the field limit
+ * (plus a block) means a field over the limit that has not ended yet. */
+static void feed(scanner *r, struct csv_parser *p, const char *s, size_t n, long *pending,
+                 long *linelen)
+{
+	long before = r->nfields_seen;
+
+	*linelen += (long)n;
+	if (*linelen > PR_CSV_MAX_LINE + 1) {
+		r->status = pr_err(r->err, PR_EIO, "%s:%ld: line longer than %ld bytes", r->path,
+		                   r->line, PR_CSV_MAX_LINE);
+		return;
+	}
+	if (csv_parse(p, s, n, on_field, on_record, r) != n && !r->status)
+		r->status = pr_err(r->err, PR_EIO, "%s:%ld: malformed CSV: %s", r->path, r->line,
+		                   csv_strerror(csv_error(p)));
+	*pending = r->nfields_seen == before ? *pending + (long)n : 0;
+	if (!r->status && *pending > 2L * PR_CSV_MAX_FIELD + 2)
+		r->status = pr_err(r->err, PR_EIO, "%s:%ld: field %d is longer than %d bytes%s",
+		                   r->path, r->line, r->nfield + 1, PR_CSV_MAX_FIELD,
+		                   p->quoted ? " (a quote that never ends?)" : "");
+}
+
+int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,
+                pr_csv_record_fn row, void *user, char *err)
 {
 	struct csv_parser p;
-	reader r;
+	scanner r;
 	FILE *fp;
-	char *line = NULL;
-	size_t cap = 0;
-	ssize_t len;
 	struct stat st;
-	int j, std = !path || strcmp(path, "-") == 0;
+	static const size_t block = 1 << 16;
+	char *buf;
+	size_t n;
+	long pending = 0, linelen = 0;
+	int first = 1, std = !path || strcmp(path, "-") == 0, last = '\n';
 
-	*out = NULL;
 	memset(&r, 0, sizeof r);
 	r.path = std ? "<stdin>" : path;
+	r.flags = flags;
+	r.header = header;
+	r.row = row;
+	r.user = user;
 	r.err = err;
+	r.line = 1;
 	fp = std ? stdin : fopen(path, "rb");
 	if (!fp)
 		return pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
@@ -301,50 +315,104 @@ int pr_csv_read(const char *path, pr_csv **out, char *err)
 			fclose(fp);
 		return pr_err(err, PR_EIO, "%s: is a directory, not a CSV file", r.path);
 	}
-	/* strict: a stray quote or an unterminated quoted field is an error, not data */
-	if (csv_init(&p, CSV_APPEND_NULL | CSV_STRICT | CSV_STRICT_FINI) != 0) {
+	buf = malloc(block);
+	if (!buf || csv_init(&p, CSV_APPEND_NULL | CSV_STRICT | CSV_STRICT_FINI) != 0) {
+		free(buf);
 		if (!std)
 			fclose(fp);
-		return pr_err(err, PR_ENOMEM, "out of memory");
+		return pr_err(err, PR_ENOMEM, "%s: out of memory", r.path);
 	}
-	while (!r.status && (len = getline(&line, &cap, fp)) != -1) {
-		char *s = line;
-		r.line++;
-		if (len > MAX_LINE) {
-			r.status = pr_err(err, PR_EIO, "%s:%ld: line longer than %ld bytes",
-			                  r.path, r.line, MAX_LINE);
+	while (!r.status && (n = fread(buf, 1, block, fp)) > 0) {
+		char *s = buf, *end = buf + n, *nul;
+
+		/* a UTF-8 byte-order mark (spreadsheet exports) is not part of the header */
+		if (first && n >= 3 && memcmp(s, "\xEF\xBB\xBF", 3) == 0)
+			s += 3;
+		first = 0;
+		if ((nul = memchr(s, '\0', (size_t)(end - s)))) {
+			long line = r.line;
+			for (; s < nul; ++s)
+				line += *s == '\n';
+			r.status = pr_err(err, PR_EIO, "%s:%ld: NUL byte: not a text CSV file", r.path, line);
 			break;
 		}
-		/* a UTF-8 byte-order mark (spreadsheet exports) is not part of the header */
-		if (r.line == 1 && len >= 3 && memcmp(s, "\xEF\xBB\xBF", 3) == 0) {
-			s += 3;
-			len -= 3;
+		while (!r.status && s < end) {
+			char *nl = memchr(s, '\n', (size_t)(end - s));
+			size_t len = nl ? (size_t)(nl + 1 - s) : (size_t)(end - s);
+			feed(&r, &p, s, len, &pending, &linelen);
+			if (nl && !r.status) {
+				r.line++;
+				linelen = 0;
+			}
+			s += len;
 		}
-		if (csv_parse(&p, s, (size_t)len, on_field, on_row, &r) != (size_t)len && !r.status)
-			r.status = pr_err(err, PR_EIO, "%s:%ld: malformed CSV: %s", r.path, r.line,
-			                  csv_strerror(csv_error(&p)));
+		last = (unsigned char)end[-1];
 	}
 	if (!r.status && ferror(fp))
 		r.status = pr_err(err, PR_EIO, "%s: read error: %s", r.path, strerror(errno));
-	if (!r.status && csv_fini(&p, on_field, on_row, &r) != 0 && !r.status)
+	if (last == '\n')
+		r.line--; /* messages at the end name the last line that has bytes */
+	if (!r.status && csv_fini(&p, on_field, on_record, &r) != 0 && !r.status)
 		r.status = pr_err(err, PR_EIO, "%s:%ld: malformed CSV: unterminated quoted field",
 		                  r.path, r.line);
 	if (!r.status && !r.header_done)
 		r.status = pr_err(err, PR_EIO, "%s: empty file: no header row", r.path);
+	if (!r.status && (flags & PR_CSV_COMPLETE) && last != '\n')
+		r.status = pr_err(err, PR_EIO, "%s:%ld: the last line has no line end (incomplete file?)",
+		                  r.path, r.line);
 	csv_free(&p);
-	free(line);
+	free(buf);
+	free(r.off);
+	free(r.ptr);
+	free(r.text);
 	if (!std)
 		fclose(fp);
-	for (j = 0; j < r.nhdr; ++j)
-		free(r.hdr[j]);
-	free(r.hdr);
-	free(r.row);
-	if (r.status) {
-		pr_csv_free(r.t);
-		return r.status;
-	}
-	*out = r.t;
+	return r.status;
+}
+
+/* ---- numeric tables ---- */
+
+typedef struct {
+	pr_csv *t;
+	double *row;
+} numeric;
+
+static int numeric_header(void *user, const char *path, long line, int n, char **names, char *err)
+{
+	numeric *u = user;
+
+	(void)line;
+	if (!(u->t = pr_csv_new(n, (const char *const *)names, err)))
+		return PR_ENOMEM;
+	if (!(u->t->path = strdup(path)) || !(u->row = malloc((size_t)n * sizeof *u->row)))
+		return pr_err(err, PR_ENOMEM, "%s: out of memory", path);
 	return PR_OK;
+}
+
+static int numeric_row(void *user, const char *path, long line, int n, char **fields, char *err)
+{
+	numeric *u = user;
+	int j;
+
+	for (j = 0; j < n; ++j)
+		if (pr_csv_parse_double(fields[j], &u->row[j]))
+			return pr_err(err, PR_EIO, "%s:%ld: column '%s': not a finite number: '%.40s'",
+			              path, line, u->t->names[j], fields[j]);
+	return add_row(u->t, u->row, line, err);
+}
+
+int pr_csv_read(const char *path, pr_csv **out, char *err)
+{
+	numeric u = {NULL, NULL};
+	int rc = pr_csv_scan(path, 0, numeric_header, numeric_row, &u, err);
+
+	free(u.row);
+	if (rc) {
+		pr_csv_free(u.t);
+		u.t = NULL;
+	}
+	*out = u.t;
+	return rc;
 }
 
 int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, char *err)
@@ -394,154 +462,269 @@ int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, cha
 
 /* ---- writer ---- */
 
+enum { W_STDOUT, W_DIRECT, W_FILE };
+
 struct pr_csvw {
 	FILE *fp;
-	int std, nfield, status;
-	int direct;        /* a device, FIFO or other non-regular file: written in place */
-	char path[1024];
-	char tmp[1100];
+	int kind;
+	int status, err_no;  /* sticky: the first failure and its errno */
+	int nfield;
+	long rows;           /* rows ended so far */
+	long bad_line;       /* where a non-finite number was refused */
+	int bad_field;
+	char *shown;         /* the path as given, for messages */
+	char *target;        /* W_FILE: the regular file renamed over */
+	char *tmp;           /* W_FILE: the temporary file */
+	char *backup;        /* during a commit: a second link to the old target */
+	int existed;         /* target (or device) existed: dev, ino identify it */
+	dev_t dev;
+	ino_t ino;
+	char *canon;         /* a new file: its folder's real path and its name */
+	pr_csvw *next;       /* in a pr_outset */
 };
 
-/* Temporary names still open, removed by pr_csvw_cleanup() on a signal. */
-#define MAX_OPEN 64
-static char open_tmp[MAX_OPEN][1100];
+#define TMP_PREFIX ".poolreps-tmp-"
+/* inside the open functions: fail with a status and a message */
+#define FAIL_OPEN(status, ...) do { \
+	*st = pr_err(err, status, __VA_ARGS__); \
+	return writer_fail(w); \
+} while (0)
 
-static void track(const char *tmp, int add)
+static pr_csvw *writer_fail(pr_csvw *w)
 {
-	int i;
-
-	for (i = 0; i < MAX_OPEN; ++i) {
-		if (add && !open_tmp[i][0]) {
-			snprintf(open_tmp[i], sizeof open_tmp[i], "%s", tmp);
-			return;
+	if (w) {
+		if (w->fp && w->kind != W_STDOUT)
+			fclose(w->fp);
+		if (w->tmp) {
+			unlink(w->tmp);
+			pr_cleanup_remove_file(w->tmp);
 		}
-		if (!add && strcmp(open_tmp[i], tmp) == 0) {
-			open_tmp[i][0] = '\0';
-			return;
-		}
+		free(w->shown);
+		free(w->target);
+		free(w->tmp);
+		free(w->backup);
+		free(w->canon);
+		free(w);
 	}
+	return NULL;
 }
 
-/* 1 if tmp belongs to a writer still open (two outputs named alike). */
-static int tracked(const char *tmp)
+/* The file a chain of symlinks at path ends in (malloc'd; path itself when
+ * it is no symlink), or NULL with errno set. */
+static char *follow_links(const char *path)
 {
-	int i;
-
-	for (i = 0; i < MAX_OPEN; ++i)
-		if (open_tmp[i][0] && strcmp(open_tmp[i], tmp) == 0)
-			return 1;
-	return 0;
-}
-
-int pr_csvw_cleanup(void)
-{
-	int i, n = 0;
-
-	for (i = 0; i < MAX_OPEN; ++i) {
-		if (open_tmp[i][0]) {
-			unlink(open_tmp[i]);
-			open_tmp[i][0] = '\0';
-			++n;
-		}
-	}
-	return n;
-}
-
-/* The file a chain of symlinks at path ends in, into out (size n); 0 when
- * path is no symlink or the chain is too long or too deep to follow. */
-static int follow_links(const char *path, char *out, size_t n)
-{
-	char cur[1024], link[1024];
+	char *cur = strdup(path), link[PATH_MAX];
 	struct stat st;
 	int depth;
 
-	snprintf(cur, sizeof cur, "%s", path);
-	for (depth = 0; depth < 16; ++depth) {
+	for (depth = 0; cur && depth < 40; ++depth) {
 		ssize_t len;
 		const char *slash;
+		char *next;
 
 		if (lstat(cur, &st) != 0 || !S_ISLNK(st.st_mode))
-			break;
+			return cur;
 		len = readlink(cur, link, sizeof link - 1);
-		if (len < 0 || (size_t)len >= sizeof link - 1)
-			return 0;
+		if (len < 0) {
+			free(cur);
+			return NULL;
+		}
 		link[len] = '\0';
 		slash = strrchr(cur, '/');
+		/* a relative target is relative to the link's folder */
 		if (link[0] != '/' && slash) {
-			/* a relative target is relative to the link's folder */
-			char joined[2048];
-			snprintf(joined, sizeof joined, "%.*s/%s", (int)(slash - cur), cur, link);
-			if (strlen(joined) >= sizeof cur)
-				return 0;
-			memcpy(cur, joined, strlen(joined) + 1);
+			next = malloc((size_t)(slash - cur) + 2 + (size_t)len);
+			if (next)
+				sprintf(next, "%.*s/%s", (int)(slash - cur), cur, link);
 		} else {
-			memcpy(cur, link, (size_t)len + 1);
+			next = strdup(link);
+		}
+		free(cur);
+		cur = next;
+	}
+	if (cur)
+		errno = ELOOP;
+	else
+		errno = ENOMEM;
+	free(cur);
+	return NULL;
+}
+
+/* The folder of path (malloc'd): "." for a bare name. */
+static char *folder_of(const char *path)
+{
+	const char *slash = strrchr(path, '/');
+
+	if (!slash)
+		return strdup(".");
+	if (slash == path)
+		return strdup("/");
+	return strndup(path, (size_t)(slash - path));
+}
+
+/* Remove temporary files in folder left by processes that no longer exist
+ * (killed with SIGKILL): their names hold the PID. */
+static void sweep_stale(const char *folder)
+{
+	DIR *d = opendir(folder);
+	struct dirent *e;
+
+	if (!d)
+		return;
+	while ((e = readdir(d))) {
+		char *end;
+		long pid;
+		if (strncmp(e->d_name, TMP_PREFIX, strlen(TMP_PREFIX)) != 0)
+			continue;
+		pid = strtol(e->d_name + strlen(TMP_PREFIX), &end, 10);
+		if (*end == '-' && pr_pid_gone(pid))
+			unlinkat(dirfd(d), e->d_name, 0);
+	}
+	closedir(d);
+}
+
+/* A new, registered file in folder named TMP_PREFIX<pid>-<n>, opened for
+ * writing with mode 0666 less the umask; fd, or -1 with errno set. */
+static int make_temp(const char *folder, char **name)
+{
+	static atomic_long seq;
+	int fd;
+
+	for (;;) {
+		long k = atomic_fetch_add(&seq, 1);
+		*name = malloc(strlen(folder) + 64);
+		if (!*name) {
+			errno = ENOMEM;
+			return -1;
+		}
+		sprintf(*name, "%s/%s%ld-%ld", folder, TMP_PREFIX, (long)getpid(), k);
+		pr_cleanup_add_file(*name);
+		fd = open(*name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+		if (fd >= 0)
+			return fd;
+		pr_cleanup_remove_file(*name);
+		free(*name);
+		*name = NULL;
+		if (errno != EEXIST)
+			return -1;
+	}
+}
+
+static pr_csvw *open_file(pr_csvw *w, const char *path, const struct stat *sb, int *st,
+                          char *err)
+{
+	char *folder, *real;
+	int fd;
+
+	/* renaming over a symlink would replace the link: write to its target */
+	if (!(w->target = follow_links(path)))
+		FAIL_OPEN(PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+	if (!(folder = folder_of(w->target)))
+		FAIL_OPEN(PR_ENOMEM, "out of memory");
+	if (w->existed) {
+		/* root may write anything; anyone else keeps a file they may not write */
+		if (faccessat(AT_FDCWD, w->target, W_OK, AT_EACCESS) != 0) {
+			*st = pr_err(err, PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+			free(folder);
+			return writer_fail(w);
+		}
+	} else if ((real = realpath(folder, NULL))) {
+		const char *base = strrchr(w->target, '/');
+		w->canon = malloc(strlen(real) + strlen(w->target) + 2);
+		if (w->canon)
+			sprintf(w->canon, "%s/%s", real, base ? base + 1 : w->target);
+		free(real);
+	}
+	sweep_stale(folder);
+	fd = make_temp(folder, &w->tmp);
+	free(folder);
+	if (fd < 0)
+		FAIL_OPEN(PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+	if (w->existed) {
+		/* the file keeps its permission bits, and for root its owner */
+		if (fchmod(fd, sb->st_mode & 07777) != 0) {
+			*st = pr_err(err, PR_EIO, "%s: cannot keep its permissions: %s", path, strerror(errno));
+			close(fd);
+			return writer_fail(w);
+		}
+		if (geteuid() == 0 && fchown(fd, sb->st_uid, sb->st_gid) != 0) {
+			*st = pr_err(err, PR_EIO, "%s: cannot keep its owner: %s", path, strerror(errno));
+			close(fd);
+			return writer_fail(w);
 		}
 	}
-	if (depth == 0 || depth == 16 || strlen(cur) >= n)
-		return 0;
-	memcpy(out, cur, strlen(cur) + 1);
-	return 1;
+	if (!(w->fp = fdopen(fd, "wb"))) {
+		close(fd);
+		FAIL_OPEN(PR_ENOMEM, "out of memory");
+	}
+	w->kind = W_FILE;
+	return w;
+}
+
+static pr_csvw *open_any(const char *path, int *st, char *err)
+{
+	pr_csvw *w = calloc(1, sizeof *w);
+	struct stat sb, out;
+
+	if (!w || !(w->shown = strdup(path && strcmp(path, "-") ? path : "<stdout>"))) {
+		*st = pr_err(err, PR_ENOMEM, "out of memory");
+		return writer_fail(w);
+	}
+	if (!path || strcmp(path, "-") == 0) {
+		w->fp = stdout;
+		return w;
+	}
+	if (!*path)
+		FAIL_OPEN(PR_EINVAL, "output file name is empty");
+	if (stat(path, &sb) != 0) {
+		if (errno != ENOENT)
+			FAIL_OPEN(PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+		return open_file(w, path, &sb, st, err);
+	}
+	w->existed = 1;
+	w->dev = sb.st_dev;
+	w->ino = sb.st_ino;
+	if (S_ISDIR(sb.st_mode))
+		FAIL_OPEN(PR_EIO, "%s: cannot write: is a directory", path);
+	/* /dev/stdout, /dev/fd/1, or the file stdout is redirected to */
+	if (fstat(STDOUT_FILENO, &out) == 0 && out.st_dev == sb.st_dev && out.st_ino == sb.st_ino) {
+		w->fp = stdout;
+		return w;
+	}
+	if (S_ISREG(sb.st_mode))
+		return open_file(w, path, &sb, st, err);
+	/* a FIFO or device: renaming over it would replace the device itself */
+	if (!(w->fp = fopen(path, "wb")))
+		FAIL_OPEN(PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+	w->kind = W_DIRECT;
+	return w;
 }
 
 pr_csvw *pr_csvw_open(const char *path, char *err)
 {
-	pr_csvw *w = calloc(1, sizeof *w);
-	char real[sizeof w->path];
-	struct stat st;
+	int st;
 
-	if (!w) {
-		pr_err(err, PR_ENOMEM, "out of memory");
-		return NULL;
+	return open_any(path, &st, err);
+}
+
+/* Record the first failure; later calls see it and do nothing. */
+static int fail_io(pr_csvw *w)
+{
+	if (!w->status) {
+		w->status = PR_EIO;
+		w->err_no = errno ? errno : EIO;
 	}
-	if (!path || strcmp(path, "-") == 0) {
-		w->std = 1;
-		w->fp = stdout;
-		snprintf(w->path, sizeof w->path, "<stdout>");
-		return w;
-	}
-	if (strlen(path) >= sizeof w->path) {
-		free(w);
-		pr_err(err, PR_EINVAL, "%.100s...: path too long", path);
-		return NULL;
-	}
-	/* renaming over a symlink would replace the link: write to its target */
-	if (follow_links(path, real, sizeof w->path))
-		path = real;
-	snprintf(w->path, sizeof w->path, "%s", path);
-	/* renaming over /dev/stdout or a FIFO would replace the device itself */
-	if (stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
-		w->fp = S_ISDIR(st.st_mode) ? NULL : fopen(path, "wb");
-		if (!w->fp) {
-			pr_err(err, PR_EIO, "%s: cannot write: %s", w->path,
-			       S_ISDIR(st.st_mode) ? "is a directory" : strerror(errno));
-			free(w);
-			return NULL;
-		}
-		w->direct = 1;
-		return w;
-	}
-	snprintf(w->tmp, sizeof w->tmp, "%s.tmp.%ld", path, (long)getpid());
-	if (tracked(w->tmp)) {
-		pr_err(err, PR_EINVAL, "%s: named twice as an output", path);
-		free(w);
-		return NULL;
-	}
-	w->fp = fopen(w->tmp, "wb");
-	if (!w->fp) {
-		pr_err(err, PR_EIO, "%s: cannot write: %s", path, strerror(errno));
-		free(w);
-		return NULL;
-	}
-	track(w->tmp, 1);
-	return w;
+	return w->status;
 }
 
 static int sep(pr_csvw *w)
 {
+	if (w->status)
+		return w->status;
+	errno = 0;
 	if (w->nfield++ && fputc(',', w->fp) == EOF)
-		w->status = PR_EIO;
-	return w->status;
+		return fail_io(w);
+	return PR_OK;
 }
 
 int pr_csvw_str(pr_csvw *w, const char *s)
@@ -550,11 +733,11 @@ int pr_csvw_str(pr_csvw *w, const char *s)
 		return w->status;
 	if (strpbrk(s, ",\"\r\n") || (*s && (s[0] == ' ' || s[strlen(s) - 1] == ' '))) {
 		if (csv_fwrite(w->fp, s, strlen(s)) != 0)
-			w->status = PR_EIO;
+			return fail_io(w);
 	} else if (fputs(s, w->fp) == EOF) {
-		w->status = PR_EIO;
+		return fail_io(w);
 	}
-	return w->status;
+	return PR_OK;
 }
 
 void pr_csv_format_double(double v, char *buf, size_t n)
@@ -573,16 +756,20 @@ int pr_csvw_num(pr_csvw *w, double v)
 {
 	char buf[40];
 
+	if (w->status)
+		return w->status;
 	if (!isfinite(v)) {
 		w->status = PR_ENUM;
+		w->bad_line = w->rows + 1;
+		w->bad_field = w->nfield + 1;
 		return w->status;
 	}
 	if (sep(w))
 		return w->status;
 	pr_csv_format_double(v, buf, sizeof buf);
 	if (fputs(buf, w->fp) == EOF)
-		w->status = PR_EIO;
-	return w->status;
+		return fail_io(w);
+	return PR_OK;
 }
 
 int pr_csvw_int(pr_csvw *w, long v)
@@ -590,16 +777,20 @@ int pr_csvw_int(pr_csvw *w, long v)
 	if (sep(w))
 		return w->status;
 	if (fprintf(w->fp, "%ld", v) < 0)
-		w->status = PR_EIO;
-	return w->status;
+		return fail_io(w);
+	return PR_OK;
 }
 
 int pr_csvw_endrow(pr_csvw *w)
 {
-	if (!w->status && fputc('\n', w->fp) == EOF)
-		w->status = PR_EIO;
 	w->nfield = 0;
-	return w->status;
+	if (w->status)
+		return w->status;
+	errno = 0;
+	if (fputc('\n', w->fp) == EOF)
+		return fail_io(w);
+	w->rows++;
+	return PR_OK;
 }
 
 int pr_csvw_header(pr_csvw *w, const char *names)
@@ -615,58 +806,67 @@ int pr_csvw_header(pr_csvw *w, const char *names)
 	return pr_csvw_endrow(w);
 }
 
+int pr_csvw_raw(pr_csvw *w, const char *s, size_t n)
+{
+	if (w->status)
+		return w->status;
+	errno = 0;
+	if (n && fwrite(s, 1, n, w->fp) != n)
+		return fail_io(w);
+	return PR_OK;
+}
+
+int pr_csvw_status(const pr_csvw *w)
+{
+	return w->status;
+}
+
+/* Flush and close (a temporary file: not yet renamed); report the sticky
+ * status once. The writer stays allocated. */
+static int finish(pr_csvw *w, char *err)
+{
+	FILE *fp = w->fp;
+
+	w->fp = NULL;
+	errno = 0;
+	if (!w->status && (fflush(fp) != 0 || ferror(fp)))
+		fail_io(w);
+	if (w->kind != W_STDOUT && fclose(fp) != 0)
+		fail_io(w);
+	if (w->status == PR_ENUM)
+		return pr_err(err, PR_ENUM, "%s:%ld: field %d: refusing to write a non-finite number "
+		              "(numerical failure)", w->shown, w->bad_line, w->bad_field);
+	if (w->status)
+		return pr_err(err, PR_EIO, "%s: write error: %s", w->shown, strerror(w->err_no));
+	return PR_OK;
+}
+
 void pr_csvw_abort(pr_csvw *w)
 {
 	if (!w)
 		return;
-	if (w->direct) {
-		fclose(w->fp);
-	} else if (!w->std) {
-		fclose(w->fp);
-		unlink(w->tmp);
-		track(w->tmp, 0);
-	} else {
+	if (w->fp && w->kind == W_STDOUT)
 		fflush(w->fp);
-	}
-	free(w);
+	if (w->kind == W_STDOUT)
+		w->fp = NULL;
+	writer_fail(w);
 }
 
 int pr_csvw_close(pr_csvw *w, char *err)
 {
-	int status = w->status;
+	int rc = finish(w, err);
 
-	if (status == PR_ENUM) {
-		pr_err(err, PR_ENUM, "%s: refusing to write a non-finite number", w->path);
-		pr_csvw_abort(w);
-		return status;
+	if (rc == PR_OK && w->kind == W_FILE) {
+		if (rename(w->tmp, w->target) != 0) {
+			rc = pr_err(err, PR_EIO, "%s: cannot rename into place: %s", w->shown, strerror(errno));
+		} else {
+			pr_cleanup_remove_file(w->tmp);
+			free(w->tmp);
+			w->tmp = NULL;
+		}
 	}
-	if (w->std) {
-		if (status || fflush(w->fp) || ferror(w->fp))
-			status = pr_err(err, PR_EIO, "%s: write error", w->path);
-		free(w);
-		return status;
-	}
-	if (status || ferror(w->fp) || fflush(w->fp)) {
-		pr_err(err, PR_EIO, "%s: write error: %s", w->path, strerror(errno));
-		pr_csvw_abort(w);
-		return PR_EIO;
-	}
-	if (w->direct) {
-		if (fclose(w->fp) != 0)
-			status = pr_err(err, PR_EIO, "%s: write error: %s", w->path, strerror(errno));
-		free(w);
-		return status;
-	}
-	if (fclose(w->fp) != 0) {
-		status = pr_err(err, PR_EIO, "%s: write error: %s", w->path, strerror(errno));
-		unlink(w->tmp);
-	} else if (rename(w->tmp, w->path) != 0) {
-		status = pr_err(err, PR_EIO, "%s: cannot rename into place: %s", w->path, strerror(errno));
-		unlink(w->tmp);
-	}
-	track(w->tmp, 0);
-	free(w);
-	return status;
+	writer_fail(w);
+	return rc;
 }
 
 int pr_csvw_finish(pr_csvw *w, int rc, char *err)
@@ -676,6 +876,156 @@ int pr_csvw_finish(pr_csvw *w, int rc, char *err)
 		return rc;
 	}
 	return pr_csvw_close(w, err);
+}
+
+/* ---- several outputs, committed together ---- */
+
+struct pr_outset {
+	pr_csvw *first, *last;
+};
+
+pr_outset *pr_outset_new(char *err)
+{
+	pr_outset *s = calloc(1, sizeof *s);
+
+	if (!s)
+		pr_err(err, PR_ENOMEM, "out of memory");
+	return s;
+}
+
+static int same_output(const pr_csvw *a, const pr_csvw *b)
+{
+	if (a->fp == stdout || b->fp == stdout)
+		return a->fp == b->fp;
+	if (a->existed && b->existed)
+		return a->dev == b->dev && a->ino == b->ino;
+	return a->canon && b->canon && strcmp(a->canon, b->canon) == 0;
+}
+
+int pr_outset_add(pr_outset *s, const char *path, pr_csvw **out, char *err)
+{
+	pr_csvw *w, *o;
+	int rc;
+
+	*out = NULL;
+	if (!(w = open_any(path, &rc, err)))
+		return rc;
+	for (o = s->first; o; o = o->next)
+		if (same_output(o, w)) {
+			rc = pr_err(err, PR_EINVAL, "%s: named twice as an output (also as %s)", w->shown,
+			            o->shown);
+			pr_csvw_abort(w);
+			return rc;
+		}
+	if (s->last)
+		s->last->next = w;
+	else
+		s->first = w;
+	s->last = w;
+	*out = w;
+	return PR_OK;
+}
+
+static void free_set(pr_outset *s, int unlink_tmp)
+{
+	pr_csvw *w = s->first, *next;
+
+	for (; w; w = next) {
+		next = w->next;
+		if (!unlink_tmp && w->tmp) {
+			pr_cleanup_remove_file(w->tmp);
+			free(w->tmp);
+			w->tmp = NULL;
+		}
+		if (w->kind == W_STDOUT && w->fp)
+			fflush(w->fp);
+		if (w->kind == W_STDOUT)
+			w->fp = NULL;
+		writer_fail(w);
+	}
+	free(s);
+}
+
+/* Rename every member into place; on a failure, put back what was replaced
+ * (from a second hard link made before) and remove what was new. */
+static int rename_all(pr_outset *s, char *err)
+{
+	pr_csvw *w, *u;
+	int rc = PR_OK, nfiles = 0;
+
+	for (w = s->first; w; w = w->next)
+		nfiles += w->kind == W_FILE;
+	for (w = s->first; nfiles > 1 && w && rc == PR_OK; w = w->next) {
+		char *folder;
+		int fd;
+		if (w->kind != W_FILE || !w->existed)
+			continue;
+		if (!(folder = folder_of(w->target))) {
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+			break;
+		}
+		fd = make_temp(folder, &w->backup);
+		free(folder);
+		if (fd >= 0) {
+			close(fd);
+			/* link() cannot replace: make room for it */
+			unlink(w->backup);
+		}
+		if (fd < 0 || link(w->target, w->backup) != 0)
+			rc = pr_err(err, PR_EIO, "%s: cannot keep the earlier file while replacing it: %s",
+			            w->shown, strerror(errno));
+	}
+	for (w = s->first; w && rc == PR_OK; w = w->next) {
+		if (w->kind != W_FILE)
+			continue;
+		if (rename(w->tmp, w->target) != 0) {
+			rc = pr_err(err, PR_EIO, "%s: cannot rename into place: %s", w->shown, strerror(errno));
+			for (u = s->first; u != w; u = u->next) {
+				if (u->kind != W_FILE)
+					continue;
+				if (u->backup)
+					rename(u->backup, u->target);
+				else if (!u->existed)
+					unlink(u->target);
+			}
+			break;
+		}
+		pr_cleanup_remove_file(w->tmp);
+		free(w->tmp);
+		w->tmp = NULL;
+	}
+	for (w = s->first; w; w = w->next)
+		if (w->backup) {
+			unlink(w->backup);
+			pr_cleanup_remove_file(w->backup);
+			free(w->backup);
+			w->backup = NULL;
+		}
+	return rc;
+}
+
+int pr_outset_commit(pr_outset *s, int rc, char *err)
+{
+	pr_csvw *w;
+	sigset_t old;
+
+	if (!s)
+		return rc;
+	for (w = s->first; w; w = w->next) {
+		int r;
+		if (!w->fp)
+			continue;
+		r = rc == PR_OK ? finish(w, err) : PR_OK;
+		if (rc == PR_OK)
+			rc = r;
+	}
+	if (rc == PR_OK) {
+		pr_cleanup_hold(&old);
+		rc = rename_all(s, err);
+		pr_cleanup_release(&old);
+	}
+	free_set(s, rc != PR_OK);
+	return rc;
 }
 
 int pr_csv_write(const pr_csv *t, const char *path, char *err)

@@ -1,4 +1,5 @@
-/* csvio_priv.h — csvio internals shared with config.c and the CLI. */
+/* csvio_priv.h — csvio internals shared with config.c, the experiments and
+ * the CLI. */
 #ifndef POOLREPS_CSVIO_PRIV_H
 #define POOLREPS_CSVIO_PRIV_H
 
@@ -8,8 +9,28 @@
 int pr_csv_parse_double(const char *s, double *v);
 /* The shortest of %.15g..%.17g that reads back exactly. */
 void pr_csv_format_double(double v, char *buf, size_t n);
-/* Remove every temporary output file still open (async-signal-safe:
- * unlink only). Returns how many were removed. */
-int pr_csvw_cleanup(void);
+
+/* The one CSV reader behind every CSV input (numeric tables, the
+ * experiments' raw tables, merge): libcsv in strict mode (a stray quote or an
+ * unterminated quoted field is an error), fed in blocks, with every limit
+ * applied as the bytes arrive, so memory stays bounded whatever the input
+ * (/dev/zero, an endless quoted field, an endless line): a NUL byte, a field
+ * over PR_CSV_MAX_FIELD bytes, a line or record over PR_CSV_MAX_LINE bytes,
+ * more than PR_CSV_MAX_COLS fields. A UTF-8 byte-order mark is skipped. The
+ * first record is the header: names are trimmed of trailing blanks and must
+ * be non-empty, free of control characters and distinct. Every data record
+ * must have as many fields as the header. header() is called once and row()
+ * for every data record, with the fields as NUL-terminated strings (valid
+ * during the call) and the file line the record ends on; a non-zero return
+ * stops the scan with that status (message in err). path NULL or "-" reads
+ * stdin, shown as "<stdin>". */
+#define PR_CSV_MAX_FIELD 4096
+#define PR_CSV_MAX_LINE (1L << 24)
+#define PR_CSV_MAX_COLS 100000
+enum { PR_CSV_COMPLETE = 1 }; /* flag: the last line must end with a line end */
+typedef int (*pr_csv_record_fn)(void *user, const char *path, long line, int n,
+                                char **fields, char *err);
+int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,
+                pr_csv_record_fn row, void *user, char *err);
 
 #endif

@@ -1,4 +1,5 @@
 /* exp.c — the experiment registry and per-repetition random streams. */
+#include <stdio.h>
 #include <string.h>
 
 #include "poolreps/bench.h"
@@ -15,13 +16,13 @@ static int figures_run(const pr_config *cfg, const char *dir, const pr_progress 
 }
 
 static const pr_experiment experiments[] = {
-	{"figures", figures_run, NULL},
-	{"exp1", pr_exp1_run, pr_exp1_summarize},
-	{"exp2", pr_exp2_run, pr_exp2_summarize},
-	{"exp3", pr_exp3_run, pr_exp3_summarize},
-	{"quadratic", pr_exp_benchmark_run, pr_exp_benchmark_summarize},
-	{"sphere", pr_exp_benchmark_run, pr_exp_benchmark_summarize},
-	{"rosenbrock", pr_exp_benchmark_run, pr_exp_benchmark_summarize},
+	{"figures", figures_run, NULL, NULL, NULL},
+	{"exp1", pr_exp1_run, pr_exp1_summarize, pr_exp1_variants, "exp1_summary.csv"},
+	{"exp2", pr_exp2_run, pr_exp2_summarize, NULL, "exp2_summary.csv"},
+	{"exp3", pr_exp3_run, pr_exp3_summarize, pr_exp3_variants, "exp3_final.csv"},
+	{"quadratic", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv"},
+	{"sphere", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv"},
+	{"rosenbrock", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv"},
 };
 
 const pr_experiment *pr_exp_find(const char *name)
@@ -66,4 +67,29 @@ void pr_exp_reps(const pr_config *cfg, int *lo, int *hi)
 		*lo = 0;
 		*hi = cfg->run.repetitions;
 	}
+}
+
+int pr_exp_check_variant(const pr_config *cfg, int n, char *err)
+{
+	char at[320];
+
+	if (cfg->run.variant < n)
+		return PR_OK;
+	pr_config_where(cfg, "experiment.variant", at, sizeof at);
+	if (n == 0)
+		return pr_err(err, PR_EINVAL, "%s: experiment.variant: %d, but %s has no variants",
+		              at, cfg->run.variant, cfg->run.name);
+	return pr_err(err, PR_EINVAL, "%s: experiment.variant: %d, but %s has %d variants (0..%d)",
+	              at, cfg->run.variant, cfg->run.name, n, n - 1);
+}
+
+int pr_exp_variants(const pr_config *cfg, pr_variants *out, char *err)
+{
+	const pr_experiment *e = pr_exp_find(cfg->run.name);
+	int rc;
+
+	out->n = 0;
+	if (e && e->variants && (rc = e->variants(cfg, out, err)))
+		return rc;
+	return pr_exp_check_variant(cfg, out->n, err);
 }

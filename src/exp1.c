@@ -8,7 +8,11 @@
  * depend on the repetition, so every process regenerates them identically.
  *
  * Repetition k is forest k of every setting: it trains on training rows
- * [k*subset, (k+1)*subset) and is scored on test rows [k*test_subset, ...).
+ * [k*subset, (k+1)*subset) and is scored on test rows [k*test_subset, ...),
+ * the same rows for every setting (common random numbers). Each setting's
+ * forest k draws from its own stream, so every setting is a variant that can
+ * run alone (experiment.variant): variants 0.. are the settings in output
+ * order, the last one is the reward map.
  * Inputs are the full state (x0,y0,x1,y1); the cue ball's fixed coordinates
  * are constant, and the forest never cuts a constant dimension.
  *
@@ -41,8 +45,9 @@
 enum {
 	STREAM_TRAIN = 0x1e101,   /* index 0: the training shots */
 	STREAM_TEST = 0x1e102,    /* index 0: the test shots */
-	STREAM_FOREST = 0x1e103,  /* index k: repetition k's sweep forests */
-	STREAM_MAP = 0x1e104      /* index k: repetition k's map forest */
+	STREAM_MAP = 0x1e104,     /* index k: repetition k's map forest */
+	STREAM_SETTING = 0x1e110  /* + sweep, index k * PR_LIST_MAX + position in
+	                           * the sweep's list: forest k of that setting */
 };
 
 enum { SWEEP_NMIN, SWEEP_TREES, SWEEP_CUTS, NSWEEPS };
@@ -70,7 +75,7 @@ void pr_exp1_opts_init(pr_exp1_opts *o)
 
 /* One forest setting of a sweep. */
 typedef struct {
-	int sweep;
+	int sweep, pos;  /* sweep and position in its list */
 	pr_forest_opts fo;
 } setting;
 
@@ -79,6 +84,7 @@ typedef struct {
 	const double *xtr, *ytr, *xte, *yte;  /* shared shots: states and returns */
 	setting set[NSWEEPS * PR_LIST_MAX];
 	int nset;
+	int map;                              /* fit the reward map's forests */
 	double cue[2];                        /* the map's cue ball position */
 	const double *grid;                   /* ngrid x 3: x1, y1, simulated return */
 	int ngrid;
@@ -169,29 +175,28 @@ static int run_rep(void *arg, int k, char *err)
 	const double *yte = c->yte + (size_t)k * o->test_subset;
 	double *mse = c->mse + (size_t)(k - c->lo) * c->nset;
 	double *pred = c->pred + (size_t)(k - c->lo) * c->ngrid;
-	gsl_rng *rng = pr_exp_rng(c->cfg->run.seed, STREAM_FOREST, (unsigned long)k);
+	gsl_rng *rng;
 	pr_forest *f;
-	int s, i, rc = PR_OK;
+	int s, i;
 
-	if (!rng)
-		return pr_err(err, PR_ENOMEM, "out of memory");
-	for (s = 0; s < c->nset && rc == PR_OK; ++s) {
-		if (pr_interrupted) {
-			rc = pr_err(err, PR_EINTR, "interrupted");
-			break;
-		}
-		f = pr_forest_fit(&c->set[s].fo, xtr, o->subset, DX, ytr, 1, NULL, rng, err);
-		if (!f) {
-			rc = PR_EINVAL;
-			break;
-		}
+	for (s = 0; s < c->nset; ++s) {
+		const setting *t = &c->set[s];
+		if (pr_interrupted)
+			return pr_err(err, PR_EINTR, "interrupted");
+		rng = pr_exp_rng(c->cfg->run.seed, STREAM_SETTING + (unsigned long)t->sweep,
+		                 (unsigned long)k * PR_LIST_MAX + (unsigned long)t->pos);
+		if (!rng)
+			return pr_err(err, PR_ENOMEM, "out of memory");
+		f = pr_forest_fit(&t->fo, xtr, o->subset, DX, ytr, 1, NULL, rng, err);
+		gsl_rng_free(rng);
+		if (!f)
+			return PR_EINVAL;
 		mse[s] = test_mse(f, xte, yte, o->test_subset);
 		pr_forest_free(f);
 		pr_exp_ticker_add(&c->tick, 1);
 	}
-	gsl_rng_free(rng);
-	if (rc)
-		return rc;
+	if (!c->map)
+		return PR_OK;
 	rng = pr_exp_rng(c->cfg->run.seed, STREAM_MAP, (unsigned long)k);
 	if (!rng)
 		return pr_err(err, PR_ENOMEM, "out of memory");
@@ -224,6 +229,7 @@ static int make_settings(const pr_config *cfg, job_ctx *c, char *err)
 		for (i = 0; i < lists[s]->n; ++i) {
 			setting *t = &c->set[c->nset++];
 			t->sweep = s;
+			t->pos = i;
 			t->fo = cfg->forest;
 			if (s == SWEEP_NMIN)
 				t->fo.n_min = v[i];
@@ -236,6 +242,45 @@ static int make_settings(const pr_config *cfg, job_ctx *c, char *err)
 		}
 	}
 	return PR_OK;
+}
+
+/* The settings and the map this process runs: all, or the variant
+ * experiment.variant picks (settings first, the map last). */
+static int select_variant(const pr_config *cfg, job_ctx *c, char *err)
+{
+	int v = cfg->run.variant, rc;
+
+	if ((rc = pr_exp_check_variant(cfg, c->nset + 1, err)))
+		return rc;
+	c->map = v < 0 || v == c->nset;
+	if (v >= 0) {
+		if (v < c->nset)
+			c->set[0] = c->set[v];
+		c->nset = v < c->nset;
+	}
+	return PR_OK;
+}
+
+int pr_exp1_variants(const pr_config *cfg, pr_variants *out, char *err)
+{
+	job_ctx *c = calloc(1, sizeof *c);
+	int s, rc;
+
+	if (!c)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	rc = make_settings(cfg, c, err);
+	for (s = 0; rc == PR_OK && s < c->nset; ++s) {
+		const setting *t = &c->set[s];
+		const pr_forest_opts *fo = &t->fo;
+		snprintf(out->name[s], sizeof out->name[s], "%s=%d", sweep_name[t->sweep],
+		         t->sweep == SWEEP_NMIN ? fo->n_min : t->sweep == SWEEP_TREES ? fo->trees : fo->cuts);
+	}
+	if (rc == PR_OK) {
+		snprintf(out->name[c->nset], sizeof out->name[c->nset], "map");
+		out->n = c->nset + 1;
+	}
+	free(c);
+	return rc;
 }
 
 static int check_opts(const pr_config *cfg, char *err)
@@ -318,7 +363,7 @@ int pr_exp1_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 	c = calloc(1, sizeof *c);
 	if (!c)
 		return pr_err(err, PR_ENOMEM, "out of memory");
-	if ((rc = make_settings(cfg, c, err)))
+	if ((rc = make_settings(cfg, c, err)) || (rc = select_variant(cfg, c, err)))
 		goto done;
 	xtr = malloc((size_t)o->train * DX * sizeof *xtr);
 	ytr = malloc((size_t)o->train * sizeof *ytr);
@@ -338,7 +383,7 @@ int pr_exp1_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 	}
 	if ((rc = make_shots(cfg, sim, STREAM_TRAIN, o->train, xtr, ytr, err)) ||
 	    (rc = make_shots(cfg, sim, STREAM_TEST, o->test, xte, yte, err)) ||
-	    (rc = make_grid(cfg, sim, c->cue, grid, &c->ngrid, err)))
+	    (c->map && (rc = make_grid(cfg, sim, c->cue, grid, &c->ngrid, err))))
 		goto done;
 	c->cfg = cfg;
 	c->xtr = xtr;
@@ -353,7 +398,7 @@ int pr_exp1_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 		rc = pr_err(err, PR_ENOMEM, "out of memory");
 		goto done;
 	}
-	pr_exp_ticker_init(&c->tick, prog, (long)(hi - lo) * (c->nset + 1), "exp1");
+	pr_exp_ticker_init(&c->tick, prog, (long)(hi - lo) * (c->nset + c->map), "exp1");
 	rc = pr_exp_parallel(lo, hi, cfg->run.threads, run_rep, c, err);
 	pr_exp_ticker_destroy(&c->tick);
 	if (rc == PR_OK)

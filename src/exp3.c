@@ -36,6 +36,7 @@
 
 #include <gsl/gsl_rng.h>
 
+#include "poolreps/cmaes.h"
 #include "poolreps/config.h"
 #include "poolreps/csvio.h"
 #include "poolreps/exp.h"
@@ -103,6 +104,33 @@ static int parse_variants(const pr_config *cfg, int *var, int *nvar, char *err)
 	return PR_OK;
 }
 
+/* The variants this process runs: all of exp3.policies, or the one
+ * experiment.variant picks. Each draws from its own stream (STREAM_LEARN +
+ * its id), so alone it writes exactly its rows of the full run. */
+static int run_variants(const pr_config *cfg, int *var, int *nvar, char *err)
+{
+	int rc;
+
+	if ((rc = parse_variants(cfg, var, nvar, err)) || (rc = pr_exp_check_variant(cfg, *nvar, err)))
+		return rc;
+	if (cfg->run.variant >= 0) {
+		var[0] = var[cfg->run.variant];
+		*nvar = 1;
+	}
+	return PR_OK;
+}
+
+int pr_exp3_variants(const pr_config *cfg, pr_variants *out, char *err)
+{
+	int var[NVAR], j, rc;
+
+	if ((rc = parse_variants(cfg, var, &out->n, err)))
+		return rc;
+	for (j = 0; j < out->n; ++j)
+		snprintf(out->name[j], sizeof out->name[j], "%s", var_name[var[j]]);
+	return PR_OK;
+}
+
 /* ---- one job ---- */
 
 /* REPS and policy diagnostics of one iteration (raw exp3_reps.csv). */
@@ -157,6 +185,11 @@ typedef struct {
 	/* window scratch */
 	double *q, *logpi, *logcur, *p, *phi, *u;
 	int *counts, *rowptr, *col;
+	/* handcrafted: sampling means per episode (policy.cov_center = old), or
+	 * the C-CMA-ES state and its baseline features (handcrafted_method) */
+	double *mu;
+	pr_cmaes *cm;
+	double *base;
 } learner;
 
 static void set_lp(learner *L, int i, int m, double v)
@@ -208,12 +241,24 @@ static int draw_action(learner *L, int i, int m, gsl_rng *rng, int *flags, char 
 	if ((rc = pr_policy_eval(L->pol[m], x, mean, cov, &f, L->work[m], err)))
 		return rc;
 	*flags |= f;
+	if (L->mu)
+		memcpy(L->mu + 2 * (size_t)i, mean, sizeof mean);
 	do {
 		if (tries++ == MAX_REDRAW)
 			return pr_err(err, PR_ENUM, "episode %d: %d actions drawn, all faster than "
 			              "sim.max_speed = %g m/s", i, MAX_REDRAW, su->cfg->sim.max_speed);
 		if ((rc = pr_policy_gauss_sample(2, mean, cov, 1, rng, a, err)))
 			return rc;
+		if (L->cm && hypot(a[0], a[1]) > su->cfg->sim.max_speed) {
+			/* C-CMA-ES: the draw is projected onto the speed limit and the
+			 * projected action is shot and used in the update (a repair
+			 * that keeps the mean near admissible actions; redrawing would
+			 * let it drift past the limit, where every draw is refused) */
+			double shrink = su->cfg->sim.max_speed / hypot(a[0], a[1]) * (1.0 - 1e-12);
+
+			a[0] *= shrink;
+			a[1] *= shrink;
+		}
 	} while (hypot(a[0], a[1]) > su->cfg->sim.max_speed);
 	L->redraws += tries - 1;
 	if ((rc = pr_policy_gauss_logpdf(2, mean, cov, a, &lp, err)))
@@ -264,6 +309,20 @@ static int play(learner *L, int from, int count, int m, gsl_rng *rng, int *flags
 	return PR_OK;
 }
 
+/* Quadratic features of the box-normalised coordinates of n learning
+ * states X into phi (n x pr_policy_features_count(QUADRATIC, nx)). */
+static void quadratic_features(learner *L, const double *X, int n, double *phi)
+{
+	const setup *su = L->su;
+	int d = pr_policy_features_count(PR_FEATURES_QUADRATIC, su->nx), i, j;
+
+	for (i = 0; i < n; ++i) {
+		for (j = 0; j < su->nx; ++j)
+			L->u[j] = (X[(size_t)i * su->nx + j] - su->xmid[j]) / su->xhalf[j];
+		pr_policy_features_quadratic(L->u, su->nx, phi + (size_t)i * d);
+	}
+}
+
 /* Value features of the window's n states into the REPS problem: one-hot
  * active leaves (CSR, eq. 5.4), active samples (dense, eq. 5.6), or the
  * quadratic features of the box-normalised coordinates (handcrafted). The
@@ -275,18 +334,12 @@ static int value_features(learner *L, const double *Xw, const double *Rw, int n,
 	const pr_config *cfg = su->cfg;
 	pr_forest_opts vo = cfg->value;
 	pr_forest *f;
-	int i, j, M, rc;
+	int i, M, rc;
 
 	*fo = NULL;
 	if (L->v == V_HANDCRAFTED) {
-		int d = pr_policy_features_count(PR_FEATURES_QUADRATIC, su->nx);
-
-		for (i = 0; i < n; ++i) {
-			for (j = 0; j < su->nx; ++j)
-				L->u[j] = (Xw[(size_t)i * su->nx + j] - su->xmid[j]) / su->xhalf[j];
-			pr_policy_features_quadratic(L->u, su->nx, L->phi + (size_t)i * d);
-		}
-		pb->d = d;
+		quadratic_features(L, Xw, n, L->phi);
+		pb->d = pr_policy_features_count(PR_FEATURES_QUADRATIC, su->nx);
 		pb->phi = L->phi;
 		return PR_OK;
 	}
@@ -329,7 +382,8 @@ static pr_policy *fit_policy(learner *L, const pr_policy_data *d, int *flags, ch
 
 	switch (L->v) {
 	case V_HANDCRAFTED:
-		return pr_policy_linear_fit(PR_FEATURES_AFFINE, d, po.lambda, po.min_std, flags, err);
+		return pr_policy_linear_fit(PR_FEATURES_AFFINE, d, po.lambda, po.min_std, po.cov_center,
+		                            flags, err);
 	case V_BASELINE:
 		/* n_min above the window size: one node, a global linear-Gaussian policy */
 		po.forest.n_min = cfg->exp3.baseline_n_min;
@@ -343,6 +397,63 @@ static pr_policy *fit_policy(learner *L, const pr_policy_data *d, int *flags, ch
 		break;
 	}
 	return pr_policy_tree_fit(&po, d, L->r_learn, err);
+}
+
+/* Iteration t's episodes [end, end + samples) from pi_t; policies pmin ..
+ * t - 1 are still evaluated on them. */
+static int play_iteration(learner *L, int t, int end, int pmin, int flags, rep_row *row,
+                          char *err)
+{
+	int rc;
+
+	L->pmin = pmin;
+	L->redraws = 0;
+	rc = play(L, end, L->su->cfg->exp3.samples, t, L->r_learn, &flags, err);
+	row->flags = flags;
+	row->redraws = L->redraws;
+	return rc;
+}
+
+/* Iteration t >= 1 of the hand-crafted loop with exp3.handcrafted_method =
+ * ccmaes: one C-CMA-ES update from the latest generation (pi_{t-1}'s
+ * episodes, or the initial ones), baseline features as REPS's value
+ * features, then pi_t's episodes. No samples are reused, so q_ess is the
+ * generation size; there is no dual (eta, kl, bound, residual 0) and ess is
+ * the selection's mueff. */
+static int iterate_ccmaes(learner *L, int t, char *err)
+{
+	const setup *su = L->su;
+	const pr_exp3_opts *e = &su->cfg->exp3;
+	job *o = L->o;
+	rep_row *row = &o->reps[t - 1];
+	const int end = e->init_samples + (t - 1) * e->samples;
+	const int n = t == 1 ? e->init_samples : e->samples, a0 = end - n;
+	pr_cmaes_batch b;
+	pr_cmaes_info info;
+	int rc, floored;
+
+	b.n = n;
+	b.nb = pr_policy_features_count(PR_FEATURES_QUADRATIC, su->nx);
+	b.S = L->X + (size_t)a0 * su->nx;
+	b.X = o->A + 2 * (size_t)a0;
+	b.R = o->R + a0;
+	b.B = L->base;
+	quadratic_features(L, b.S, n, L->base);
+	if ((rc = pr_cmaes_update(L->cm, &b, &info, err)))
+		return rc;
+	memset(row, 0, sizeof *row);
+	row->ess = info.mueff;
+	row->q_ess = n;
+	row->nfeat = b.nb;
+	if (!(L->pol[t] = pr_cmaes_policy(L->cm, su->cfg->policy.min_std, &floored, err)))
+		return PR_ENOMEM;
+	if (!(L->work[t] = pr_policy_work_new(L->pol[t], err)))
+		return PR_ENOMEM;
+	pr_policy_free(L->pol[t - 1]);
+	pr_policy_work_free(L->work[t - 1]);
+	L->pol[t - 1] = NULL;
+	L->work[t - 1] = NULL;
+	return play_iteration(L, t, end, t, info.flags | (floored ? PR_POLICY_FLOOR : 0), row, err);
 }
 
 /* Iteration t >= 1: importance weights, value features, REPS, a new policy
@@ -363,6 +474,8 @@ static int iterate(learner *L, int t, char *err)
 	pr_forest *vf = NULL;
 	pr_policy_data d;
 
+	if (L->cm)
+		return iterate_ccmaes(L, t, err);
 	/* q_i = pi_{t-1}(a_i|s_i) / pi_mix(a_i|s_i), SPEC.md §4 */
 	memset(L->counts, 0, (size_t)npol * sizeof *L->counts);
 	for (i = 0; i < n; ++i) {
@@ -413,6 +526,7 @@ static int iterate(learner *L, int t, char *err)
 	d.A = o->A + 2 * (size_t)a0;
 	d.Y = o->F + 2 * (size_t)a0;
 	d.w = L->p;
+	d.M = L->mu ? L->mu + 2 * (size_t)a0 : NULL;
 	if (!(L->pol[t] = fit_policy(L, &d, &flags, err)))
 		return PR_ENUM;
 	if (!(L->work[t] = pr_policy_work_new(L->pol[t], err)))
@@ -428,12 +542,7 @@ static int iterate(learner *L, int t, char *err)
 		set_lp(L, i, t, lp);
 	}
 
-	L->pmin = pmin;
-	L->redraws = 0;
-	rc = play(L, end, e->samples, t, L->r_learn, &flags, err);
-	row->flags = flags;
-	row->redraws = L->redraws;
-	if (rc)
+	if ((rc = play_iteration(L, t, end, pmin, flags, row, err)))
 		return rc;
 
 	/* policies that drew no episode of the next window never count again */
@@ -476,6 +585,9 @@ static void learner_free(learner *L)
 	free(L->counts);
 	free(L->rowptr);
 	free(L->col);
+	free(L->mu);
+	pr_cmaes_free(L->cm);
+	free(L->base);
 }
 
 static int learner_init(learner *L, const setup *su, int j, char *err)
@@ -521,6 +633,21 @@ static int learner_init(learner *L, const setup *su, int j, char *err)
 	    !L->tag_i || !L->tag_m || !L->q || !L->logpi || !L->logcur || !L->p || !L->phi ||
 	    !L->u || !L->counts || !L->rowptr || !L->col)
 		return pr_err(err, PR_ENOMEM, "out of memory");
+	if (L->v == V_HANDCRAFTED && e->handcrafted_method == PR_METHOD_CCMAES) {
+		/* N(W [1, x], init_std^2 I) with W = 0: pi_0 */
+		double *W0 = calloc(2 * ((size_t)su->nx + 1), sizeof *W0);
+
+		L->cm = W0 ? pr_cmaes_new(PR_FEATURES_AFFINE, su->nx, 2, W0, e->init_std, cfg->policy.lambda,
+		                          err) : NULL;
+		free(W0);
+		L->base = malloc((size_t)(e->init_samples > e->samples ? e->init_samples : e->samples) *
+		                 nq * sizeof *L->base);
+		if (!L->cm || !L->base)
+			return pr_err(err, PR_ENOMEM, "out of memory");
+	} else if (L->v == V_HANDCRAFTED && cfg->policy.cov_center == PR_COV_CENTER_OLD &&
+	           !(L->mu = malloc(2 * (size_t)su->neps * sizeof *L->mu))) {
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	}
 	/* no cell holds a value yet */
 	memset(L->tag_i, 0xff, cells * sizeof *L->tag_i);
 	memset(L->tag_m, 0xff, cells * sizeof *L->tag_m);
@@ -750,7 +877,7 @@ int pr_exp3_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 	su.nrep = hi - su.lo;
 	rc = check_setup(cfg, err);
 	if (rc == PR_OK)
-		rc = parse_variants(cfg, su.var, &su.nvar, err);
+		rc = run_variants(cfg, su.var, &su.nvar, err);
 	if (rc == PR_OK)
 		rc = learning_dims(&su, err);
 	if (rc == PR_OK) {
@@ -1254,7 +1381,7 @@ int pr_exp3_summarize(const pr_config *cfg, const char *dir, char *err)
 	char *fin = NULL;
 	int var[NVAR], nvar, rc;
 
-	if ((rc = parse_variants(cfg, var, &nvar, err)))
+	if ((rc = run_variants(cfg, var, &nvar, err)))
 		return rc;
 	rc = read_episodes(cfg, dir, var, nvar, &E, err);
 	if (rc == PR_OK)

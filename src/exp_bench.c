@@ -11,6 +11,7 @@
 #include <gsl/gsl_rng.h>
 
 #include "poolreps/bench.h"
+#include "poolreps/cmaes.h"
 #include "poolreps/csvio.h"
 #include "poolreps/policy.h"
 #include "poolreps/reps.h"
@@ -40,6 +41,7 @@ void pr_bench_opts_init(pr_bench_opts *o, const char *name)
 	o->min_std = 1e-12;
 	o->value_degree = 1;
 	o->test_contexts = 100;
+	o->method = PR_METHOD_CREPS;
 	if (name && strcmp(name, "quadratic") == 0) {
 		o->iterations = 40;
 		o->dims = 1;
@@ -70,6 +72,8 @@ int pr_bench_opts_check(const pr_bench_opts *o, char *err)
 	if (o->test_contexts < 1 || o->test_contexts > 1000000)
 		return pr_err(err, PR_EINVAL, "bench.test_contexts: must be in 1..1000000 (got %d)",
 		              o->test_contexts);
+	if (o->method != PR_METHOD_CREPS && o->method != PR_METHOD_CCMAES)
+		return pr_err(err, PR_EINVAL, "bench.method: must be creps or ccmaes");
 	return PR_OK;
 }
 
@@ -161,29 +165,97 @@ static int score(const bench_ctx *c, const pr_policy *p, const double *G, const 
 	return PR_OK;
 }
 
+/* One iteration's samples in a repetition (run_rep's buffers). */
+typedef struct {
+	int n, dv, nq;
+	double *S, *X, *R, *phi;  /* contexts, actions, returns, REPS value features */
+	double *M;                /* sampling means (cov_center old), or NULL */
+	double *B;                /* quadratic context features (ccmaes baseline), or NULL */
+} batch;
+
+/* C-REPS: REPS weights (eq. 3.7-3.8), then weighted ML (eq. 3.10) around
+ * the new or the sampling mean (policy.cov_center). */
+static pr_policy *update_creps(const bench_ctx *c, const batch *bt, double *m, int *fitflags,
+                               int *rc, char *err)
+{
+	pr_reps_problem pb = { bt->n, bt->dv, bt->R, NULL, bt->phi, NULL, NULL, NULL };
+	pr_policy_data d = { bt->n, c->k, c->dims, 0, bt->S, bt->X, NULL, NULL, bt->M };
+	pr_reps_result *r = NULL;
+	pr_policy *next;
+
+	if ((*rc = pr_reps_solve(&c->cfg->reps, &pb, &r, err)))
+		return NULL;
+	m[M_ETA] = r->eta;
+	m[M_KL] = r->kl;
+	m[M_ESS] = r->ess;
+	m[M_BOUND] = r->bound;
+	/* the certificate: bound 1 active, unreachable 1, both 0 failed */
+	m[M_KLGAP] = r->kl_gap;
+	m[M_RESREL] = r->residual_rel;
+	m[M_UNREACH] = r->status == PR_REPS_UNREACHABLE;
+	if (r->status == PR_REPS_FAILED && !c->cfg->reps.allow_failed) {
+		*rc = pr_err(err, PR_ENUM, "bench: after %.0f episodes: REPS answer not certified: %s "
+		             "(reps.allow_failed = 1 records it and goes on)", m[M_SAMPLES], r->reason);
+		pr_reps_result_free(r);
+		return NULL;
+	}
+	/* eq. 3.10: the REPS weights already contain the (uniform) q */
+	d.w = r->p;
+	next = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, c->cfg->policy.lambda, c->b->min_std,
+	                            c->cfg->policy.cov_center, fitflags, err);
+	pr_reps_result_free(r);
+	*rc = next ? PR_OK : PR_ENUM;
+	return next;
+}
+
+/* C-CMA-ES: one generation with the quadratic context baseline. No dual:
+ * eta, kl and bound are 0, ess is the selection's mueff. */
+static pr_policy *update_ccmaes(const bench_ctx *c, pr_cmaes *cm, const batch *bt, double *m,
+                                int *fitflags, int *rc, char *err)
+{
+	pr_cmaes_batch cb = { bt->n, bt->nq, bt->S, bt->X, bt->R, bt->B };
+	pr_cmaes_info info;
+	pr_policy *next;
+	int floored;
+
+	if ((*rc = pr_cmaes_update(cm, &cb, &info, err)))
+		return NULL;
+	m[M_ETA] = m[M_KL] = m[M_BOUND] = m[M_KLGAP] = m[M_RESREL] = m[M_UNREACH] = 0.0;
+	m[M_ESS] = info.mueff;
+	next = pr_cmaes_policy(cm, c->b->min_std, &floored, err);
+	*fitflags = info.flags | (floored ? PR_POLICY_FLOOR : 0);
+	*rc = next ? PR_OK : PR_ENOMEM;
+	return next;
+}
+
 static int run_rep(void *ctx, int rep, char *err)
 {
 	bench_ctx *c = ctx;
 	const pr_bench_opts *b = c->b;
 	const int n = b->samples, k = c->k, da = c->dims;
-	const int dv = b->value_degree == 1 ? k : k + k * (k + 1) / 2;
+	const int cmaes = b->method == PR_METHOD_CCMAES;
+	const int old = !cmaes && c->cfg->policy.cov_center == PR_COV_CENTER_OLD;
 	gsl_rng *rng = pr_exp_rng(c->cfg->run.seed, STREAM_BENCH, (unsigned long)rep);
 	pr_policy *pol = NULL, *next;
 	pr_policy_work *ws = NULL;
-	pr_reps_result *r = NULL;
-	double *G = NULL, *tc = NULL, *S = NULL, *X = NULL, *R = NULL, *phi = NULL, *psi = NULL;
-	double *buf = NULL;
+	pr_cmaes *cm = NULL;
+	batch bt = { n, b->value_degree == 1 ? k : k + k * (k + 1) / 2, 1 + k + k * (k + 1) / 2,
+	             NULL, NULL, NULL, NULL, NULL, NULL };
+	double *G = NULL, *tc = NULL, *psi = NULL, *buf = NULL;
 	int it, i, j, flags, fitflags = 0, rc = PR_OK;
 
 	G = malloc((size_t)da * k * sizeof *G);
 	tc = malloc((size_t)b->test_contexts * k * sizeof *tc);
-	S = malloc((size_t)n * k * sizeof *S);
-	X = malloc((size_t)n * da * sizeof *X);
-	R = malloc((size_t)n * sizeof *R);
-	phi = malloc((size_t)n * dv * sizeof *phi);
-	psi = malloc((size_t)(1 + k + k * (k + 1) / 2) * sizeof *psi);
+	bt.S = malloc((size_t)n * k * sizeof *bt.S);
+	bt.X = malloc((size_t)n * da * sizeof *bt.X);
+	bt.R = malloc((size_t)n * sizeof *bt.R);
+	bt.phi = malloc((size_t)n * bt.dv * sizeof *bt.phi);
+	bt.M = old ? malloc((size_t)n * da * sizeof *bt.M) : NULL;
+	bt.B = cmaes ? malloc((size_t)n * bt.nq * sizeof *bt.B) : NULL;
+	psi = malloc((size_t)bt.nq * sizeof *psi);
 	buf = malloc(((size_t)da * da + 4 * (size_t)da) * sizeof *buf);
-	if (!rng || !G || !tc || !S || !X || !R || !phi || !psi || !buf) {
+	if (!rng || !G || !tc || !bt.S || !bt.X || !bt.R || !bt.phi || (old && !bt.M) ||
+	    (cmaes && !bt.B) || !psi || !buf) {
 		rc = pr_err(err, PR_ENOMEM, "bench: out of memory");
 		goto done;
 	}
@@ -197,15 +269,28 @@ static int run_rep(void *ctx, int rep, char *err)
 		buf[da + i] = i % (da + 1) == 0 ? b->init_std * b->init_std : 0.0;
 	for (i = 0; i < b->test_contexts; i++)
 		draw_context(c, rng, tc + (size_t)i * k);
-	if (!(pol = pr_policy_gaussian_new(k, da, buf, buf + da, err)) ||
-	    !(ws = pr_policy_work_new(pol, err))) {
+	if (cmaes) {
+		/* mean W [1, s] with W = [mu0, 0]: the same initial distribution */
+		double *W0 = buf + da + (size_t)da * da;
+
+		for (i = 0; i < da; i++)
+			for (j = 0; j <= k; j++)
+				W0[i * (k + 1) + j] = j == 0 ? buf[i] : 0.0;
+		if (!(cm = pr_cmaes_new(PR_FEATURES_AFFINE, k, da, W0, b->init_std, c->cfg->policy.lambda,
+		                        err)) || !(pol = pr_cmaes_policy(cm, b->min_std, NULL, err))) {
+			rc = PR_ENOMEM;
+			goto done;
+		}
+	} else if (!(pol = pr_policy_gaussian_new(k, da, buf, buf + da, err))) {
+		rc = PR_ENOMEM;
+		goto done;
+	}
+	if (!(ws = pr_policy_work_new(pol, err))) {
 		rc = PR_ENOMEM;
 		goto done;
 	}
 	for (it = 0; it < b->iterations; it++) {
 		double *m = c->res + ((size_t)(rep - c->lo) * b->iterations + it) * NMET;
-		pr_reps_problem pb = { n, dv, R, NULL, phi, NULL, NULL, NULL };
-		pr_policy_data d = { n, k, da, 0, S, X, NULL, NULL };
 
 		if (pr_interrupted) {
 			rc = pr_err(err, PR_EINTR, "bench: interrupted");
@@ -214,67 +299,51 @@ static int run_rep(void *ctx, int rep, char *err)
 		m[M_RETURN] = 0.0;
 		flags = 0;
 		for (i = 0; i < n; i++) {
-			double *s = S + (size_t)i * k, *x = X + (size_t)i * da;
+			double *s = bt.S + (size_t)i * k, *x = bt.X + (size_t)i * da;
 			int f = 0;
 
 			draw_context(c, rng, s);
+			if (old && (rc = pr_policy_eval(pol, s, bt.M + (size_t)i * da, NULL, &f, ws, err)))
+				goto done;
 			if ((rc = pr_policy_sample(pol, s, 1, rng, x, &f, ws, err)))
 				goto done;
 			flags |= f;
-			R[i] = objective(c, G, x, s, buf);
-			m[M_RETURN] += R[i] / n;
+			bt.R[i] = objective(c, G, x, s, buf);
+			m[M_RETURN] += bt.R[i] / n;
 			/* value features: s, or s and s_j s_k (eq. 3.4 with hand-made phi) */
 			pr_policy_features_quadratic(s, k, psi);
-			for (j = 0; j < dv; j++)
-				phi[(size_t)i * dv + j] = psi[1 + j];
+			for (j = 0; j < bt.dv; j++)
+				bt.phi[(size_t)i * bt.dv + j] = psi[1 + j];
+			if (cmaes)
+				memcpy(bt.B + (size_t)i * bt.nq, psi, (size_t)bt.nq * sizeof *psi);
 		}
 		m[M_SAMPLES] = (double)(it + 1) * n;
 		if ((rc = score(c, pol, G, tc, ws, buf, m, &flags, err)))
 			goto done;
-		if ((rc = pr_reps_solve(&c->cfg->reps, &pb, &r, err)))
-			goto done;
-		m[M_ETA] = r->eta;
-		m[M_KL] = r->kl;
-		m[M_ESS] = r->ess;
-		m[M_BOUND] = r->bound;
-		/* the certificate: bound 1 active, unreachable 1, both 0 failed */
-		m[M_KLGAP] = r->kl_gap;
-		m[M_RESREL] = r->residual_rel;
-		m[M_UNREACH] = r->status == PR_REPS_UNREACHABLE;
-		if (r->status == PR_REPS_FAILED && !c->cfg->reps.allow_failed) {
-			rc = pr_err(err, PR_ENUM, "bench: repetition %d, iteration %d: REPS answer not "
-			            "certified: %s (reps.allow_failed = 1 records it and goes on)", rep, it,
-			            r->reason);
-			goto done;
-		}
-		/* eq. 3.10: the REPS weights already contain the (uniform) q */
-		d.w = r->p;
-		next = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, c->cfg->policy.lambda, b->min_std,
-		                            &fitflags, err);
+		next = cmaes ? update_ccmaes(c, cm, &bt, m, &fitflags, &rc, err)
+		             : update_creps(c, &bt, m, &fitflags, &rc, err);
 		/* the policy that drew this iteration's samples, and the fit it led to */
 		m[M_FLAGS] = flags | fitflags;
-		pr_reps_result_free(r);
-		r = NULL;
-		if (!next) {
-			rc = PR_ENUM;
+		if (!next)
 			goto done;
-		}
 		pr_policy_free(pol);
 		pol = next;
 		pr_exp_ticker_add(&c->tick, 1);
 	}
 done:
-	pr_reps_result_free(r);
+	pr_cmaes_free(cm);
 	pr_policy_work_free(ws);
 	pr_policy_free(pol);
 	if (rng)
 		gsl_rng_free(rng);
 	free(G);
 	free(tc);
-	free(S);
-	free(X);
-	free(R);
-	free(phi);
+	free(bt.S);
+	free(bt.X);
+	free(bt.R);
+	free(bt.phi);
+	free(bt.M);
+	free(bt.B);
 	free(psi);
 	free(buf);
 	return rc;

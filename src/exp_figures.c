@@ -232,15 +232,16 @@ static int fig_ghost(const pr_config *cfg, const char *dir, gsl_rng *rng, double
 	if ((rc = pr_sim_shoot(sim, st, 2, a, &r, tr, err)))
 		goto done;
 	if (!(w = open_csv(dir, "fig7_5_ghost.csv", "cue_x,cue_y,ball_x,ball_y,target,aim_x,aim_y,ghost_x,"
-	                   "ghost_y,dir_x,dir_y,cut_deg,v_contact,v0,vx,vy,pocket1,reward", err))) {
+	                   "ghost_y,dir_x,dir_y,cut_deg,v_contact,v0,vx,vy,pocket1,reward,entry_x,entry_y", err))) {
 		rc = PR_EIO;
 		goto done;
 	}
 	{
-		double v[18] = {st[0], st[1], st[2], st[3], g.target, g.aim[0], g.aim[1], g.ghost[0],
+		double v[20] = {st[0], st[1], st[2], st[3], g.target, g.aim[0], g.aim[1], g.ghost[0],
 		                g.ghost[1], g.dir[0], g.dir[1], g.cut * 180 / acos(-1.0), g.v_contact,
-		                g.v0, a[0], a[1], r.pocket[1], pr_sim_reward(&t, &cfg->reward, &r)};
-		rc = pr_csvw_finish(w, put_row(w, 18, v), err);
+		                g.v0, a[0], a[1], r.pocket[1], pr_sim_reward(&t, &cfg->reward, &r),
+		                g.entry[0], g.entry[1]};
+		rc = pr_csvw_finish(w, put_row(w, 20, v), err);
 		w = NULL;
 	}
 	if (rc)

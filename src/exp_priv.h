@@ -14,6 +14,9 @@
 /* Experiment 1 (thesis 7.3): raw exp1_mse.csv, exp1_map.csv; derived exp1_summary.csv. */
 int pr_exp1_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err);
 int pr_exp1_summarize(const pr_config *cfg, const char *dir, char *err);
+/* Variants: every setting of the n_min, trees and cuts sweeps ("n_min=20"),
+ * then the reward map ("map"). */
+int pr_exp1_variants(const pr_config *cfg, pr_variants *out, char *err);
 /* Experiment 2 (thesis 7.4): raw exp2_returns.csv; derived exp2_summary.csv. */
 int pr_exp2_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err);
 int pr_exp2_summarize(const pr_config *cfg, const char *dir, char *err);
@@ -22,6 +25,8 @@ int pr_exp2_summarize(const pr_config *cfg, const char *dir, char *err);
  * exp3_reps_summary.csv. */
 int pr_exp3_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err);
 int pr_exp3_summarize(const pr_config *cfg, const char *dir, char *err);
+/* Variants: the policies of exp3.policies, in its order. */
+int pr_exp3_variants(const pr_config *cfg, pr_variants *out, char *err);
 
 /* ---- repetitions on threads ---- */
 
@@ -49,10 +54,14 @@ int pr_exp_parallel(int lo, int hi, int threads, int (*job)(void *ctx, int k, ch
 
 /* A CSV read as text: a header row and rows of equally many fields. */
 typedef struct pr_exp_table pr_exp_table;
-/* Read path; errors name file and line. *out is owned by the caller. */
+/* Read path (it must end with a line end); errors name file and line.
+ * *out is owned by the caller. */
 int pr_exp_table_read(const char *path, pr_exp_table **out, char *err);
 void pr_exp_table_free(pr_exp_table *t);
 long pr_exp_table_nrows(const pr_exp_table *t);
+int pr_exp_table_ncols(const pr_exp_table *t);
+/* Name of column j (the header row), owned by t. */
+const char *pr_exp_table_name(const pr_exp_table *t, int j);
 const char *pr_exp_table_path(const pr_exp_table *t);
 /* The file line of data row i, for messages. */
 long pr_exp_table_line(const pr_exp_table *t, long i);

@@ -1,6 +1,7 @@
 /* exp_util.c — helpers of the experiments: repetitions on threads,
  * thread-safe progress, and reading raw CSVs that hold text columns
- * (sweep, policy, mode), which the numeric pr_csv_read refuses.
+ * (sweep, policy, mode), which the numeric pr_csv_read refuses; both go
+ * through the one CSV reader, pr_csv_scan.
  *
  * Determinism: a repetition's results depend only on (seed, k), never on
  * which thread ran it or when, so the thread count cannot change a byte. */
@@ -9,8 +10,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-#include <csv.h>
 
 #include "csvio_priv.h"
 #include "exp_priv.h"
@@ -128,10 +127,10 @@ int pr_exp_parallel(int lo, int hi, int threads, int (*job)(void *ctx, int k, ch
 	return rc;
 }
 
-/* ---- text CSV ---- */
+/* ---- text CSV (through the one reader, pr_csv_scan) ---- */
 
 struct pr_exp_table {
-	char path[256];
+	char *path;
 	int ncols;         /* 0 until the header row is read */
 	char **hdr;        /* ncols names */
 	long nrows, cap;
@@ -139,98 +138,52 @@ struct pr_exp_table {
 	long *line;        /* file line of each data row */
 };
 
-typedef struct {
-	pr_exp_table *t;
-	char **row;        /* fields of the current record */
-	int nfield, capfield;
-	long line;         /* current file line */
-	int status;
-	char *err;
-} reader;
-
-static void on_field(void *s, size_t len, void *data)
-{
-	reader *r = data;
-	char *f;
-
-	if (r->status)
-		return;
-	if (r->nfield == r->capfield) {
-		int cap = r->capfield ? 2 * r->capfield : 16;
-		char **g = realloc(r->row, (size_t)cap * sizeof *g);
-		if (!g) {
-			r->status = pr_err(r->err, PR_ENOMEM, "out of memory");
-			return;
-		}
-		r->row = g;
-		r->capfield = cap;
-	}
-	f = malloc(len + 1);
-	if (!f) {
-		r->status = pr_err(r->err, PR_ENOMEM, "out of memory");
-		return;
-	}
-	if (len)
-		memcpy(f, s, len);
-	f[len] = '\0';
-	r->row[r->nfield++] = f;
-}
-
-static void drop_fields(reader *r)
+/* n strings copied into a new array at *out. */
+static int copy_fields(int n, char **fields, char **out, const char *path, char *err)
 {
 	int j;
 
-	for (j = 0; j < r->nfield; ++j)
-		free(r->row[j]);
-	r->nfield = 0;
+	for (j = 0; j < n; ++j)
+		if (!(out[j] = strdup(fields[j]))) {
+			while (j--)
+				free(out[j]);
+			return pr_err(err, PR_ENOMEM, "%s: out of memory", path);
+		}
+	return PR_OK;
 }
 
-static void on_row(int c, void *data)
+static int table_header(void *user, const char *path, long line, int n, char **names, char *err)
 {
-	reader *r = data;
-	pr_exp_table *t = r->t;
+	pr_exp_table *t = user;
 
-	(void)c;
-	if (r->status) {
-		drop_fields(r);
-		return;
-	}
-	if (!t->hdr) {
-		t->hdr = malloc((size_t)r->nfield * sizeof *t->hdr);
-		if (!t->hdr) {
-			r->status = pr_err(r->err, PR_ENOMEM, "out of memory");
-			drop_fields(r);
-			return;
-		}
-		memcpy(t->hdr, r->row, (size_t)r->nfield * sizeof *r->row);
-		t->ncols = r->nfield;
-		r->nfield = 0;
-		return;
-	}
-	if (r->nfield != t->ncols) {
-		r->status = pr_err(r->err, PR_EIO, "%s:%ld: %d fields, but the header has %d",
-		                   t->path, r->line, r->nfield, t->ncols);
-		drop_fields(r);
-		return;
-	}
+	(void)line;
+	if (!(t->hdr = calloc((size_t)n, sizeof *t->hdr)))
+		return pr_err(err, PR_ENOMEM, "%s: out of memory", path);
+	if (copy_fields(n, names, t->hdr, path, err))
+		return PR_ENOMEM;
+	t->ncols = n;
+	return PR_OK;
+}
+
+static int table_row(void *user, const char *path, long line, int n, char **fields, char *err)
+{
+	pr_exp_table *t = user;
+
 	if (t->nrows == t->cap) {
 		long cap = t->cap ? 2 * t->cap : 256;
-		char **g = realloc(t->cell, (size_t)cap * (size_t)t->ncols * sizeof *g);
+		char **g = realloc(t->cell, (size_t)cap * (size_t)n * sizeof *g);
 		long *l = g ? realloc(t->line, (size_t)cap * sizeof *l) : NULL;
 		if (g)
 			t->cell = g;
-		if (!l) {
-			r->status = pr_err(r->err, PR_ENOMEM, "out of memory");
-			drop_fields(r);
-			return;
-		}
+		if (!l)
+			return pr_err(err, PR_ENOMEM, "%s: out of memory", path);
 		t->line = l;
 		t->cap = cap;
 	}
-	memcpy(t->cell + (size_t)t->nrows * (size_t)t->ncols, r->row,
-	       (size_t)t->ncols * sizeof *r->row);
-	t->line[t->nrows++] = r->line;
-	r->nfield = 0;
+	if (copy_fields(n, fields, t->cell + (size_t)t->nrows * (size_t)n, path, err))
+		return PR_ENOMEM;
+	t->line[t->nrows++] = line;
+	return PR_OK;
 }
 
 void pr_exp_table_free(pr_exp_table *t)
@@ -239,65 +192,45 @@ void pr_exp_table_free(pr_exp_table *t)
 
 	if (!t)
 		return;
-	for (i = 0; i < t->ncols; ++i)
+	for (i = 0; t->hdr && i < t->ncols; ++i)
 		free(t->hdr[i]);
 	for (i = 0; i < t->nrows * t->ncols; ++i)
 		free(t->cell[i]);
 	free(t->hdr);
 	free(t->cell);
 	free(t->line);
+	free(t->path);
 	free(t);
 }
 
 int pr_exp_table_read(const char *path, pr_exp_table **out, char *err)
 {
-	struct csv_parser p;
-	reader r;
-	FILE *fp;
-	char *buf = NULL;
-	size_t cap = 0;
-	ssize_t len;
+	pr_exp_table *t = calloc(1, sizeof *t);
+	int rc;
 
 	*out = NULL;
-	memset(&r, 0, sizeof r);
-	r.err = err;
-	r.t = calloc(1, sizeof *r.t);
-	if (!r.t)
-		return pr_err(err, PR_ENOMEM, "out of memory");
-	snprintf(r.t->path, sizeof r.t->path, "%s", path);
-	fp = fopen(path, "rb");
-	if (!fp) {
-		pr_exp_table_free(r.t);
-		return pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
-	}
-	if (csv_init(&p, CSV_APPEND_NULL) != 0) {
-		fclose(fp);
-		pr_exp_table_free(r.t);
+	if (!t || !(t->path = strdup(path))) {
+		free(t);
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	}
-	while (!r.status && (len = getline(&buf, &cap, fp)) != -1) {
-		r.line++;
-		if (csv_parse(&p, buf, (size_t)len, on_field, on_row, &r) != (size_t)len && !r.status)
-			r.status = pr_err(err, PR_EIO, "%s:%ld: malformed CSV: %s", path, r.line,
-			                  csv_strerror(csv_error(&p)));
+	/* raw tables are written whole by poolreps: a missing last line end
+	 * means a truncated file */
+	if ((rc = pr_csv_scan(path, PR_CSV_COMPLETE, table_header, table_row, t, err))) {
+		pr_exp_table_free(t);
+		return rc;
 	}
-	if (!r.status && ferror(fp))
-		r.status = pr_err(err, PR_EIO, "%s: read error: %s", path, strerror(errno));
-	if (!r.status)
-		csv_fini(&p, on_field, on_row, &r);
-	if (!r.status && !r.t->hdr)
-		r.status = pr_err(err, PR_EIO, "%s: empty file: no header row", path);
-	drop_fields(&r);
-	csv_free(&p);
-	free(buf);
-	free(r.row);
-	fclose(fp);
-	if (r.status) {
-		pr_exp_table_free(r.t);
-		return r.status;
-	}
-	*out = r.t;
+	*out = t;
 	return PR_OK;
+}
+
+int pr_exp_table_ncols(const pr_exp_table *t)
+{
+	return t->ncols;
+}
+
+const char *pr_exp_table_name(const pr_exp_table *t, int j)
+{
+	return t->hdr[j];
 }
 
 long pr_exp_table_nrows(const pr_exp_table *t)

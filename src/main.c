@@ -1,5 +1,6 @@
 /* main.c — the poolreps command line: parse options, build the configuration,
  * call one library command, print its one-line error, map status to exit. */
+#include <errno.h>
 #include <getopt.h>
 #include <signal.h>
 #include <stdio.h>
@@ -13,12 +14,11 @@
 
 #include "poolreps/cmd.h"
 #include "poolreps/config.h"
-#include "csvio_priv.h"
 
 enum {
 	O_SET = 256, O_SEED, O_VERSION, O_TRACE, O_TRAIN, O_TEST, O_TARGET, O_WEIGHT,
 	O_LEAVES, O_RETURN, O_FEATURES, O_BASE, O_EPSILON, O_SUMMARY, O_STATE, O_ACTION,
-	O_SAMPLE
+	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP
 };
 
 static const struct option longopts[] = {
@@ -40,32 +40,39 @@ static const struct option longopts[] = {
 	{"state", required_argument, 0, O_STATE},
 	{"action", required_argument, 0, O_ACTION},
 	{"sample", required_argument, 0, O_SAMPLE},
+	{"grid", required_argument, 0, O_GRID},
+	{"split", required_argument, 0, O_SPLIT},
+	{"missing", required_argument, 0, O_MISSING},
+	{"keep", no_argument, 0, O_KEEP},
 	{0, 0, 0, 0}
 };
 
 typedef struct {
 	const char *name;
-	const char *options; /* the command-specific long options it accepts */
+	const char *options; /* every option it accepts besides -h, --version, -q:
+	                      * drives its --help line and the command-line check */
 	int (*fn)(const pr_config *, const pr_cmd_args *, char *);
 	const char *usage;
 } command;
 
 static const command commands[] = {
-	{"run", "", pr_cmd_run,
+	{"run", "c,o,set,seed", pr_cmd_run,
 	 "poolreps [run] CONFIG [-o DIR] [--set section.key=value]... [--seed N] [-q]\n"
 	 "  Run the experiment a parameter file describes; write CSVs, figures' data and\n"
-	 "  provenance into DIR (default: results/<experiment.name>)."},
-	{"shoot", "trace", pr_cmd_shoot,
-	 "poolreps shoot [-c FILE] [-i IN.csv] [-o OUT.csv] [--trace TRACE.csv]\n"
+	 "  provenance into DIR (default: results/<experiment.name>; figures: results/sim)."},
+	{"shoot", "c,i,o,set,trace,keep", pr_cmd_shoot,
+	 "poolreps shoot [-c FILE] [-i IN.csv] [-o OUT.csv] [--trace TRACE.csv] [--keep]\n"
 	 "  One shot per input row. Input columns x0,y0,x1,y1,...,vx,vy. Output columns\n"
-	 "  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events."},
-	{"forest", "train,test,target,weight,leaves", pr_cmd_forest,
+	 "  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events.\n"
+	 "  --keep copies the input columns in front; the final positions are then\n"
+	 "  final_x0,final_y0,..."},
+	{"forest", "c,o,set,seed,train,test,target,weight,leaves", pr_cmd_forest,
 	 "poolreps forest --train FILE --test FILE --target COLS [--weight COL] [--leaves FILE]\n"
 	 "                [-o OUT.csv] [-c FILE] [--set forest.key=value]...\n"
 	 "  Fit extra trees on the training CSV (inputs = every other column), predict the\n"
 	 "  test CSV: one pred_<name> column per target. --leaves writes each test row's\n"
 	 "  active leaf per tree. Timings and test MSE go to stderr."},
-	{"reps", "return,features,base,epsilon,summary", pr_cmd_reps,
+	{"reps", "c,i,o,set,return,features,base,epsilon,summary", pr_cmd_reps,
 	 "poolreps reps --return COL --features LIST [--base COL] [--epsilon E]\n"
 	 "              [--summary FILE] [-i IN.csv] [-o OUT.csv]\n"
 	 "  REPS weights p for every input row; LIST is a comma list of columns or a\n"
@@ -73,21 +80,92 @@ static const command commands[] = {
 	 "  iterations,kl_gap,residual_rel,status: the certificate; status is active\n"
 	 "  (|KL - epsilon| and the relative feature residual <= 1e-9), unreachable (eta = 0:\n"
 	 "  p is the eta -> 0 limit, KL < epsilon) or failed, which exits 3."},
-	{"policy", "train,state,action,weight,sample,target", pr_cmd_policy,
+	{"policy", "c,i,o,set,seed,train,state,action,weight,sample,target", pr_cmd_policy,
 	 "poolreps policy --train FILE --state COLS --action COLS --weight COL [--sample N]\n"
 	 "                [--target COLS] [-i STATES.csv] [-o OUT.csv] [--set policy.key=value]...\n"
 	 "  Fit the tree-LWR Gaussian policy; write mean and covariance (and N samples)\n"
 	 "  for every state row of the input. policy.target = reward_state needs --target\n"
 	 "  (the training rows' final reward-ball positions)."},
-	{"config", "", NULL,
-	 "poolreps config [-c FILE] [--set section.key=value]... [--seed N]\n"
-	 "  Write the effective configuration (defaults, file, overrides) as INI to stdout."},
-	{"merge", "", pr_cmd_merge,
+	{"config", "c,o,set,seed", pr_cmd_config,
+	 "poolreps config [-c FILE] [--set section.key=value]... [--seed N] [-o FILE]\n"
+	 "  Write the effective configuration (defaults, file, overrides) as INI."},
+	{"merge", "o", pr_cmd_merge,
 	 "poolreps merge -o DIR RUN_DIR...\n"
-	 "  Combine single-repetition or single-setting outputs into what one process\n"
+	 "  Combine single-repetition or single-variant outputs into what one process\n"
 	 "  would have written."},
+	{"sweep", "o,set,seed,grid,split,missing", pr_cmd_sweep,
+	 "poolreps sweep CONFIG [--grid SECTION.KEY=V1,V2,...]... [--split repetition|variant|both]\n"
+	 "               -o SWEEP_DIR      |      poolreps sweep --missing SWEEP_DIR\n"
+	 "  Write jobs over every combination of the grid values: one `poolreps run` per\n"
+	 "  grid point and repetition and/or variant (exp1: setting, exp3: policy), listed\n"
+	 "  in SWEEP_DIR/jobs.txt and manifest.csv, with slurm.sbatch and parallel.sh to run\n"
+	 "  them and point-N/config.ini per grid point. --missing prints the jobs that have\n"
+	 "  not finished, to run again."},
+	{"collect", "", pr_cmd_collect,
+	 "poolreps collect SWEEP_DIR\n"
+	 "  Merge every grid point's jobs into point-N/merged (as `merge` does) and write\n"
+	 "  SWEEP_DIR/sweep_summary.csv: the grid values and the experiment's summary rows.\n"
+	 "  Names the jobs not done if there are any."},
 };
 #define NCOMMANDS (sizeof commands / sizeof commands[0])
+
+/* The keys a component command reads, so its --set may change ("sim." is
+ * section sim); NULL: every key (run, config). */
+static const char *command_keys(const command *cmd)
+{
+	static const struct {
+		const char *name, *keys;
+	} reads[] = {
+		{"shoot", "table.,sim.,reward."},
+		{"forest", "forest.,experiment.seed"},
+		{"reps", "reps."},
+		{"policy", "policy.,experiment.seed"},
+		{"merge", ""},
+		{"collect", ""},
+	};
+	size_t i;
+
+	for (i = 0; i < sizeof reads / sizeof reads[0]; ++i)
+		if (strcmp(reads[i].name, cmd->name) == 0)
+			return reads[i].keys;
+	return NULL;
+}
+
+/* 1 if key ("section.key") is in list ("a.,b.c": section a, key b.c). */
+static int key_listed(const char *list, const char *key)
+{
+	while (*list) {
+		size_t n = strcspn(list, ",");
+		if (n && (list[n - 1] == '.' ? strncmp(key, list, n) == 0
+		                             : strlen(key) == n && strncmp(key, list, n) == 0))
+			return 1;
+		list += n + (list[n] == ',');
+	}
+	return 0;
+}
+
+/* "Accepts: -c, -o, --set" from a command's option list, and the keys its
+ * --set may change. */
+static void print_options(FILE *fp, const char *options, const char *keys)
+{
+	const char *p = options;
+
+	fprintf(fp, "  Accepts:");
+	while (*p) {
+		size_t n = strcspn(p, ",");
+		fprintf(fp, " %s%.*s,", n == 1 ? "-" : "--", (int)n, p);
+		p += n + (p[n] == ',');
+	}
+	fprintf(fp, " -q, -h.\n");
+	for (p = keys; p && *p;) {
+		size_t n = strcspn(p, ",");
+		fprintf(fp, "%s%.*s%s", p == keys ? "  --set keys: " : ", ", (int)n, p,
+		        p[n - 1] == '.' ? "*" : "");
+		p += n + (p[n] == ',');
+		if (!*p)
+			fprintf(fp, ".\n");
+	}
+}
 
 static void usage(FILE *fp, const command *cmd)
 {
@@ -95,13 +173,17 @@ static void usage(FILE *fp, const command *cmd)
 
 	if (cmd) {
 		fprintf(fp, "Usage: %s\n", cmd->usage);
+		print_options(fp, cmd->options, command_keys(cmd));
 	} else {
 		fprintf(fp, "Usage: poolreps CONFIG | poolreps COMMAND [options]\n\nCommands:\n");
-		for (i = 0; i < NCOMMANDS; ++i)
+		for (i = 0; i < NCOMMANDS; ++i) {
 			fprintf(fp, "  %s\n", commands[i].usage);
+			print_options(fp, commands[i].options, command_keys(&commands[i]));
+		}
 	}
 	fprintf(fp,
-	        "\nOptions every command accepts:\n"
+	        "\nCommon options (a command takes those its Accepts line lists, each at\n"
+	        "most once except --set; any other is refused):\n"
 	        "  -c FILE              parameter file (INI)\n"
 	        "  --set SECTION.KEY=V  override one parameter (repeatable)\n"
 	        "  --seed N             master seed (experiment.seed)\n"
@@ -110,30 +192,45 @@ static void usage(FILE *fp, const command *cmd)
 	        "  -h, --help           this help; after a COMMAND, that command's usage\n"
 	        "  --version            print the version and exit\n"
 	        "\nExit codes: 0 ok, 1 bad usage or parameter, 2 I/O or malformed CSV,\n"
-	        "  3 numerical failure, 4 out of memory, 130 interrupted.\n\n");
+	        "  3 numerical failure, 4 out of memory, 128 + N stopped by signal N\n"
+	        "  (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT, 141 SIGPIPE, 153 SIGXFSZ).\n\n");
 	pr_config_help(fp);
 }
 
-/* During a run, the first signal asks the loops to stop (they return
- * PR_EINTR and remove the staging folder). Otherwise, or on a second signal,
- * remove open temporary files and leave at once. */
+/* During a run or merge, the first signal asks the loops to stop (they
+ * return PR_EINTR and remove the staging folder). Otherwise, or on a second
+ * signal, remove every registered temporary file and staging folder and
+ * leave at once with 128 + the signal. Only async-signal-safe calls. */
 static volatile sig_atomic_t graceful;
+
+static void say_now(const char *s)
+{
+	ssize_t rc = write(STDERR_FILENO, s, strlen(s));
+	(void)rc;
+}
 
 static void on_signal(int sig)
 {
-	static const char msg[] = "poolreps: interrupted: partial output files removed, "
-	                          "complete files kept\n";
-	ssize_t rc;
+	static const struct { int sig; const char *name; } names[] = {
+		{SIGINT, "SIGINT"}, {SIGTERM, "SIGTERM"}, {SIGHUP, "SIGHUP"}, {SIGQUIT, "SIGQUIT"},
+		{SIGPIPE, "SIGPIPE"}, {SIGXFSZ, "SIGXFSZ"}, {SIGXCPU, "SIGXCPU"}, {SIGUSR1, "SIGUSR1"},
+		{SIGUSR2, "SIGUSR2"}, {SIGALRM, "SIGALRM"}, {SIGVTALRM, "SIGVTALRM"}};
+	size_t i;
+	int named = 0;
 
-	(void)sig;
 	if (graceful && !pr_interrupted) {
-		pr_interrupted = 1;
+		pr_interrupted = sig;
 		return;
 	}
-	pr_csvw_cleanup();
-	rc = write(STDERR_FILENO, msg, sizeof msg - 1);
-	(void)rc;
-	_exit(130);
+	pr_cleanup_run();
+	say_now("poolreps: interrupted by ");
+	for (i = 0; i < sizeof names / sizeof names[0]; ++i)
+		if (names[i].sig == sig)
+			say_now(names[i].name), named = 1;
+	if (!named)
+		say_now("a signal");
+	say_now(": partial output files removed, existing files left as they were\n");
+	_exit(128 + sig);
 }
 
 /* Progress on stderr: a bar with ETA on a terminal, else a plain line per 10 %. */
@@ -173,18 +270,52 @@ static void on_progress(void *user, long done, long total, const char *what)
 	}
 }
 
+/* The one error line: escaped like every library message (pr_err). */
 static int fail(const char *msg)
 {
-	fprintf(stderr, "poolreps: %s\n", msg);
+	char line[PR_ERRLEN];
+
+	pr_err(line, PR_EINVAL, "%s", msg);
+	fprintf(stderr, "poolreps: %s\n", line);
 	return 1;
 }
 
-static int option_allowed(const command *cmd, const char *opt)
+/* After --help or --version: report a failed write to stdout. */
+static int stdout_done(void)
 {
-	const char *p = strstr(cmd->options, opt);
-	size_t n = strlen(opt);
+	errno = 0;
+	if (fflush(stdout) == 0 && !ferror(stdout))
+		return 0;
+	fprintf(stderr, "poolreps: <stdout>: write error: %s\n", strerror(errno ? errno : EIO));
+	return 2;
+}
 
-	return p && (p == cmd->options || p[-1] == ',') && (p[n] == '\0' || p[n] == ',');
+/* The name an option has in the command table ("c", "set", "trace"). */
+static const char *option_name(int c)
+{
+	static char letter[2];
+	size_t i;
+
+	if (c < 256) {
+		letter[0] = (char)c;
+		return letter;
+	}
+	for (i = 0; longopts[i].name; ++i)
+		if (longopts[i].val == c)
+			return longopts[i].name;
+	return "?";
+}
+
+static void print_done(const struct timespec *t0, clock_t c0)
+{
+	struct rusage ru;
+	struct timespec t1;
+
+	getrusage(RUSAGE_SELF, &ru);
+	clock_gettime(CLOCK_MONOTONIC, &t1);
+	fprintf(stderr, "poolreps: done: wall %.2f s, cpu %.2f s, peak memory %.1f MiB\n",
+	        (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec),
+	        (double)(clock() - c0) / CLOCKS_PER_SEC, (double)ru.ru_maxrss / 1024.0);
 }
 
 int main(int argc, char **argv)
@@ -192,90 +323,105 @@ int main(int argc, char **argv)
 	pr_cmd_args a;
 	pr_config cfg;
 	progress_state prog;
+	struct sigaction sa;
+	sigset_t held;
 	const command *cmd = NULL;
-	const char *config_path = NULL, *seed = NULL, *used[32];
-	char err[PR_ERRLEN], msg[PR_ERRLEN + 64];
-	char **orig, **sets;
-	int nsets = 0, nused = 0, help = 0, c, rc, i;
-	struct timespec t0, t1;
+	const char *config_path = NULL, *seed = NULL;
+	char err[PR_ERRLEN], msg[PR_ERRLEN + 64], note[PR_ERRLEN] = "";
+	char **orig, **sets, **grids;
+	int *used, nsets = 0, nused = 0, help = 0, c, rc, i, k;
+	struct timespec t0;
 	clock_t c0 = clock();
 	size_t j;
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
 	gsl_set_error_handler_off();
-	signal(SIGINT, on_signal);
-	signal(SIGTERM, on_signal);
+	memset(&sa, 0, sizeof sa);
+	sa.sa_handler = on_signal;
+	sigemptyset(&sa.sa_mask);
+	for (i = 0; pr_fatal_signals[i]; ++i)
+		sigaddset(&sa.sa_mask, pr_fatal_signals[i]);
+	for (i = 0; pr_fatal_signals[i]; ++i)
+		sigaction(pr_fatal_signals[i], &sa, NULL);
 	memset(&a, 0, sizeof a);
 	/* getopt_long permutes argv: provenance records the order as typed */
-	orig = calloc(2 * ((size_t)argc + 1), sizeof *orig);
-	if (!orig)
+	orig = calloc(3 * ((size_t)argc + 1), sizeof *orig);
+	used = calloc((size_t)argc + 1, sizeof *used);
+	if (!orig || !used) {
+		free(orig);
 		return fail("out of memory");
+	}
 	memcpy(orig, argv, (size_t)argc * sizeof *orig);
 	sets = orig + argc + 1;
+	grids = sets + argc + 1;
+	a.grid = grids;
 	a.argc = argc;
 	a.argv = orig;
+	a.note = note;
 	opterr = 0;
+#define FAIL(...) do { snprintf(msg, sizeof msg, __VA_ARGS__); free(orig); free(used); return fail(msg); } while (0)
 	while ((c = getopt_long(argc, argv, ":c:i:o:qh", longopts, NULL)) != -1) {
-		const char *name = NULL;
 		switch (c) {
 		case 'c': config_path = optarg; break;
 		case 'i': a.input = optarg; break;
 		case 'o': a.output = optarg; break;
 		case 'q': a.quiet = 1; break;
 		case 'h': help = 1; break;
-		case O_VERSION: printf("poolreps %s\n", pr_version()); free(orig); return 0;
+		case O_VERSION:
+			printf("poolreps %s\n", pr_version());
+			free(orig);
+			free(used);
+			return stdout_done();
 		case O_SET: sets[nsets++] = optarg; break;
 		case O_SEED: seed = optarg; break;
-		case O_TRACE: a.trace = optarg; name = "trace"; break;
-		case O_TRAIN: a.train = optarg; name = "train"; break;
-		case O_TEST: a.test = optarg; name = "test"; break;
-		case O_TARGET: a.target = optarg; name = "target"; break;
-		case O_WEIGHT: a.weight = optarg; name = "weight"; break;
-		case O_LEAVES: a.leaves = optarg; name = "leaves"; break;
-		case O_RETURN: a.ret = optarg; name = "return"; break;
-		case O_FEATURES: a.features = optarg; name = "features"; break;
-		case O_BASE: a.base = optarg; name = "base"; break;
-		case O_SUMMARY: a.summary = optarg; name = "summary"; break;
-		case O_STATE: a.state = optarg; name = "state"; break;
-		case O_ACTION: a.action = optarg; name = "action"; break;
+		case O_TRACE: a.trace = optarg; break;
+		case O_TRAIN: a.train = optarg; break;
+		case O_TEST: a.test = optarg; break;
+		case O_TARGET: a.target = optarg; break;
+		case O_WEIGHT: a.weight = optarg; break;
+		case O_LEAVES: a.leaves = optarg; break;
+		case O_RETURN: a.ret = optarg; break;
+		case O_FEATURES: a.features = optarg; break;
+		case O_BASE: a.base = optarg; break;
+		case O_SUMMARY: a.summary = optarg; break;
+		case O_STATE: a.state = optarg; break;
+		case O_ACTION: a.action = optarg; break;
+		case O_GRID: grids[a.ngrid++] = optarg; break;
+		case O_SPLIT: a.split = optarg; break;
+		case O_MISSING: a.missing = optarg; break;
+		case O_KEEP: a.keep = 1; break;
 		case O_EPSILON: {
 			char *end;
 			a.epsilon = strtod(optarg, &end);
-			if (end == optarg || *end || !(a.epsilon > 0) || a.epsilon > 1e6) {
-				snprintf(msg, sizeof msg, "--epsilon %.40s: must be a number > 0 and <= 1e6", optarg);
-				free(orig);
-				return fail(msg);
-			}
+			if (end == optarg || *end || !(a.epsilon > 0) || a.epsilon > 1e6)
+				FAIL("--epsilon %.40s: must be a number > 0 and <= 1e6", optarg);
 			a.epsilon_set = 1;
-			name = "epsilon";
 			break;
 		}
 		case O_SAMPLE: {
 			char *end;
 			a.sample = strtol(optarg, &end, 10);
-			if (end == optarg || *end || a.sample < 1 || a.sample > 1000000) {
-				snprintf(msg, sizeof msg, "--sample %.40s: must be an integer in 1..1000000", optarg);
-				free(orig);
-				return fail(msg);
-			}
-			name = "sample";
+			if (end == optarg || *end || a.sample < 1 || a.sample > 1000000)
+				FAIL("--sample %.40s: must be an integer in 1..1000000", optarg);
 			break;
 		}
 		case ':':
-			snprintf(msg, sizeof msg, "option %s needs a value (see poolreps --help)", argv[optind - 1]);
-			free(orig);
-			return fail(msg);
+			FAIL("option %s needs a value (see poolreps --help)", argv[optind - 1]);
 		default:
 			/* in a group such as -qZ, optind may not have moved past it yet */
 			if (optopt)
-				snprintf(msg, sizeof msg, "unknown option -%c (see poolreps --help)", optopt);
-			else
-				snprintf(msg, sizeof msg, "unknown option %s (see poolreps --help)", argv[optind - 1]);
-			free(orig);
-			return fail(msg);
+				FAIL("unknown option -%c (see poolreps --help)", optopt);
+			FAIL("unknown option %s (see poolreps --help)", argv[optind - 1]);
 		}
-		if (name && nused < 32)
-			used[nused++] = name;
+		if (c != 'q' && c != 'h') {
+			/* a value given twice would silently drop the first (--set and
+			 * --grid repeat by design) */
+			for (k = 0; c != O_SET && c != O_GRID && k < nused; ++k)
+				if (used[k] == c)
+					FAIL("option %s%s given twice%s", c < 256 ? "-" : "--", option_name(c),
+					     c == 'c' ? ": give one parameter file (--set overrides single keys)" : "");
+			used[nused++] = c;
+		}
 	}
 
 	/* The first operand names a command; anything else is a parameter file. */
@@ -288,38 +434,56 @@ int main(int argc, char **argv)
 		else
 			cmd = &commands[0];
 	}
-	if (help || !cmd) {
-		usage(help ? stdout : stderr, cmd);
+	if (help) {
+		usage(stdout, cmd);
 		free(orig);
-		return help ? 0 : 1;
+		free(used);
+		return stdout_done();
 	}
+	if (!cmd)
+		FAIL("Usage: poolreps CONFIG | poolreps COMMAND [options] (see poolreps --help)");
 	if (cmd->fn == pr_cmd_run) {
+		if (optind < argc && config_path)
+			FAIL("run: two parameter files (%s and -c %s): give one", argv[optind], config_path);
 		if (optind < argc)
 			config_path = argv[optind++];
-		if (!config_path) {
-			free(orig);
-			return fail("run: no parameter file given (poolreps CONFIG)");
-		}
-	} else if (cmd->fn == pr_cmd_merge) {
+		if (!config_path)
+			FAIL("run: no parameter file given (poolreps CONFIG)");
+	} else if (cmd->fn == pr_cmd_sweep && !a.missing && optind < argc) {
+		config_path = argv[optind++];
+	} else if (cmd->fn == pr_cmd_merge || cmd->fn == pr_cmd_collect) {
 		a.ninputs = argc - optind;
 		a.inputs = argv + optind;
 		optind = argc;
 	}
-	if (optind < argc) {
-		snprintf(msg, sizeof msg, "%s: unexpected argument '%.60s'", cmd->name, argv[optind]);
-		free(orig);
-		return fail(msg);
+	if (optind < argc)
+		FAIL("%s: unexpected argument '%.60s'", cmd->name, argv[optind]);
+	for (k = 0; k < nused + (nsets > 0); ++k) {
+		const char *name = option_name(k < nused ? used[k] : O_SET);
+		const char *p = strstr(cmd->options, name);
+		size_t n = strlen(name);
+		if (!(p && (p == cmd->options || p[-1] == ',') && (p[n] == '\0' || p[n] == ',')))
+			FAIL("%s: option %s%s does not apply (see poolreps %s --help)", cmd->name,
+			     n == 1 ? "-" : "--", name, cmd->name);
 	}
-	for (i = 0; i < nused; ++i) {
-		if (!option_allowed(cmd, used[i])) {
-			snprintf(msg, sizeof msg, "%s: option --%s does not apply (see poolreps %s --help)",
-			         cmd->name, used[i], cmd->name);
-			free(orig);
-			return fail(msg);
-		}
+	/* a key the command never reads would be ignored: refuse it */
+	for (i = 0; command_keys(cmd) && i < nsets; ++i) {
+		char key[64];
+		const char *p = sets[i] + strspn(sets[i], " \t");
+		size_t n = strcspn(p, "=");
+		while (n && (p[n - 1] == ' ' || p[n - 1] == '\t'))
+			--n;
+		snprintf(key, sizeof key, "%.*s", (int)n, p);
+		if (!key_listed(command_keys(cmd), key))
+			FAIL("%s: --set %s does not apply (see poolreps %s --help)", cmd->name, key, cmd->name);
 	}
+	if (command_keys(cmd) && seed && !key_listed(command_keys(cmd), "experiment.seed"))
+		FAIL("%s: option --seed does not apply (see poolreps %s --help)", cmd->name, cmd->name);
+#undef FAIL
+	free(used);
 	a.command = cmd->name;
-	graceful = cmd->fn == pr_cmd_run || cmd->fn == pr_cmd_merge;
+	graceful = cmd->fn == pr_cmd_run || cmd->fn == pr_cmd_merge || cmd->fn == pr_cmd_sweep ||
+	           cmd->fn == pr_cmd_collect;
 	if (!a.quiet) {
 		memset(&prog, 0, sizeof prog);
 		prog.t0 = t0;
@@ -340,34 +504,30 @@ int main(int argc, char **argv)
 		snprintf(buf, sizeof buf, "experiment.seed=%.60s", seed);
 		rc = pr_config_set(&cfg, buf, err);
 		if (rc)
-			snprintf(err, sizeof err, "--seed %.60s: must be an integer in 0..4294967295", seed);
+			pr_err(err, rc, "--seed %.60s: must be an integer in 0..4294967295", seed);
 	}
 	if (rc == PR_OK)
 		rc = pr_config_validate(&cfg, err);
-	if (rc == PR_OK && !cmd->fn) {
-		rc = pr_config_write(&cfg, stdout);
-		if (rc == PR_OK && fflush(stdout))
-			rc = PR_EIO;
-		if (rc)
-			snprintf(err, sizeof err, "<stdout>: write error");
-	} else if (rc == PR_OK) {
+	if (rc == PR_OK)
 		rc = cmd->fn(&cfg, &a, err);
-	}
+	/* everything is cleaned up or in place: a late signal must not add a
+	 * second line to the one below */
+	pr_cleanup_hold(&held);
 	free(orig);
 	/* an error must not land at the end of an unfinished bar */
 	if (!a.quiet && prog.open)
-		fputc('\n', stderr);
+		fputs("\r\033[K", stderr);
 	if (rc != PR_OK) {
+		/* an allocation failure anywhere below is the cause of the failure,
+		 * whatever status the code above it turned it into */
+		if (pr_out_of_memory && rc != PR_EINTR)
+			rc = PR_ENOMEM;
 		fprintf(stderr, "poolreps: %s\n", err);
 		return pr_exit_code(rc);
 	}
-	if (cmd->fn == pr_cmd_run && !a.quiet) {
-		struct rusage ru;
-		getrusage(RUSAGE_SELF, &ru);
-		clock_gettime(CLOCK_MONOTONIC, &t1);
-		fprintf(stderr, "poolreps: done: wall %.2f s, cpu %.2f s, peak memory %.1f MiB\n",
-		        (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec),
-		        (double)(clock() - c0) / CLOCKS_PER_SEC, (double)ru.ru_maxrss / 1024.0);
-	}
+	if (!a.quiet && note[0])
+		fprintf(stderr, "poolreps: %s\n", note);
+	if (cmd->fn == pr_cmd_run && !a.quiet)
+		print_done(&t0, c0);
 	return 0;
 }

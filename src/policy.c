@@ -45,6 +45,7 @@ void pr_policy_opts_init(pr_policy_opts *o)
 	o->forest.n_min = 75;
 	o->forest.score = PR_SCORE_RVR;
 	o->cov = PR_COV_QUERY;
+	o->cov_center = PR_COV_CENTER_NEW;
 }
 
 int pr_policy_opts_check(const pr_policy_opts *o, char *err)
@@ -57,6 +58,8 @@ int pr_policy_opts_check(const pr_policy_opts *o, char *err)
 		return pr_err(err, PR_EINVAL, "policy.min_std: must be > 0 (got %g)", o->min_std);
 	if (o->cov != PR_COV_QUERY && o->cov != PR_COV_RESIDUAL)
 		return pr_err(err, PR_EINVAL, "policy.cov: must be query or residual");
+	if (o->cov_center != PR_COV_CENTER_NEW && o->cov_center != PR_COV_CENTER_OLD)
+		return pr_err(err, PR_EINVAL, "policy.cov_center: must be new or old");
 	return pr_forest_opts_check(&o->forest, "policy", err);
 }
 
@@ -424,37 +427,41 @@ int pr_policy_ds(const pr_policy *p) { return p->ds; }
 int pr_policy_da(const pr_policy *p) { return p->da; }
 const pr_forest *pr_policy_forest(const pr_policy *p) { return p->forest; }
 
-pr_policy *pr_policy_gaussian_new(int ds, int da, const double *mean, const double *cov,
-                                  char *err)
+/* A fixed-covariance policy of kind GAUSSIAN or LINEAR: mean W psi(s) with
+ * W (da x nf) and cov (da x da) checked and copied. */
+static pr_policy *fixed_new(int kind, int features, int ds, int da, const double *W,
+                            const double *cov, char *err)
 {
 	pr_policy *p;
 	eig e = { 0 };
-	int j, l, st;
+	int nf = pr_policy_features_count(features, ds), j, l, st;
 
-	if (ds < 0 || da < 1) {
-		pr_err(err, PR_EINVAL, "policy: need da >= 1 and ds >= 0 (got %d, %d)", da, ds);
+	if (ds < 0 || da < 1 || nf < 1) {
+		pr_err(err, PR_EINVAL, "policy: need da >= 1, ds >= 0 and known features (got %d, %d, %d)",
+		       da, ds, features);
 		return NULL;
 	}
-	for (j = 0; j < da; j++) {
-		if (!isfinite(mean[j])) {
+	for (j = 0; j < da * nf; j++)
+		if (!isfinite(W[j])) {
 			pr_err(err, PR_EINVAL, "policy: mean %d is not finite", j);
 			return NULL;
 		}
+	for (j = 0; j < da; j++)
 		for (l = 0; l < da; l++)
 			if (!isfinite(cov[j * da + l]) || cov[j * da + l] != cov[l * da + j]) {
 				pr_err(err, PR_EINVAL, "policy: covariance is not finite and symmetric");
 				return NULL;
 			}
-	}
-	p = policy_alloc(PR_POLICY_GAUSSIAN, ds, da);
-	if (!p || !(p->W = malloc((size_t)da * sizeof *p->W)) || eig_alloc(&e, da)) {
+	p = policy_alloc(kind, ds, da);
+	if (!p || !(p->W = malloc((size_t)da * nf * sizeof *p->W)) ||
+	    !(p->xc = calloc((size_t)ds + 1, sizeof *p->xc)) || eig_alloc(&e, da)) {
 		pr_policy_free(p);
 		pr_err(err, PR_ENOMEM, "policy: out of memory");
 		return NULL;
 	}
-	p->features = PR_FEATURES_CONST;
-	p->nf = 1;
-	memcpy(p->W, mean, (size_t)da * sizeof *mean);
+	p->features = features;
+	p->nf = nf;
+	memcpy(p->W, W, (size_t)da * nf * sizeof *W);
 	memcpy(p->cov, cov, (size_t)da * da * sizeof *cov);
 	st = sym_eig(da, cov, &e);
 	for (j = 0; st == PR_OK && j < da; j++)
@@ -463,12 +470,67 @@ pr_policy *pr_policy_gaussian_new(int ds, int da, const double *mean, const doub
 	if (st != PR_OK) {
 		eig_free(&e);
 		pr_policy_free(p);
-		pr_err(err, PR_EINVAL, "policy: covariance is not positive definite");
+		pr_err(err, PR_ENUM, "policy: covariance is not positive definite");
 		return NULL;
 	}
 	keep_eig(da, &e, p->V, p->lam, &p->logdet);
 	eig_free(&e);
 	return p;
+}
+
+pr_policy *pr_policy_gaussian_new(int ds, int da, const double *mean, const double *cov,
+                                  char *err)
+{
+	return fixed_new(PR_POLICY_GAUSSIAN, PR_FEATURES_CONST, ds, da, mean, cov, err);
+}
+
+pr_policy *pr_policy_linear_new(int features, int ds, int da, const double *W,
+                                const double *cov, char *err)
+{
+	return fixed_new(PR_POLICY_LINEAR, features, ds, da, W, cov, err);
+}
+
+/* W of a linear policy in the features of s itself: the fit keeps
+ * W psi(s - xc) (xc its weighted mean state); expanding psi(s - xc) gives
+ * the same mean as W' psi(s) (exact in exact arithmetic; evaluated far from
+ * xc, W' psi(s) cancels where W psi(s - xc) does not). */
+static void uncentre(const pr_policy *p, double *W)
+{
+	int j, k, c, m, nf = p->nf, ds = p->ds;
+	const double *x = p->xc;
+
+	memcpy(W, p->W, (size_t)p->da * nf * sizeof *W);
+	if (nf == 1 || !x)
+		return;
+	for (c = 0; c < p->da; c++) {
+		double *w = W + (size_t)c * nf;
+		const double *v = p->W + (size_t)c * nf;
+
+		/* [1, u]: w_0 - sum_j w_j x_j */
+		for (j = 0; j < ds; j++)
+			w[0] -= v[1 + j] * x[j];
+		if (p->features != PR_FEATURES_QUADRATIC)
+			continue;
+		/* u_j u_k = s_j s_k - x_k s_j - x_j s_k + x_j x_k */
+		m = 1 + ds;
+		for (j = 0; j < ds; j++)
+			for (k = j; k < ds; k++, m++) {
+				w[1 + j] -= v[m] * x[k];
+				w[1 + k] -= v[m] * x[j];
+				w[0] += v[m] * x[j] * x[k];
+			}
+	}
+}
+
+int pr_policy_linear_params(const pr_policy *p, double *W, double *cov, char *err)
+{
+	if (p->kind == PR_POLICY_TREE)
+		return pr_err(err, PR_EINVAL, "policy: a tree policy has no fixed parameters");
+	if (W)
+		uncentre(p, W);
+	if (cov)
+		memcpy(cov, p->cov, (size_t)p->da * p->da * sizeof *cov);
+	return PR_OK;
 }
 
 /* Shared checks of fitting data; returns the sum of the weights via *sw. */
@@ -615,13 +677,32 @@ done:
 	return st;
 }
 
+/* The covariance centre: PR_COV_CENTER_OLD needs finite sampling means. */
+static int check_centres(const pr_policy_data *d, int cov_center, char *err)
+{
+	size_t i;
+
+	if (cov_center != PR_COV_CENTER_NEW && cov_center != PR_COV_CENTER_OLD)
+		return pr_err(err, PR_EINVAL, "policy.cov_center: must be new or old");
+	if (cov_center == PR_COV_CENTER_NEW)
+		return PR_OK;
+	if (!d->M)
+		return pr_err(err, PR_EINVAL, "policy.cov_center: old needs the sampling means");
+	for (i = 0; i < (size_t)d->n * d->da; i++)
+		if (!isfinite(d->M[i]))
+			return pr_err(err, PR_EINVAL, "policy: sample %zu: sampling mean %zu is not finite",
+			              i / d->da, i % d->da);
+	return PR_OK;
+}
+
 /* Weighted ML (eq. 3.10) of a linear-Gaussian policy: with w normalised to
  * sum 1, the weighted least-squares W (design_solve, features of the states
  * taken about their weighted mean xc) maximises
  * sum w_i log N(a_i | W psi_i, Sigma) for any Sigma, and then
- * Sigma = sum w_i r_i r_i^T. */
+ * Sigma = sum w_i r_i r_i^T, r_i = a_i - c_i with the centre c_i = W psi_i
+ * (PR_COV_CENTER_NEW) or the sampling mean M_i (PR_COV_CENTER_OLD). */
 pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double lambda,
-                                double min_std, int *flags, char *err)
+                                double min_std, int cov_center, int *flags, char *err)
 {
 	pr_policy *p = NULL;
 	double *X = NULL, *wn = NULL, *rhs = NULL, *B = NULL, *u = NULL, sw, *r;
@@ -639,7 +720,7 @@ pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double la
 		pr_err(err, PR_EINVAL, "policy: lambda and min_std must be finite and >= 0");
 		return NULL;
 	}
-	if (check_data(d, 0, &sw, err) != PR_OK)
+	if (check_data(d, 0, &sw, err) != PR_OK || check_centres(d, cov_center, err) != PR_OK)
 		return NULL;
 	p = policy_alloc(PR_POLICY_LINEAR, d->ds, d->da);
 	X = malloc((size_t)d->n * nf * sizeof *X);
@@ -676,15 +757,19 @@ pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double la
 	for (j = 0; j < d->da; j++)
 		for (l = 0; l < nf; l++)
 			p->W[j * nf + l] = B[l * d->da + j];
-	/* ML covariance of the residuals, weights summing to 1 */
+	/* ML covariance of the residuals, weights summing to 1, around the new
+	 * fit or around the sampling means (cov_center) */
 	r = rhs; /* da scratch */
 	for (i = 0; i < d->n; i++) {
 		if (!(wn[i] > 0.0))
 			continue;
 		for (j = 0; j < d->da; j++) {
 			r[j] = d->A[(size_t)i * d->da + j];
-			for (l = 0; l < nf; l++)
-				r[j] -= p->W[j * nf + l] * X[(size_t)i * nf + l];
+			if (cov_center == PR_COV_CENTER_OLD)
+				r[j] -= d->M[(size_t)i * d->da + j];
+			else
+				for (l = 0; l < nf; l++)
+					r[j] -= p->W[j * nf + l] * X[(size_t)i * nf + l];
 		}
 		for (j = 0; j < d->da; j++)
 			for (l = 0; l < d->da; l++)
@@ -1247,7 +1332,7 @@ static int helper_eig(int da, const double *cov, double *V, double *lam, double 
 		keep_eig(da, &e, V, lam, logdet);
 	eig_free(&e);
 	return st == PR_OK ? PR_OK
-	                   : pr_err(err, PR_EINVAL, "policy: covariance is not positive definite");
+	                   : pr_err(err, PR_ENUM, "policy: covariance is not positive definite");
 }
 
 int pr_policy_gauss_sample(int da, const double *mean, const double *cov, int k,

@@ -26,6 +26,7 @@
  * optimal solution can put outside supp p_0, from a strictly complementary
  * dual whose reduced costs are exact to about eps^2. */
 #include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <stdio.h>
@@ -1764,8 +1765,59 @@ static int weights_ok(const double *p, int n)
 	return fabs(sum - 1.0) <= 4.0 * n * DBL_EPSILON;
 }
 
+static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_result **out,
+                 char *err);
+
+/* Features that are all 0 or 1 take the one-hot (sparse, exact-count) path
+ * whatever their storage, so that dense and sparse copies of one problem
+ * give the same bits. */
 int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
                   pr_reps_result **out, char *err)
+{
+	pr_reps_problem b = *pb;
+	size_t i, nnz = 0, nd;
+	int *rowptr = NULL, *col = NULL, r, j, st;
+
+	if (pb->d > 0 && pb->n > 0 && !pb->phi && pb->val && pb->rowptr && pb->col &&
+	    pb->rowptr[pb->n] >= 0) {
+		for (i = 0; i < (size_t)pb->rowptr[pb->n] && pb->val[i] == 1.0; i++)
+			;
+		if (i == (size_t)pb->rowptr[pb->n])
+			b.val = NULL;
+	}
+	if (pb->d > 0 && pb->n > 0 && pb->phi) {
+		nd = (size_t)pb->n * (size_t)pb->d;
+		for (i = 0; i < nd && (pb->phi[i] == 0.0 || pb->phi[i] == 1.0); i++)
+			nnz += pb->phi[i] == 1.0;
+		if (i == nd && nnz <= (size_t)INT_MAX) {
+			rowptr = malloc(((size_t)pb->n + 1) * sizeof *rowptr);
+			col = malloc((nnz > 0 ? nnz : 1) * sizeof *col);
+			if (!rowptr || !col) {
+				free(rowptr);
+				free(col);
+				return pr_err(err, PR_ENOMEM, "reps: out of memory");
+			}
+			for (r = 0, nnz = 0; r < pb->n; r++) {
+				rowptr[r] = (int)nnz;
+				for (j = 0; j < pb->d; j++)
+					if (pb->phi[(size_t)r * pb->d + j] == 1.0)
+						col[nnz++] = j;
+			}
+			rowptr[pb->n] = (int)nnz;
+			b.phi = NULL;
+			b.rowptr = rowptr;
+			b.col = col;
+			b.val = NULL;
+		}
+	}
+	st = solve(o, &b, out, err);
+	free(rowptr);
+	free(col);
+	return st;
+}
+
+static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_result **out,
+                 char *err)
 {
 	pr_reps_result *r = NULL;
 	prob P;

@@ -58,6 +58,7 @@ void pr_start_opts_init(pr_start_opts *o)
 void pr_expert_opts_init(pr_expert_opts *o)
 {
 	o->arrival_speed = 0.05;
+	o->aim = PR_GHOST_AIM_CENTRE;
 	o->aim_speed = 0.4;
 }
 
@@ -66,6 +67,24 @@ void pr_sim_pocket_xy(const pr_table *t, int id, double xy[2])
 	/* ids 0,1,2 along y = -W/2 and 3,4,5 along y = +W/2, x = -L/2, 0, +L/2 */
 	xy[0] = (id % 3 - 1) * t->length / 2;
 	xy[1] = (id < 3 ? -1 : 1) * t->width / 2;
+}
+
+int pr_sim_pocket_entry(const pr_table *t, int id, double xy[2], char *err)
+{
+	double p[2], R = t->ball_radius, rp = t->pocket_radius;
+	int corner = id % 3 != 1;
+	/* unit vector from the pocket into the table; the lines clipping the disc,
+	 * y = +-(W/2 - R) and at a corner x = +-(L/2 - R), both lie R from the
+	 * pocket centre, so the entry arc is symmetric about it */
+	double nx = corner ? sqrt(0.5) : 0, ny = corner ? sqrt(0.5) : 1;
+
+	pr_sim_pocket_xy(t, id, p);
+	xy[0] = p[0] - copysign(rp * nx, p[0]);
+	xy[1] = p[1] - copysign(rp * ny, p[1]);
+	if (!(rp > (corner ? R * sqrt(2.0) : R)))
+		return pr_err(err, PR_EINVAL, "pocket %d: its corridor is empty (table.pocket_radius %g <= %s)",
+		              id, rp, corner ? "R sqrt 2" : "R");
+	return PR_OK;
 }
 
 static int check_table(const pr_table *t, const pr_sim_opts *o, char *err)
@@ -373,11 +392,12 @@ int pr_sim_ghost_action(const pr_table *t, const pr_sim_opts *o, const pr_reward
 {
 	double c[2] = {st[0], st[1]}, r[2] = {st[2], st[3]};
 	double best = HUGE_VAL, p[2] = {0, 0}, u[2], g[2], dir[2], sr, sc, cosc, vc, v0;
-	int j, target = -1;
+	double entry[2];
+	int j, rc, target = -1;
 
 	if (ro->ntargets < 1)
 		return pr_err(err, PR_EINVAL, "ghost ball: no target pockets");
-	/* the target pocket nearest the reward ball; its centre is the aim point */
+	/* the target pocket nearest the reward ball */
 	for (j = 0; j < ro->ntargets; ++j) {
 		double q[2], d;
 		pr_sim_pocket_xy(t, ro->targets[j], q);
@@ -389,7 +409,17 @@ int pr_sim_ghost_action(const pr_table *t, const pr_sim_opts *o, const pr_reward
 			p[1] = q[1];
 		}
 	}
-	sr = best;
+	/* aim at its centre, or at its corridor entry (thesis Fig. 7.5's caption) */
+	rc = pr_sim_pocket_entry(t, target, entry, e->aim == PR_GHOST_AIM_CORRIDOR ? err : NULL);
+	if (e->aim == PR_GHOST_AIM_CORRIDOR) {
+		if (rc)
+			return rc;
+		p[0] = entry[0];
+		p[1] = entry[1];
+	}
+	sr = hypot(p[0] - r[0], p[1] - r[1]);
+	if (!(sr > 0))
+		return pr_err(err, PR_EINVAL, "ghost ball: the reward ball already sits at the aim point");
 	u[0] = (p[0] - r[0]) / sr;
 	u[1] = (p[1] - r[1]) / sr;
 	g[0] = r[0] - 2 * t->ball_radius * u[0];
@@ -415,6 +445,8 @@ int pr_sim_ghost_action(const pr_table *t, const pr_sim_opts *o, const pr_reward
 		geom->target = target;
 		geom->aim[0] = p[0];
 		geom->aim[1] = p[1];
+		geom->entry[0] = entry[0];
+		geom->entry[1] = entry[1];
 		geom->ghost[0] = g[0];
 		geom->ghost[1] = g[1];
 		geom->dir[0] = u[0];

@@ -75,7 +75,7 @@ static void test_linear_ml_recovers(void **state)
 	const double Lc[2][2] = { { 0.2, 0.0 }, { 0.1, 0.15 } };
 	double *S = malloc(2 * N * sizeof *S), *A = malloc(2 * N * sizeof *A), *w = malloc(N * sizeof *w);
 	double mean[2], cov[4], s[2] = { 0.4, -0.6 };
-	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w };
+	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w, NULL };
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(2);
 	pr_policy *p;
@@ -92,7 +92,7 @@ static void test_linear_ml_recovers(void **state)
 		               Lc[1][0] * z0 + Lc[1][1] * z1;
 		w[i] = 0.1 + S[2 * i] * S[2 * i]; /* depends on the state only */
 	}
-	p = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, 1e-10, 1e-6, &flags, err);
+	p = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, 1e-10, 1e-6, PR_COV_CENTER_NEW, &flags, err);
 	assert_non_null(p);
 	assert_int_equal(flags, 0);
 	assert_int_equal(pr_policy_eval(p, s, mean, cov, NULL, NULL, err), PR_OK);
@@ -103,7 +103,7 @@ static void test_linear_ml_recovers(void **state)
 	assert_true(fabs(cov[3] - (0.01 + 0.0225)) < 0.002);
 	pr_policy_free(p);
 	/* quadratic features contain the affine ones: same answer */
-	p = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &d, 1e-10, 1e-6, &flags, err);
+	p = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &d, 1e-10, 1e-6, PR_COV_CENTER_NEW, &flags, err);
 	assert_non_null(p);
 	assert_int_equal(pr_policy_eval(p, s, mean, cov, NULL, NULL, err), PR_OK);
 	assert_true(fabs(mean[0] - 0.8) < 0.01);
@@ -137,7 +137,7 @@ static void test_single_node_is_global(void **state)
 	enum { N = 40, DS = 2, DA = 2 };
 	double S[N * DS], A[N * DA], w[N], s[DS] = { 0.2, -0.1 }, mean[DA], cov[DA * DA];
 	double want_cov[DA * DA] = { 0 }, sw = 0, sw2 = 0, mu[DA];
-	pr_policy_data d = { N, DS, DA, 0, S, A, NULL, w };
+	pr_policy_data d = { N, DS, DA, 0, S, A, NULL, w, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(3);
@@ -201,7 +201,7 @@ static void test_single_node_is_global(void **state)
 static void test_covariance_hand(void **state)
 {
 	double S[3] = { 0, 1, 2 }, A[3] = { 0, 1, 3 }, w[3] = { 1, 1, 2 }, s = 1.0, mean, cov;
-	pr_policy_data d = { 3, 1, 1, 0, S, A, NULL, w };
+	pr_policy_data d = { 3, 1, 1, 0, S, A, NULL, w, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(4);
@@ -234,7 +234,7 @@ static void test_tree_is_local(void **state)
 {
 	enum { N = 400 };
 	double S[N], A[N], mean, cov, lo = -0.6, hi = 0.6, lp;
-	pr_policy_data d = { N, 1, 1, 0, S, A, NULL, NULL };
+	pr_policy_data d = { N, 1, 1, 0, S, A, NULL, NULL, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(5);
@@ -287,7 +287,7 @@ static void test_degenerate(void **state)
 {
 	enum { N = 30 };
 	double S[N * 2], A[N * 2], w[N], mean[2], cov[4], s[2], Y[N * 2];
-	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w };
+	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(6);
@@ -387,7 +387,7 @@ static void test_offset_states(void **state)
 	enum { NS = 200 };
 	double S[NS], A[NS], S2[NS], A2[NS], mean, cov, mean2, cov2;
 	double q[3] = { -0.5, 0.0, 0.5 }, off[3] = { 1000.0, 1e6, -3e5 }, sc[3] = { 1e-6, 1e6, 3.0 };
-	pr_policy_data d = { NS, 1, 1, 0, S, A, NULL, NULL };
+	pr_policy_data d = { NS, 1, 1, 0, S, A, NULL, NULL, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(11);
@@ -406,7 +406,7 @@ static void test_offset_states(void **state)
 	p = pr_policy_tree_fit(&o, &d, rng, err);
 	assert_non_null(p);
 	for (k = 0; k < 3; k++) {
-		pr_policy_data d2 = { NS, 1, 1, 0, S2, A2, NULL, NULL };
+		pr_policy_data d2 = { NS, 1, 1, 0, S2, A2, NULL, NULL, NULL };
 
 		for (i = 0; i < NS; i++) {
 			S2[i] = S[i] * sc[k] + off[k] * sc[k];
@@ -439,8 +439,8 @@ static void test_linear_fit_offsets(void **state)
 {
 	enum { NS = 100 };
 	double S[2 * NS], A[2 * NS], S2[2 * NS], w[NS], s[2], s2[2], m1[2], m2[2], c1[4], c2[4];
-	pr_policy_data d = { NS, 2, 2, 0, S, A, NULL, w };
-	pr_policy_data e = { NS, 2, 2, 0, S2, A, NULL, w };
+	pr_policy_data d = { NS, 2, 2, 0, S, A, NULL, w, NULL };
+	pr_policy_data e = { NS, 2, 2, 0, S2, A, NULL, w, NULL };
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(12);
 	pr_policy *p, *p2;
@@ -456,8 +456,8 @@ static void test_linear_fit_offsets(void **state)
 		S2[2 * i] = S[2 * i] + 1e6;
 		S2[2 * i + 1] = S[2 * i + 1] - 1e6;
 	}
-	p = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &d, 1e-10, 1e-6, &flags, err);
-	p2 = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &e, 1e-10, 1e-6, &flags, err);
+	p = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &d, 1e-10, 1e-6, PR_COV_CENTER_NEW, &flags, err);
+	p2 = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &e, 1e-10, 1e-6, PR_COV_CENTER_NEW, &flags, err);
 	assert_non_null(p);
 	assert_non_null(p2);
 	assert_int_equal(flags, 0);
@@ -475,6 +475,27 @@ static void test_linear_fit_offsets(void **state)
 		for (i = 0; i < 4; i++)
 			assert_true(fabs(c1[i] - c2[i]) <= 1e-8 * c1[0]);
 	}
+	/* pr_policy_linear_params expands W psi(s - c) to W' psi(s): rebuilt with
+	 * pr_policy_linear_new it gives the same means */
+	{
+		double W[2 * 6], C[4];
+		pr_policy *p3;
+
+		assert_int_equal(pr_policy_linear_params(p, W, C, err), PR_OK);
+		p3 = pr_policy_linear_new(PR_FEATURES_QUADRATIC, 2, 2, W, C, err);
+		assert_non_null(p3);
+		for (j = 0; j < 5; j++) {
+			s[0] = 0.3 * j - 0.2;
+			s[1] = 0.1 * j;
+			assert_int_equal(pr_policy_eval(p, s, m1, c1, NULL, NULL, err), PR_OK);
+			assert_int_equal(pr_policy_eval(p3, s, m2, c2, NULL, NULL, err), PR_OK);
+			for (i = 0; i < 2; i++)
+				assert_true(fabs(m1[i] - m2[i]) <= 1e-12 * (1.0 + fabs(m1[i])));
+			for (i = 0; i < 4; i++)
+				assert_true(c1[i] == c2[i]);
+		}
+		pr_policy_free(p3);
+	}
 	pr_policy_free(p);
 	pr_policy_free(p2);
 	gsl_rng_free(rng);
@@ -487,7 +508,7 @@ static void test_collinear_states(void **state)
 {
 	enum { NS = 80 };
 	double S[2 * NS], A[NS], s[2], mean, cov;
-	pr_policy_data d = { NS, 2, 1, 0, S, A, NULL, NULL };
+	pr_policy_data d = { NS, 2, 1, 0, S, A, NULL, NULL, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(13);

@@ -76,16 +76,17 @@ def test_policy_against_reference(tmp_path, seed):
     write(tmp_path / "train.csv", ["s0", "s1", "a0", "a1", "w"], np.c_[S, A, w])
     write(tmp_path / "test.csv", ["s0", "s1"], np.vstack([S, Q]))
     write(tmp_path / "q.csv", ["s0", "s1"], Q)
-    sets = []
+    fsets, psets = ["--seed", str(seed)], ["--seed", str(seed)]
     for k, v in opts.items():
-        sets += ["--set", f"forest.{k}={v}", "--set", f"policy.{k}={v}"]
-    sets += ["--set", f"policy.lambda={lam!r}", "--set", f"policy.cov={cov}",
-             "--set", "policy.min_std=1e-150", "--seed", str(seed)]
+        fsets += ["--set", f"forest.{k}={v}"]
+        psets += ["--set", f"policy.{k}={v}"]
+    psets += ["--set", f"policy.lambda={lam!r}", "--set", f"policy.cov={cov}",
+              "--set", "policy.min_std=1e-100"]
     run(["forest", "--train", str(tmp_path / "train.csv"), "--test", str(tmp_path / "test.csv"),
          "--target", "a0,a1", "--weight", "w", "--leaves", str(tmp_path / "leaves.csv"),
-         "-o", str(tmp_path / "pred.csv")] + sets)
+         "-o", str(tmp_path / "pred.csv")] + fsets)
     run(["policy", "--train", str(tmp_path / "train.csv"), "--state", "s0,s1", "--action", "a0,a1",
-         "--weight", "w", "-i", str(tmp_path / "q.csv"), "-o", str(tmp_path / "out.csv")] + sets)
+         "--weight", "w", "-i", str(tmp_path / "q.csv"), "-o", str(tmp_path / "out.csv")] + psets)
     leaves = np.loadtxt(tmp_path / "leaves.csv", delimiter=",", skiprows=1, dtype=int, ndmin=2)
     out = np.loadtxt(tmp_path / "out.csv", delimiter=",", skiprows=1, ndmin=2)
     wn = w / w.sum()
@@ -137,16 +138,17 @@ def test_offset_case_of_the_issue(tmp_path):
 def policy_out(tmp_path, S, A, w, Q, opts, lam, cov, seed, tag):
     write(tmp_path / f"train{tag}.csv", ["s0", "s1", "a0", "a1", "w"], np.c_[S, A, w])
     write(tmp_path / f"q{tag}.csv", ["s0", "s1"], Q)
-    sets = []
+    fsets, psets = ["--seed", str(seed)], ["--seed", str(seed)]
     for k, v in opts.items():
-        sets += ["--set", f"forest.{k}={v}", "--set", f"policy.{k}={v}"]
-    sets += ["--set", f"policy.lambda={lam!r}", "--set", f"policy.cov={cov}",
-             "--set", "policy.min_std=1e-150", "--seed", str(seed)]
+        fsets += ["--set", f"forest.{k}={v}"]
+        psets += ["--set", f"policy.{k}={v}"]
+    psets += ["--set", f"policy.lambda={lam!r}", "--set", f"policy.cov={cov}",
+              "--set", "policy.min_std=1e-100"]
     run(["forest", "--train", str(tmp_path / f"train{tag}.csv"), "--test", str(tmp_path / f"train{tag}.csv"),
          "--target", "a0,a1", "--weight", "w", "--leaves", str(tmp_path / f"leaves{tag}.csv"),
-         "-o", str(tmp_path / f"pred{tag}.csv")] + sets)
+         "-o", str(tmp_path / f"pred{tag}.csv")] + fsets)
     run(["policy", "--train", str(tmp_path / f"train{tag}.csv"), "--state", "s0,s1", "--action", "a0,a1",
-         "--weight", "w", "-i", str(tmp_path / f"q{tag}.csv"), "-o", str(tmp_path / f"out{tag}.csv")] + sets)
+         "--weight", "w", "-i", str(tmp_path / f"q{tag}.csv"), "-o", str(tmp_path / f"out{tag}.csv")] + psets)
     return (np.loadtxt(tmp_path / f"out{tag}.csv", delimiter=",", skiprows=1, ndmin=2),
             (tmp_path / f"leaves{tag}.csv").read_text())
 

@@ -19,23 +19,60 @@ enum {
 	PR_EIO = -2,      /* file missing, unreadable, malformed CSV -> exit 2 */
 	PR_ENUM = -3,     /* numerical failure (solver, event limit) -> exit 3 */
 	PR_ENOMEM = -4,   /* allocation failed               -> exit 4 */
-	PR_EINTR = -5     /* interrupted by SIGINT/SIGTERM   -> exit 130 */
+	PR_EINTR = -5     /* stopped by a signal             -> exit 128 + signal */
 };
 
-/* printf into err (may be NULL); returns status, so `return pr_err(...)` works. */
+/* printf into err (may be NULL); returns status, so `return pr_err(...)` works.
+ * The message is always one line of valid UTF-8: control characters and
+ * bytes that are not UTF-8 (from echoed paths, columns and values) are
+ * written as \xHH. A PR_ENOMEM report also sets pr_out_of_memory. */
 int pr_err(char *err, int status, const char *fmt, ...)
 #if defined(__GNUC__)
 	__attribute__((format(printf, 3, 4)))
 #endif
 	;
 
-/* The exit code main() uses for a status (0, 1, 2, 3, 4 or 130). */
+/* Escape s as pr_err does into out (size n >= 1). */
+void pr_escape(const char *s, char *out, size_t n);
+
+/* The exit code main() uses for a status: 0, 1, 2, 3, 4, or 128 + the
+ * signal recorded in pr_interrupted for PR_EINTR (130 when none is). */
 int pr_exit_code(int status);
 
 /* The version string: git describe at build time, or the tarball version. */
 const char *pr_version(void);
 
-/* Set by the CLI's signal handler; long loops poll it and return PR_EINTR. */
+/* Set by the CLI's signal handler to the signal number; long loops poll it
+ * and return PR_EINTR. */
 extern volatile sig_atomic_t pr_interrupted;
+/* Set once any allocation failure was reported (through pr_err with
+ * PR_ENOMEM, in any thread): the command's failure is then out of memory,
+ * whatever status the code above it turned the report into. */
+extern volatile sig_atomic_t pr_out_of_memory;
+
+/* ---- clean-up on fatal signals ----
+ * Temporary files and staging folders are registered while they exist; a
+ * signal handler calls pr_cleanup_run, which removes them using only
+ * async-signal-safe calls. pr_cleanup_hold blocks the fatal signals in the
+ * calling thread around a step that must not be cut in half (renaming a set
+ * of finished files into place); pr_cleanup_release delivers them after. */
+void pr_cleanup_add_file(const char *path);
+void pr_cleanup_remove_file(const char *path);
+/* A staging folder (its files, then itself), then the output folder dir and
+ * its parents below its first keep bytes (those the run created), each
+ * removed only if empty. */
+void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep);
+void pr_cleanup_clear_dir(void);
+void pr_cleanup_run(void);
+void pr_cleanup_hold(sigset_t *old);
+void pr_cleanup_release(const sigset_t *old);
+/* The fatal signals the CLI handles: SIGINT, SIGTERM, SIGHUP, SIGQUIT,
+ * SIGPIPE, SIGXFSZ, SIGXCPU, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPOLL,
+ * SIGPWR, SIGSTKFLT (every one whose default ends the process, but the
+ * faults of a bug); terminated by 0. */
+extern const int pr_fatal_signals[];
+/* 1 if process pid no longer exists (a staging folder or temporary file
+ * named after it is left over from a killed run). */
+int pr_pid_gone(long pid);
 
 #endif

@@ -48,6 +48,12 @@ int pr_config_validate(const pr_config *c, char *err);
 /* Where key "section.key" got its value, for messages: "file:line", "--set",
  * or for a default the parameter file (or "defaults"). Returns buf. */
 const char *pr_config_where(const pr_config *c, const char *key, char *buf, size_t n);
+/* The first key (in table order, other than those in skip, a NULL-ended
+ * list of "section.key" names, or NULL) whose value differs between a and b:
+ * its name into key and both values as written by pr_config_write into va
+ * and vb (each n bytes, truncated). 0 if none. */
+int pr_config_diff(const pr_config *a, const pr_config *b, const char *const *skip, char *key,
+                   size_t nkey, char *va, char *vb, size_t n);
 /* Write every key as INI (the effective configuration). */
 int pr_config_write(const pr_config *c, FILE *fp);
 /* List every key with default, unit and range. */

@@ -37,17 +37,44 @@ int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, cha
 /* Write the table (NULL or "-" = stdout; otherwise atomically). */
 int pr_csv_write(const pr_csv *t, const char *path, char *err);
 
-/* Streaming writer for mixed text and number rows, "%.17g", C locale.
- * Writes to "<path>.tmp.<pid>" and renames on pr_csvw_close. */
+/* ---- writing ----
+ *
+ * A writer for mixed text and number rows ("%.17g" at most, C locale).
+ *
+ * Where it writes. NULL, "-", or a path naming the file standard output is
+ * already open on (/dev/stdout, /dev/fd/1, or the file stdout is redirected
+ * to) write to standard output. A FIFO or device is written in place
+ * (renaming over it would replace the device itself). Anything else is a
+ * regular file, reached through any chain of symlinks, which is written under
+ * a short temporary name in its own folder and renamed over it only when
+ * complete, so any name the file system accepts works. A file that existed
+ * keeps its permission bits (and, for root, its owner); a file the user may
+ * not write is refused, as is a directory.
+ *
+ * Sticky status. The first failure of any call sticks: a write error (with
+ * its errno), or a refused non-finite number (PR_ENUM). Every later call is
+ * a no-op returning that status, so a writer may be fed a whole table without
+ * checking each call; pr_csvw_close (or pr_outset_commit) reports it once,
+ * naming the file, the reason and, for a non-finite number, the row and field.
+ *
+ * Several outputs of one command go into one pr_outset: they are committed
+ * together only after every write succeeded, and on any failure every
+ * temporary file is removed and every pre-existing path is left untouched.
+ * Temporary files are registered with pr_cleanup_add_file, so a fatal signal
+ * removes them too. */
 typedef struct pr_csvw pr_csvw;
-pr_csvw *pr_csvw_open(const char *path, char *err); /* NULL or "-" = stdout */
+pr_csvw *pr_csvw_open(const char *path, char *err);
 int pr_csvw_str(pr_csvw *w, const char *s);
 int pr_csvw_num(pr_csvw *w, double v);  /* PR_ENUM for NaN or inf: never written */
 int pr_csvw_int(pr_csvw *w, long v);
 int pr_csvw_endrow(pr_csvw *w);
 /* A whole header row from a comma list of names, e.g. "policy,count". */
 int pr_csvw_header(pr_csvw *w, const char *names);
-/* Flush, check for write errors, rename into place, free. */
+/* Raw text, not CSV (parameter and provenance files). */
+int pr_csvw_raw(pr_csvw *w, const char *s, size_t n);
+/* The sticky status: PR_OK, PR_EIO or PR_ENUM. */
+int pr_csvw_status(const pr_csvw *w);
+/* Flush, check, rename into place, free; reports the sticky status. */
 int pr_csvw_close(pr_csvw *w, char *err);
 /* Remove the temporary file and free (after an error). NULL is a no-op. */
 void pr_csvw_abort(pr_csvw *w);
@@ -55,5 +82,19 @@ void pr_csvw_abort(pr_csvw *w);
  * failure closes it (pr_csvw_close reports a write error or a refused NaN);
  * any other failure, already described in err, removes it and returns rc. */
 int pr_csvw_finish(pr_csvw *w, int rc, char *err);
+
+/* A set of outputs committed together. */
+typedef struct pr_outset pr_outset;
+pr_outset *pr_outset_new(char *err);
+/* Open one more output of the set (NULL or "-" = stdout) into *w. A path
+ * that names the same file as an earlier member (stdout twice included) is
+ * refused (PR_EINVAL). The writer belongs to the set: never close or abort
+ * it yourself. */
+int pr_outset_add(pr_outset *s, const char *path, pr_csvw **w, char *err);
+/* If rc is PR_OK and every writer's sticky status is too, rename every
+ * member into place (all or none) and return PR_OK; otherwise remove every
+ * temporary file and return rc, or the first writer's failure (described in
+ * err). Frees the set either way; NULL is a no-op returning rc. */
+int pr_outset_commit(pr_outset *s, int rc, char *err);
 
 #endif

@@ -19,6 +19,7 @@ typedef struct {
 	unsigned long seed;   /* master seed; --seed overrides */
 	int repetitions;      /* independent repetitions */
 	int repetition;       /* -1: all; k: only repetition k (sweeps) */
+	int variant;          /* -1: all; v: only variant v (sweeps; pr_exp_variants) */
 	int threads;          /* repetitions run on this many threads */
 } pr_run_opts;
 void pr_run_opts_init(pr_run_opts *o);
@@ -45,6 +46,11 @@ typedef struct {
 } pr_exp2_opts;
 void pr_exp2_opts_init(pr_exp2_opts *o);
 
+/* Contextual policy-search methods of the REPS benchmarks and of Experiment
+ * 3's hand-crafted loop: episodic contextual REPS with a weighted-ML
+ * linear-Gaussian policy, or contextual CMA-ES (cmaes.h). */
+enum { PR_METHOD_CREPS = 0, PR_METHOD_CCMAES = 1 };
+
 /* Experiment 3 (thesis 7.5, keys exp3.*). */
 typedef struct {
 	int init_samples;      /* samples of the initial policy */
@@ -55,6 +61,7 @@ typedef struct {
 	char policies[128];    /* comma list of variants */
 	int baseline_n_min;    /* n_min of the single-node baseline policy */
 	int final_episodes;    /* Figs. 7.8-7.10 use each run's last episodes */
+	int handcrafted_method; /* PR_METHOD_*: the hand-crafted variant's learner */
 } pr_exp3_opts;
 void pr_exp3_opts_init(pr_exp3_opts *o);
 
@@ -69,6 +76,7 @@ typedef struct {
 	double min_std;     /* eigenvalue floor of the policy covariance (as a std) */
 	int value_degree;   /* REPS value features: 1 = s, 2 = s and s_j s_k */
 	int test_contexts;  /* fixed contexts on which the policy mean is scored */
+	int method;         /* PR_METHOD_CREPS or PR_METHOD_CCMAES */
 } pr_bench_opts;
 
 /* Progress callback: `done` of `total` units of `what` finished. The CLI
@@ -80,15 +88,27 @@ typedef struct {
 
 struct pr_config;
 
+/* The variants of an experiment: parts of one repetition that draw from
+ * their own streams, so each can run alone (experiment.variant = its index)
+ * and write exactly the rows it writes inside the full run. */
+#define PR_VARIANTS_MAX (3 * PR_LIST_MAX + 1)
+typedef struct {
+	int n;
+	char name[PR_VARIANTS_MAX][32];  /* in output order */
+} pr_variants;
+
 /* An experiment writes raw per-repetition CSVs whose first column is
  * `repetition` (run), then derived CSVs computed from those alone
  * (summarize), so that `poolreps merge` can rebuild the derived files from
  * merged raw files byte for byte. Repetition k draws only from a stream
- * derived from (experiment.seed, k). */
+ * derived from (experiment.seed, k); within a repetition, rows come in
+ * variant order. */
 typedef struct {
 	const char *name;
 	int (*run)(const struct pr_config *cfg, const char *dir, const pr_progress *prog, char *err);
 	int (*summarize)(const struct pr_config *cfg, const char *dir, char *err); /* or NULL */
+	int (*variants)(const struct pr_config *cfg, pr_variants *out, char *err); /* or NULL: none */
+	const char *summary;  /* the derived CSV `poolreps collect` tabulates, or NULL */
 } pr_experiment;
 
 /* The experiment called `name`, or NULL. */
@@ -100,5 +120,12 @@ gsl_rng *pr_exp_rng(unsigned long seed, unsigned long stream, unsigned long inde
 
 /* The repetitions [*lo, *hi) this process runs (experiment.repetition). */
 void pr_exp_reps(const struct pr_config *cfg, int *lo, int *hi);
+
+/* The variants of cfg's experiment (n = 0 for one without); PR_EINVAL naming
+ * experiment.variant when it is set but not below their count. */
+int pr_exp_variants(const struct pr_config *cfg, pr_variants *out, char *err);
+
+/* PR_EINVAL naming experiment.variant unless it is -1 or below n. */
+int pr_exp_check_variant(const struct pr_config *cfg, int n, char *err);
 
 #endif

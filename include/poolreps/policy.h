@@ -26,6 +26,15 @@ enum { PR_TARGET_ACTION = 0, PR_TARGET_REWARD_STATE = 1 };
  * the thesis, or each sample's own prediction mu(s_i) (residual covariance). */
 enum { PR_COV_QUERY = 0, PR_COV_RESIDUAL = 1 };
 
+/* Centre of the residuals of a weighted-ML covariance (key policy.cov_center):
+ *   PR_COV_CENTER_NEW  the newly fitted mean, Sigma = sum w_i (a_i - W psi_i)(.)^T
+ *                      (textbook weighted ML, eq. 3.10; the thesis's rule);
+ *   PR_COV_CENTER_OLD  the mean m_i of the policy that drew sample i, at that
+ *                      sample's state, Sigma = sum w_i (a_i - m_i)(.)^T (the
+ *                      rank-mu form of CMA-ES: keeps the spread along the step).
+ * Used by pr_policy_linear_fit; the tree-LWR policy keeps eq. 6.8 (policy.cov). */
+enum { PR_COV_CENTER_NEW = 0, PR_COV_CENTER_OLD = 1 };
+
 /* Policy parameters (keys policy.*). */
 typedef struct {
 	int target;            /* forest output: actions or final reward-ball positions */
@@ -36,10 +45,12 @@ typedef struct {
 	double min_std;        /* floor on each action standard deviation, m/s */
 	pr_forest_opts forest; /* policy.trees, policy.cuts, policy.n_min, ... */
 	int cov;               /* PR_COV_QUERY (eq. 6.8 as printed) or PR_COV_RESIDUAL */
+	int cov_center;        /* PR_COV_CENTER_NEW or PR_COV_CENTER_OLD (linear fits) */
 } pr_policy_opts;
 /* Defaults: target action, lambda 1e-10 (thesis 6.3), min_std 1e-3 m/s,
  * forest M = 10, K = 20, n_min = 75 (Experiment 3, thesis 7.5.1), n_c and
- * the rest from pr_forest_opts_init, score RVR, cov PR_COV_QUERY. */
+ * the rest from pr_forest_opts_init, score RVR, cov PR_COV_QUERY,
+ * cov_center PR_COV_CENTER_NEW. */
 void pr_policy_opts_init(pr_policy_opts *o);
 /* Check the options; messages name policy.<key>. */
 int pr_policy_opts_check(const pr_policy_opts *o, char *err);
@@ -80,6 +91,8 @@ typedef struct {
 	const double *A;  /* n x da actions */
 	const double *Y;  /* n x dy final reward-ball positions (target reward_state), or NULL */
 	const double *w;  /* n REPS weights >= 0, not all 0; NULL = unit weights */
+	const double *M;  /* n x da means of the policies that drew each sample, at
+	                     that sample's state (PR_COV_CENTER_OLD), or NULL */
 } pr_policy_data;
 
 typedef struct pr_policy pr_policy;
@@ -95,10 +108,22 @@ pr_policy *pr_policy_gaussian_new(int ds, int da, const double *mean, const doub
  * (SVD of the weighted design; ridge lambda on the coefficients of the
  * non-constant features in units of their weighted standard deviations,
  * weights normalised to sum 1, intercept free), Sigma = sum_i w_i r_i r_i^T /
- * sum_i w_i with residuals r_i, eigenvalues floored at min_std^2. *flags (may
- * be NULL) receives PR_POLICY_* bits. */
+ * sum_i w_i with r_i = a_i - W psi(s_i - c) (cov_center PR_COV_CENTER_NEW) or
+ * r_i = a_i - M_i (PR_COV_CENTER_OLD, which needs d->M), eigenvalues floored
+ * at min_std^2. *flags (may be NULL) receives PR_POLICY_* bits. */
 pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double lambda,
-                                double min_std, int *flags, char *err);
+                                double min_std, int cov_center, int *flags, char *err);
+
+/* The linear-Gaussian policy N(W psi(s), cov) with W (da x nf, row-major,
+ * nf = pr_policy_features_count(features, ds)) and a symmetric positive
+ * definite cov (da x da), both copied. */
+pr_policy *pr_policy_linear_new(int features, int ds, int da, const double *W,
+                                const double *cov, char *err);
+/* A linear (or Gaussian: nf = 1) policy's W (da x nf, for the features of s
+ * itself: a fit's W psi(s - c) is expanded to W' psi(s)) and covariance (da x
+ * da, after the floor), copied into caller buffers (either may be NULL).
+ * PR_EINVAL for a tree policy. */
+int pr_policy_linear_params(const pr_policy *p, double *W, double *cov, char *err);
 
 /* The tree-LWR policy: fits the forest (inputs S; outputs A for target
  * action, Y for target reward_state) with weights w (eq. 6.3), keeps copies

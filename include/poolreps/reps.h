@@ -55,7 +55,9 @@ const char *pr_reps_status_name(int status);
 /* A REPS problem over n samples with d state features. Features are dense
  * (phi, n x d row-major) or sparse in CSR form (rowptr n+1 entries, col and
  * val rowptr[n] entries; val NULL means every stored value is 1, i.e. the
- * one-hot active-leaf features of thesis eq. 5.4). d = 0: no features. The
+ * one-hot active-leaf features of thesis eq. 5.4). Features whose values
+ * are all 0 or 1, dense or sparse, are solved by the one-hot path (exact
+ * counts), so both storages give the same bits. d = 0: no features. The
  * arrays belong to the caller and are only read. */
 typedef struct {
 	int n, d;

@@ -59,8 +59,10 @@ typedef struct {
 void pr_start_opts_init(pr_start_opts *o);
 
 /* Expert and scripted shots (keys ghost.*, exp1.aim_speed). */
+enum { PR_GHOST_AIM_CENTRE = 0, PR_GHOST_AIM_CORRIDOR = 1 };
 typedef struct {
 	double arrival_speed; /* m/s at the aim point, ghost-ball expert */
+	int aim;              /* ghost.aim: PR_GHOST_AIM_CENTRE or PR_GHOST_AIM_CORRIDOR */
 	double aim_speed;     /* m/s, Experiment 1's aim-at-ball data policy */
 } pr_expert_opts;
 void pr_expert_opts_init(pr_expert_opts *o);
@@ -143,10 +145,22 @@ int pr_sim_sample_start(const pr_table *t, const pr_start_opts *o, int nballs, g
  * at e->aim_speed. */
 int pr_sim_aim_action(const pr_expert_opts *e, const double *state, double action[2], char *err);
 
+/* Centre of the entry of pocket id's corridor. The corridor is the part of
+ * the pocket's capture disc (radius pocket_radius) that a ball centre can
+ * reach without touching a cushion, |x| <= L/2 - R, |y| <= W/2 - R; a ball
+ * entering the pocket crosses the disc's boundary arc inside that region,
+ * and the arc's midpoint is the pocket centre + pocket_radius times the unit
+ * vector pointing from the pocket into the table ((-+1,-+1)/sqrt 2 at a
+ * corner, (0,-+1) at a middle pocket). PR_EINVAL when the arc is empty
+ * (pocket_radius <= R sqrt 2 at a corner, <= R at the middle): no ball can
+ * enter; xy is filled either way. */
+int pr_sim_pocket_entry(const pr_table *t, int id, double xy[2], char *err);
+
 /* Geometry of a ghost-ball shot (thesis Fig. 7.5). */
 typedef struct {
 	int target;        /* pocket id */
-	double aim[2];     /* aim point: the target pocket centre */
+	double aim[2];     /* aim point: the target pocket's centre or corridor entry (ghost.aim) */
+	double entry[2];   /* the target pocket's corridor entry, whatever the aim */
 	double ghost[2];   /* cue centre at contact: r - 2R u */
 	double dir[2];     /* u, unit vector reward ball -> aim point */
 	double cut;        /* rad, cut angle between cue direction and u */
@@ -155,8 +169,10 @@ typedef struct {
 } pr_sim_ghost;
 
 /* Ghost-ball expert of SPEC.md §3 (thesis 7.4.1): target = the target pocket
- * nearest reward ball 1; speed from v = v0 - c s so that the reward ball
- * arrives at the aim point at e->arrival_speed. PR_EINVAL if the cut is 90
+ * nearest reward ball 1 (by its centre); aim point = its centre or, with
+ * e->aim = PR_GHOST_AIM_CORRIDOR, its corridor entry (pr_sim_pocket_entry,
+ * as the caption of the thesis's Fig. 7.5 says); speed from v = v0 - c s so
+ * that the reward ball arrives at the aim point at e->arrival_speed. PR_EINVAL if the cut is 90
  * degrees or more (no contact at the ghost position) or the speed exceeds
  * o->max_speed. geom may be NULL. */
 int pr_sim_ghost_action(const pr_table *t, const pr_sim_opts *o, const pr_reward_opts *ro,

@@ -3,6 +3,7 @@
 #ifndef POOLREPS_FUZZ_COMMON_H
 #define POOLREPS_FUZZ_COMMON_H
 
+#include <dirent.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -65,16 +66,25 @@ static inline void fuzz_check_err(const char *err, const char *prefix)
 	}
 }
 
-/* No "<path>.tmp.<pid>" may remain after a call returned. */
+/* No temporary file of this process (".poolreps-tmp-<pid>-<n>" in the
+ * folder of path) may remain after a call returned. */
 static inline void fuzz_check_no_tmp(const char *path)
 {
-	char tmp[1200];
+	char dir[1024], prefix[64];
+	const char *slash = strrchr(path, '/');
+	struct dirent *e;
+	DIR *d;
 
-	snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
-	if (access(tmp, F_OK) == 0) {
-		fprintf(stderr, "fuzz harness: temporary file %s left behind\n", tmp);
-		abort();
-	}
+	snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - path) : 1, slash ? path : ".");
+	snprintf(prefix, sizeof prefix, ".poolreps-tmp-%ld-", (long)getpid());
+	if (!(d = opendir(dir)))
+		return;
+	while ((e = readdir(d)))
+		if (strncmp(e->d_name, prefix, strlen(prefix)) == 0) {
+			fprintf(stderr, "fuzz harness: temporary file %s/%s left behind\n", dir, e->d_name);
+			abort();
+		}
+	closedir(d);
 }
 
 #endif

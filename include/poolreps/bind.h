@@ -1,0 +1,106 @@
+/* bind.h — flat entry points for foreign-function interfaces (the Python
+ * package python/poolreps calls them through ctypes).
+ *
+ * Every argument is a pointer to a row-major array, an integer, a double or
+ * an opaque handle, so a binding needs no copy of any struct layout. Options
+ * live in a heap pr_config that the binding fills key by key with
+ * pr_config_set and checks with pr_config_validate, exactly as the CLI does
+ * with --set; each call below then does what the matching CLI command does,
+ * seeded the same way (a GSL mt19937 set to experiment.seed), so its numbers
+ * equal the command's bit for bit.
+ *
+ * Functions that can fail return PR_OK or a PR_E* status and fill err
+ * (PR_ERRLEN bytes). Nothing here keeps state between calls: handles may be
+ * used from several threads at once, except that a gsl_rng must not be
+ * shared.
+ */
+#ifndef POOLREPS_BIND_H
+#define POOLREPS_BIND_H
+
+#include <gsl/gsl_rng.h>
+#include "poolreps/common.h"
+#include "poolreps/config.h"
+#include "poolreps/forest.h"
+#include "poolreps/policy.h"
+#include "poolreps/reps.h"
+
+/* Once per process, before anything else: switches GSL's abort-on-error
+ * handler off (the library checks every GSL status itself; main() does the
+ * same for the CLI). Returns the library version string. */
+const char *pr_bind_init(void);
+
+/* A configuration with every default (pr_config_init) on the heap; NULL when
+ * out of memory. Fill it with pr_config_set, check it with
+ * pr_config_validate. */
+pr_config *pr_bind_config_new(void);
+void pr_bind_config_free(pr_config *c);
+/* The effective configuration as INI text (pr_config_write), NUL-terminated;
+ * free it with pr_bind_free. NULL and err on failure. */
+char *pr_bind_config_ini(const pr_config *c, char *err);
+void pr_bind_free(void *p);
+
+/* `poolreps shoot` on n rows: balls is n x 2*nballs (x0,y0,x1,y1,...),
+ * actions n x 2. Outputs per row: final (2*nballs), pocket (nballs; id or
+ * -1), hit (0/1), min_gap, reward (eq. 7.7), t_end, events. An invalid row
+ * stops the batch with "row I: <the simulator's message>" (rows from 0). */
+int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
+                  const double *actions, double *final, int *pocket, unsigned char *hit,
+                  double *min_gap, double *reward, double *t_end, long *events, char *err);
+
+/* pr_sim_check_state on the configuration's table. */
+int pr_bind_check_state(const pr_config *c, const double *state, int nballs, char *err);
+/* n start states of table.balls balls each (eq. 7.2, keys start.*), drawn
+ * from rng; states is n x 2*table.balls. */
+int pr_bind_starts(const pr_config *c, gsl_rng *rng, long n, double *states, char *err);
+/* A GSL mt19937 set to seed (NULL when out of memory). */
+gsl_rng *pr_bind_rng_new(unsigned long seed);
+void pr_bind_rng_free(gsl_rng *rng);
+
+/* `poolreps forest`'s fit: keys forest.*, seed experiment.seed. X is n x dx,
+ * Y n x dy, w n weights or NULL. *out is set on success. */
+int pr_bind_forest_fit(const pr_config *c, int n, int dx, int dy, const double *X,
+                       const double *Y, const double *w, pr_forest **out, char *err);
+/* `--leaves`: each row's active leaf per tree, numbered within its tree
+ * (n x ntrees). Prediction is pr_forest_predict_many. */
+int pr_bind_forest_apply(const pr_forest *f, long n, const double *X, int *leaves, char *err);
+
+/* `poolreps reps`: keys reps.* (--epsilon is reps.epsilon). R has n returns,
+ * q n base weights or NULL. Features: dense phi (n x d), or CSR
+ * rowptr/col/val (val NULL: every stored value is 1), or d = 0. */
+int pr_bind_reps(const pr_config *c, int n, int d, const double *R, const double *q,
+                 const double *phi, const int *rowptr, const int *col, const double *val,
+                 pr_reps_result **out, char *err);
+/* An answer whose certificate is "failed" is the error PR_ENUM ("reps: no
+ * certified answer: REASON") unless reps.allow_failed = 1. */
+/* The result's scalar fields by name, so that bindings copy no struct
+ * layout: field i's name and kind ('d' double, 'i' integer, 's' text),
+ * NULL past the last; its value as a double (the status code for status, 0
+ * for reason), and for 's' fields the text (status: "active",
+ * "unreachable" or "failed"; reason: why a failed answer is not certified).
+ * The weights are pr_bind_reps_p (n values) and pr_bind_reps_theta (d
+ * values). */
+const char *pr_bind_reps_field(int i, char *kind);
+double pr_bind_reps_value(const pr_reps_result *r, int i);
+const char *pr_bind_reps_text(const pr_reps_result *r, int i);
+const double *pr_bind_reps_p(const pr_reps_result *r);
+const double *pr_bind_reps_theta(const pr_reps_result *r);
+
+/* `poolreps policy`'s fit: keys policy.*, seed experiment.seed. S is n x ds,
+ * A n x da, w n weights or NULL, Y n x dy (needed when policy.target =
+ * reward_state, else NULL with dy = 0). */
+int pr_bind_policy_fit(const pr_config *c, int n, int ds, int da, int dy, const double *S,
+                       const double *A, const double *w, const double *Y, pr_policy **out,
+                       char *err);
+/* Per query state (nq rows of ds): mean (da), covariance (da x da) and the
+ * PR_POLICY_* status bits. */
+int pr_bind_policy_eval(const pr_policy *p, long nq, const double *S, double *mean,
+                        double *cov, int *status, char *err);
+/* k draws per query state (nq x k x da) from a GSL mt19937 set to seed, the
+ * stream `poolreps policy --seed SEED --sample K` draws from after its fit. */
+int pr_bind_policy_sample(const pr_policy *p, long nq, const double *S, int k,
+                          unsigned long seed, double *draws, int *status, char *err);
+/* log pi(a|s) per row (nq states S, nq actions A). */
+int pr_bind_policy_logpdf(const pr_policy *p, long nq, const double *S, const double *A,
+                          double *logpdf, int *status, char *err);
+
+#endif

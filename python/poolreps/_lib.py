@@ -1,0 +1,291 @@
+"""Loading libpoolreps.so, the C prototypes, errors, option sets and array checks.
+
+Everything the package calls is declared in include/poolreps/bind.h (flat
+arguments: pointers, integers, doubles, opaque handles) or is a plain public
+function of the library (pr_config_set, pr_forest_predict_many, ...), so no C
+struct layout is copied here.
+"""
+import ctypes
+import functools
+import numbers
+import os
+import subprocess
+from ctypes import POINTER, c_char, c_char_p, c_double, c_int, c_long, c_ulong, c_void_p
+from pathlib import Path
+
+import numpy as np
+
+SONAME = "libpoolreps.so.0"
+ERRLEN = 512  # PR_ERRLEN
+PR_OK, PR_EINVAL, PR_EIO, PR_ENUM, PR_ENOMEM, PR_EINTR = 0, -1, -2, -3, -4, -5
+
+
+class NumericalError(ValueError):
+    """A numerical failure reported by the library (a solver that failed, a
+    shot past sim.max_events): the CLI's exit code 3."""
+
+
+def _pkgconfig_dirs():
+    """Library folders of an installed poolreps.pc (PKG_CONFIG_PATH and
+    PKG_CONFIG_SYSROOT_DIR apply), or nothing."""
+    for args in (["--libs-only-L"], ["--variable=libdir"]):
+        try:
+            out = subprocess.run(["pkg-config", *args, "poolreps"], capture_output=True,
+                                 text=True, timeout=10)
+        except (OSError, subprocess.SubprocessError):
+            return
+        if out.returncode == 0:
+            for word in out.stdout.split():
+                yield Path(word[2:] if word.startswith("-L") else word)
+
+
+def _candidates():
+    """Where to look, in order: $POOLREPS_LIB alone when set; the build of
+    the checkout this package sits in; next to the package (`make python`
+    puts a copy there, which `pip install ./python` carries along); the
+    folders of an installed poolreps.pc; the dynamic loader's own search."""
+    explicit = os.environ.get("POOLREPS_LIB")
+    if explicit:
+        yield Path(explicit)
+        return
+    here = Path(__file__).resolve().parent
+    yield here.parent.parent / "build" / "rel" / SONAME
+    yield here / SONAME
+    for d in _pkgconfig_dirs():
+        yield d / SONAME
+    yield Path(SONAME)
+
+
+def _load():
+    tried = []
+    for path in _candidates():
+        if path.parent != Path(".") and not path.exists():
+            tried.append(str(path))
+            continue
+        try:
+            return ctypes.CDLL(str(path)), str(path)
+        except OSError as e:
+            tried.append(f"{path} ({e})")
+    raise OSError("poolreps: libpoolreps.so.0 not found; build it with `make` (or `make "
+                  "install`), or set POOLREPS_LIB. Tried: " + "; ".join(tried))
+
+
+lib, LIBRARY_PATH = _load()
+
+# ctypes releases the GIL around every call into a CDLL, so long calls let
+# other Python threads run.
+_P = c_void_p
+_PROTOTYPES = {
+    "pr_bind_init": (c_char_p, []),
+    "pr_bind_config_new": (_P, []),
+    "pr_bind_config_free": (None, [_P]),
+    "pr_bind_config_ini": (_P, [_P, c_char_p]),
+    "pr_bind_free": (None, [_P]),
+    "pr_config_set": (c_int, [_P, c_char_p, c_char_p]),
+    "pr_config_validate": (c_int, [_P, c_char_p]),
+    "pr_bind_shoot": (c_int, [_P, c_long, c_int, _P, _P, _P, _P, _P, _P, _P, _P, _P, c_char_p]),
+    "pr_bind_check_state": (c_int, [_P, _P, c_int, c_char_p]),
+    "pr_bind_starts": (c_int, [_P, _P, c_long, _P, c_char_p]),
+    "pr_bind_rng_new": (_P, [c_ulong]),
+    "pr_bind_rng_free": (None, [_P]),
+    "pr_bind_forest_fit": (c_int, [_P, c_int, c_int, c_int, _P, _P, _P, POINTER(_P), c_char_p]),
+    "pr_bind_forest_apply": (c_int, [_P, c_long, _P, _P, c_char_p]),
+    "pr_forest_free": (None, [_P]),
+    "pr_forest_predict_many": (None, [_P, _P, c_int, _P]),
+    "pr_forest_ntrees": (c_int, [_P]),
+    "pr_forest_nleaves": (c_int, [_P]),
+    "pr_forest_dx": (c_int, [_P]),
+    "pr_forest_dy": (c_int, [_P]),
+    "pr_forest_tree_leaf0": (c_int, [_P, c_int]),
+    "pr_bind_reps": (c_int, [_P, c_int, c_int, _P, _P, _P, _P, _P, _P, POINTER(_P), c_char_p]),
+    "pr_bind_reps_field": (c_char_p, [c_int, POINTER(c_char)]),
+    "pr_bind_reps_value": (c_double, [_P, c_int]),
+    "pr_bind_reps_text": (c_char_p, [_P, c_int]),
+    "pr_bind_reps_p": (_P, [_P]),
+    "pr_bind_reps_theta": (_P, [_P]),
+    "pr_reps_result_free": (None, [_P]),
+    "pr_bind_policy_fit": (c_int, [_P, c_int, c_int, c_int, c_int, _P, _P, _P, _P, POINTER(_P),
+                                   c_char_p]),
+    "pr_bind_policy_eval": (c_int, [_P, c_long, _P, _P, _P, _P, c_char_p]),
+    "pr_bind_policy_sample": (c_int, [_P, c_long, _P, c_int, c_ulong, _P, _P, c_char_p]),
+    "pr_bind_policy_logpdf": (c_int, [_P, c_long, _P, _P, _P, _P, c_char_p]),
+    "pr_policy_free": (None, [_P]),
+    "pr_policy_ds": (c_int, [_P]),
+    "pr_policy_da": (c_int, [_P]),
+}
+for _name, (_res, _args) in _PROTOTYPES.items():
+    _f = getattr(lib, _name)
+    _f.restype = _res
+    _f.argtypes = _args
+
+LIBRARY_VERSION = lib.pr_bind_init().decode()
+
+
+def errbuf():
+    """A fresh message buffer per call: no buffer is shared between threads."""
+    return ctypes.create_string_buffer(ERRLEN)
+
+
+def check(rc, err):
+    """Raise the exception for a library status, with the library's message."""
+    if rc == PR_OK:
+        return
+    msg = err.value.decode(errors="replace")
+    if rc == PR_ENOMEM:
+        raise MemoryError(msg)
+    if rc == PR_EIO:
+        raise OSError(msg)
+    if rc == PR_ENUM:
+        raise NumericalError(msg)
+    if rc == PR_EINTR:
+        raise KeyboardInterrupt(msg)
+    raise ValueError(msg)
+
+
+class Handle:
+    """Owns one C object and frees it with the library's _free when the last
+    reference goes. A method takes a local reference for the length of its
+    call, so replacing an object's handle (a new fit) while another thread
+    still uses the old one is safe."""
+
+    __slots__ = ("ptr", "_free", "meta")
+
+    def __init__(self, ptr, free, meta=None):
+        self.ptr = ptr
+        self._free = free
+        self.meta = meta  # facts of the fit that methods need (e.g. y was 1-D)
+
+    def __del__(self):
+        if self.ptr:
+            self._free(self.ptr)
+            self.ptr = None
+
+
+def addr(a):
+    """The data address of a C-contiguous numpy array (or None)."""
+    return None if a is None else a.ctypes.data
+
+
+# ---- keys -------------------------------------------------------------------
+
+def _format(key, v):
+    if isinstance(v, str):
+        return v
+    if isinstance(v, (bool, np.bool_)):
+        raise ValueError(f"{key}: a number or text is expected, not a bool")
+    if isinstance(v, numbers.Integral):
+        return str(int(v))
+    if isinstance(v, numbers.Real):
+        return repr(float(v))
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return ",".join(_format(key, x) for x in v)
+    raise ValueError(f"{key}: cannot use a {type(v).__name__} as a value")
+
+
+def assignments(keys, section=None):
+    """'section.key=value' strings, in order, from a dict. Without a dot a
+    key belongs to `section` ('trees' -> 'forest.trees'); 'seed' is
+    experiment.seed."""
+    out = []
+    for k, v in (keys or {}).items():
+        if not isinstance(k, str):
+            raise ValueError(f"{k!r}: keys are 'section.key' strings")
+        if "." not in k:
+            if k == "seed":
+                k = "experiment.seed"
+            elif section:
+                k = f"{section}.{k}"
+        out.append(f"{k}={_format(k, v)}")
+    return tuple(out)
+
+
+class Config:
+    """A pr_config: defaults, then each assignment through pr_config_set
+    (the --set path, with its checks and one-line messages), then
+    pr_config_validate. Read-only once built, so it may be shared."""
+
+    def __init__(self, sets):
+        ptr = lib.pr_bind_config_new()
+        if not ptr:
+            raise MemoryError("config: out of memory")
+        self._h = Handle(ptr, lib.pr_bind_config_free)
+        err = errbuf()
+        for a in sets:
+            if "\0" in a:
+                raise ValueError(f"--set {a.split(chr(0))[0]}: NUL character")
+            check(lib.pr_config_set(ptr, a.encode(), err), err)
+        check(lib.pr_config_validate(ptr, err), err)
+        self._ini = None
+
+    @property
+    def ptr(self):
+        return self._h.ptr
+
+    def values(self):
+        """{'section.key': 'value text'} for every key (the effective configuration)."""
+        if self._ini is None:
+            err = errbuf()
+            text = lib.pr_bind_config_ini(self.ptr, err)
+            if not text:
+                check(PR_ENOMEM, err)
+            try:
+                ini = ctypes.string_at(text).decode()
+            finally:
+                lib.pr_bind_free(text)
+            section, values = "", {}
+            for line in ini.splitlines():
+                line = line.strip()
+                if line.startswith("["):
+                    section = line[1:-1]
+                elif "=" in line:
+                    k, v = line.split("=", 1)
+                    values[f"{section}.{k.strip()}"] = v.strip()
+            self._ini = values
+        return self._ini
+
+    def number(self, key):
+        return float(self.values()[key])
+
+
+@functools.lru_cache(maxsize=64)
+def config(sets):
+    """The Config for a tuple of assignments (cached: building one is cheap,
+    but a step of an environment should not rebuild it)."""
+    return Config(sets)
+
+
+# ---- arrays -----------------------------------------------------------------
+
+def array(name, a, ndim, cols=None, rows=None, allow_empty=False, finite=True):
+    """a as a C-contiguous float64 array of ndim dimensions, copied only when
+    its dtype or layout requires; ValueError for another shape, a dtype that
+    is not real numbers, or (with finite) a value that is not finite."""
+    try:
+        arr = np.asarray(a)
+    except Exception as e:  # e.g. ragged nested lists
+        raise ValueError(f"{name}: not an array ({e})") from None
+    if arr.dtype.kind not in "iuf":
+        raise ValueError(f"{name}: expected real numbers, got dtype {arr.dtype}")
+    if arr.ndim != ndim:
+        raise ValueError(f"{name}: expected a {ndim}-D array, got shape {arr.shape}")
+    if cols is not None and arr.shape[1] != cols:
+        raise ValueError(f"{name}: expected {cols} columns, got shape {arr.shape}")
+    if rows is not None and arr.shape[0] != rows:
+        raise ValueError(f"{name}: expected {rows} rows, got shape {arr.shape}")
+    if not allow_empty and arr.size == 0:
+        raise ValueError(f"{name}: empty array of shape {arr.shape}")
+    arr = np.ascontiguousarray(arr, dtype=np.float64)
+    if finite and not np.isfinite(arr).all():
+        bad = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+        raise ValueError(f"{name}{list(bad)}: not a finite number ({arr[bad]})")
+    return arr
+
+
+INT_MAX = 2**31 - 1
+C_LONG = np.dtype(f"i{ctypes.sizeof(c_long)}")
+
+
+def count(name, n):
+    if n > INT_MAX:
+        raise ValueError(f"{name}: {n} rows, at most {INT_MAX}")
+    return n

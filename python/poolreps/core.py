@@ -1,0 +1,300 @@
+"""shoot, reps, Forest and Policy: the CLI's component commands on numpy arrays.
+
+Each call runs the same C code as the matching `poolreps` command with the
+same options and seed, so the numbers are equal bit for bit.
+"""
+import ctypes
+
+import numpy as np
+
+from . import _lib
+from ._lib import Handle, addr, array, check, config, count, errbuf, lib
+
+
+def shoot(balls, actions, mode="event", set=None):
+    """Simulate one shot per row, as `poolreps shoot`.
+
+    balls: (N, 2*n_balls) start positions x0, y0, x1, y1, ... (ball 0 is the
+    cue ball); actions: (N, 2) the cue ball's initial velocity in m/s.
+    mode: sim.mode ('event' or 'stepped'); set: other keys, e.g.
+    {'table.friction': 0.3} (applied after mode, so they may override it).
+
+    Returns a dict of arrays: final (N, n_balls, 2) final positions (a
+    pocketed ball at its pocket's centre), pocket (N, n_balls) pocket id or
+    -1, hit (N,) whether the cue ball touched a reward ball, min_gap (N,),
+    reward (N,) (eq. 7.7), t_end (N,) seconds, events (N,) events (event
+    mode) or steps (stepped mode).
+    """
+    cfg = config(_lib.assignments({"sim.mode": mode, **(set or {})}))
+    # the simulator checks every row (finite, on the table, not overlapping,
+    # not too fast) before shooting it: no second pass over the arrays here
+    b = array("balls", balls, 2, allow_empty=True, finite=False)
+    if b.shape[1] < 2 or b.shape[1] % 2:
+        raise ValueError(f"balls: expected 2 columns per ball (x0, y0, x1, y1, ...), "
+                         f"got shape {b.shape}")
+    return shoot_rows(cfg, b, array("actions", actions, 2, cols=2, rows=b.shape[0],
+                                    allow_empty=True, finite=False))
+
+
+def shoot_rows(cfg, b, a):
+    """shoot on checked arrays with a built Config."""
+    n, nb = b.shape[0], b.shape[1] // 2
+    out = {
+        "final": np.empty((n, nb, 2)),
+        "pocket": np.empty((n, nb), dtype=np.intc),
+        "hit": np.empty(n, dtype=np.bool_),
+        "min_gap": np.empty(n),
+        "reward": np.empty(n),
+        "t_end": np.empty(n),
+        "events": np.empty(n, dtype=_lib.C_LONG),
+    }
+    err = errbuf()
+    rc = lib.pr_bind_shoot(cfg.ptr, n, nb, addr(b), addr(a), *(addr(out[k]) for k in (
+        "final", "pocket", "hit", "min_gap", "reward", "t_end", "events")), err)
+    check(rc, err)
+    return out
+
+
+def _reps_fields():
+    fields, kind = [], ctypes.c_char()
+    while True:
+        name = lib.pr_bind_reps_field(len(fields), ctypes.byref(kind))
+        if name is None:
+            return fields
+        fields.append((name.decode(), kind.value.decode()))
+
+
+# The scalar fields of the C result, named by the library itself
+# (src/bind.c): a field added there appears here with no change.
+REPS_FIELDS = _reps_fields()
+
+
+def _features(features, n):
+    """Dense (n, d) float64, or CSR arrays for a scipy.sparse matrix."""
+    if features is None:
+        return 0, None, None
+    if hasattr(features, "tocsr"):  # scipy.sparse, without importing scipy
+        m = features.tocsr()
+        if m.shape[0] != n:
+            raise ValueError(f"features: expected {n} rows, got shape {m.shape}")
+        if not m.has_sorted_indices:
+            m = m.sorted_indices()  # a copy: the caller's matrix stays as it was
+        data = array("features.data", m.data, 1, allow_empty=True)
+        # all ones: the one-hot leaf features of eq. 5.4, solved by blocks
+        csr = (np.ascontiguousarray(m.indptr, dtype=np.intc),
+               np.ascontiguousarray(m.indices, dtype=np.intc),
+               None if np.all(data == 1.0) else data)
+        return count("features columns", m.shape[1]), None, csr
+    f = np.asarray(features)
+    f = array("features", f.reshape(-1, 1) if f.ndim == 1 else f, 2, rows=n, allow_empty=True)
+    return count("features columns", f.shape[1]), (f if f.shape[1] else None), None
+
+
+def reps(returns, features=None, epsilon=None, base=None, set=None):
+    """REPS weights for n samples, as `poolreps reps` (thesis ch. 3, eq. 3.7-3.8).
+
+    returns: (n,) returns R_i; features: (n, d) state features phi_i (or
+    (n,) for one, or a scipy.sparse matrix; None for none); epsilon: the KL
+    bound (default: reps.epsilon, 0.5); base: (n,) base weights q_i >= 0
+    (default: all 1); set: other reps.* keys.
+
+    Returns a dict: p (n,) weights summing to 1 (they include q), theta (d,),
+    and the solver's scalars eta, dual, kl, ess, bound, residual, iterations,
+    the certificate kl_gap, residual_rel, status ("active" or "unreachable";
+    "failed" only with reps.allow_failed = 1, otherwise NumericalError), and
+    constant, reason (`poolreps reps --help` explains them).
+    """
+    keys = dict(set or {})
+    if epsilon is not None:
+        keys["reps.epsilon"] = epsilon
+    cfg = config(_lib.assignments(keys, "reps"))
+    R = array("returns", returns, 1)
+    n = count("returns", R.shape[0])
+    q = array("base", base, 1, rows=n) if base is not None else np.ones(n)
+    if (q < 0).any():
+        i = int(np.argmax(q < 0))
+        raise ValueError(f"base[{i}]: base weight must be >= 0 (got {q[i]:g})")
+    d, phi, csr = _features(features, n)
+    rowptr, col, val = csr if csr else (None, None, None)
+    res = ctypes.c_void_p()
+    err = errbuf()
+    rc = lib.pr_bind_reps(cfg.ptr, n, d, addr(R), addr(q), addr(phi), addr(rowptr), addr(col),
+                          addr(val), ctypes.byref(res), err)
+    check(rc, err)
+    h = Handle(res.value, lib.pr_reps_result_free)
+    out = {"p": np.ctypeslib.as_array(ctypes.cast(lib.pr_bind_reps_p(h.ptr),
+                                                   ctypes.POINTER(ctypes.c_double)), (n,)).copy(),
+           "theta": np.zeros(0)}
+    if d:
+        out["theta"] = np.ctypeslib.as_array(ctypes.cast(lib.pr_bind_reps_theta(h.ptr),
+                                                         ctypes.POINTER(ctypes.c_double)),
+                                              (d,)).copy()
+    for i, (name, kind) in enumerate(REPS_FIELDS):
+        if kind == "s":
+            out[name] = lib.pr_bind_reps_text(h.ptr, i).decode()
+            continue
+        v = lib.pr_bind_reps_value(h.ptr, i)
+        out[name] = int(v) if kind == "i" else v
+    return out
+
+
+class _Model:
+    """Keys, a fitted C object behind a Handle, and the checks every method
+    repeats. Safe to share between threads: a fit builds a new object and
+    swaps it in; running calls keep the one they started with."""
+
+    _section = None
+
+    def __init__(self, **keys):
+        self._sets = _lib.assignments(keys, self._section)
+        self._cfg = config(self._sets)
+        self._h = None
+
+    def get_params(self):
+        """The effective {section.key: value} of this model's section, and the seed."""
+        v = self._cfg.values()
+        return {k: x for k, x in v.items()
+                if k.startswith(self._section + ".") or k == "experiment.seed"}
+
+    def _fitted(self):
+        h = self._h
+        if h is None:
+            raise ValueError(f"{type(self).__name__}: call fit() first")
+        return h
+
+    def _fit(self, fn, free, meta, *args):
+        out = ctypes.c_void_p()
+        err = errbuf()
+        check(fn(self._cfg.ptr, *args, ctypes.byref(out), err), err)
+        self._h = Handle(out.value, free, meta)
+        return self
+
+
+class Forest(_Model):
+    """Extremely randomized trees (thesis ch. 4), as `poolreps forest`.
+
+    Keys are forest.* (`trees=50` means forest.trees = 50) and `seed`
+    (experiment.seed, default 1); the same keys and seed give the same forest
+    and predictions as the command.
+    """
+
+    _section = "forest"
+
+    def fit(self, X, y, sample_weight=None):
+        """X (n, d) inputs, y (n,) or (n, k) targets, sample_weight (n,) >= 0
+        (eq. 6.2-6.3; default all 1). Returns self."""
+        X = array("X", X, 2)
+        n = count("X", X.shape[0])
+        y = np.asarray(y)
+        Y = array("y", y.reshape(-1, 1) if y.ndim == 1 else y, 2, rows=n)
+        w = None if sample_weight is None else array("sample_weight", sample_weight, 1, rows=n)
+        return self._fit(lib.pr_bind_forest_fit, lib.pr_forest_free, y.ndim == 1, n, X.shape[1],
+                         Y.shape[1], addr(X), addr(Y), addr(w))
+
+    def _inputs(self, h, X):
+        return array("X", X, 2, cols=lib.pr_forest_dx(h.ptr), allow_empty=True)
+
+    def predict(self, X):
+        """Mean over trees of the leaf values (eq. 4.2-4.3): (n,) or (n, k)."""
+        h = self._fitted()
+        X = self._inputs(h, X)
+        n = count("X", X.shape[0])
+        Y = np.empty((n, lib.pr_forest_dy(h.ptr)))
+        lib.pr_forest_predict_many(h.ptr, addr(X), n, addr(Y))
+        return Y[:, 0].copy() if h.meta else Y
+
+    def apply(self, X):
+        """Each row's leaf in each tree, numbered within the tree: (n, trees)
+        (the `--leaves` output; like scikit-learn's apply)."""
+        h = self._fitted()
+        X = self._inputs(h, X)
+        out = np.empty((X.shape[0], lib.pr_forest_ntrees(h.ptr)), dtype=np.intc)
+        err = errbuf()
+        check(lib.pr_bind_forest_apply(h.ptr, X.shape[0], addr(X), addr(out), err), err)
+        return out
+
+    @property
+    def leaf_offsets(self):
+        """(trees + 1,): tree t's leaves are global ids leaf_offsets[t] to
+        leaf_offsets[t + 1] - 1; the last entry is the number of leaves."""
+        h = self._fitted()
+        return np.array([lib.pr_forest_tree_leaf0(h.ptr, t)
+                         for t in range(lib.pr_forest_ntrees(h.ptr) + 1)])
+
+    def leaf_features(self, X):
+        """The active-leaf features of eq. 5.1-5.4: (n, leaves), 1 where the
+        row falls into the leaf (one per tree), else 0."""
+        leaves = self.apply(X) + self.leaf_offsets[:-1]
+        phi = np.zeros((leaves.shape[0], self.leaf_offsets[-1]))
+        np.put_along_axis(phi, leaves, 1.0, axis=1)
+        return phi
+
+
+class Policy(_Model):
+    """The tree-based locally weighted regression Gaussian policy (thesis
+    ch. 6, eq. 6.4-6.9), as `poolreps policy`.
+
+    Keys are policy.* (`n_min=40` means policy.n_min = 40) and `seed`.
+    """
+
+    _section = "policy"
+
+    def fit(self, S, A, w, target=None):
+        """S (n, ds) states, A (n, da) actions, w (n,) REPS weights >= 0
+        (None: all 1); target (n, dy) the final reward-ball positions the
+        forest learns when policy.target = reward_state. Returns self."""
+        S = array("S", S, 2)
+        n = count("S", S.shape[0])
+        A = array("A", A, 2, rows=n)
+        w = None if w is None else array("w", w, 1, rows=n)
+        Y = None if target is None else array("target", target, 2, rows=n)
+        return self._fit(lib.pr_bind_policy_fit, lib.pr_policy_free, None, n, S.shape[1],
+                         A.shape[1], 0 if Y is None else Y.shape[1], addr(S), addr(A), addr(w),
+                         addr(Y))
+
+    def _states(self, h, S):
+        S = array("S", S, 2, cols=lib.pr_policy_ds(h.ptr), allow_empty=True)
+        return S, S.shape[0], lib.pr_policy_da(h.ptr)
+
+    def mean_cov(self, S, status=False):
+        """Mean (nq, da) and covariance (nq, da, da) at each state; with
+        status, also the fallback bits per state (1 global fit, 2
+        pseudo-inverse, 4 mean only, 8 covariance fallback, 16 min_std floor)."""
+        h = self._fitted()
+        S, nq, da = self._states(h, S)
+        mean, cov = np.empty((nq, da)), np.empty((nq, da, da))
+        st = np.empty(nq, dtype=np.intc)
+        err = errbuf()
+        check(lib.pr_bind_policy_eval(h.ptr, nq, addr(S), addr(mean), addr(cov), addr(st), err),
+              err)
+        return (mean, cov, st) if status else (mean, cov)
+
+    def sample(self, S, seed, n=None):
+        """One action per state, (nq, da), or n per state, (nq, n, da), drawn
+        from a generator seeded with seed: the draws of `poolreps policy
+        --seed SEED --sample N` for a policy fitted with the same seed."""
+        h = self._fitted()
+        S, nq, da = self._states(h, S)
+        k = 1 if n is None else int(n)
+        if not 1 <= k <= 1000000:
+            raise ValueError(f"n: must be an integer in 1..1000000 (got {n})")
+        if not 0 <= int(seed) <= 4294967295:
+            raise ValueError(f"seed: must be an integer in 0..4294967295 (got {seed})")
+        draws = np.empty((nq, k, da))
+        st = np.empty(nq, dtype=np.intc)
+        err = errbuf()
+        check(lib.pr_bind_policy_sample(h.ptr, nq, addr(S), k, int(seed), addr(draws), addr(st),
+                                        err), err)
+        return draws[:, 0, :].copy() if n is None else draws
+
+    def log_prob(self, S, A):
+        """log pi(a|s) for each row: (nq,)."""
+        h = self._fitted()
+        S, nq, da = self._states(h, S)
+        A = array("A", A, 2, cols=da, rows=nq, allow_empty=True)
+        lp = np.empty(nq)
+        st = np.empty(nq, dtype=np.intc)
+        err = errbuf()
+        check(lib.pr_bind_policy_logpdf(h.ptr, nq, addr(S), addr(A), addr(lp), addr(st), err),
+              err)
+        return lp

@@ -1,0 +1,340 @@
+/* bind.c — flat entry points for foreign-function interfaces (bind.h).
+ *
+ * Each function repeats what the matching src/cmd_*.c does between reading
+ * its CSV and writing its output — same options, same generator, same calls
+ * in the same order — so a binding's numbers equal the CLI's bit for bit.
+ * The REPS result is exposed through one table of named fields (below), the
+ * only place that follows pr_reps_result's layout.
+ */
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <gsl/gsl_errno.h>
+
+#include "poolreps/bind.h"
+#include "poolreps/sim.h"
+
+const char *pr_bind_init(void)
+{
+	gsl_set_error_handler_off();
+	return pr_version();
+}
+
+pr_config *pr_bind_config_new(void)
+{
+	pr_config *c = malloc(sizeof *c);
+
+	if (c)
+		pr_config_init(c);
+	return c;
+}
+
+void pr_bind_config_free(pr_config *c)
+{
+	free(c);
+}
+
+void pr_bind_free(void *p)
+{
+	free(p);
+}
+
+char *pr_bind_config_ini(const pr_config *c, char *err)
+{
+	char *buf = NULL;
+	size_t len = 0;
+	FILE *fp = open_memstream(&buf, &len);
+	int rc;
+
+	if (!fp) {
+		pr_err(err, PR_ENOMEM, "config: out of memory");
+		return NULL;
+	}
+	rc = pr_config_write(c, fp);
+	if (fclose(fp) || rc) {
+		free(buf);
+		pr_err(err, PR_ENOMEM, "config: out of memory");
+		return NULL;
+	}
+	return buf;
+}
+
+int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
+                  const double *actions, double *final, int *pocket, unsigned char *hit,
+                  double *min_gap, double *reward, double *t_end, long *events, char *err)
+{
+	char why[PR_ERRLEN];
+	pr_sim *sim;
+	long r;
+	int j, rc = PR_OK;
+
+	if (nballs > PR_SIM_MAX_BALLS || nballs < 1 + c->table.reward_balls)
+		return pr_err(err, PR_EINVAL, "%d balls: need 1 + table.reward_balls (%d) to %d",
+		              nballs, c->table.reward_balls, PR_SIM_MAX_BALLS);
+	if (!(sim = pr_sim_new(&c->table, &c->sim, err)))
+		return strstr(err, "out of memory") ? PR_ENOMEM : PR_EINVAL;
+	for (r = 0; r < n; ++r) {
+		const size_t k = (size_t)r * (size_t)nballs;
+		pr_shot res;
+
+		if ((rc = pr_sim_shoot(sim, balls + 2 * k, nballs, actions + 2 * r, &res, NULL, why))) {
+			pr_err(err, rc, "row %ld: %s", r, why);
+			break;
+		}
+		/* plain loops: for a few balls a memcpy call costs more than the copy */
+		for (j = 0; j < nballs; ++j) {
+			final[2 * (k + j)] = res.final[2 * j];
+			final[2 * (k + j) + 1] = res.final[2 * j + 1];
+			pocket[k + j] = res.pocket[j];
+		}
+		hit[r] = (unsigned char)res.hit;
+		min_gap[r] = res.min_gap;
+		reward[r] = pr_sim_reward(&c->table, &c->reward, &res);
+		t_end[r] = res.t_end;
+		events[r] = res.events;
+	}
+	pr_sim_free(sim);
+	return rc;
+}
+
+gsl_rng *pr_bind_rng_new(unsigned long seed)
+{
+	gsl_rng *r = gsl_rng_alloc(gsl_rng_mt19937);
+
+	if (r)
+		gsl_rng_set(r, seed);
+	return r;
+}
+
+void pr_bind_rng_free(gsl_rng *rng)
+{
+	if (rng)
+		gsl_rng_free(rng);
+}
+
+int pr_bind_check_state(const pr_config *c, const double *state, int nballs, char *err)
+{
+	return pr_sim_check_state(&c->table, state, nballs, err);
+}
+
+int pr_bind_starts(const pr_config *c, gsl_rng *rng, long n, double *states, char *err)
+{
+	const int b = c->table.balls;
+	long i;
+	int rc;
+
+	for (i = 0; i < n; ++i)
+		if ((rc = pr_sim_sample_start(&c->table, &c->start, b, rng, states + 2 * (size_t)b * i, err)))
+			return rc;
+	return PR_OK;
+}
+
+/* The fit functions return NULL for bad input and for a failed allocation
+ * alike; their messages say which. */
+static int null_status(const char *err)
+{
+	return strstr(err, "out of memory") ? PR_ENOMEM : PR_EINVAL;
+}
+
+int pr_bind_forest_fit(const pr_config *c, int n, int dx, int dy, const double *X,
+                       const double *Y, const double *w, pr_forest **out, char *err)
+{
+	gsl_rng *rng;
+	int rc;
+
+	/* as cmd_forest.c: options first, so messages name forest.<key> */
+	if ((rc = pr_forest_opts_check(&c->forest, "forest", err)))
+		return rc;
+	if (!(rng = pr_bind_rng_new(c->run.seed)))
+		return pr_err(err, PR_ENOMEM, "forest: out of memory");
+	*out = pr_forest_fit(&c->forest, X, n, dx, Y, dy, w, rng, err);
+	gsl_rng_free(rng);
+	return *out ? PR_OK : null_status(err);
+}
+
+int pr_bind_forest_apply(const pr_forest *f, long n, const double *X, int *leaves, char *err)
+{
+	const int M = pr_forest_ntrees(f), dx = pr_forest_dx(f);
+	long i;
+	int t;
+
+	for (i = 0; i < n; ++i) {
+		int *row = leaves + (size_t)i * M;
+		int got = pr_forest_active(f, X + (size_t)i * dx, dx, row, M);
+
+		if (got != M)
+			return pr_err(err, got < 0 ? got : PR_ENUM, "row %ld: %d active leaves, expected %d",
+			              i, got, M);
+		for (t = 0; t < M; ++t)
+			row[t] -= pr_forest_tree_leaf0(f, t);
+	}
+	return PR_OK;
+}
+
+int pr_bind_reps(const pr_config *c, int n, int d, const double *R, const double *q,
+                 const double *phi, const int *rowptr, const int *col, const double *val,
+                 pr_reps_result **out, char *err)
+{
+	const pr_reps_problem pb = { .n = n, .d = d, .R = R, .q = q, .phi = phi,
+	                             .rowptr = rowptr, .col = col, .val = val };
+
+	int rc;
+
+	*out = NULL;
+	if ((rc = pr_reps_solve(&c->reps, &pb, out, err)) != PR_OK)
+		return rc;
+	/* as the CLI: an uncertified answer is an error unless reps.allow_failed */
+	if ((*out)->status == PR_REPS_FAILED && !c->reps.allow_failed) {
+		rc = pr_err(err, PR_ENUM, "reps: no certified answer: %s", (*out)->reason);
+		pr_reps_result_free(*out);
+		*out = NULL;
+	}
+	return rc;
+}
+
+/* The scalar fields of pr_reps_result that bindings report, in the order of
+ * `poolreps reps --summary` and then the rest. */
+static const struct {
+	const char *name;
+	char kind;
+	size_t off;
+} reps_fields[] = {
+	{"eta", 'd', offsetof(pr_reps_result, eta)},
+	{"dual", 'd', offsetof(pr_reps_result, dual)},
+	{"kl", 'd', offsetof(pr_reps_result, kl)},
+	{"ess", 'd', offsetof(pr_reps_result, ess)},
+	{"bound", 'i', offsetof(pr_reps_result, bound)},
+	{"residual", 'd', offsetof(pr_reps_result, residual)},
+	{"iterations", 'i', offsetof(pr_reps_result, iterations)},
+	{"kl_gap", 'd', offsetof(pr_reps_result, kl_gap)},
+	{"residual_rel", 'd', offsetof(pr_reps_result, residual_rel)},
+	{"status", 's', offsetof(pr_reps_result, status)},
+	{"constant", 'i', offsetof(pr_reps_result, constant)},
+	{"reason", 's', offsetof(pr_reps_result, reason)},
+};
+#define NREPS_FIELDS (sizeof reps_fields / sizeof reps_fields[0])
+
+const char *pr_bind_reps_field(int i, char *kind)
+{
+	if (i < 0 || (size_t)i >= NREPS_FIELDS)
+		return NULL;
+	*kind = reps_fields[i].kind;
+	return reps_fields[i].name;
+}
+
+double pr_bind_reps_value(const pr_reps_result *r, int i)
+{
+	const char *at = (const char *)r + reps_fields[i].off;
+
+	if (reps_fields[i].off == offsetof(pr_reps_result, reason))
+		return 0.0;
+	return reps_fields[i].kind == 'd' ? *(const double *)at : (double)*(const int *)at;
+}
+
+const char *pr_bind_reps_text(const pr_reps_result *r, int i)
+{
+	if (i < 0 || (size_t)i >= NREPS_FIELDS || reps_fields[i].kind != 's')
+		return NULL;
+	if (reps_fields[i].off == offsetof(pr_reps_result, status))
+		return pr_reps_status_name(r->status);
+	return (const char *)r + reps_fields[i].off;
+}
+
+const double *pr_bind_reps_p(const pr_reps_result *r)
+{
+	return r->p;
+}
+
+const double *pr_bind_reps_theta(const pr_reps_result *r)
+{
+	return r->theta;
+}
+
+int pr_bind_policy_fit(const pr_config *c, int n, int ds, int da, int dy, const double *S,
+                       const double *A, const double *w, const double *Y, pr_policy **out,
+                       char *err)
+{
+	const pr_policy_data d = { .n = n, .ds = ds, .da = da, .dy = dy,
+	                           .S = S, .A = A, .Y = Y, .w = w };
+	gsl_rng *rng;
+
+	if (c->policy.target == PR_TARGET_REWARD_STATE && (!Y || dy < 1))
+		return pr_err(err, PR_EINVAL, "policy: policy.target = reward_state needs the "
+		              "final reward-ball positions (target)");
+	if (!(rng = pr_bind_rng_new(c->run.seed)))
+		return pr_err(err, PR_ENOMEM, "policy: out of memory");
+	*out = pr_policy_tree_fit(&c->policy, &d, rng, err);
+	gsl_rng_free(rng);
+	return *out ? PR_OK : null_status(err);
+}
+
+/* Every query state through one workspace of this call's own, so that
+ * calls on one policy may run in parallel. With mean or cov NULL the row's
+ * values go to scratch; with rng, k actions per state are drawn after its
+ * evaluation, in the order of cmd_policy.c. */
+static int eval_rows(const pr_policy *p, long nq, const double *S, double *mean, double *cov,
+                     int *status, int k, gsl_rng *rng, double *draws, char *err)
+{
+	const size_t ds = (size_t)pr_policy_ds(p), da = (size_t)pr_policy_da(p);
+	pr_policy_work *ws = pr_policy_work_new(p, err);
+	double *tmp = malloc((da + da * da) * sizeof *tmp);
+	long i;
+	int rc = PR_OK;
+
+	if (!ws || !tmp) {
+		pr_policy_work_free(ws);
+		free(tmp);
+		return pr_err(err, PR_ENOMEM, "policy: out of memory");
+	}
+	for (i = 0; i < nq && !rc; ++i) {
+		double *mi = mean ? mean + (size_t)i * da : tmp;
+		double *ci = cov ? cov + (size_t)i * da * da : tmp + da;
+
+		rc = pr_policy_eval(p, S + (size_t)i * ds, mi, ci, status + i, ws, err);
+		if (!rc && rng)
+			rc = pr_policy_gauss_sample((int)da, mi, ci, k, rng, draws + (size_t)i * k * da, err);
+	}
+	pr_policy_work_free(ws);
+	free(tmp);
+	return rc;
+}
+
+int pr_bind_policy_eval(const pr_policy *p, long nq, const double *S, double *mean,
+                        double *cov, int *status, char *err)
+{
+	return eval_rows(p, nq, S, mean, cov, status, 0, NULL, NULL, err);
+}
+
+int pr_bind_policy_sample(const pr_policy *p, long nq, const double *S, int k,
+                          unsigned long seed, double *draws, int *status, char *err)
+{
+	gsl_rng *rng = pr_bind_rng_new(seed);
+	int rc;
+
+	if (!rng)
+		return pr_err(err, PR_ENOMEM, "policy: out of memory");
+	/* the command's fit took one draw to seed its forest (pr_forest_fit) */
+	gsl_rng_get(rng);
+	rc = eval_rows(p, nq, S, NULL, NULL, status, k, rng, draws, err);
+	gsl_rng_free(rng);
+	return rc;
+}
+
+int pr_bind_policy_logpdf(const pr_policy *p, long nq, const double *S, const double *A,
+                          double *logpdf, int *status, char *err)
+{
+	const size_t ds = (size_t)pr_policy_ds(p), da = (size_t)pr_policy_da(p);
+	pr_policy_work *ws = pr_policy_work_new(p, err);
+	long i;
+	int rc = PR_OK;
+
+	if (!ws)
+		return PR_ENOMEM;
+	for (i = 0; i < nq && !rc; ++i)
+		rc = pr_policy_logpdf(p, S + (size_t)i * ds, A + (size_t)i * da, logpdf + i,
+		                      status + i, ws, err);
+	pr_policy_work_free(ws);
+	return rc;
+}

@@ -1,0 +1,855 @@
+/* cmd_sweep.c — `poolreps sweep` and `poolreps collect`: a grid of parameter
+ * values split into self-contained jobs for a Slurm array or GNU Parallel,
+ * and the jobs' outputs merged back into one table over the grid.
+ *
+ * SWEEP_DIR as `sweep` writes it (staged, published only when complete):
+ *   manifest.csv        one row per job: job,point,<grid keys>,repetition,
+ *                       variant,variant_name,output (-1 and "all": not split
+ *                       that way; output is relative to SWEEP_DIR)
+ *   jobs.txt            line j + 1 is job j: one sh command, absolute paths
+ *   slurm.sbatch        a Slurm array over jobs.txt (logs/ for its output)
+ *   parallel.sh         the GNU Parallel command line over jobs.txt
+ *   point-P/config.ini  the effective configuration of grid point P
+ *   config.ini, provenance.txt  the base configuration and how it was made
+ * Job j is `poolreps run point-P/config.ini` restricted to one repetition
+ * and/or one variant, into point-P/runs/NAME. A run publishes its folder
+ * only when it succeeded, provenance.txt with it: that file marks a job done.
+ * Every job draws only from the streams of its own (repetition, variant), so
+ * the bytes do not depend on where, when or in which order jobs run.
+ *
+ * `collect` merges each point's job folders through `poolreps merge` (its
+ * checks included) into point-P/merged, and writes sweep_summary.csv: the
+ * grid values, then every row of the experiment's summary CSV. All of it is
+ * staged in SWEEP_DIR/.collect-PID and moved into place only at the end.
+ */
+#define _XOPEN_SOURCE 700 /* nftw */
+#include <dirent.h>
+#include <errno.h>
+#include <ftw.h>
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "poolreps/cmd.h"
+#include "poolreps/config.h"
+#include "poolreps/csvio.h"
+#include "poolreps/exp.h"
+#include "exp_priv.h"
+#include "run_priv.h"
+
+#define PATHLEN 1024
+#define ROOTMAX 480  /* a sweep folder's path; names below it: NAMEMAX */
+#define NAMEMAX 400
+#define MAX_AXES 16
+#define MAX_JOBS 1000000L
+
+enum { SPLIT_REP = 1, SPLIT_VAR = 2 };
+enum { JOB_DONE, JOB_MISSING, JOB_FAILED };
+
+/* One --grid KEY=V1,V2,...: values point into text. */
+typedef struct {
+	char key[64];
+	char *text;
+	char **value;
+	int n;
+} axis;
+
+typedef struct {
+	axis ax[MAX_AXES];
+	int nax;
+	long npoints;
+	int split;
+} grid;
+
+static void grid_free(grid *g)
+{
+	int i;
+
+	for (i = 0; i < g->nax; ++i) {
+		free(g->ax[i].text);
+		free(g->ax[i].value);
+	}
+}
+
+/* snprintf into buf[n] for paths below a sweep folder: checked lengths
+ * (ROOTMAX, NAMEMAX) make them fit PATHLEN. */
+static void fmt(char *buf, size_t n, const char *f, ...)
+#if defined(__GNUC__)
+	__attribute__((format(printf, 3, 4)))
+#endif
+	;
+static void fmt(char *buf, size_t n, const char *f, ...)
+{
+	va_list ap;
+
+	va_start(ap, f);
+	vsnprintf(buf, n, f, ap);
+	va_end(ap);
+}
+
+static int rm_entry(const char *path, const struct stat *st, int flag, struct FTW *f)
+{
+	(void)st;
+	(void)flag;
+	(void)f;
+	return remove(path);
+}
+
+/* Remove path and everything below it (symlinks themselves, not their targets). */
+static void remove_all(const char *path)
+{
+	nftw(path, rm_entry, 16, FTW_DEPTH | FTW_PHYS);
+}
+
+static int exists(const char *path)
+{
+	struct stat st;
+
+	return stat(path, &st) == 0;
+}
+
+static void point_name(char *buf, size_t n, long p, long npoints)
+{
+	int width = 1;
+	long m;
+
+	for (m = npoints - 1; m >= 10; m /= 10)
+		++width;
+	fmt(buf, n, "point-%0*ld", width, p);
+}
+
+/* ---- sweep ---- */
+
+static int parse_split(const char *s, int *split, char *err)
+{
+	if (!s || strcmp(s, "repetition") == 0)
+		*split = SPLIT_REP;
+	else if (strcmp(s, "variant") == 0)
+		*split = SPLIT_VAR;
+	else if (strcmp(s, "both") == 0)
+		*split = SPLIT_REP | SPLIT_VAR;
+	else
+		return pr_err(err, PR_EINVAL, "--split %.40s: must be repetition, variant or both", s);
+	return PR_OK;
+}
+
+/* Split "KEY=V1,V2,..." into ax; the values are checked per point. */
+static int parse_axis(const char *arg, axis *ax, const grid *g, char *err)
+{
+	const char *eq = strchr(arg, '=');
+	char *p;
+	int i, j;
+
+	memset(ax, 0, sizeof *ax);
+	if (!eq || eq == arg || (size_t)(eq - arg) >= sizeof ax->key)
+		return pr_err(err, PR_EINVAL, "--grid %.80s: expected section.key=value1,value2,...", arg);
+	snprintf(ax->key, sizeof ax->key, "%.*s", (int)(eq - arg), arg);
+	if (strcmp(ax->key, "experiment.name") == 0 || strcmp(ax->key, "experiment.repetition") == 0 ||
+	    strcmp(ax->key, "experiment.variant") == 0)
+		return pr_err(err, PR_EINVAL, "--grid %s: a sweep keeps one experiment and chooses "
+		              "repetitions and variants itself (--split)", ax->key);
+	for (i = 0; i < g->nax; ++i)
+		if (strcmp(g->ax[i].key, ax->key) == 0)
+			return pr_err(err, PR_EINVAL, "--grid %s: key given twice", ax->key);
+	ax->text = strdup(eq + 1);
+	ax->value = malloc((strlen(eq + 1) / 2 + 1) * sizeof *ax->value);
+	if (!ax->text || !ax->value)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	for (p = ax->text;; ++p) {
+		ax->value[ax->n++] = p;
+		p += strcspn(p, ",");
+		if (!*p)
+			break;
+		*p = '\0';
+	}
+	for (i = 0; i < ax->n; ++i) {
+		if (!*ax->value[i])
+			return pr_err(err, PR_EINVAL, "--grid %.80s: empty value", arg);
+		for (j = 0; j < i; ++j)
+			if (strcmp(ax->value[i], ax->value[j]) == 0)
+				return pr_err(err, PR_EINVAL, "--grid %s: value '%.40s' listed twice",
+				              ax->key, ax->value[i]);
+	}
+	return PR_OK;
+}
+
+static int parse_grid(const pr_cmd_args *a, grid *g, char *err)
+{
+	int i, rc;
+
+	memset(g, 0, sizeof *g);
+	if ((rc = parse_split(a->split, &g->split, err)))
+		return rc;
+	if (a->ngrid > MAX_AXES)
+		return pr_err(err, PR_EINVAL, "--grid: at most %d keys", MAX_AXES);
+	g->npoints = 1;
+	for (i = 0; i < a->ngrid; ++i) {
+		rc = parse_axis(a->grid[i], &g->ax[g->nax], g, err);
+		g->nax++;
+		if (rc)
+			return rc;
+		g->npoints *= g->ax[i].n;
+		if (g->npoints > MAX_JOBS)
+			return pr_err(err, PR_EINVAL, "--grid: more than %ld grid points", MAX_JOBS);
+	}
+	return PR_OK;
+}
+
+/* Value index of axis i at point p: the last key varies fastest. */
+static int value_index(const grid *g, long p, int i)
+{
+	int j;
+
+	for (j = g->nax - 1; j > i; --j)
+		p /= g->ax[j].n;
+	return (int)(p % g->ax[i].n);
+}
+
+/* The configuration of point p: the base with the point's values, checked. */
+static int point_config(const pr_config *base, const grid *g, long p, pr_config *pt, char *err)
+{
+	char set[PATHLEN];
+	int i, rc;
+
+	*pt = *base;
+	for (i = 0; i < g->nax; ++i) {
+		const axis *ax = &g->ax[i];
+		snprintf(set, sizeof set, "%s=%s", ax->key, ax->value[value_index(g, p, i)]);
+		if ((rc = pr_config_set(pt, set, err))) {
+			char inner[PR_ERRLEN];
+			snprintf(inner, sizeof inner, "%s", strncmp(err, "--set: ", 7) ? err : err + 7);
+			return pr_err(err, rc, "--grid %.300s", inner);
+		}
+	}
+	return pr_config_validate(pt, err);
+}
+
+/* point-P/runs/NAME of a job: its repetition and variant, where split. */
+static void job_output(char *buf, size_t n, const char *point, int rep, const char *variant)
+{
+	if (rep >= 0 && variant)
+		fmt(buf, n, "%s/runs/rep-%d-%s", point, rep, variant);
+	else if (rep >= 0)
+		fmt(buf, n, "%s/runs/rep-%d", point, rep);
+	else
+		fmt(buf, n, "%s/runs/%s", point, variant);
+}
+
+/* root/name, as sh reads it back as one word. */
+static void put_path(FILE *fp, const char *root, const char *name)
+{
+	char path[PATHLEN];
+
+	fmt(path, sizeof path, "%s/%s", root, name);
+	pr_run_shell_word(fp, path);
+}
+
+static void write_job(FILE *fp, const char *exe, const char *root, const char *point, int rep,
+                      int var, const char *out)
+{
+	char cfg[PATHLEN];
+
+	pr_run_shell_word(fp, exe);
+	fputs(" run -q ", fp);
+	fmt(cfg, sizeof cfg, "%s/config.ini", point);
+	put_path(fp, root, cfg);
+	if (rep >= 0)
+		fprintf(fp, " --set experiment.repetition=%d", rep);
+	if (var >= 0)
+		fprintf(fp, " --set experiment.variant=%d", var);
+	fputs(" -o ", fp);
+	put_path(fp, root, out);
+	fputc('\n', fp);
+}
+
+static FILE *open_text(const char *dir, const char *name, char *path, char *err)
+{
+	FILE *fp;
+
+	fmt(path, PATHLEN, "%s/%s", dir, name);
+	if (!(fp = fopen(path, "w")))
+		pr_err(err, PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+	return fp;
+}
+
+static int close_text(FILE *fp, const char *path, char *err)
+{
+	int bad = ferror(fp);
+
+	bad |= fclose(fp) != 0;
+	return bad ? pr_err(err, PR_EIO, "%s: write error", path) : PR_OK;
+}
+
+/* slurm.sbatch and parallel.sh: the two ways to run jobs.txt. */
+static int write_runners(const char *dir, const char *root, long njobs, int threads, char *err)
+{
+	char path[PATHLEN];
+	FILE *fp;
+	int rc;
+
+	if (!(fp = open_text(dir, "slurm.sbatch", path, err)))
+		return PR_EIO;
+	fputs("#!/bin/sh\n"
+	      "# Slurm array over the jobs of this sweep (written by poolreps sweep): task i\n"
+	      "# runs line i + 1 of JOBS, by default jobs.txt beside this script.\n"
+	      "#   sbatch slurm.sbatch                       every job\n"
+	      "#   poolreps sweep --missing DIR > retry.txt  after a failure, the jobs not done:\n"
+	      "#   sbatch --array=0-$(( $(wc -l < retry.txt) - 1 )) slurm.sbatch retry.txt\n"
+	      "# Above the cluster's MaxArraySize, submit slices: task i then runs line\n"
+	      "# POOLREPS_OFFSET + i + 1, e.g. --array=0-999 --export=ALL,POOLREPS_OFFSET=1000\n"
+	      "#SBATCH --job-name=poolreps-sweep\n", fp);
+	fprintf(fp, "#SBATCH --array=0-%ld\n#SBATCH --cpus-per-task=%d\n#SBATCH --output=", njobs - 1,
+	        threads);
+	put_path(fp, root, "logs/%A_%a.out");
+	fputs("\nset -e\njobs=${1:-", fp);
+	put_path(fp, root, "jobs.txt");
+	fputs("}\n"
+	      "line=$(sed -n \"$((SLURM_ARRAY_TASK_ID + ${POOLREPS_OFFSET:-0} + 1))p\" \"$jobs\")\n"
+	      "[ -n \"$line\" ] || {\n"
+	      "\techo \"slurm.sbatch: no job $SLURM_ARRAY_TASK_ID in $jobs\" >&2\n"
+	      "\texit 1\n"
+	      "}\n"
+	      "exec sh -c \"$line\"\n", fp);
+	if ((rc = close_text(fp, path, err)))
+		return rc;
+	if (!(fp = open_text(dir, "parallel.sh", path, err)))
+		return PR_EIO;
+	fputs("#!/bin/sh\n"
+	      "# GNU Parallel over the jobs of this sweep (written by poolreps sweep); options\n"
+	      "# go to parallel:\n"
+	      "#   sh parallel.sh                              this machine, one job per CPU\n"
+	      "#   sh parallel.sh -j 4                         four at a time\n"
+	      "#   sh parallel.sh --sshlogin 8/host1,8/host2   over ssh: this folder and poolreps\n"
+	      "#                                               at the same paths on every host\n"
+	      "# parallel.log records each job's host, times and exit status.\n"
+	      "exec parallel --joblog ", fp);
+	put_path(fp, root, "parallel.log");
+	fputs(" \"$@\" < ", fp);
+	put_path(fp, root, "jobs.txt");
+	fputc('\n', fp);
+	return close_text(fp, path, err);
+}
+
+/* Everything a sweep writes, into the staging folder dir of SWEEP_DIR. */
+typedef struct {
+	const pr_config *cfg;
+	const grid *g;
+	const char *dir;
+	char root[PATHLEN];  /* SWEEP_DIR, absolute */
+	char exe[PATHLEN];   /* this poolreps, absolute */
+	FILE *jobs;
+	pr_csvw *man;
+	long njobs;
+	int cpus;            /* threads a job can use: Slurm's --cpus-per-task */
+} sweep_out;
+
+static int manifest_header(sweep_out *s, char *err)
+{
+	char path[PATHLEN];
+	int i;
+
+	fmt(path, sizeof path, "%s/manifest.csv", s->dir);
+	if (!(s->man = pr_csvw_open(path, err)))
+		return PR_EIO;
+	pr_csvw_str(s->man, "job");
+	pr_csvw_str(s->man, "point");
+	for (i = 0; i < s->g->nax; ++i)
+		pr_csvw_str(s->man, s->g->ax[i].key);
+	pr_csvw_header(s->man, "repetition,variant,variant_name,output");
+	return PR_OK;
+}
+
+/* Point p: its folder with config.ini, and one job per repetition x
+ * variant that the split separates. */
+static int sweep_point(sweep_out *s, long p, char *err)
+{
+	const grid *g = s->g;
+	pr_config pt;
+	pr_variants *vl = malloc(sizeof *vl);
+	char point[64], path[PATHLEN], out[PATHLEN];
+	int r, v, i, nr, nv, units, rc;
+
+	if (!vl)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	point_name(point, sizeof point, p, g->npoints);
+	rc = point_config(s->cfg, g, p, &pt, err);
+	if (rc == PR_OK)
+		rc = pr_exp_variants(&pt, vl, err);
+	if (rc == PR_OK && (g->split & SPLIT_VAR) && vl->n == 0)
+		rc = pr_err(err, PR_EINVAL, "--split %s: %s has no variants (exp1 and exp3 have)",
+		            s->g->split & SPLIT_REP ? "both" : "variant", pt.run.name);
+	nr = g->split & SPLIT_REP ? pt.run.repetitions : 1;
+	nv = g->split & SPLIT_VAR ? vl->n : 1;
+	/* a job's threads share its repetitions x variants */
+	units = (g->split & SPLIT_REP ? 1 : pt.run.repetitions) *
+	        (g->split & SPLIT_VAR || !vl->n ? 1 : vl->n);
+	if (units > pt.run.threads)
+		units = pt.run.threads;
+	if (rc == PR_OK && units > s->cpus)
+		s->cpus = units;
+	if (rc == PR_OK && s->njobs + (long)nr * nv > MAX_JOBS)
+		rc = pr_err(err, PR_EINVAL, "sweep: more than %ld jobs", MAX_JOBS);
+	fmt(path, sizeof path, "%s/%s", s->dir, point);
+	if (rc == PR_OK && mkdir(path, 0777) != 0)
+		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", path, strerror(errno));
+	if (rc == PR_OK)
+		rc = pr_run_write_config(&pt, path, err);
+	for (r = 0; rc == PR_OK && r < nr; ++r)
+		for (v = 0; rc == PR_OK && v < nv; ++v) {
+			int rep = g->split & SPLIT_REP ? r : -1, var = g->split & SPLIT_VAR ? v : -1;
+			job_output(out, sizeof out, point, rep, var >= 0 ? vl->name[var] : NULL);
+			write_job(s->jobs, s->exe, s->root, point, rep, var, out);
+			pr_csvw_int(s->man, s->njobs++);
+			pr_csvw_int(s->man, p);
+			for (i = 0; i < g->nax; ++i)
+				pr_csvw_str(s->man, g->ax[i].value[value_index(g, p, i)]);
+			pr_csvw_int(s->man, rep);
+			pr_csvw_int(s->man, var);
+			pr_csvw_str(s->man, var >= 0 ? vl->name[var] : "all");
+			pr_csvw_str(s->man, out);
+			rc = pr_csvw_endrow(s->man);
+		}
+	free(vl);
+	return rc;
+}
+
+/* pr_run_staged's work: dir is SWEEP_DIR/.partial-PID. A failure removes
+ * what this wrote below dir; pr_run_staged removes dir itself. */
+static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a, char *err)
+{
+	sweep_out s;
+	grid g;
+	char path[PATHLEN], *slash;
+	ssize_t n;
+	long p;
+	int rc;
+
+	memset(&s, 0, sizeof s);
+	s.cfg = cfg;
+	s.g = &g;
+	s.dir = dir;
+	rc = parse_grid(a, &g, err);
+	if (rc == PR_OK && !realpath(dir, s.root))
+		rc = pr_err(err, PR_EIO, "%s: cannot resolve: %s", dir, strerror(errno));
+	if (rc == PR_OK && (slash = strrchr(s.root, '/')))
+		*slash = '\0';
+	if (rc == PR_OK && strlen(s.root) > ROOTMAX)
+		rc = pr_err(err, PR_EINVAL, "%.100s...: path too long", s.root);
+	/* the jobs run this very binary, by its absolute path */
+	if (rc == PR_OK && (n = readlink("/proc/self/exe", s.exe, sizeof s.exe - 1)) < 0)
+		rc = pr_err(err, PR_EIO, "/proc/self/exe: cannot find this executable: %s", strerror(errno));
+	else if (rc == PR_OK)
+		s.exe[n] = '\0';
+	if (rc == PR_OK && !(s.jobs = open_text(dir, "jobs.txt", path, err)))
+		rc = PR_EIO;
+	if (rc == PR_OK)
+		rc = manifest_header(&s, err);
+	for (p = 0; rc == PR_OK && p < g.npoints; ++p) {
+		if (pr_interrupted)
+			rc = pr_err(err, PR_EINTR, "interrupted");
+		else
+			rc = sweep_point(&s, p, err);
+	}
+	if (s.jobs && rc == PR_OK)
+		rc = close_text(s.jobs, path, err);
+	else if (s.jobs)
+		fclose(s.jobs);
+	if (s.man)
+		rc = pr_csvw_finish(s.man, rc, err);
+	fmt(path, sizeof path, "%s/logs", dir);
+	if (rc == PR_OK && mkdir(path, 0777) != 0)
+		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", path, strerror(errno));
+	if (rc == PR_OK)
+		rc = write_runners(dir, s.root, s.njobs, s.cpus, err);
+	if (rc != PR_OK) {
+		for (p = 0; p < g.npoints; ++p) {
+			char point[64];
+			point_name(point, sizeof point, p, g.npoints);
+			fmt(path, sizeof path, "%s/%s", dir, point);
+			remove_all(path);
+		}
+		fmt(path, sizeof path, "%s/logs", dir);
+		rmdir(path);
+	}
+	grid_free(&g);
+	return rc;
+}
+
+/* An existing SWEEP_DIR must be empty: a sweep never mixes with other files. */
+static int check_empty(const char *dir, char *err)
+{
+	DIR *d = opendir(dir);
+	struct dirent *e;
+	int rc = PR_OK;
+
+	if (!d)
+		return errno == ENOENT ? PR_OK : pr_err(err, PR_EIO, "%s: cannot read folder: %s", dir,
+		                                        strerror(errno));
+	while (rc == PR_OK && (e = readdir(d)))
+		if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0)
+			rc = pr_err(err, PR_EIO, "%s: folder is not empty (it holds %.100s): a sweep "
+			            "needs a new or empty folder", dir, e->d_name);
+	closedir(d);
+	return rc;
+}
+
+/* ---- the manifest of a written sweep ---- */
+
+typedef struct {
+	pr_exp_table *t;
+	int nax;            /* grid key columns 2 .. 1 + nax */
+	int c_rep, c_name, c_out;
+	long njobs, npoints;
+	int *state;         /* JOB_* per job */
+} manifest;
+
+static void manifest_free(manifest *m)
+{
+	pr_exp_table_free(m->t);
+	free(m->state);
+}
+
+static int manifest_read(const char *root, manifest *m, char *err)
+{
+	static const char *const tail[] = {"repetition", "variant", "variant_name", "output"};
+	char path[PATHLEN];
+	long i, v;
+	int nc, j, rc;
+
+	memset(m, 0, sizeof *m);
+	if (strlen(root) > ROOTMAX)
+		return pr_err(err, PR_EINVAL, "%.100s...: path too long", root);
+	fmt(path, sizeof path, "%s/manifest.csv", root);
+	if ((rc = pr_exp_table_read(path, &m->t, err)))
+		return rc;
+	nc = pr_exp_table_ncols(m->t);
+	m->nax = nc - 6;
+	if (m->nax < 0 || strcmp(pr_exp_table_name(m->t, 0), "job") != 0 ||
+	    strcmp(pr_exp_table_name(m->t, 1), "point") != 0)
+		return pr_err(err, PR_EIO, "%s:1: not a sweep manifest: expected job,point,<grid keys>,"
+		              "repetition,variant,variant_name,output", path);
+	for (j = 0; j < 4; ++j)
+		if (strcmp(pr_exp_table_name(m->t, nc - 4 + j), tail[j]) != 0)
+			return pr_err(err, PR_EIO, "%s:1: column %d: expected '%s'", path, nc - 3 + j, tail[j]);
+	m->c_rep = nc - 4;
+	m->c_name = nc - 2;
+	m->c_out = nc - 1;
+	m->njobs = pr_exp_table_nrows(m->t);
+	if (m->njobs == 0)
+		return pr_err(err, PR_EIO, "%s: no jobs", path);
+	if (!(m->state = malloc((size_t)m->njobs * sizeof *m->state)))
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	for (i = 0; i < m->njobs; ++i) {
+		char dir[PATHLEN], file[PATHLEN];
+		if (strlen(pr_exp_table_str(m->t, i, m->c_out)) > NAMEMAX)
+			return pr_err(err, PR_EIO, "%s:%ld: column 'output': path too long", path,
+			              pr_exp_table_line(m->t, i));
+		if ((rc = pr_exp_table_int(m->t, i, 0, i, i, &v, err)) ||
+		    (rc = pr_exp_table_int(m->t, i, 1, m->npoints ? m->npoints - 1 : 0, m->npoints, &v, err)))
+			return rc;
+		m->npoints = v + 1;
+		fmt(dir, sizeof dir, "%s/%s", root, pr_exp_table_str(m->t, i, m->c_out));
+		fmt(file, sizeof file, "%s/provenance.txt", dir);
+		m->state[i] = exists(file) ? JOB_DONE : exists(dir) ? JOB_FAILED : JOB_MISSING;
+	}
+	return PR_OK;
+}
+
+/* The one-line error naming the jobs not done (as many as fit). */
+static int not_done(const char *root, const manifest *m, long nbad, char *err)
+{
+	char buf[PR_ERRLEN];
+	size_t len;
+	long i, named = 0;
+
+	len = (size_t)snprintf(buf, sizeof buf, "%.120s: %ld of %ld jobs not done (poolreps sweep "
+	                       "--missing prints them):", root, nbad, m->njobs);
+	for (i = 0; i < m->njobs; ++i) {
+		const char *rep = pr_exp_table_str(m->t, i, m->c_rep);
+		const char *var = pr_exp_table_str(m->t, i, m->c_name);
+		char one[256];
+		if (m->state[i] == JOB_DONE)
+			continue;
+		snprintf(one, sizeof one, "%s job %ld (point %s%s%s%s%s) %s%.80s", named ? ";" : "", i,
+		         pr_exp_table_str(m->t, i, 1), strcmp(rep, "-1") ? ", repetition " : "",
+		         strcmp(rep, "-1") ? rep : "", strcmp(var, "all") ? ", variant " : "",
+		         strcmp(var, "all") ? var : "",
+		         m->state[i] == JOB_MISSING ? "missing" : "failed: incomplete folder ",
+		         m->state[i] == JOB_MISSING ? "" : pr_exp_table_str(m->t, i, m->c_out));
+		if (len + strlen(one) + 24 >= sizeof buf)
+			break;
+		len += (size_t)snprintf(buf + len, sizeof buf - len, "%s", one);
+		++named;
+	}
+	if (named < nbad)
+		snprintf(buf + len, sizeof buf - len, "; and %ld more", nbad - named);
+	return pr_err(err, PR_EIO, "%s", buf);
+}
+
+/* sweep --missing SWEEP_DIR: the lines of jobs.txt whose jobs are not done. */
+static int print_missing(const char *root, char *err)
+{
+	manifest m;
+	char path[PATHLEN], *line = NULL;
+	size_t cap = 0;
+	long i = 0;
+	FILE *fp = NULL;
+	int rc;
+
+	rc = manifest_read(root, &m, err);
+	fmt(path, sizeof path, "%s/jobs.txt", root);
+	if (rc == PR_OK && !(fp = fopen(path, "r")))
+		rc = pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
+	while (rc == PR_OK && getline(&line, &cap, fp) != -1) {
+		if (i >= m.njobs)
+			rc = pr_err(err, PR_EIO, "%s:%ld: more jobs than manifest.csv lists", path, i + 1);
+		else if (m.state[i++] != JOB_DONE)
+			fputs(line, stdout);
+	}
+	if (rc == PR_OK && i < m.njobs)
+		rc = pr_err(err, PR_EIO, "%s: %ld jobs, but manifest.csv lists %ld", path, i, m.njobs);
+	if (rc == PR_OK && fflush(stdout) != 0)
+		rc = pr_err(err, PR_EIO, "<stdout>: write error");
+	if (fp)
+		fclose(fp);
+	free(line);
+	manifest_free(&m);
+	return rc;
+}
+
+int pr_cmd_sweep(const pr_config *cfg, const pr_cmd_args *a, char *err)
+{
+	const pr_experiment *e = pr_exp_find(cfg->run.name);
+	char at[320];
+	int rc;
+
+	if (a->missing)
+		return print_missing(a->missing, err);
+	if (!cfg->source[0])
+		return pr_err(err, PR_EINVAL, "sweep: no parameter file given (poolreps sweep CONFIG "
+		              "--grid ... -o DIR)");
+	if (!a->output)
+		return pr_err(err, PR_EINVAL, "sweep: -o SWEEP_DIR is required");
+	if (!e || !e->summary)
+		return pr_err(err, PR_EINVAL, "%s: experiment.name: %s has no summary table to sweep",
+		              pr_config_where(cfg, "experiment.name", at, sizeof at), cfg->run.name);
+	if (cfg->run.repetition >= 0 || cfg->run.variant >= 0)
+		return pr_err(err, PR_EINVAL, "%s: experiment.%s: must be -1: a sweep chooses "
+		              "repetitions and variants itself (--split)",
+		              pr_config_where(cfg, cfg->run.repetition >= 0 ? "experiment.repetition" :
+		                              "experiment.variant", at, sizeof at),
+		              cfg->run.repetition >= 0 ? "repetition" : "variant");
+	if ((rc = check_empty(a->output, err)))
+		return rc;
+	return pr_run_staged(cfg, a, a->output, sweep_work, err);
+}
+
+/* ---- collect ---- */
+
+/* PR_EINVAL unless the configuration files p1 (a point's) and p2 (its
+ * merged jobs') are alike but for comments (the version line). */
+static int same_config(const char *p1, const char *p2, char *err)
+{
+	FILE *f1 = fopen(p1, "r"), *f2 = fopen(p2, "r");
+	char *l1 = NULL, *l2 = NULL;
+	size_t c1 = 0, c2 = 0;
+	ssize_t n1, n2;
+	int rc = PR_OK;
+
+	if (!f1 || !f2)
+		rc = pr_err(err, PR_EIO, "%s: cannot open: %s", f1 ? p2 : p1, strerror(errno));
+	while (rc == PR_OK) {
+		while ((n1 = getline(&l1, &c1, f1)) > 0 && l1[0] == ';')
+			;
+		while ((n2 = getline(&l2, &c2, f2)) > 0 && l2[0] == ';')
+			;
+		if (n1 < 0 && n2 < 0)
+			break;
+		if (n1 < 0 || n2 < 0 || strcmp(l1, l2) != 0)
+			rc = pr_err(err, PR_EINVAL, "%s: differs from the configuration the jobs ran with",
+			            p1);
+	}
+	if (f1)
+		fclose(f1);
+	if (f2)
+		fclose(f2);
+	free(l1);
+	free(l2);
+	return rc;
+}
+
+typedef struct {
+	const pr_config *cfg;
+	const pr_cmd_args *a;
+	const char *root;
+	const manifest *m;
+	char stage[PATHLEN];
+	pr_csvw *w;
+	int ncols;          /* summary columns, once the first point is read */
+	const char *summary;
+	char names[PR_ERRLEN];  /* the summary header, comma-joined */
+} collector;
+
+/* The summary header of t as one comma list; PR_EIO if it differs from the first point's. */
+static int check_header(collector *c, const pr_exp_table *t, char *err)
+{
+	char names[PR_ERRLEN] = "";
+	size_t len = 0;
+	int j;
+
+	for (j = 0; j < pr_exp_table_ncols(t); ++j)
+		len += (size_t)snprintf(names + len, len < sizeof names ? sizeof names - len : 0, "%s%s",
+		                        j ? "," : "", pr_exp_table_name(t, j));
+	if (c->ncols && strcmp(names, c->names) != 0)
+		return pr_err(err, PR_EIO, "%s:1: columns differ from the first grid point's",
+		              pr_exp_table_path(t));
+	if (!c->ncols) {
+		int i;
+		c->ncols = pr_exp_table_ncols(t);
+		snprintf(c->names, sizeof c->names, "%s", names);
+		for (i = 0; i < c->m->nax; ++i)
+			pr_csvw_str(c->w, pr_exp_table_name(c->m->t, 2 + i));
+		return pr_csvw_header(c->w, names);
+	}
+	return PR_OK;
+}
+
+/* Merge point p's job folders into stage/point-P, add its summary rows. */
+static int collect_point(collector *c, long p, long first, long last, char *err)
+{
+	const manifest *m = c->m;
+	pr_cmd_args ma;
+	pr_config pt;
+	pr_exp_table *t = NULL;
+	const pr_experiment *e;
+	char point[64], out[PATHLEN], path[PATHLEN], mine[PATHLEN], **in;
+	long i, r;
+	int j, rc = PR_OK;
+
+	point_name(point, sizeof point, p, m->npoints);
+	if (!(in = calloc((size_t)(last - first), sizeof *in)))
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	for (i = first; rc == PR_OK && i < last; ++i)
+		if (!(in[i - first] = malloc(PATHLEN)))
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+		else
+			fmt(in[i - first], PATHLEN, "%s/%s", c->root, pr_exp_table_str(m->t, i, m->c_out));
+	fmt(out, sizeof out, "%s/%s", c->stage, point);
+	memset(&ma, 0, sizeof ma);
+	ma.command = "merge";
+	ma.output = out;
+	ma.quiet = 1;
+	ma.ninputs = (int)(last - first);
+	ma.inputs = in;
+	ma.argc = c->a->argc;
+	ma.argv = c->a->argv;
+	if (rc == PR_OK)
+		rc = pr_cmd_merge(c->cfg, &ma, err);
+	fmt(mine, sizeof mine, "%s/%s/config.ini", c->root, point);
+	fmt(path, sizeof path, "%s/config.ini", out);
+	if (rc == PR_OK)
+		rc = same_config(mine, path, err);
+	pr_config_init(&pt);
+	if (rc == PR_OK)
+		rc = pr_config_load(&pt, mine, err);
+	if (rc == PR_OK && (!(e = pr_exp_find(pt.run.name)) || !e->summary))
+		rc = pr_err(err, PR_EINVAL, "%s: experiment.name: %s has no summary table", mine, pt.run.name);
+	if (rc == PR_OK) {
+		fmt(path, sizeof path, "%s/%s", out, e->summary);
+		rc = pr_exp_table_read(path, &t, err);
+	}
+	if (rc == PR_OK)
+		rc = check_header(c, t, err);
+	for (r = 0; rc == PR_OK && r < pr_exp_table_nrows(t); ++r) {
+		for (j = 0; j < m->nax; ++j)
+			pr_csvw_str(c->w, pr_exp_table_str(m->t, first, 2 + j));
+		for (j = 0; j < c->ncols; ++j)
+			pr_csvw_str(c->w, pr_exp_table_str(t, r, j));
+		rc = pr_csvw_endrow(c->w);
+	}
+	pr_exp_table_free(t);
+	for (i = 0; i < last - first; ++i)
+		free(in[i]);
+	free(in);
+	return rc;
+}
+
+/* Move every stage/point-P to point-P/merged (an older one goes into the
+ * stage, removed with it), then sweep_summary.csv. */
+static int publish_collected(const collector *c, char *err)
+{
+	char point[64], from[PATHLEN], to[PATHLEN], old[PATHLEN];
+	long p;
+
+	for (p = 0; p < c->m->npoints; ++p) {
+		point_name(point, sizeof point, p, c->m->npoints);
+		fmt(from, sizeof from, "%s/%s", c->stage, point);
+		fmt(to, sizeof to, "%s/%s/merged", c->root, point);
+		fmt(old, sizeof old, "%s/old-%s", c->stage, point);
+		if ((exists(to) && rename(to, old) != 0) || rename(from, to) != 0)
+			return pr_err(err, PR_EIO, "%s: cannot move into place: %s", to, strerror(errno));
+	}
+	fmt(from, sizeof from, "%s/sweep_summary.csv", c->stage);
+	fmt(to, sizeof to, "%s/sweep_summary.csv", c->root);
+	if (rename(from, to) != 0)
+		return pr_err(err, PR_EIO, "%s: cannot move into place: %s", to, strerror(errno));
+	return PR_OK;
+}
+
+int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
+{
+	collector c;
+	manifest m;
+	char path[PATHLEN];
+	long i, first, nbad = 0;
+	int rc;
+
+	if (a->ninputs != 1)
+		return pr_err(err, PR_EINVAL, "collect: give exactly one sweep folder");
+	if ((rc = manifest_read(a->inputs[0], &m, err))) {
+		manifest_free(&m);
+		return rc;
+	}
+	for (i = 0; i < m.njobs; ++i)
+		nbad += m.state[i] != JOB_DONE;
+	if (nbad) {
+		rc = not_done(a->inputs[0], &m, nbad, err);
+		manifest_free(&m);
+		return rc;
+	}
+	memset(&c, 0, sizeof c);
+	c.cfg = cfg;
+	c.a = a;
+	c.root = a->inputs[0];
+	c.m = &m;
+	fmt(c.stage, sizeof c.stage, "%s/.collect-%ld", c.root, (long)getpid());
+	remove_all(c.stage);
+	if (mkdir(c.stage, 0777) != 0)
+		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", c.stage, strerror(errno));
+	fmt(path, sizeof path, "%s/sweep_summary.csv", c.stage);
+	if (rc == PR_OK && !(c.w = pr_csvw_open(path, err)))
+		rc = PR_EIO;
+	/* jobs are listed point by point */
+	for (i = 0, first = 0; rc == PR_OK && i <= m.njobs; ++i) {
+		if (i < m.njobs && strcmp(pr_exp_table_str(m.t, i, 1), pr_exp_table_str(m.t, first, 1)) == 0)
+			continue;
+		if (pr_interrupted)
+			rc = PR_EINTR;
+		else
+			rc = collect_point(&c, strtol(pr_exp_table_str(m.t, first, 1), NULL, 10), first, i, err);
+		first = i;
+	}
+	if (c.w)
+		rc = pr_csvw_finish(c.w, rc, err);
+	if (rc == PR_OK)
+		rc = publish_collected(&c, err);
+	else if (pr_interrupted)
+		rc = pr_err(err, PR_EINTR, "interrupted: nothing collected, %s left as it was", c.root);
+	remove_all(c.stage);
+	manifest_free(&m);
+	return rc;
+}

@@ -1,0 +1,264 @@
+"""The report page of `make reproduce` (scripts/reproduce.sh, scripts/report.py,
+scripts/claims.py): a static HTML page with every figure and its caption,
+the claims table and the Experiment 3 table computed from the run's CSVs,
+provenance and timings; it renders in a headless Chromium (skipped when no
+browser is installed). Also the claims' rules on made-up results.
+
+Run by `make check` with POOLREPS=<abs path of the binary> and PYTHON=<a
+Python with matplotlib>.
+"""
+import csv
+import html.parser
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+from conftest import ROOT, poolreps_path
+
+PY = os.environ.get("PYTHON") or "/usr/bin/python3"
+SCRIPTS = ROOT / "scripts"
+STEMS = ["fig7_1_table", "fig7_2_reward", "fig7_3_shots", "fig7_4a_nmin", "fig7_4b_trees",
+         "fig7_4c_cuts", "exp1_map", "fig7_5_ghost", "fig7_6", "fig7_7", "fig7_8", "fig7_9",
+         "fig7_10", "bench_quadratic", "bench_sphere", "bench_rosenbrock"]
+VERDICTS = {"agrees", "partly", "does not agree", "not tested"}
+VOID = {"meta", "img", "br", "hr", "link", "input", "source", "wbr"}
+
+
+def has_matplotlib():
+    try:
+        return subprocess.run([PY, "-c", "import matplotlib"], capture_output=True,
+                              timeout=60).returncode == 0
+    except OSError:
+        return False
+
+
+@pytest.fixture(scope="module")
+def out(tmp_path_factory):
+    """A QUICK reproduction, as `make reproduce QUICK=1` runs it."""
+    binary = poolreps_path()
+    if binary is None:
+        pytest.skip("no poolreps binary (set POOLREPS)")
+    if not has_matplotlib():
+        pytest.skip(f"{PY} lacks matplotlib")
+    o = tmp_path_factory.mktemp("reproduce") / "out"
+    (o / "figures").mkdir(parents=True)
+    (o / "figures" / "fig7_99_old.png").write_bytes(b"from an earlier run")
+    p = subprocess.run(["sh", "scripts/reproduce.sh", str(o), PY, "1"], cwd=ROOT,
+                       capture_output=True, text=True, timeout=1800,
+                       env=dict(os.environ, LC_ALL="C", POOLREPS=binary))
+    assert p.returncode == 0, p.stderr[-3000:]
+    return o
+
+
+class Page(html.parser.HTMLParser):
+    """Collects the structure of the page and every problem with it."""
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.stack, self.problems = [], []
+        self.tags, self.imgs, self.links, self.ids = [], [], [], []
+        self.figures = []            # [figure id, caption text]
+        self.tables = []             # [[row cells]]
+        self.doctype = False
+        self._cell = None
+
+    def handle_decl(self, decl):
+        self.doctype = decl.lower() == "doctype html"
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        self.tags.append(tag)
+        for k, v in attrs:
+            if v and ("://" in v or v.startswith("//")) and k in ("src", "href", "action"):
+                self.problems.append(f"<{tag} {k}={v}> leaves the page")
+            if k.startswith("on"):
+                self.problems.append(f"<{tag} {k}=...>: an event handler")
+        if "id" in a:
+            self.ids.append(a["id"])
+        if tag == "img":
+            self.imgs.append(a)
+        if tag == "a" and "href" in a:
+            self.links.append(a["href"])
+        if tag == "figure":
+            self.figures.append([a.get("id"), ""])
+        if tag == "table":
+            self.tables.append([])
+        if tag == "tr":
+            self.tables[-1].append([])
+        if tag in ("td", "th"):
+            self._cell = ""
+        if tag not in VOID:
+            self.stack.append(tag)
+
+    def handle_endtag(self, tag):
+        if tag in VOID:
+            return
+        if not self.stack or self.stack[-1] != tag:
+            self.problems.append(f"</{tag}> closes <{self.stack[-1] if self.stack else None}>")
+            return
+        self.stack.pop()
+        if tag in ("td", "th"):
+            self.tables[-1][-1].append(self._cell.strip())
+            self._cell = None
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell += data
+        if "figcaption" in self.stack and self.figures:
+            self.figures[-1][1] += data
+
+
+def parse(path):
+    page = Page()
+    page.feed(path.read_text(encoding="utf-8"))
+    page.close()
+    return page
+
+
+@pytest.mark.slow
+def test_report_html_structure(out):
+    page = parse(out / "report.html")
+    assert page.doctype and not page.problems and not page.stack, (page.problems, page.stack)
+    assert "script" not in page.tags and "iframe" not in page.tags
+    assert page.tags.count("html") == 1 and page.tags.count("style") == 1
+    assert {"claims", "exp3", "figures", "provenance"} <= set(page.ids)
+    # every figure once, as its PNG with a link to its SVG, with a caption of some words
+    assert [f[0] for f in page.figures] == STEMS
+    for stem, caption in page.figures:
+        assert len(caption.split()) >= 15, stem
+    srcs = [i["src"] for i in page.imgs]
+    assert srcs == [f"figures/{s}.png" for s in STEMS]
+    for i in page.imgs:
+        assert (out / i["src"]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and i.get("alt")
+    for s in STEMS:
+        assert f"figures/{s}.svg" in page.links
+        assert (out / "figures" / f"{s}.svg").stat().st_size > 1000
+    for href in page.links:
+        assert href.startswith("#") or (out / href).is_file(), href
+    # the tables: claims (13 rows and a verdict each), Experiment 3, provenance, timings
+    claims, exp3, prov, cmds, timing = page.tables
+    assert claims[0] == ["thesis", "claim", "this run", "verdict", "rule"] and len(claims) == 14
+    assert all(r[3] in VERDICTS for r in claims[1:])
+    assert [r[0] for r in exp3[1:]] == ["nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a", "baseline",
+                                        "handcrafted"]
+    assert [r[0] for r in prov[1:]] == ["sim", "exp1", "exp2", "exp3", "quadratic", "sphere",
+                                        "rosenbrock"]
+    assert all("poolreps" in r[1] for r in cmds[1:])
+    assert timing[-1][0] == "total" and float(timing[-1][1]) > 0
+    assert "smoke run" in (out / "report.html").read_text(encoding="utf-8")
+
+
+@pytest.mark.slow
+def test_reproduce_writes_every_figure_and_clears_old_ones(out):
+    names = sorted(p.name for p in (out / "figures").iterdir())
+    assert names == sorted(f"{s}.{e}" for s in STEMS for e in ("png", "svg"))
+    with open(out / "timings.csv", newline="") as f:
+        steps = [r["step"] for r in csv.DictReader(f)]
+    assert "exp3: run" in steps and "exp3: figures" in steps and steps[-1] == "total"
+
+
+@pytest.mark.slow
+def test_report_tables_come_from_the_csvs(out, tmp_path):
+    """Change the run's CSV and the report's numbers follow."""
+    o = tmp_path / "out"
+    shutil.copytree(out, o)
+    path = o / "exp3" / "exp3_episodes.csv"
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        if r["policy"] == "baseline":
+            r["return"] = "-0.125"
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    p = subprocess.run([PY, str(SCRIPTS / "report.py"), str(o)], capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 0, p.stderr
+    before = dict((r[0], r) for r in parse(out / "report.html").tables[1][1:])
+    after = dict((r[0], r) for r in parse(o / "report.html").tables[1][1:])
+    assert after["baseline"][1] == "-0.125" and before["baseline"][1] != "-0.125"
+    assert after["baseline"][2] == "0.000"
+    assert after["nrvr_rs"][1] == before["nrvr_rs"][1]
+    assert after["nrvr_rs"][3] != before["nrvr_rs"][3]     # paired against the new baseline
+    assert "smoke run" not in (o / "report.html").read_text(encoding="utf-8")
+
+
+def chromium():
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(chromium() is None, reason="no chromium installed")
+def test_report_renders_in_chromium(out, tmp_path):
+    shot = tmp_path / "report.png"
+    p = subprocess.run([chromium(), "--headless", "--no-sandbox", "--disable-gpu",
+                        "--disable-background-networking", "--disable-component-update",
+                        "--disable-sync", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}",
+                        "--hide-scrollbars", "--window-size=1200,5200", f"--screenshot={shot}",
+                        (out / "report.html").as_uri()],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0 and shot.is_file(), p.stderr[-2000:]
+    image = pytest.importorskip("matplotlib.image")
+    px = (image.imread(str(shot))[:, :, :3] * 255).round().astype(int)
+    assert px.shape[:2] == (5200, 1200)
+    colours = {tuple(c) for c in px[::7, ::5].reshape(-1, 3)}
+    assert len(colours) > 500, "the page looks blank"
+    # the table felt of Fig. 7.1 (#2f7d4f) shows that the figures were loaded
+    felt = int(((px[:, :, 0] == 0x2f) & (px[:, :, 1] == 0x7d) & (px[:, :, 2] == 0x4f)).sum())
+    assert felt > 2000, f"{felt} felt pixels: the figures did not load"
+
+
+# ---- the claims' rules on made-up results ----
+
+def write_exp1(d, mse):
+    """exp1_mse.csv and config.ini from {(sweep, value): [mse of forest 0, 1, ...]}."""
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "config.ini").write_text("[forest]\nn_min = 20\ntrees = 30\ncuts = 10\n")
+    with open(d / "exp1_mse.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["repetition", "sweep", "n_min", "trees", "cuts", "mse"])
+        for (sweep, value), vals in mse.items():
+            setting = {"n_min": 20, "trees": 30, "cuts": 10, sweep: value}
+            for rep, v in enumerate(vals):
+                w.writerow([rep, sweep, setting["n_min"], setting["trees"], setting["cuts"], v])
+
+
+def claims_module():
+    sys.path.insert(0, str(SCRIPTS))
+    try:
+        import claims
+    finally:
+        sys.path.remove(str(SCRIPTS))
+    return claims
+
+
+BASE = [0.030, 0.041, 0.025, 0.036, 0.033]   # five forests of very different difficulty
+
+
+@pytest.mark.parametrize("k1,k20,expect", [
+    (0.002, 0.0001, "agrees"),          # K 1 worse in every forest, K 20 within noise
+    (0.002, 0.003, "partly"),           # K 20 also clearly worse
+    (-0.002, 0.003, "does not agree"),  # K 1 better, K 20 worse: K 10 is not best either
+])
+def test_claim_cuts_rule(tmp_path, k1, k20, expect):
+    claims = claims_module()
+    jitter = [0.0004, -0.0003, 0.0002, -0.0004, 0.0001]
+    write_exp1(tmp_path / "exp1", {
+        ("cuts", 10): BASE,
+        ("cuts", 1): [b + k1 + j / 4 for b, j in zip(BASE, jitter)],
+        ("cuts", 20): [b + k20 + j for b, j in zip(BASE, jitter)],
+    })
+    here, verdict, rule = claims.claim_cuts(str(tmp_path / "exp1"))
+    assert verdict == expect, here
+
+
+def test_claims_without_the_settings_are_not_tested(tmp_path):
+    claims = claims_module()
+    write_exp1(tmp_path / "exp1", {("cuts", 1): BASE, ("cuts", 10): BASE})
+    rows = claims.evaluate(str(tmp_path))
+    by_fn = {fn.__name__: r for (_, _, _, fn), r in zip(claims.CLAIMS, rows)}
+    assert by_fn["claim_cuts"]["verdict"] == "not tested"
+    assert "above 10" in by_fn["claim_cuts"]["here"]
