@@ -25,10 +25,10 @@ enum { P_QUADRATIC, P_SPHERE, P_ROSENBROCK };
 
 /* Per-row metrics after repetition and iteration, in file order. */
 enum { M_SAMPLES, M_RETURN, M_TEST_RETURN, M_TEST_ERROR, M_STD, M_ETA, M_KL, M_ESS, M_BOUND,
-       M_FLAGS, M_KLGAP, M_RESREL, M_UNREACH, NMET };
+       M_FLAGS, M_KLGAP, M_RESREL, M_UNREACH, M_FAILED, NMET };
 static const char *const met_name[NMET] = {
 	"samples", "mean_return", "test_return", "test_error", "mean_std", "eta", "kl", "ess", "bound",
-	"policy_flags", "kl_gap", "residual_rel", "unreachable"
+	"policy_flags", "kl_gap", "residual_rel", "unreachable", "failed"
 };
 
 void pr_bench_opts_init(pr_bench_opts *o, const char *name)
@@ -189,10 +189,11 @@ static pr_policy *update_creps(const bench_ctx *c, const batch *bt, double *m, i
 	m[M_KL] = r->kl;
 	m[M_ESS] = r->ess;
 	m[M_BOUND] = r->bound;
-	/* the certificate: bound 1 active, unreachable 1, both 0 failed */
+	/* the certificate: bound 1 active, unreachable 1, failed 1 */
 	m[M_KLGAP] = r->kl_gap;
 	m[M_RESREL] = r->residual_rel;
 	m[M_UNREACH] = r->status == PR_REPS_UNREACHABLE;
+	m[M_FAILED] = r->status == PR_REPS_FAILED;
 	if (r->status == PR_REPS_FAILED && !c->cfg->reps.allow_failed) {
 		*rc = pr_err(err, PR_ENUM, "bench: after %.0f episodes: REPS answer not certified: %s "
 		             "(reps.allow_failed = 1 records it and goes on)", m[M_SAMPLES], r->reason);
@@ -220,7 +221,7 @@ static pr_policy *update_ccmaes(const bench_ctx *c, pr_cmaes *cm, const batch *b
 
 	if ((*rc = pr_cmaes_update(cm, &cb, &info, err)))
 		return NULL;
-	m[M_ETA] = m[M_KL] = m[M_BOUND] = m[M_KLGAP] = m[M_RESREL] = m[M_UNREACH] = 0.0;
+	m[M_ETA] = m[M_KL] = m[M_BOUND] = m[M_KLGAP] = m[M_RESREL] = m[M_UNREACH] = m[M_FAILED] = 0.0;
 	m[M_ESS] = info.mueff;
 	next = pr_cmaes_policy(cm, c->b->min_std, &floored, err);
 	*fitflags = info.flags | (floored ? PR_POLICY_FLOOR : 0);
@@ -373,7 +374,7 @@ static int write_curve(const char *dir, const bench_ctx *c, int lo, int hi, char
 			if (!rc)
 				rc = pr_csvw_int(w, it);
 			for (j = 0; j < NMET && !rc; j++)
-				rc = j == M_SAMPLES || j == M_BOUND || j == M_FLAGS || j == M_UNREACH ?
+				rc = j == M_SAMPLES || j == M_BOUND || j == M_FLAGS || j == M_UNREACH || j == M_FAILED ?
 				     pr_csvw_int(w, (long)m[j]) : pr_csvw_num(w, m[j]);
 			if (!rc)
 				rc = pr_csvw_endrow(w);
@@ -430,8 +431,9 @@ int pr_exp_benchmark_run(const pr_config *cfg, const char *dir, const pr_progres
  * returns, test error and bound activity, from bench_curve.csv alone. */
 int pr_exp_benchmark_summarize(const pr_config *cfg, const char *dir, char *err)
 {
-	enum { S_RET, S_TRET, S_TERR, S_BOUND, NS };
-	static const int src[NS] = { M_RETURN, M_TEST_RETURN, M_TEST_ERROR, M_BOUND };
+	enum { S_RET, S_TRET, S_TERR, S_BOUND, S_UNREACH, S_FAILED, NS };
+	static const int src[NS] = { M_RETURN, M_TEST_RETURN, M_TEST_ERROR, M_BOUND, M_UNREACH,
+	                             M_FAILED };
 	char path[PATHLEN];
 	pr_csv *t = NULL;
 	pr_csvw *w = NULL;
@@ -498,9 +500,9 @@ int pr_exp_benchmark_summarize(const pr_config *cfg, const char *dir, char *err)
 		static const char *const head[] = {
 			"iteration", "samples", "repetitions", "mean_return_mean", "mean_return_std",
 			"test_return_mean", "test_return_std", "test_error_mean", "test_error_std",
-			"bound_frac"
+			"bound_frac", "unreachable_frac", "failed_frac"
 		};
-		for (j = 0; j < 10 && !rc; j++)
+		for (j = 0; j < 12 && !rc; j++)
 			rc = pr_csvw_str(w, head[j]);
 		if (!rc)
 			rc = pr_csvw_endrow(w);
@@ -515,7 +517,7 @@ int pr_exp_benchmark_summarize(const pr_config *cfg, const char *dir, char *err)
 			rc = pr_csvw_int(w, cnt[i]);
 		for (j = 0; j < NS && !rc; j++) {
 			rc = pr_csvw_num(w, sum[i * NS + j] / cnt[i]);
-			if (!rc && j != S_BOUND)
+			if (!rc && j < S_BOUND)
 				rc = pr_csvw_num(w, cnt[i] > 1 ? sqrt(ss[i * NS + j] / (cnt[i] - 1)) : 0.0);
 		}
 		if (!rc)

@@ -239,3 +239,22 @@ def test_plot_script_writes_pngs(tiny, tmp_path):
     for n in ("fig7_7.png", "fig7_8.png", "fig7_9.png", "fig7_10.png"):
         data = (tiny / n).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10000, n
+
+
+def test_uncertified_solve_stops_the_run_unless_allowed(tmp_path):
+    """A REPS answer that cannot be certified (a budget of one dual
+    evaluation) stops the run with one line naming the run and the reason;
+    with reps.allow_failed = 1 it is recorded (status failed) and counted."""
+    sets = TINY + ["exp3.policies=nrvr_rs,handcrafted", "reps.max_iter=1",
+                   "experiment.repetitions=1"]
+    p = run(tmp_path / "a", sets, check=False)
+    assert p.returncode == 3
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "reps.allow_failed" in lines[0], p.stderr
+    run(tmp_path / "b", sets + ["reps.allow_failed=1"])
+    _, reps = rows(tmp_path / "b" / "exp3_reps.csv")
+    assert reps and all(r["status"] == "failed" and r["bound"] == "0" for r in reps)
+    _, summ = rows(tmp_path / "b" / "exp3_reps_summary.csv")
+    for s in summ:
+        assert int(s["failed"]) == int(s["solves"]) == 3
+        assert int(s["bound_inactive"]) == int(s["unreachable"]) + int(s["failed"])

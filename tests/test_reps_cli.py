@@ -157,6 +157,21 @@ def test_reps_rich_features_bound_inactive(tmp_path):
     assert all(abs(float(x["p"]) - 1 / n) < 1e-12 for x in read_csv(tmp_path / "p.csv"))
 
 
+def test_benchmark_uncertified_solve_stops_or_is_counted(tmp_path):
+    """A REPS answer that cannot be certified (a dual budget of one
+    evaluation) stops a benchmark with one line, unless reps.allow_failed =
+    1, which records it: failed 1 per row, failed_frac in the summary."""
+    sets = ["--set", "experiment.repetitions=1", "--set", "bench.iterations=3",
+            "--set", "reps.max_iter=1"]
+    fails(run([ROOT / "data" / "quadratic.ini", "-q",
+               "-o", "b"] + sets, tmp_path), "REPS answer not certified", "reps.allow_failed")
+    ok(run([ROOT / "data" / "quadratic.ini", "-q", "-o", "b2", "--set", "reps.allow_failed=1"]
+           + sets, tmp_path))
+    curve = read_csv(tmp_path / "b2" / "bench_curve.csv")
+    assert [(r["bound"], r["unreachable"], r["failed"]) for r in curve] == [("0", "0", "1")] * 3
+    assert all(r["failed_frac"] == "1" for r in read_csv(tmp_path / "b2" / "bench_summary.csv"))
+
+
 def test_reps_bad_input(tmp_path):
     good = reps_table(tmp_path)
     args = ["reps", "--return", "R", "--features", "phi*", "--base", "q", "-o", "p.csv",
