@@ -15,6 +15,7 @@
 #include "poolreps/cmd.h"
 #include "poolreps/config.h"
 #include "poolreps/exp.h"
+#include "common_priv.h"
 
 enum {
 	O_SET = 256, O_SEED, O_VERSION, O_TRACE, O_TRAIN, O_TEST, O_TARGET, O_WEIGHT,

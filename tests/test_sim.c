@@ -43,11 +43,11 @@ static fixture *make(int mode, int reward_balls)
 	fixture *f = calloc(1, sizeof *f);
 
 	assert_non_null(f);
-	pr_table_init(&f->t);
+	pr_sim_table_init(&f->t);
 	pr_sim_opts_init(&f->o);
-	pr_reward_opts_init(&f->ro);
-	pr_expert_opts_init(&f->eo);
-	pr_start_opts_init(&f->so);
+	pr_sim_reward_opts_init(&f->ro);
+	pr_sim_expert_opts_init(&f->eo);
+	pr_sim_start_opts_init(&f->so);
 	f->t.reward_balls = reward_balls;
 	f->o.mode = mode;
 	f->sim = pr_sim_new(&f->t, &f->o, f->err);
@@ -260,7 +260,7 @@ static void test_check_state(void **state)
 	double fast[2] = {7.1, 7.1}, inf_[2] = {INFINITY, 0};
 
 	(void)state;
-	pr_table_init(&t);
+	pr_sim_table_init(&t);
 	pr_sim_opts_init(&o);
 	assert_int_equal(pr_sim_check_state(&t, ok, 2, err), PR_OK);
 	assert_int_equal(pr_sim_check_state(&t, off, 2, err), PR_EINVAL);
