@@ -81,11 +81,12 @@ fuzz:
 valgrind: $(BUILD)/poolreps
 	sh scripts/valgrind.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"
 
-# docs/poolreps.1 and the README's key list from --help; tests/test_cli.py and
-# tests/test_readme.py fail until this is rerun after a help change
+# docs/poolreps.1 and docs/parameters.md from --help and --help-keys;
+# tests/test_cli.py and tests/test_readme.py fail until this is rerun after a
+# help change
 man: $(BUILD)/poolreps
 	sh scripts/gen-man.sh $(BUILD)/poolreps docs/poolreps.1
-	sh scripts/gen-readme-keys.sh $(BUILD)/poolreps README.md
+	sh scripts/gen-params.sh $(BUILD)/poolreps docs/parameters.md
 
 # tests/data/quick_reproduce.sha256: the bytes of every CSV of the quick
 # reproduction (tests/test_report.py compares); rerun only when results are

@@ -37,6 +37,14 @@ def help_text():
                           env=dict(os.environ, LC_ALL="C"), timeout=30).stdout
 
 
+@pytest.fixture(scope="module")
+def keys_text():
+    p = subprocess.run([binary(), "--help-keys"], capture_output=True, text=True,
+                       env=dict(os.environ, LC_ALL="C"), timeout=30)
+    assert p.returncode == 0, p.stderr
+    return p.stdout
+
+
 def commands(help_text):
     """Command names, from the usage lines of the Commands section."""
     names = re.findall(r"^  poolreps (\[run\]|[a-z]+) ", help_text, re.M)
@@ -93,7 +101,7 @@ def test_version(poolreps, args):
 
 # ---- (c) every parameter key is documented with its default ----
 
-def test_every_key_in_help_with_its_default(poolreps, help_text):
+def test_every_key_in_help_with_its_default(poolreps, keys_text):
     r = poolreps(["config"])
     assert r.returncode == 0, r.stderr
     keys, section = {}, None
@@ -108,16 +116,16 @@ def test_every_key_in_help_with_its_default(poolreps, help_text):
     assert len(keys) > 50
     for name, default in keys.items():
         assert re.search(rf"^  {re.escape(name)} += {re.escape(default)}(?=[ :]|$)",
-                         help_text, re.M), f"{name} = {default} not in --help"
-    listed = set(re.findall(r"^  ([a-z0-9_]+\.[a-z0-9_]+) += ", help_text, re.M))
+                         keys_text, re.M), f"{name} = {default} not in --help-keys"
+    listed = set(re.findall(r"^  ([a-z0-9_]+\.[a-z0-9_]+) += ", keys_text, re.M))
     assert listed == set(keys)
 
 
 @pytest.mark.parametrize("key,unit", [("table.length", "m"), ("table.friction", "1/s"),
                                       ("sim.dt", "s"), ("sim.max_speed", "m/s"),
                                       ("reps.epsilon", "nats"), ("exp3.init_std", "m/s")])
-def test_units_in_help(help_text, key, unit):
-    assert re.search(rf"^  {re.escape(key)} += \S+ {re.escape(unit)}  ", help_text, re.M), key
+def test_units_in_help(keys_text, key, unit):
+    assert re.search(rf"^  {re.escape(key)} += \S+ {re.escape(unit)}  ", keys_text, re.M), key
 
 
 # ---- (d) commands, options and exit codes ----
@@ -128,14 +136,34 @@ def test_help_lists_the_commands(help_text):
 
 
 def test_every_command_help(poolreps, help_text):
+    """poolreps CMD --help and poolreps help CMD: that command's usage, its
+    options, the keys its --set reads (or where to find them all); short."""
+    assert "--help-keys" in help_text and "Parameter keys (" not in help_text
     for cmd in commands(help_text):
         r = poolreps([cmd, "--help"])
         assert r.returncode == 0, (cmd, r.stderr)
         text = r.stdout.decode()
+        assert poolreps(["help", cmd]).stdout.decode() == text, cmd
         assert text.startswith(f"Usage: poolreps {'[run]' if cmd == 'run' else cmd} "), text[:80]
-        for part in ("Common options", "Accepts:", "--version", "Exit codes:",
-                     "Parameter keys", "experiment.seed"):
+        for part in ("Common options", "Accepts:", "--version", "Exit codes:"):
             assert part in text, (cmd, part)
+        assert len(text.splitlines()) < 45, (cmd, "help too long")
+        keys = re.findall(r"^  ([a-z0-9_]+\.[a-z0-9_]+) += (\S+)", text, re.M)
+        if cmd in ("run", "config", "sweep"):
+            assert "every parameter key (poolreps --help-keys)" in text, cmd
+        elif cmd in ("merge", "collect"):
+            assert not keys, cmd
+        else:
+            assert keys, cmd
+            # the listed keys are those its --set accepts (the command then
+            # stops for want of its input, not for the key), and no other
+            for key, default in keys + [("exp3.window", "200")]:
+                r = poolreps([cmd, "--set", f"{key}={default}"], input=b"")
+                refused = b"does not apply" in r.stderr
+                assert refused == (key == "exp3.window"), (cmd, key, r.stderr)
+    assert poolreps(["help"]).stdout.decode() == help_text
+    r = poolreps(["help", "nosuch"])
+    assert r.returncode == 1 and b"unknown command 'nosuch'" in r.stderr
 
 
 FLAGS = {"keep"}  # command options that take no value
