@@ -2,10 +2,9 @@
 parameter page, which is poolreps --help-keys's and documents every key, and
 every picture it shows exists."""
 import re
-import subprocess
 
 import pytest
-from conftest import ROOT, poolreps_path
+from conftest import ROOT, poolreps_path, run_cmd
 
 README = (ROOT / "README.md").read_text(encoding="utf-8")
 PARAMETERS = (ROOT / "docs" / "parameters.md").read_text(encoding="utf-8")
@@ -23,7 +22,7 @@ def test_parameter_page_is_the_help_text():
     binary = poolreps_path()
     if binary is None:
         pytest.skip("no poolreps binary (set POOLREPS)")
-    gen = subprocess.run(["sh", str(ROOT / "scripts" / "gen-params.sh"), binary, "-"],
+    gen = run_cmd(["sh", str(ROOT / "scripts" / "gen-params.sh"), binary, "-"],
                          capture_output=True, cwd=ROOT, timeout=60)
     assert gen.returncode == 0, gen.stderr
     assert b"Parameter keys (section.key" in gen.stdout
