@@ -20,7 +20,7 @@
 enum {
 	O_SET = 256, O_SEED, O_VERSION, O_TRACE, O_TRAIN, O_TEST, O_TARGET, O_WEIGHT,
 	O_LEAVES, O_RETURN, O_FEATURES, O_BASE, O_EPSILON, O_SUMMARY, O_STATE, O_ACTION,
-	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP, O_HELP_KEYS
+	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP, O_HELP_KEYS, O_PROGRESS
 };
 
 static const struct option longopts[] = {
@@ -47,6 +47,7 @@ static const struct option longopts[] = {
 	{"split", required_argument, 0, O_SPLIT},
 	{"missing", required_argument, 0, O_MISSING},
 	{"keep", no_argument, 0, O_KEEP},
+	{"progress", no_argument, 0, O_PROGRESS},
 	{0, 0, 0, 0}
 };
 
@@ -174,6 +175,8 @@ static void common_options(FILE *fp)
 	        "  --seed N             master seed (experiment.seed)\n"
 	        "  -i FILE, -o FILE     input (default stdin) and output (default stdout)\n"
 	        "  -q                   quiet: no progress, no summary line\n"
+	        "  --progress           progress lines on stderr when it is no terminal\n"
+	        "                       (batch logs; a failure's line then follows them)\n"
 	        "  -h, --help           this help; after a COMMAND, that command's usage\n"
 	        "  --help-keys          every parameter key with default, unit and range\n"
 	        "  --version            print the version and exit\n"
@@ -243,7 +246,8 @@ static void on_signal(int sig)
 	_exit(128 + sig);
 }
 
-/* Progress on stderr: a bar with ETA on a terminal, else a plain line per 10 %. */
+/* Progress on stderr: a bar with ETA on a terminal, else (--progress) a plain
+ * line per 10 %. */
 typedef struct {
 	struct timespec t0;
 	int tty, last_decile;
@@ -339,7 +343,7 @@ int main(int argc, char **argv)
 	const char *config_path = NULL, *seed = NULL;
 	char err[PR_ERRLEN], msg[PR_ERRLEN + 64], note[PR_ERRLEN] = "";
 	char **orig, **sets, **grids;
-	int *used, nsets = 0, nused = 0, help = 0, c, rc, i, k;
+	int *used, nsets = 0, nused = 0, help = 0, progress_lines = 0, c, rc, i, k;
 	struct timespec t0;
 	clock_t c0 = clock();
 	size_t j;
@@ -376,6 +380,7 @@ int main(int argc, char **argv)
 		case 'i': a.input = optarg; break;
 		case 'o': a.output = optarg; break;
 		case 'q': a.quiet = 1; break;
+		case O_PROGRESS: progress_lines = 1; break;
 		case 'h': help = 1; break;
 		case O_HELP_KEYS:
 			pr_config_help(pr_exp_config, NULL, stdout);
@@ -428,7 +433,7 @@ int main(int argc, char **argv)
 				FAIL("unknown option -%c (see poolreps --help)", optopt);
 			FAIL("unknown option %s (see poolreps --help)", argv[optind - 1]);
 		}
-		if (c != 'q' && c != 'h') {
+		if (c != 'q' && c != 'h' && c != O_PROGRESS) {
 			/* a value given twice would silently drop the first (--set and
 			 * --grid repeat by design) */
 			for (k = 0; c != O_SET && c != O_GRID && k < nused; ++k)
@@ -513,10 +518,11 @@ int main(int argc, char **argv)
 	a.command = cmd->name;
 	graceful = cmd->fn == pr_cmd_run || cmd->fn == pr_cmd_merge || cmd->fn == pr_cmd_sweep ||
 	           cmd->fn == pr_cmd_collect;
-	if (!a.quiet) {
-		memset(&prog, 0, sizeof prog);
+	memset(&prog, 0, sizeof prog);
+	prog.tty = isatty(STDERR_FILENO);
+	/* plain lines only when asked: a failure must stay one stderr line */
+	if (!a.quiet && (prog.tty || progress_lines)) {
 		prog.t0 = t0;
-		prog.tty = isatty(STDERR_FILENO);
 		prog.last_decile = -1;
 		a.progress.fn = on_progress;
 		a.progress.user = &prog;

@@ -15,7 +15,7 @@ import pytest
 
 from conftest import ROOT, poolreps_path, run_cmd
 
-COMMON_LONG = {"set", "seed", "help", "version"}
+COMMON_LONG = {"set", "seed", "help", "version", "progress"}
 SPEC_COMMANDS = {"run", "shoot", "forest", "reps", "policy"}
 # a run of a few milliseconds with 30 progress units (3 repetitions x 10 iterations)
 QUICK_RUN = [ROOT / "data" / "quadratic.ini", "--set", "experiment.repetitions=3",
@@ -290,8 +290,19 @@ def test_make_install(tmp_path):
 
 # ---- progress on stderr ----
 
-def test_progress_plain_lines_when_not_a_terminal(poolreps, tmp_path):
+def test_no_progress_lines_unless_asked(poolreps, tmp_path):
+    """Without a terminal and without --progress a run's stderr is its
+    summary line; a failed run's is its error line alone."""
     r = poolreps(QUICK_RUN + ["-o", tmp_path / "out"])
+    assert r.returncode == 0, r.stderr
+    assert [DONE.fullmatch(x) is not None for x in r.stderr.decode().splitlines()] == [True]
+    (tmp_path / "blocker").write_text("a file\n")
+    r = poolreps(QUICK_RUN + ["-o", tmp_path / "blocker" / "out"])
+    assert r.returncode == 2 and r.stderr.count(b"\n") == 1, r.stderr
+
+
+def test_progress_plain_lines_when_not_a_terminal(poolreps, tmp_path):
+    r = poolreps(QUICK_RUN + ["--progress", "-o", tmp_path / "out"])
     assert r.returncode == 0, r.stderr
     assert r.stdout == b""
     lines = r.stderr.decode().splitlines()
