@@ -4,7 +4,9 @@
  * --train FILE holds the samples: --state COLS, --action COLS (comma lists
  * or prefixes ending in '*'), --weight COL (REPS weights; omitted = 1) and,
  * for policy.target = reward_state, --target COLS (the final reward-ball
- * positions the forest learns). -i holds the query states, with the same
+ * positions the forest learns), for policy.cov_center = old, --old-mean
+ * COLS (the means of the policies that drew the rows, one per action, at
+ * the rows' states). -i holds the query states, with the same
  * state column names. Output, one row per query state:
  *   <state cols>, mean_<action>..., cov_<i>_<j> (i <= j, action indices
  *   0-based, upper triangle of the symmetric covariance), status
@@ -92,6 +94,7 @@ static int write_row(pr_csvw *w, const double *s, int ds, long sample, const dou
 int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	const int reward = cfg->policy.target == PR_TARGET_REWARD_STATE;
+	const int old = cfg->policy.cov_center == PR_COV_CENTER_OLD;
 	pr_csv *tr = NULL, *in = NULL;
 	pr_outset *set = NULL;
 	pr_csvw *w = NULL;
@@ -99,10 +102,10 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pr_policy_work *ws = NULL;
 	pr_policy_data d = { 0 };
 	gsl_rng *rng = NULL;
-	double *S = NULL, *A = NULL, *Y = NULL, *wt = NULL, *Q = NULL, *mean = NULL, *cov = NULL;
-	double *draws = NULL, sw = 0.0;
-	int *sc = NULL, *ac = NULL, *yc = NULL, *qc = NULL, *status = NULL;
-	int ds, da, dy = 0, wcol = -1, nc, j, rc;
+	double *S = NULL, *A = NULL, *Y = NULL, *Mo = NULL, *wt = NULL, *Q = NULL, *mean = NULL;
+	double *cov = NULL, *draws = NULL, sw = 0.0;
+	int *sc = NULL, *ac = NULL, *yc = NULL, *mc = NULL, *qc = NULL, *status = NULL;
+	int ds, da, dy = 0, dm = 0, wcol = -1, nc, j, rc;
 	long i, n, nq, k, ns = a->sample > 0 ? a->sample : 0;
 
 	if (!a->train || !a->state || !a->action)
@@ -112,6 +115,11 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		              "policy: policy.target = reward_state needs --target COLS (final reward-ball positions)");
 	if (!reward && a->target)
 		return pr_err(err, PR_EINVAL, "policy: --target applies only with policy.target = reward_state");
+	if (old && !a->old_mean)
+		return pr_err(err, PR_EINVAL, "policy: policy.cov_center = old needs --old-mean COLS "
+		              "(the means of the policies that drew the training rows)");
+	if (!old && a->old_mean)
+		return pr_err(err, PR_EINVAL, "policy: --old-mean applies only with policy.cov_center = old");
 	if ((rc = pr_policy_opts_check(&cfg->policy, err)))
 		return rc;
 	if ((rc = pr_csv_read(a->train, &tr, err)))
@@ -124,14 +132,21 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	sc = malloc((size_t)nc * sizeof *sc);
 	ac = malloc((size_t)nc * sizeof *ac);
 	yc = malloc((size_t)nc * sizeof *yc);
-	if (!sc || !ac || !yc) {
+	mc = malloc((size_t)nc * sizeof *mc);
+	if (!sc || !ac || !yc || !mc) {
 		rc = pr_err(err, PR_ENOMEM, "policy: out of memory");
 		goto done;
 	}
 	if ((ds = pr_csv_select(tr, a->state, sc, nc, err)) < 0 ||
 	    (da = pr_csv_select(tr, a->action, ac, nc, err)) < 0 ||
-	    (reward && (dy = pr_csv_select(tr, a->target, yc, nc, err)) < 0)) {
+	    (reward && (dy = pr_csv_select(tr, a->target, yc, nc, err)) < 0) ||
+	    (old && (dm = pr_csv_select(tr, a->old_mean, mc, nc, err)) < 0)) {
 		rc = PR_EIO;
+		goto done;
+	}
+	if (old && dm != da) {
+		rc = pr_err(err, PR_EINVAL, "%s: --old-mean selects %d columns, --action %d",
+		            pr_csv_path(tr), dm, da);
 		goto done;
 	}
 	if (a->weight && (wcol = pr_csv_find(tr, a->weight)) < 0) {
@@ -158,13 +173,14 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	S = malloc((size_t)n * ds * sizeof *S);
 	A = malloc((size_t)n * da * sizeof *A);
 	Y = reward ? malloc((size_t)n * dy * sizeof *Y) : NULL;
+	Mo = old ? malloc((size_t)n * da * sizeof *Mo) : NULL;
 	wt = malloc((size_t)n * sizeof *wt);
 	Q = malloc((size_t)(nq > 0 ? nq : 1) * ds * sizeof *Q);
 	mean = malloc((size_t)(nq > 0 ? nq : 1) * da * sizeof *mean);
 	cov = malloc((size_t)(nq > 0 ? nq : 1) * da * da * sizeof *cov);
 	status = malloc((size_t)(nq > 0 ? nq : 1) * sizeof *status);
 	draws = ns ? malloc((size_t)(nq > 0 ? nq : 1) * ns * da * sizeof *draws) : NULL;
-	if (!S || !A || (reward && !Y) || !wt || !Q || !mean || !cov || !status || (ns && !draws)) {
+	if (!S || !A || (reward && !Y) || (old && !Mo) || !wt || !Q || !mean || !cov || !status || (ns && !draws)) {
 		rc = pr_err(err, PR_ENOMEM, "policy: out of memory");
 		goto done;
 	}
@@ -172,6 +188,8 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	gather(tr, ac, da, A);
 	if (reward)
 		gather(tr, yc, dy, Y);
+	if (old)
+		gather(tr, mc, da, Mo);
 	for (i = 0; i < n; i++) {
 		wt[i] = wcol >= 0 ? pr_csv_get(tr, i, wcol) : 1.0;
 		if (wt[i] < 0.0) {
@@ -196,6 +214,7 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	d.A = A;
 	d.Y = Y;
 	d.w = wt;
+	d.M = Mo;
 	rng = gsl_rng_alloc(gsl_rng_mt19937);
 	if (!rng) {
 		rc = pr_err(err, PR_ENOMEM, "policy: out of memory");
@@ -244,10 +263,12 @@ done:
 	free(sc);
 	free(ac);
 	free(yc);
+	free(mc);
 	free(qc);
 	free(S);
 	free(A);
 	free(Y);
+	free(Mo);
 	free(wt);
 	free(Q);
 	free(mean);
