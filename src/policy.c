@@ -1119,17 +1119,12 @@ static int lwr(const pr_policy *p, const double *rec, const double *drec, double
 			for (l = j; l < da; l++)
 				C[j * da + l] /= wt;
 	} else {
-		/* eq. 6.8 about mu(s): the spread about a_bar plus the shift
-		 * a_bar - mu(s) = -B^T (s - s_bar), taken relative to zref (the
-		 * difference of the absolute means would cancel the offsets) */
-		for (j = 0; j < da; j++) {
-			r[j] = 0.0;
-			for (l = 0; l < ds; l++)
-				r[j] -= B[l * da + j] * (s[l] - p->zref[l] - mu[l]);
-		}
+		/* eq. 6.8 about mu(s): the spread about a_bar plus the shift */
 		for (j = 0; j < da; j++)
 			for (l = j; l < da; l++)
-				C[j * da + l] = S[(ds + j) * dz + ds + l] / rec[0] + r[j] * r[l];
+				C[j * da + l] = S[(ds + j) * dz + ds + l] / rec[0] +
+				                (mu[ds + j] + p->zref[ds + j] - ws->mean[j]) *
+				                (mu[ds + l] + p->zref[ds + l] - ws->mean[l]);
 	}
 	/* divided by Z / tot = 1 - s2n (eq. 6.9) */
 	for (j = 0; j < da; j++)
