@@ -25,7 +25,7 @@ LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
-.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power FORCE
+.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power quick-sums FORCE
 .PHONY: shared install-lib examples python check-pybind
 
 all: poolreps
@@ -86,6 +86,12 @@ valgrind: $(BUILD)/poolreps
 man: $(BUILD)/poolreps
 	sh scripts/gen-man.sh $(BUILD)/poolreps docs/poolreps.1
 	sh scripts/gen-readme-keys.sh $(BUILD)/poolreps README.md
+
+# tests/data/quick_reproduce.sha256: the bytes of every CSV of the quick
+# reproduction (tests/test_report.py compares); rerun only when results are
+# meant to change
+quick-sums: $(BUILD)/poolreps
+	sh scripts/gen-quick-sums.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"
 
 deps:
 	sh scripts/install-deps.sh $(if $(EXTRAS),--extras)

@@ -14,6 +14,7 @@
 #include <gsl/gsl_errno.h>
 
 #include "poolreps/bind.h"
+#include "poolreps/exp.h"
 #include "poolreps/sim.h"
 
 const char *pr_bind_init(void)
@@ -27,7 +28,7 @@ pr_config *pr_bind_config_new(void)
 	pr_config *c = malloc(sizeof *c);
 
 	if (c)
-		pr_config_init(c);
+		pr_config_init(c, pr_exp_config);
 	return c;
 }
 

@@ -39,7 +39,7 @@
 #include "poolreps/csvio.h"
 #include "poolreps/exp.h"
 #include "exp_priv.h"
-#include "run_priv.h"
+#include "outdir.h"
 
 #define PATHLEN 1024
 #define ROOTMAX 480  /* a sweep folder's path; names below it: NAMEMAX */
@@ -245,7 +245,7 @@ static void put_path(FILE *fp, const char *root, const char *name)
 	char path[PATHLEN];
 
 	fmt(path, sizeof path, "%s/%s", root, name);
-	pr_run_shell_word(fp, path);
+	pr_outdir_shell_word(fp, path);
 }
 
 static void write_job(FILE *fp, const char *exe, const char *root, const char *point, int rep,
@@ -253,7 +253,7 @@ static void write_job(FILE *fp, const char *exe, const char *root, const char *p
 {
 	char cfg[PATHLEN];
 
-	pr_run_shell_word(fp, exe);
+	pr_outdir_shell_word(fp, exe);
 	fputs(" run -q ", fp);
 	fmt(cfg, sizeof cfg, "%s/config.ini", point);
 	put_path(fp, root, cfg);
@@ -397,7 +397,7 @@ static int sweep_point(sweep_out *s, long p, char *err)
 	if (rc == PR_OK && mkdir(path, 0777) != 0)
 		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", path, strerror(errno));
 	if (rc == PR_OK)
-		rc = pr_run_write_config(&pt, path, err);
+		rc = pr_outdir_write_config(&pt, path, err);
 	for (r = 0; rc == PR_OK && r < nr; ++r)
 		for (v = 0; rc == PR_OK && v < nv; ++v) {
 			int rep = g->split & SPLIT_REP ? r : -1, var = g->split & SPLIT_VAR ? v : -1;
@@ -417,8 +417,8 @@ static int sweep_point(sweep_out *s, long p, char *err)
 	return rc;
 }
 
-/* pr_run_staged's work: dir is SWEEP_DIR/.partial-PID. A failure removes
- * what this wrote below dir; pr_run_staged removes dir itself. */
+/* pr_outdir_run's work: dir is SWEEP_DIR/.partial-PID. A failure removes
+ * what this wrote below dir; pr_outdir_run removes dir itself. */
 static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a, char *err)
 {
 	sweep_out s;
@@ -645,7 +645,7 @@ int pr_cmd_sweep(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		              cfg->run.repetition >= 0 ? "repetition" : "variant");
 	if ((rc = check_empty(a->output, err)))
 		return rc;
-	return pr_run_staged(cfg, a, a->output, sweep_work, err);
+	return pr_outdir_run(cfg, a, a->output, sweep_work, err);
 }
 
 /* ---- collect ---- */
@@ -753,7 +753,7 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 	fmt(path, sizeof path, "%s/config.ini", out);
 	if (rc == PR_OK)
 		rc = same_config(mine, path, err);
-	pr_config_init(&pt);
+	pr_config_init(&pt, pr_exp_config);
 	if (rc == PR_OK)
 		rc = pr_config_load(&pt, mine, err);
 	if (rc == PR_OK && (!(e = pr_exp_find(pt.run.name)) || !e->summary))

@@ -3,7 +3,7 @@
  *
  * Data: cue ball at the cue box (default (-0.25, 0)), reward ball uniform in
  * start.reward_box, the cue aimed at the reward ball's centre at
- * exp1.aim_speed (SPEC.md §3); the target is the return of eq. 7.7. The
+ * exp1.aim_speed; the target is the return of eq. 7.7. The
  * exp1.train training and exp1.test test shots come from streams that do not
  * depend on the repetition, so every process regenerates them identically.
  *
@@ -37,18 +37,10 @@
 #include "poolreps/forest.h"
 #include "poolreps/sim.h"
 #include "exp_priv.h"
+#include "streams.h"
 
 #define PATHLEN 1024
 #define DX 4 /* state: cue ball and reward ball */
-
-/* Random streams of pr_exp_rng (seed, stream, index). */
-enum {
-	STREAM_TRAIN = 0x1e101,   /* index 0: the training shots */
-	STREAM_TEST = 0x1e102,    /* index 0: the test shots */
-	STREAM_MAP = 0x1e104,     /* index k: repetition k's map forest */
-	STREAM_SETTING = 0x1e110  /* + sweep, index k * PR_LIST_MAX + position in
-	                           * the sweep's list: forest k of that setting */
-};
 
 enum { SWEEP_NMIN, SWEEP_TREES, SWEEP_CUTS, NSWEEPS };
 static const char *const sweep_name[NSWEEPS] = {"n_min", "trees", "cuts"};
@@ -58,8 +50,11 @@ void pr_exp1_opts_init(pr_exp1_opts *o)
 	static const double nmin[] = {2, 5, 10, 20, 40, 60, 80, 100, 120, 140, 160, 180, 200};
 	static const double trees[] = {1, 2, 5, 10, 15, 20, 30, 40, 50};
 	static const double cuts[] = {1, 2, 3, 4, 5, 7, 10, 15, 20};
+	pr_expert_opts e;
 
 	memset(o, 0, sizeof *o);
+	pr_expert_opts_init(&e);
+	o->aim_speed = e.aim_speed;
 	o->train = 1000;
 	o->test = 1000;
 	o->subset = 200;
@@ -71,6 +66,44 @@ void pr_exp1_opts_init(pr_exp1_opts *o)
 	o->cuts_list.n = (int)(sizeof cuts / sizeof cuts[0]);
 	memcpy(o->cuts_list.v, cuts, sizeof cuts);
 	o->map_grid = 41;
+}
+
+static void init_keys(void *o)
+{
+	pr_exp1_opts_init(o);
+}
+
+#define F(field) offsetof(pr_exp1_opts, field)
+static const pr_config_key key_table[] = {
+	{"exp1", "aim_speed", PR_KEY_DOUBLE, F(aim_speed), 0, 100, PR_KEY_OPEN_LO, "m/s",
+	 "Experiment 1 data policy: cue speed aimed at the reward ball"},
+	{"exp1", "train", PR_KEY_INT, F(train), 1, 10000000, 0, "", "training shots"},
+	{"exp1", "test", PR_KEY_INT, F(test), 1, 10000000, 0, "", "test shots"},
+	{"exp1", "subset", PR_KEY_INT, F(subset), 1, 10000000, 0, "", "training samples per forest"},
+	{"exp1", "test_subset", PR_KEY_INT, F(test_subset), 1, 10000000, 0, "", "test samples per forest"},
+	{"exp1", "n_min_list", PR_KEY_ILIST, F(n_min_list), 1, 10000000, 0, "", "n_min sweep (Fig. 7.4a)"},
+	{"exp1", "trees_list", PR_KEY_ILIST, F(trees_list), 1, 10000, 0, "", "M sweep (Fig. 7.4b)"},
+	{"exp1", "cuts_list", PR_KEY_ILIST, F(cuts_list), 1, 10000, 0, "", "K sweep (Fig. 7.4c)"},
+	{"exp1", "map_grid", PR_KEY_INT, F(map_grid), 2, 1000, 0, "", "reward map grid points per side"},
+};
+#undef F
+
+const pr_config_block pr_exp1_keys = {
+	key_table, (int)(sizeof key_table / sizeof key_table[0]), sizeof(pr_exp1_opts), init_keys, NULL
+};
+
+static const pr_exp1_opts *opts_of(const pr_config *cfg)
+{
+	return pr_config_opts(cfg, &pr_exp1_keys);
+}
+
+/* The aim-at-ball data policy: the expert's options at exp1.aim_speed. */
+static pr_expert_opts aim_policy(const pr_config *cfg)
+{
+	pr_expert_opts e = cfg->expert;
+
+	e.aim_speed = opts_of(cfg)->aim_speed;
+	return e;
 }
 
 /* One forest setting of a sweep. */
@@ -99,6 +132,7 @@ static int make_shots(const pr_config *cfg, pr_sim *sim, unsigned long stream, i
                       double *x, double *y, char *err)
 {
 	gsl_rng *rng = pr_exp_rng(cfg->run.seed, stream, 0);
+	const pr_expert_opts aim = aim_policy(cfg);
 	int i, rc = PR_OK;
 
 	if (!rng)
@@ -111,7 +145,7 @@ static int make_shots(const pr_config *cfg, pr_sim *sim, unsigned long stream, i
 			break;
 		}
 		if ((rc = pr_sim_sample_start(&cfg->table, &cfg->start, 2, rng, x + DX * i, err)) ||
-		    (rc = pr_sim_aim_action(&cfg->expert, x + DX * i, a, err)) ||
+		    (rc = pr_sim_aim_action(&aim, x + DX * i, a, err)) ||
 		    (rc = pr_sim_shoot(sim, x + DX * i, 2, a, &shot, NULL, err)))
 			break;
 		y[i] = pr_sim_reward(&cfg->table, &cfg->reward, &shot);
@@ -126,7 +160,8 @@ static int make_grid(const pr_config *cfg, pr_sim *sim, const double cue[2], dou
                      int *ngrid, char *err)
 {
 	const double *b = cfg->start.reward_box;
-	int g = cfg->exp1.map_grid, i, j, n = 0, rc;
+	const pr_expert_opts aim = aim_policy(cfg);
+	int g = opts_of(cfg)->map_grid, i, j, n = 0, rc;
 
 	for (j = 0; j < g; ++j)
 		for (i = 0; i < g; ++i) {
@@ -140,7 +175,7 @@ static int make_grid(const pr_config *cfg, pr_sim *sim, const double cue[2], dou
 				continue;
 			if (pr_interrupted)
 				return pr_err(err, PR_EINTR, "interrupted");
-			if ((rc = pr_sim_aim_action(&cfg->expert, s, a, err)) ||
+			if ((rc = pr_sim_aim_action(&aim, s, a, err)) ||
 			    (rc = pr_sim_shoot(sim, s, 2, a, &shot, NULL, err)))
 				return rc;
 			grid[3 * n] = s[2];
@@ -169,7 +204,7 @@ static double test_mse(const pr_forest *f, const double *x, const double *y, int
 static int run_rep(void *arg, int k, char *err)
 {
 	job_ctx *c = arg;
-	const pr_exp1_opts *o = &c->cfg->exp1;
+	const pr_exp1_opts *o = opts_of(c->cfg);
 	const double *xtr = c->xtr + (size_t)DX * k * o->subset, *ytr = c->ytr + (size_t)k * o->subset;
 	const double *xte = c->xte + (size_t)DX * k * o->test_subset;
 	const double *yte = c->yte + (size_t)k * o->test_subset;
@@ -183,7 +218,7 @@ static int run_rep(void *arg, int k, char *err)
 		const setting *t = &c->set[s];
 		if (pr_interrupted)
 			return pr_err(err, PR_EINTR, "interrupted");
-		rng = pr_exp_rng(c->cfg->run.seed, STREAM_SETTING + (unsigned long)t->sweep,
+		rng = pr_exp_rng(c->cfg->run.seed, PR_STREAM_EXP1_SETTING + (unsigned long)t->sweep,
 		                 (unsigned long)k * PR_LIST_MAX + (unsigned long)t->pos);
 		if (!rng)
 			return pr_err(err, PR_ENOMEM, "out of memory");
@@ -197,7 +232,7 @@ static int run_rep(void *arg, int k, char *err)
 	}
 	if (!c->map)
 		return PR_OK;
-	rng = pr_exp_rng(c->cfg->run.seed, STREAM_MAP, (unsigned long)k);
+	rng = pr_exp_rng(c->cfg->run.seed, PR_STREAM_EXP1_MAP, (unsigned long)k);
 	if (!rng)
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	f = pr_forest_fit(&c->cfg->forest, xtr, o->subset, DX, ytr, 1, NULL, rng, err);
@@ -216,8 +251,8 @@ static int run_rep(void *arg, int k, char *err)
 /* The settings of the three sweeps, each varying one forest.* parameter. */
 static int make_settings(const pr_config *cfg, job_ctx *c, char *err)
 {
-	const pr_list *lists[NSWEEPS] = {&cfg->exp1.n_min_list, &cfg->exp1.trees_list,
-	                                 &cfg->exp1.cuts_list};
+	const pr_exp1_opts *o = opts_of(cfg);
+	const pr_list *lists[NSWEEPS] = {&o->n_min_list, &o->trees_list, &o->cuts_list};
 	static const char *const keys[NSWEEPS] = {"exp1.n_min_list", "exp1.trees_list",
 	                                          "exp1.cuts_list"};
 	int v[PR_LIST_MAX], s, i, rc;
@@ -285,9 +320,9 @@ int pr_exp1_variants(const pr_config *cfg, pr_variants *out, char *err)
 
 static int check_opts(const pr_config *cfg, char *err)
 {
-	const pr_exp1_opts *o = &cfg->exp1;
+	const pr_exp1_opts *o = opts_of(cfg);
 	long r = cfg->run.repetitions;
-	char at[320];
+	char at[PR_WHERE_LEN];
 
 	if (cfg->table.balls != 2)
 		return pr_err(err, PR_EINVAL, "%s: table.balls: Experiment 1 uses 2 balls (got %d)",
@@ -351,7 +386,7 @@ static int write_map(const char *dir, const job_ctx *c, int lo, int hi, char *er
 
 int pr_exp1_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err)
 {
-	const pr_exp1_opts *o = &cfg->exp1;
+	const pr_exp1_opts *o = opts_of(cfg);
 	job_ctx *c;
 	pr_sim *sim = NULL;
 	double *xtr = NULL, *ytr = NULL, *xte = NULL, *yte = NULL, *grid = NULL;
@@ -381,8 +416,8 @@ int pr_exp1_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 		rc = PR_EINVAL;
 		goto done;
 	}
-	if ((rc = make_shots(cfg, sim, STREAM_TRAIN, o->train, xtr, ytr, err)) ||
-	    (rc = make_shots(cfg, sim, STREAM_TEST, o->test, xte, yte, err)) ||
+	if ((rc = make_shots(cfg, sim, PR_STREAM_EXP1_TRAIN, o->train, xtr, ytr, err)) ||
+	    (rc = make_shots(cfg, sim, PR_STREAM_EXP1_TEST, o->test, xte, yte, err)) ||
 	    (c->map && (rc = make_grid(cfg, sim, c->cue, grid, &c->ngrid, err))))
 		goto done;
 	c->cfg = cfg;

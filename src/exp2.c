@@ -1,5 +1,5 @@
 /* exp2.c — Experiment 2 (thesis 7.4): how well tree-based policies represent
- * the ghost-ball expert (SPEC.md §3, pr_sim_ghost_action).
+ * the ghost-ball expert (pr_sim_ghost_action).
  *
  * Repetition k draws, from streams of (seed, k) alone:
  *   - max(exp2.sizes) training states with the expert's action, the final
@@ -44,20 +44,11 @@
 #include "poolreps/policy.h"
 #include "poolreps/sim.h"
 #include "exp_priv.h"
+#include "streams.h"
 
 #define PATHLEN 1024
 #define DS 4 /* state: cue ball and reward ball */
 #define DA 2
-
-/* Random streams of pr_exp_rng (seed, stream, k). Policy fits and action
- * draws get a stream per (size, policy), so a row does not depend on which
- * other sizes the list holds. */
-enum {
-	STREAM_TRAIN = 0x2e201,
-	STREAM_TEST = 0x2e202,
-	STREAM_FIT = 0x2e210000,    /* + 4 * size + policy */
-	STREAM_DRAW = 0x6e210000    /* + 4 * size + policy */
-};
 
 enum { POL_SINGLE, POL_SA, POL_SRS, NPOL };
 static const char *const pol_name[NPOL] = {"single", "s_a", "s_rs"};
@@ -73,6 +64,35 @@ void pr_exp2_opts_init(pr_exp2_opts *o)
 	memcpy(o->sizes.v, sizes, sizeof sizes);
 	o->test = 1000;
 	o->n_min_frac = 0.1;
+}
+
+static void init_keys(void *o)
+{
+	pr_exp2_opts_init(o);
+}
+
+#define F(field) offsetof(pr_exp2_opts, field)
+static const pr_config_key key_table[] = {
+	{"exp2", "sizes", PR_KEY_ILIST, F(sizes), 2, 10000000, 0, "", "training-set sizes"},
+	{"exp2", "test", PR_KEY_INT, F(test), 1, 10000000, 0, "", "test shots per size and policy"},
+	{"exp2", "n_min_frac", PR_KEY_DOUBLE, F(n_min_frac), 0, 1, PR_KEY_OPEN_LO, "", "tree policies: n_min = frac * size"},
+};
+#undef F
+
+const pr_config_block pr_exp2_keys = {
+	key_table, (int)(sizeof key_table / sizeof key_table[0]), sizeof(pr_exp2_opts), init_keys, NULL
+};
+
+/* What data/exp2.ini states: the policy forests of thesis 7.4. */
+const pr_config_default pr_exp2_defaults[] = {
+	{"policy.trees", "30"},
+	{"policy.cuts", "10"},
+	{NULL, NULL}
+};
+
+static const pr_exp2_opts *opts_of(const pr_config *cfg)
+{
+	return pr_config_opts(cfg, &pr_exp2_keys);
 }
 
 /* Returns over the test states of one policy and mode. */
@@ -182,14 +202,14 @@ static int play(const pr_config *cfg, work *w, const double *s, double a[2], int
 static int eval_policy(const job_ctx *c, work *w, int k, int n, int pol, stats *out, char *err)
 {
 	const pr_config *cfg = c->cfg;
-	const int ntest = cfg->exp2.test;
+	const int ntest = opts_of(cfg)->test;
 	pr_policy_opts po = cfg->policy;
 	pr_policy_data d;
 	pr_policy *p;
 	pr_policy_work *ws = NULL;
-	gsl_rng *fit = pr_exp_rng(cfg->run.seed, STREAM_FIT + 4UL * (unsigned long)n + (unsigned long)pol,
+	gsl_rng *fit = pr_exp_rng(cfg->run.seed, PR_STREAM_EXP2_FIT + 4UL * (unsigned long)n + (unsigned long)pol,
 	                          (unsigned long)k);
-	gsl_rng *draw = pr_exp_rng(cfg->run.seed, STREAM_DRAW + 4UL * (unsigned long)n + (unsigned long)pol,
+	gsl_rng *draw = pr_exp_rng(cfg->run.seed, PR_STREAM_EXP2_DRAW + 4UL * (unsigned long)n + (unsigned long)pol,
 	                           (unsigned long)k);
 	int i, m, rc = PR_OK;
 
@@ -203,7 +223,7 @@ static int eval_policy(const job_ctx *c, work *w, int k, int n, int pol, stats *
 		po.forest.n_min = n;
 	} else {
 		po.target = pol == POL_SA ? PR_TARGET_ACTION : PR_TARGET_REWARD_STATE;
-		po.forest.n_min = (int)lround(cfg->exp2.n_min_frac * n);
+		po.forest.n_min = (int)lround(opts_of(cfg)->n_min_frac * n);
 		if (po.forest.n_min < 1)
 			po.forest.n_min = 1;
 	}
@@ -251,7 +271,7 @@ static int run_rep(void *arg, int k, char *err)
 {
 	job_ctx *c = arg;
 	const pr_config *cfg = c->cfg;
-	const int ntest = cfg->exp2.test;
+	const int ntest = opts_of(cfg)->test;
 	stats *res = c->res + (size_t)(k - c->lo) * nres(c);
 	work w;
 	gsl_rng *rng = NULL;
@@ -273,7 +293,7 @@ static int run_rep(void *arg, int k, char *err)
 		return PR_EINVAL;
 	}
 	/* training data: the expert's shots and where they left the reward ball */
-	if (!(rng = pr_exp_rng(cfg->run.seed, STREAM_TRAIN, (unsigned long)k)))
+	if (!(rng = pr_exp_rng(cfg->run.seed, PR_STREAM_EXP2_TRAIN, (unsigned long)k)))
 		rc = pr_err(err, PR_ENOMEM, "out of memory");
 	for (i = 0; i < c->nmax && rc == PR_OK; ++i) {
 		pr_shot shot;
@@ -287,7 +307,7 @@ static int run_rep(void *arg, int k, char *err)
 	}
 	gsl_rng_free(rng);
 	/* test states, and the expert on them */
-	rng = rc ? NULL : pr_exp_rng(cfg->run.seed, STREAM_TEST, (unsigned long)k);
+	rng = rc ? NULL : pr_exp_rng(cfg->run.seed, PR_STREAM_EXP2_TEST, (unsigned long)k);
 	if (rc == PR_OK && !rng)
 		rc = pr_err(err, PR_ENOMEM, "out of memory");
 	for (i = 0; i < ntest && rc == PR_OK; ++i) {
@@ -356,7 +376,7 @@ static int write_returns(const char *dir, const job_ctx *c, int lo, int hi, char
 
 int pr_exp2_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err)
 {
-	char at[320];
+	char at[PR_WHERE_LEN];
 	job_ctx *c;
 	int lo, hi, j, rc;
 
@@ -369,8 +389,8 @@ int pr_exp2_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 	if (!c)
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	c->cfg = cfg;
-	c->nsizes = cfg->exp2.sizes.n;
-	if ((rc = pr_exp_int_list(&cfg->exp2.sizes, "exp2.sizes", c->sizes, err))) {
+	c->nsizes = opts_of(cfg)->sizes.n;
+	if ((rc = pr_exp_int_list(&opts_of(cfg)->sizes, "exp2.sizes", c->sizes, err))) {
 		free(c);
 		return rc;
 	}

@@ -16,10 +16,9 @@
 #include "poolreps/policy.h"
 #include "poolreps/reps.h"
 #include "exp_priv.h"
+#include "streams.h"
 
 #define PATHLEN 1024
-/* Stream id of the benchmarks for pr_exp_rng. */
-#define STREAM_BENCH 0xbe4c4UL
 
 enum { P_QUADRATIC, P_SPHERE, P_ROSENBROCK };
 
@@ -31,7 +30,7 @@ static const char *const met_name[NMET] = {
 	"policy_flags", "kl_gap", "residual_rel", "unreachable", "failed"
 };
 
-void pr_bench_opts_init(pr_bench_opts *o, const char *name)
+void pr_bench_opts_init(pr_bench_opts *o)
 {
 	o->iterations = 200;
 	o->samples = 50;
@@ -42,14 +41,6 @@ void pr_bench_opts_init(pr_bench_opts *o, const char *name)
 	o->value_degree = 1;
 	o->test_contexts = 100;
 	o->method = PR_METHOD_CREPS;
-	if (name && strcmp(name, "quadratic") == 0) {
-		o->iterations = 40;
-		o->dims = 1;
-		o->context_dims = 1;
-		o->value_degree = 2;
-	} else if (name && strcmp(name, "rosenbrock") == 0) {
-		o->context_dims = 1;
-	}
 }
 
 int pr_bench_opts_check(const pr_bench_opts *o, char *err)
@@ -76,6 +67,60 @@ int pr_bench_opts_check(const pr_bench_opts *o, char *err)
 		return pr_err(err, PR_EINVAL, "bench.method: must be creps or ccmaes");
 	return PR_OK;
 }
+
+static void init_keys(void *o)
+{
+	pr_bench_opts_init(o);
+}
+
+static int check_keys(const void *o, char *err)
+{
+	return pr_bench_opts_check(o, err);
+}
+
+#define F(field) offsetof(pr_bench_opts, field)
+static const pr_config_key key_table[] = {
+	{"bench", "iterations", PR_KEY_INT, F(iterations), 1, 1000000, 0, "", "REPS iterations (quadratic: 40)"},
+	{"bench", "samples", PR_KEY_INT, F(samples), 2, 10000000, 0, "", "episodes per iteration"},
+	{"bench", "dims", PR_KEY_INT, F(dims), 1, 10000, 0, "", "action (parameter) dimensions (quadratic: 1)"},
+	{"bench", "context_dims", PR_KEY_INT, F(context_dims), 1, 100, 0, "",
+	 "context dimensions k (quadratic, rosenbrock: 1)"},
+	{"bench", "init_std", PR_KEY_DOUBLE, F(init_std), 1e-100, 1e6, 0, "", "initial policy standard deviation"},
+	{"bench", "min_std", PR_KEY_DOUBLE, F(min_std), 1e-100, 1e6, 0, "", "floor on policy standard deviations"},
+	{"bench", "value_degree", PR_KEY_INT, F(value_degree), 1, 2, 0, "",
+	 "REPS value features: 1 = s, 2 = s and its products (quadratic: 2)"},
+	{"bench", "test_contexts", PR_KEY_INT, F(test_contexts), 1, 1000000, 0, "",
+	 "fixed contexts scoring the policy mean"},
+	{"bench", "method", PR_KEY_ENUM, F(method), 0, 0, 0, "creps|ccmaes",
+	 "contextual REPS or contextual CMA-ES"},
+};
+#undef F
+
+const pr_config_block pr_bench_keys = {
+	key_table, (int)(sizeof key_table / sizeof key_table[0]), sizeof(pr_bench_opts), init_keys, check_keys
+};
+
+/* Each problem's setup (what data/<name>.ini states). The policy is refitted
+ * around the sampling mean (policy.cov_center = old), as C-REPS does. */
+const pr_config_default pr_quadratic_defaults[] = {
+	{"bench.iterations", "40"},
+	{"bench.dims", "1"},
+	{"bench.context_dims", "1"},
+	{"bench.value_degree", "2"},
+	{"policy.cov_center", "old"},
+	{NULL, NULL}
+};
+const pr_config_default pr_sphere_defaults[] = {
+	{"reps.epsilon", "1"},
+	{"policy.cov_center", "old"},
+	{NULL, NULL}
+};
+const pr_config_default pr_rosenbrock_defaults[] = {
+	{"bench.context_dims", "1"},
+	{"reps.epsilon", "1"},
+	{"policy.cov_center", "old"},
+	{NULL, NULL}
+};
 
 typedef struct {
 	const pr_config *cfg;
@@ -236,7 +281,7 @@ static int run_rep(void *ctx, int rep, char *err)
 	const int n = b->samples, k = c->k, da = c->dims;
 	const int cmaes = b->method == PR_METHOD_CCMAES;
 	const int old = !cmaes && c->cfg->policy.cov_center == PR_COV_CENTER_OLD;
-	gsl_rng *rng = pr_exp_rng(c->cfg->run.seed, STREAM_BENCH, (unsigned long)rep);
+	gsl_rng *rng = pr_exp_rng(c->cfg->run.seed, PR_STREAM_BENCH, (unsigned long)rep);
 	pr_policy *pol = NULL, *next;
 	pr_policy_work *ws = NULL;
 	pr_cmaes *cm = NULL;
@@ -424,7 +469,7 @@ int pr_bench_run(const pr_config *cfg, const pr_bench_opts *b, const char *dir,
 int pr_exp_benchmark_run(const pr_config *cfg, const char *dir, const pr_progress *prog,
                          char *err)
 {
-	return pr_bench_run(cfg, &cfg->bench, dir, prog, err);
+	return pr_bench_run(cfg, pr_config_opts(cfg, &pr_bench_keys), dir, prog, err);
 }
 
 /* Mean and standard deviation over repetitions, per iteration, of the
@@ -533,11 +578,4 @@ done:
 	free(samples);
 	free(cnt);
 	return rc;
-}
-
-int pr_exp_benchmark(const pr_config *cfg, const char *dir, char *err)
-{
-	int rc = pr_exp_benchmark_run(cfg, dir, NULL, err);
-
-	return rc ? rc : pr_exp_benchmark_summarize(cfg, dir, err);
 }

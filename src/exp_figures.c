@@ -11,6 +11,7 @@
 
 #include "poolreps/csvio.h"
 #include "poolreps/figures.h"
+#include "exp_priv.h"
 
 #define GRID 201
 #define VMAX 1.5 /* m/s: the landscape's action box, [-VMAX, VMAX]^2 */
@@ -282,4 +283,11 @@ int pr_exp_figures(const pr_config *cfg, const char *dir, char *err)
 	gsl_rng_free(rng);
 	free(st);
 	return rc;
+}
+
+/* The registry's entry point: no repetitions, no progress to report. */
+int pr_figures_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err)
+{
+	(void)prog;
+	return pr_exp_figures(cfg, dir, err);
 }

@@ -1,6 +1,12 @@
-/* exp_priv.h — internals shared by the experiments (src/exp*.c): their
- * entry points for the registry in exp.c, a repetition thread pool,
- * thread-safe progress and a reader for raw CSVs with text columns. */
+/* exp_priv.h — internals shared by the experiments (src/exp*.c): what
+ * each brings to the registry in exp.c (entry points, key block, defaults),
+ * a repetition thread pool, thread-safe progress and a reader for raw CSVs
+ * with text columns.
+ *
+ * Adding an experiment: a source file with its options struct and _init,
+ * its key table and pr_config_block (config_priv.h), its defaults for other
+ * sections, run/summarize (and variants if it has any), declared here; its
+ * random streams in streams.h; one line in exp.c's registry. */
 #ifndef POOLREPS_EXP_PRIV_H
 #define POOLREPS_EXP_PRIV_H
 
@@ -8,8 +14,45 @@
 
 #include "poolreps/config.h"
 #include "poolreps/exp.h"
+#include "config_priv.h"
+
+/* ---- options ---- */
+
+/* Experiment 1 (thesis 7.3, keys exp1.*). Forests per setting =
+ * experiment.repetitions; repetition k trains on training rows
+ * [k*subset, (k+1)*subset) and tests on test rows [k*test_subset, ...). */
+typedef struct {
+	double aim_speed;      /* m/s: the data policy's cue speed, aimed at the reward ball */
+	int train, test;       /* shots simulated for training and testing */
+	int subset;            /* training samples per forest */
+	int test_subset;       /* test samples per forest */
+	pr_list n_min_list;    /* Fig. 7.4a sweep (K, M at forest.* values) */
+	pr_list trees_list;    /* Fig. 7.4b sweep */
+	pr_list cuts_list;     /* Fig. 7.4c sweep */
+	int map_grid;          /* predicted-vs-simulated reward map: grid points per side */
+} pr_exp1_opts;
+void pr_exp1_opts_init(pr_exp1_opts *o);
+
+/* Experiment 2 (thesis 7.4, keys exp2.*). */
+typedef struct {
+	pr_list sizes;         /* training-set sizes */
+	int test;              /* test shots per size and policy */
+	double n_min_frac;     /* tree policies: n_min = frac * training size */
+} pr_exp2_opts;
+void pr_exp2_opts_init(pr_exp2_opts *o);
+
+/* The key blocks (cfg's options: pr_config_opts(cfg, &block)) and the
+ * defaults each experiment sets for other sections. Experiment 3's options
+ * are in exp3_priv.h. */
+extern const pr_config_block pr_exp1_keys, pr_exp2_keys, pr_exp3_keys, pr_bench_keys;
+extern const pr_config_default pr_exp2_defaults[], pr_exp3_defaults[];
+extern const pr_config_default pr_quadratic_defaults[], pr_sphere_defaults[],
+	pr_rosenbrock_defaults[];
 
 /* ---- entry points (pr_experiment.run / .summarize) ---- */
+
+/* The simulator figures (figures.h): no repetitions, no progress. */
+int pr_figures_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err);
 
 /* Experiment 1 (thesis 7.3): raw exp1_mse.csv, exp1_map.csv; derived exp1_summary.csv. */
 int pr_exp1_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err);

@@ -1,4 +1,5 @@
-/* exp_util.c — helpers of the experiments: repetitions on threads,
+/* exp_util.c — helpers of the experiments: random streams, the
+ * repetitions and variant a process runs, repetitions on threads,
  * thread-safe progress, and reading raw CSVs that hold text columns
  * (sweep, policy, mode), which the numeric pr_csv_read refuses; both go
  * through the one CSV reader, pr_csv_scan.
@@ -13,6 +14,56 @@
 
 #include "csvio_priv.h"
 #include "exp_priv.h"
+
+/* ---- streams, repetitions, variants ---- */
+
+/* splitmix64 finaliser: decorrelates nearby (seed, stream, index) triples. */
+static unsigned long long mix(unsigned long long z)
+{
+	z += 0x9e3779b97f4a7c15ULL;
+	z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+	z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+	return z ^ (z >> 31);
+}
+
+gsl_rng *pr_exp_rng(unsigned long seed, unsigned long stream, unsigned long index)
+{
+	gsl_rng *r = gsl_rng_alloc(gsl_rng_mt19937);
+	unsigned long long h;
+
+	if (!r)
+		return NULL;
+	h = mix(mix(mix((unsigned long long)seed) ^ (unsigned long long)stream) ^ (unsigned long long)index);
+	/* mt19937 takes a 32-bit seed; 0 would select GSL's default seed */
+	h &= 0xffffffffULL;
+	gsl_rng_set(r, h ? (unsigned long)h : 1UL);
+	return r;
+}
+
+void pr_exp_reps(const pr_config *cfg, int *lo, int *hi)
+{
+	if (cfg->run.repetition >= 0) {
+		*lo = cfg->run.repetition;
+		*hi = cfg->run.repetition + 1;
+	} else {
+		*lo = 0;
+		*hi = cfg->run.repetitions;
+	}
+}
+
+int pr_exp_check_variant(const pr_config *cfg, int n, char *err)
+{
+	char at[PR_WHERE_LEN];
+
+	if (cfg->run.variant < n)
+		return PR_OK;
+	pr_config_where(cfg, "experiment.variant", at, sizeof at);
+	if (n == 0)
+		return pr_err(err, PR_EINVAL, "%s: experiment.variant: %d, but %s has no variants",
+		              at, cfg->run.variant, cfg->run.name);
+	return pr_err(err, PR_EINVAL, "%s: experiment.variant: %d, but %s has %d variants (0..%d)",
+	              at, cfg->run.variant, cfg->run.name, n, n - 1);
+}
 
 /* ---- progress ---- */
 

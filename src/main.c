@@ -14,6 +14,7 @@
 
 #include "poolreps/cmd.h"
 #include "poolreps/config.h"
+#include "poolreps/exp.h"
 
 enum {
 	O_SET = 256, O_SEED, O_VERSION, O_TRACE, O_TRAIN, O_TEST, O_TARGET, O_WEIGHT,
@@ -197,7 +198,7 @@ static void usage(FILE *fp, const command *cmd)
 	        "\nExit codes: 0 ok, 1 bad usage or parameter, 2 I/O or malformed CSV,\n"
 	        "  3 numerical failure, 4 out of memory, 128 + N stopped by signal N\n"
 	        "  (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT, 141 SIGPIPE, 153 SIGXFSZ).\n\n");
-	pr_config_help(fp);
+	pr_config_help(pr_exp_config, fp);
 }
 
 /* During a run or merge, the first signal asks the loops to stop (they
@@ -497,7 +498,7 @@ int main(int argc, char **argv)
 		a.progress.user = &prog;
 	}
 
-	pr_config_init(&cfg);
+	pr_config_init(&cfg, pr_exp_config);
 	rc = PR_OK;
 	if (config_path)
 		rc = pr_config_load(&cfg, config_path, err);

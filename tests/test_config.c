@@ -9,9 +9,17 @@
 
 #include <cmocka.h>
 
+#include "poolreps/bench.h"
 #include "poolreps/config.h"
+#include "poolreps/exp.h"
+#include "exp_priv.h"
 
 static char path[64];
+
+static const pr_bench_opts *bench(const pr_config *c)
+{
+	return pr_config_opts(c, &pr_bench_keys);
+}
 
 static const char *write_ini(const char *text)
 {
@@ -27,7 +35,7 @@ static const char *write_ini(const char *text)
 
 static int load(const char *text, pr_config *c, char *err)
 {
-	pr_config_init(c);
+	pr_config_init(c, pr_exp_config);
 	return pr_config_load(c, write_ini(text), err);
 }
 
@@ -36,7 +44,7 @@ static void test_defaults_match_spec(void **state)
 	pr_config c;
 
 	(void)state;
-	pr_config_init(&c);
+	pr_config_init(&c, pr_exp_config);
 	assert_float_equal(c.table.length, 1.0, 0);
 	assert_float_equal(c.table.width, 0.5, 0);
 	assert_float_equal(c.table.ball_radius, 0.015, 0);
@@ -54,7 +62,7 @@ static void test_defaults_match_spec(void **state)
 	assert_int_equal(c.reward.targets[1], 5);
 	assert_float_equal(c.reward.miss_penalty, 10, 0);
 	assert_float_equal(c.reward.scratch_penalty, 0, 0);
-	assert_float_equal(c.expert.aim_speed, 0.4, 0);
+	assert_float_equal(((const pr_exp1_opts *)pr_config_opts(&c, &pr_exp1_keys))->aim_speed, 0.4, 0);
 	assert_float_equal(c.expert.arrival_speed, 0.05, 0);
 	assert_float_equal(c.reps.epsilon, 0.5, 0);
 	assert_float_equal(c.policy.lambda, 1e-10, 0);
@@ -122,7 +130,7 @@ static void test_long_line_and_missing_file(void **state)
 	strcpy(text + strlen("[table]\nfriction = 0.") + 8000, "\n");
 	expect_error(text, PR_EINVAL, ":2: line longer than");
 	free(text);
-	pr_config_init(&c);
+	pr_config_init(&c, pr_exp_config);
 	assert_int_equal(pr_config_load(&c, "/nonexistent/x.ini", err), PR_EIO);
 	assert_non_null(strstr(err, "/nonexistent/x.ini: cannot open"));
 	assert_int_equal(pr_config_load(&c, "/tmp", err), PR_EIO);
@@ -135,7 +143,7 @@ static void test_set_and_validate(void **state)
 	char err[PR_ERRLEN];
 
 	(void)state;
-	pr_config_init(&c);
+	pr_config_init(&c, pr_exp_config);
 	assert_int_equal(pr_config_set(&c, "reps.epsilon=0.25", err), PR_OK);
 	assert_float_equal(c.reps.epsilon, 0.25, 0);
 	assert_int_equal(pr_config_set(&c, "reps.epsilon=0", err), PR_EINVAL);
@@ -145,7 +153,7 @@ static void test_set_and_validate(void **state)
 	assert_int_equal(pr_config_set(&c, "table.reward_balls=2", err), PR_OK);
 	assert_int_equal(pr_config_validate(&c, err), PR_EINVAL);
 	assert_non_null(strstr(err, "table.reward_balls"));
-	pr_config_init(&c);
+	pr_config_init(&c, pr_exp_config);
 	assert_int_equal(pr_config_set(&c, "start.reward_box=0.4,0.6,0,0.1", err), PR_OK);
 	assert_int_equal(pr_config_validate(&c, err), PR_EINVAL);
 	assert_non_null(strstr(err, "start.reward_box"));
@@ -162,8 +170,8 @@ static void test_where_and_bench_defaults(void **state)
 	(void)state;
 	assert_int_equal(load("[experiment]\nname = quadratic\n\n[table]\nreward_balls = 2\n", &c, err),
 	                 PR_OK);
-	assert_int_equal(c.bench.iterations, 40);
-	assert_int_equal(c.bench.dims, 1);
+	assert_int_equal(bench(&c)->iterations, 40);
+	assert_int_equal(bench(&c)->dims, 1);
 	snprintf(want, sizeof want, "%s:5", path);
 	assert_string_equal(pr_config_where(&c, "table.reward_balls", at, sizeof at), want);
 	assert_string_equal(pr_config_where(&c, "table.balls", at, sizeof at), path);
@@ -174,10 +182,10 @@ static void test_where_and_bench_defaults(void **state)
 	assert_string_equal(pr_config_where(&c, "table.reward_balls", at, sizeof at), "--set");
 	assert_int_equal(pr_config_set(&c, "bench.iterations=7", err), PR_OK);
 	assert_int_equal(pr_config_set(&c, "experiment.name=rosenbrock", err), PR_OK);
-	assert_int_equal(c.bench.iterations, 7);
-	assert_int_equal(c.bench.dims, 20);
-	assert_int_equal(c.bench.context_dims, 1);
-	pr_config_init(&c);
+	assert_int_equal(bench(&c)->iterations, 7);
+	assert_int_equal(bench(&c)->dims, 20);
+	assert_int_equal(bench(&c)->context_dims, 1);
+	pr_config_init(&c, pr_exp_config);
 	assert_string_equal(pr_config_where(&c, "sim.dt", at, sizeof at), "defaults");
 }
 
@@ -217,7 +225,7 @@ static void test_write_round_trip(void **state)
 	FILE *fp;
 
 	(void)state;
-	pr_config_init(&a);
+	pr_config_init(&a, pr_exp_config);
 	assert_int_equal(pr_config_set(&a, "table.friction=0.123456789012345", err), PR_OK);
 	assert_int_equal(pr_config_set(&a, "policy.target=reward_state", err), PR_OK);
 	snprintf(path, sizeof path, "/tmp/pr_test_config_rt_%ld.ini", (long)getpid());
@@ -225,7 +233,7 @@ static void test_write_round_trip(void **state)
 	assert_non_null(fp);
 	assert_int_equal(pr_config_write(&a, fp), PR_OK);
 	fclose(fp);
-	pr_config_init(&b);
+	pr_config_init(&b, pr_exp_config);
 	assert_int_equal(pr_config_load(&b, path, err), PR_OK);
 	unlink(path);
 	assert_float_equal(b.table.friction, 0.123456789012345, 0);

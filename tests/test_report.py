@@ -8,6 +8,7 @@ Run by `make check` with POOLREPS=<abs path of the binary> and PYTHON=<a
 Python with matplotlib>.
 """
 import csv
+import hashlib
 import html.parser
 import os
 import shutil
@@ -50,6 +51,22 @@ def out(tmp_path_factory):
                        env=dict(os.environ, LC_ALL="C", POOLREPS=binary))
     assert p.returncode == 0, p.stderr[-3000:]
     return o
+
+
+def test_quick_reproduction_writes_the_recorded_bytes(out):
+    """Every CSV of the quick reproduction equals, byte for byte, the one
+    recorded in tests/data/quick_reproduce.sha256 (timings.csv, wall times,
+    aside): a change that should not touch any result does not. After a change
+    that alters results on purpose, `make quick-sums` records the new bytes."""
+    recorded = {}
+    for line in (ROOT / "tests" / "data" / "quick_reproduce.sha256").read_text().splitlines():
+        digest, name = line.split("  ", 1)
+        recorded[name] = digest
+    written = {str(p.relative_to(out)): hashlib.sha256(p.read_bytes()).hexdigest()
+               for p in out.rglob("*.csv") if p.name != "timings.csv"}
+    assert sorted(written) == sorted(recorded), "the set of CSVs changed"
+    changed = [n for n in sorted(recorded) if written[n] != recorded[n]]
+    assert not changed, f"outputs differ from the recorded bytes: {changed}"
 
 
 class Page(html.parser.HTMLParser):

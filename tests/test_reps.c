@@ -17,6 +17,8 @@
 #include <unistd.h>
 
 #include "poolreps/bench.h"
+#include "poolreps/exp.h"
+#include "exp_priv.h"
 #include "poolreps/csvio.h"
 #include "poolreps/reps.h"
 
@@ -711,11 +713,11 @@ static void test_quadratic_benchmark(void **state)
 
 	(void)state;
 	assert_non_null(mkdtemp(dir));
-	pr_config_init(&cfg);
-	snprintf(cfg.run.name, sizeof cfg.run.name, "quadratic");
+	pr_config_init(&cfg, pr_exp_config);
+	assert_int_equal(pr_config_set(&cfg, "experiment.name=quadratic", err), PR_OK);
 	cfg.run.repetitions = 2;
 	cfg.run.threads = 1;
-	pr_bench_opts_init(&b, "quadratic");
+	b = *(const pr_bench_opts *)pr_config_opts(&cfg, &pr_bench_keys);
 	b.iterations = 25;
 	b.samples = 40;
 	b.test_contexts = 20;

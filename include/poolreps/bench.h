@@ -25,14 +25,26 @@
 #include "poolreps/config.h"
 #include "poolreps/exp.h"
 
-/* Defaults for experiment `name` (quadratic, sphere, rosenbrock):
- *   quadratic: iterations 40, samples 50, init_std 1, min_std 1e-12,
- *              value_degree 2, test_contexts 100;
- *   sphere: iterations 200, samples 50, dims 20, context_dims 2, init_std 1,
- *           min_std 1e-12, value_degree 1, test_contexts 100;
- *   rosenbrock: as sphere with context_dims 1.
- * An unknown name gets the sphere values. */
-void pr_bench_opts_init(pr_bench_opts *o, const char *name);
+/* REPS validation problems (bench.h), keys bench.*; quadratic ignores dims
+ * and context_dims: both are 1. */
+typedef struct {
+	int iterations;     /* REPS iterations */
+	int samples;        /* episodes per iteration (>= 2) */
+	int dims;           /* action (parameter) dimensions */
+	int context_dims;   /* k */
+	double init_std;    /* initial policy standard deviation */
+	double min_std;     /* eigenvalue floor of the policy covariance (as a std) */
+	int value_degree;   /* REPS value features: 1 = s, 2 = s and s_j s_k */
+	int test_contexts;  /* fixed contexts on which the policy mean is scored */
+	int method;         /* PR_METHOD_CREPS or PR_METHOD_CCMAES */
+} pr_bench_opts;
+
+/* The sphere's defaults: iterations 200, samples 50, dims 20, context_dims
+ * 2, init_std 1, min_std 1e-12, value_degree 1, test_contexts 100, creps.
+ * As experiments (keys bench.*), quadratic starts from iterations 40, dims 1,
+ * context_dims 1, value_degree 2, and rosenbrock from context_dims 1
+ * (exp_bench.c's defaults). */
+void pr_bench_opts_init(pr_bench_opts *o);
 int pr_bench_opts_check(const pr_bench_opts *o, char *err);
 
 /* Run repetitions [lo, hi) of experiment.repetition(s) with the given
@@ -50,14 +62,12 @@ int pr_bench_run(const pr_config *cfg, const pr_bench_opts *b, const char *dir,
                  const pr_progress *prog, char *err);
 
 /* Experiment entry points (pr_experiment.run / .summarize): pr_bench_run
- * with cfg->bench (whose defaults follow experiment.name), and the derived
+ * with cfg's bench.* options (whose defaults follow experiment.name), and the derived
  * dir/bench_summary.csv (iteration, samples, then mean and std over
  * repetitions of mean_return, test_return, test_error, and the fraction of
  * updates with the KL bound active), computed from bench_curve.csv alone. */
 int pr_exp_benchmark_run(const pr_config *cfg, const char *dir, const pr_progress *prog,
                          char *err);
 int pr_exp_benchmark_summarize(const pr_config *cfg, const char *dir, char *err);
-/* Both in one call. */
-int pr_exp_benchmark(const pr_config *cfg, const char *dir, char *err);
 
 #endif

@@ -7,6 +7,7 @@
 
 #include "poolreps/common.h"
 #include "poolreps/config.h"
+#include "poolreps/exp.h"
 
 typedef struct {
 	const char *command;   /* "run", "shoot", "forest", "reps", "policy", "merge", "config", ... */

@@ -1,0 +1,156 @@
+/* exp3_priv.h — Experiment 3 (thesis 7.5) inside the library: its options,
+ * its variants, the REPS learner of one (repetition, variant) pair
+ * (exp3_learn.c) and the raw writers and summaries (exp3_out.c). Another
+ * experiment may reuse the learner: create one with its own options and
+ * random streams, seed it with episodes or an initial policy, run REPS
+ * iterations and read back what happened.
+ *
+ * A learner (thesis 7.5.1):
+ *   iteration 0: n0 episodes, drawn from pi_0 (N(0, init_std^2 I) or a given
+ *     policy), or given by the caller;
+ *   iteration t = 1..iterations:
+ *     window = the latest `window` episodes, drawn by pi_pmin .. pi_{t-1};
+ *     q      = importance weights pi_{t-1} / pi_mix, pi_mix the sample-count
+ *              mixture of the drawing policies;
+ *     phi    = value features of the window states: a forest states ->
+ *              returns, active leaves (eq. 5.4) or active samples (eq. 5.6);
+ *              quadratic features for the `handcrafted` variant;
+ *     p      = REPS weights with base weights q (eq. 3.7-3.8);
+ *     pi_t   = a policy fitted to the window with weights p (ch. 6);
+ *     then `samples` new episodes from pi_t.
+ * The learner sees only the state coordinates that vary (those whose start
+ * box has extent); the episodes keep the full state. */
+#ifndef POOLREPS_EXP3_PRIV_H
+#define POOLREPS_EXP3_PRIV_H
+
+#include <gsl/gsl_rng.h>
+
+#include "poolreps/config.h"
+#include "poolreps/policy.h"
+#include "exp_priv.h"
+
+/* Keys exp3.*. */
+typedef struct {
+	int init_samples;      /* samples of the initial policy */
+	double init_std;       /* initial policy N(0, init_std^2 I), m/s */
+	int iterations;        /* REPS iterations */
+	int samples;           /* new samples per iteration */
+	int window;            /* samples REPS reuses, importance weighted */
+	char policies[PR_KEY_NAMES_LEN]; /* comma list of variants */
+	int baseline_n_min;    /* n_min of the single-node baseline policy */
+	int final_episodes;    /* Figs. 7.8-7.10 use each run's last episodes */
+	int handcrafted_method; /* PR_METHOD_*: the hand-crafted variant's learner */
+} pr_exp3_opts;
+void pr_exp3_opts_init(pr_exp3_opts *o);
+/* cfg's exp3.* options. */
+const pr_exp3_opts *pr_exp3_opts_of(const pr_config *cfg);
+
+/* The variants: value features and policy fit of a learner. */
+enum {
+	PR_EXP3_NRVR_RS,     /* NRVR value forest; policy forest states -> reward-ball positions */
+	PR_EXP3_RVR_RS,      /* RVR value forest; same policy */
+	PR_EXP3_NRVR_A,      /* NRVR value forest; policy forest states -> actions */
+	PR_EXP3_RVR_A,       /* RVR value forest; same policy */
+	PR_EXP3_BASELINE,    /* value forest at value.*; one-node policy (exp3.baseline_n_min) */
+	PR_EXP3_HANDCRAFTED, /* quadratic value features; linear policy, or C-CMA-ES */
+	PR_EXP3_NVAR
+};
+extern const char *const pr_exp3_variant_name[PR_EXP3_NVAR];
+/* The variants this process runs, in exp3.policies order: all of them, or
+ * the one experiment.variant picks. */
+int pr_exp3_selected(const pr_config *cfg, int *var, int *nvar, char *err);
+
+/* ---- the learner (exp3_learn.c) ---- */
+
+/* REPS and policy diagnostics of iteration t (a row of exp3_reps.csv). */
+typedef struct {
+	double eta, kl, ess, q_ess, residual, kl_gap, residual_rel;
+	int bound;     /* the KL bound is active */
+	int nfeat;     /* value features */
+	int evals;     /* dual evaluations */
+	int redraws;   /* actions drawn again for exceeding sim.max_speed */
+	int flags;     /* PR_POLICY_* of the fit and the queries, or-ed */
+	int status;    /* PR_REPS_* */
+} pr_exp3_iter;
+
+/* A learner's episodes in the order they were played, and its iterations. */
+typedef struct {
+	int n;             /* episodes so far */
+	int ds;            /* full state: 2 x table.balls */
+	double *S;         /* n x ds start states */
+	double *A;         /* n x 2 actions */
+	double *R;         /* n returns */
+	double *F;         /* n x 2 final position of reward ball 1 */
+	int *pocket;       /* n: reward ball 1's pocket id or -1 */
+	int *hit;          /* n: the cue ball touched a reward ball */
+	int *iter;         /* n: 0 = iteration 0; episodes of iteration t were drawn by pi_t */
+	int niter;         /* iterations done */
+	pr_exp3_iter *it;  /* niter rows: it[t - 1] describes iteration t */
+} pr_exp3_episodes;
+void pr_exp3_episodes_free(pr_exp3_episodes *ep);
+
+typedef struct pr_exp3_learner pr_exp3_learner;
+
+/* Everything a learner needs but cannot check itself once running: one
+ * reward ball, a window of >= 2 episodes, at most 1e8 episodes, varying
+ * start states, valid value.* and policy.* options. Errors name the key. */
+int pr_exp3_learner_check(const pr_config *cfg, const pr_exp3_opts *e, char *err);
+
+/* A learner of variant v (PR_EXP3_*) with cfg's table, sim, reward, start,
+ * value, reps and policy options and e's init_samples, init_std,
+ * iterations, samples, window, baseline_n_min and handcrafted_method. It
+ * draws start states from `start`, pi_0's actions from `init`, forests and
+ * later actions from `learn`; it borrows them (the caller frees them after
+ * pr_exp3_learner_free). cfg and e must outlive it. *out is NULL on failure. */
+int pr_exp3_learner_new(const pr_config *cfg, const pr_exp3_opts *e, int v, gsl_rng *start,
+                        gsl_rng *init, gsl_rng *learn, pr_exp3_learner **out, char *err);
+void pr_exp3_learner_free(pr_exp3_learner *L);
+
+/* pi_0 = p instead of N(0, init_std^2 I): a policy on the learning state
+ * (pr_exp3_learner_state_dims) with 2 action dimensions. The learner owns p
+ * from this call on, whether it succeeds or not. Before iteration 0 only;
+ * refused for the C-CMA-ES hand-crafted learner, whose search starts from
+ * N(0, init_std^2 I). */
+int pr_exp3_learner_set_policy(pr_exp3_learner *L, pr_policy *p, char *err);
+
+/* Iteration 0 from n given episodes instead of init_samples drawn ones:
+ * full start states S (n x ds), actions A (n x 2), returns R, final
+ * reward-ball positions F (n x 2), pockets and hits (each NULL: -1 and 0)
+ * and logq, the log-density of each action under the distribution that drew
+ * it (NULL: computed from pi_0). The episodes count as pi_0's: the mixture
+ * of later importance weights evaluates pi_0 (set_policy, or N(0,
+ * init_std^2 I)) at later episodes, so give the policy that drew them. */
+int pr_exp3_learner_seed(pr_exp3_learner *L, int n, const double *S, const double *A,
+                         const double *R, const double *F, const int *pocket, const int *hit,
+                         const double *logq, char *err);
+
+/* Iteration 0: init_samples episodes drawn from pi_0 (nothing to do after
+ * pr_exp3_learner_seed). */
+int pr_exp3_learner_start(pr_exp3_learner *L, char *err);
+
+/* The next REPS iteration (at most e->iterations after iteration 0). */
+int pr_exp3_learner_iterate(pr_exp3_learner *L, char *err);
+
+/* The learning state: nx coordinates of the full state (indices xdim). */
+int pr_exp3_learner_state_dims(const pr_exp3_learner *L, const int **xdim);
+
+/* What the learner did so far; valid until the next call on L. */
+const pr_exp3_episodes *pr_exp3_learner_episodes(const pr_exp3_learner *L);
+
+/* Move the episodes out into *out (the caller frees them with
+ * pr_exp3_episodes_free); the learner then has none. */
+void pr_exp3_learner_take(pr_exp3_learner *L, pr_exp3_episodes *out);
+
+/* ---- outputs (exp3_out.c) ---- */
+
+/* One learner's episodes with its repetition and variant. */
+typedef struct {
+	int repetition, variant;
+	pr_exp3_episodes ep;
+} pr_exp3_job;
+
+/* Raw dir/exp3_episodes.csv and dir/exp3_reps.csv of runs in order. */
+int pr_exp3_write_raw(const pr_config *cfg, const pr_exp3_job *runs, int nruns, const char *dir,
+                      char *err);
+
+#endif

@@ -1,0 +1,473 @@
+/* outdir.c — an output folder written all or nothing: everything a run,
+ * merge or sweep writes goes first into a staging folder DIR/.partial-PID
+ * and is moved into DIR only when the whole command succeeded (publish), so
+ * a failed or interrupted command leaves no partial CSV behind and the
+ * previous run in DIR untouched. provenance.txt lists the files a run owns;
+ * the next run into DIR replaces exactly those.
+ */
+#define _DEFAULT_SOURCE /* flock */
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/file.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/utsname.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "poolreps/csvio.h"
+#include "outdir.h"
+
+#define PATHLEN 4096
+
+/* Remove the folders of dir below its first keep bytes (those mkdir_p
+ * created), deepest first, each only if empty. */
+static void remove_created(const char *dir, size_t keep)
+{
+	char buf[PATHLEN];
+	char *slash;
+
+	snprintf(buf, sizeof buf, "%s", dir);
+	while (strlen(buf) > keep && rmdir(buf) == 0 && (slash = strrchr(buf, '/')))
+		*slash = '\0';
+}
+
+/* Create dir and its missing parents; *keep: the length of its longest
+ * prefix that existed before (strlen(dir) if dir itself did). A failure
+ * removes what it created. */
+static int mkdir_p(const char *dir, size_t *keep, char *err)
+{
+	char buf[PATHLEN];
+	char *p;
+	struct stat st;
+	int rc = PR_OK;
+
+	*keep = strlen(dir);
+	if (!*dir)
+		return pr_err(err, PR_EINVAL, "output folder name is empty");
+	if (snprintf(buf, sizeof buf, "%s", dir) >= (int)sizeof buf)
+		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
+	for (p = buf + 1; rc == PR_OK; ++p) {
+		if (*p == '/' || *p == '\0') {
+			char c = *p;
+			*p = '\0';
+			if (mkdir(buf, 0777) == 0) {
+				if (*keep == strlen(dir))
+					*keep = (size_t)(strrchr(buf, '/') ? strrchr(buf, '/') - buf : 0);
+			} else if (errno != EEXIST) {
+				rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", buf, strerror(errno));
+			}
+			*p = c;
+			if (!c)
+				break;
+		}
+	}
+	if (rc == PR_OK && (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode)))
+		rc = pr_err(err, PR_EIO, "%s: exists and is not a folder", dir);
+	if (rc)
+		remove_created(dir, *keep);
+	return rc;
+}
+
+static void remove_tree(const char *dir)
+{
+	DIR *d = opendir(dir);
+	struct dirent *e;
+
+	if (!d)
+		return;
+	while ((e = readdir(d)))
+		if (strcmp(e->d_name, ".") && strcmp(e->d_name, ".."))
+			unlinkat(dirfd(d), e->d_name, 0);
+	closedir(d);
+	rmdir(dir);
+}
+
+/* Leftovers of runs killed with SIGKILL, whose PID no longer exists: their
+ * staging folders .partial-PID and temporary files .poolreps-tmp-PID-N. A
+ * run still alive (writing into the same folder) keeps its own. */
+static void sweep_stale(const char *dir)
+{
+	DIR *d = opendir(dir);
+	struct dirent *e;
+	char path[PATHLEN];
+
+	if (!d)
+		return;
+	while ((e = readdir(d))) {
+		const char *p = NULL;
+		char *end;
+		long pid;
+		if (strncmp(e->d_name, ".partial-", 9) == 0)
+			p = e->d_name + 9;
+		else if (strncmp(e->d_name, ".poolreps-tmp-", 14) == 0)
+			p = e->d_name + 14;
+		if (!p)
+			continue;
+		pid = strtol(p, &end, 10);
+		if (end == p || (*end && *end != '-') || !pr_pid_gone(pid))
+			continue;
+		if (snprintf(path, sizeof path, "%s/%s", dir, e->d_name) >= (int)sizeof path)
+			continue;
+		if (unlink(path) != 0)
+			remove_tree(path);
+	}
+	closedir(d);
+}
+
+void pr_names_free(pr_names *l)
+{
+	int i;
+
+	for (i = 0; i < l->n; ++i)
+		free(l->name[i]);
+	free(l->name);
+	l->name = NULL;
+	l->n = 0;
+}
+
+int pr_names_add(pr_names *l, const char *name, size_t len)
+{
+	char **g = realloc(l->name, (size_t)(l->n + 1) * sizeof *g);
+
+	if (!g)
+		return PR_ENOMEM;
+	l->name = g;
+	if (!(l->name[l->n] = strndup(name, len)))
+		return PR_ENOMEM;
+	l->n++;
+	return PR_OK;
+}
+
+int pr_names_has(const pr_names *l, const char *name)
+{
+	int i;
+
+	for (i = 0; i < l->n; ++i)
+		if (strcmp(l->name[i], name) == 0)
+			return 1;
+	return 0;
+}
+
+static int cmp_name(const void *x, const void *y)
+{
+	const char *a = *(char *const *)x, *b = *(char *const *)y;
+	int pa = strcmp(a, "provenance.txt") == 0, pb = strcmp(b, "provenance.txt") == 0;
+
+	return pa != pb ? pa - pb : strcmp(a, b);
+}
+
+int pr_outdir_list(const char *dir, pr_names *out, char *err)
+{
+	DIR *d = opendir(dir);
+	struct dirent *e;
+
+	if (!d)
+		return pr_err(err, PR_EIO, "%s: cannot read folder: %s", dir, strerror(errno));
+	while ((e = readdir(d)))
+		if (e->d_name[0] != '.' && pr_names_add(out, e->d_name, strlen(e->d_name))) {
+			closedir(d);
+			return pr_err(err, PR_ENOMEM, "out of memory");
+		}
+	closedir(d);
+	if (out->n)
+		qsort(out->name, (size_t)out->n, sizeof *out->name, cmp_name);
+	return PR_OK;
+}
+
+/* The files an earlier run in dir wrote: the "files:" line of its
+ * provenance.txt. Nothing when dir holds no poolreps run. */
+static int earlier_run(const char *dir, pr_names *out)
+{
+	char path[PATHLEN + 16], line[1 << 16];
+	struct stat st;
+	FILE *fp;
+	int rc = PR_OK, n = 0;
+
+	snprintf(path, sizeof path, "%s/provenance.txt", dir);
+	/* a fixed buffer, and only a regular file: never a FIFO or /dev/zero */
+	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode) || !(fp = fopen(path, "r")))
+		return PR_OK;
+	while (rc == PR_OK && n++ < 64 && fgets(line, sizeof line, fp)) {
+		const char *p;
+		if (n == 1 && strncmp(line, "version: ", 9) != 0)
+			break;
+		if (strncmp(line, "files:", 6) != 0)
+			continue;
+		for (p = line + 6; *p && rc == PR_OK;) {
+			size_t k;
+			p += strspn(p, " \n");
+			k = strcspn(p, " \n");
+			/* only plain pr_names in dir itself */
+			if (k && *p != '.' && !memchr(p, '/', k))
+				rc = pr_names_add(out, p, k);
+			p += k;
+		}
+		break;
+	}
+	fclose(fp);
+	return rc;
+}
+
+/* Move every file of staging into dir, all or nothing: each file that will
+ * be replaced first gets a second hard link inside staging, so that a
+ * failed rename can put every earlier one back. Files of the earlier run in
+ * dir that the new run did not write are removed once all are in place.
+ * Publishes into one folder are serialised with a lock on the folder. */
+static int publish(const char *staging, const char *dir, char *err)
+{
+	pr_names now = {NULL, 0}, old = {NULL, 0};
+	char from[2 * PATHLEN], to[2 * PATHLEN], bak[2 * PATHLEN];
+	char *had = NULL;
+	struct stat st;
+	sigset_t mask;
+	int rc, i, j, lock;
+
+	if ((rc = pr_outdir_list(staging, &now, err)))
+		return rc;
+	if ((lock = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC)) < 0 || flock(lock, LOCK_EX) != 0) {
+		rc = pr_err(err, PR_EIO, "%s: cannot lock folder: %s", dir, strerror(errno));
+		goto out;
+	}
+	if (earlier_run(dir, &old) || !(had = calloc((size_t)now.n + 1, 1))) {
+		rc = pr_err(err, PR_ENOMEM, "out of memory");
+		goto out;
+	}
+	pr_cleanup_hold(&mask);
+	for (i = 0; i < now.n && rc == PR_OK; ++i) {
+		snprintf(to, sizeof to, "%s/%s", dir, now.name[i]);
+		snprintf(bak, sizeof bak, "%s/.old-%d", staging, i);
+		if (lstat(to, &st) != 0)
+			continue;
+		if (S_ISDIR(st.st_mode))
+			rc = pr_err(err, PR_EIO, "%s: is a folder: cannot replace it with the run's file", to);
+		/* like any output: a file the (non-root) user may not write stays */
+		else if (S_ISREG(st.st_mode) && faccessat(AT_FDCWD, to, W_OK, AT_EACCESS) != 0)
+			rc = pr_err(err, PR_EIO, "%s: cannot write: %s", to, strerror(errno));
+		else if (link(to, bak) != 0)
+			rc = pr_err(err, PR_EIO, "%s: cannot keep the earlier file while replacing it: %s",
+			            to, strerror(errno));
+		else
+			had[i] = 1;
+	}
+	for (i = 0; i < now.n && rc == PR_OK; ++i) {
+		snprintf(from, sizeof from, "%s/%s", staging, now.name[i]);
+		snprintf(to, sizeof to, "%s/%s", dir, now.name[i]);
+		if (rename(from, to) == 0)
+			continue;
+		rc = pr_err(err, PR_EIO, "%s: cannot move into place: %s", to, strerror(errno));
+		for (j = 0; j < i; ++j) {
+			snprintf(to, sizeof to, "%s/%s", dir, now.name[j]);
+			snprintf(bak, sizeof bak, "%s/.old-%d", staging, j);
+			if (had[j])
+				rename(bak, to);
+			else
+				unlink(to);
+		}
+	}
+	for (i = 0; i < old.n && rc == PR_OK; ++i)
+		if (!pr_names_has(&now, old.name[i]) &&
+		    snprintf(to, sizeof to, "%s/%s", dir, old.name[i]) < (int)sizeof to &&
+		    lstat(to, &st) == 0 && !S_ISDIR(st.st_mode))
+			unlink(to);
+	pr_cleanup_release(&mask);
+out:
+	if (lock >= 0)
+		close(lock);
+	free(had);
+	pr_names_free(&now);
+	pr_names_free(&old);
+	return rc;
+}
+
+/* Render text with fn into a memory stream, then write it to path. */
+int pr_outdir_write_text(const char *path, void (*fn)(FILE *, const void *), const void *arg,
+                         char *err)
+{
+	char *buf = NULL;
+	size_t n = 0;
+	FILE *fp = open_memstream(&buf, &n);
+	pr_csvw *w;
+	int rc;
+
+	if (!fp)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	fn(fp, arg);
+	if (fclose(fp) != 0) {
+		free(buf);
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	}
+	if (!(w = pr_csvw_open(path, err))) {
+		free(buf);
+		return PR_EIO;
+	}
+	pr_csvw_raw(w, buf, n);
+	free(buf);
+	rc = pr_csvw_close(w, err);
+	return rc;
+}
+
+static void config_file_text(FILE *fp, const void *cfg)
+{
+	fprintf(fp, "; effective configuration written by poolreps %s\n", pr_version());
+	pr_config_write(cfg, fp);
+}
+
+int pr_outdir_write_config(const pr_config *cfg, const char *dir, char *err)
+{
+	char path[2 * PATHLEN];
+
+	snprintf(path, sizeof path, "%s/config.ini", dir);
+	return pr_outdir_write_text(path, config_file_text, cfg, err);
+}
+
+void pr_outdir_shell_word(FILE *fp, const char *arg)
+{
+	const char *c;
+
+	if (*arg && strspn(arg, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+	                        "0123456789_@%+=:,./-") == strlen(arg)) {
+		fputs(arg, fp);
+		return;
+	}
+	fputc('\'', fp);
+	for (c = arg; *c; ++c) {
+		if (*c == '\'')
+			fputs("'\\''", fp);
+		else
+			fputc(*c, fp);
+	}
+	fputc('\'', fp);
+}
+
+typedef struct {
+	const pr_config *cfg;
+	const pr_cmd_args *a;
+	const pr_names *files;
+	double wall;
+} provenance;
+
+static void provenance_text(FILE *fp, const void *arg)
+{
+	const provenance *p = arg;
+	char host[256] = "unknown", when[64];
+	struct rusage ru;
+	struct utsname un;
+	time_t now = time(NULL);
+	int i;
+
+	gethostname(host, sizeof host - 1);
+	strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", gmtime(&now));
+	getrusage(RUSAGE_SELF, &ru);
+	fprintf(fp, "version: %s\n", pr_version());
+	fprintf(fp, "command:");
+	for (i = 0; i < p->a->argc; ++i) {
+		fputc(' ', fp);
+		pr_outdir_shell_word(fp, p->a->argv[i]);
+	}
+	fprintf(fp, "\nexperiment: %s\nseed: %lu\nrepetition: %d\nparameter_file: %s\n",
+	        p->cfg->run.name, p->cfg->run.seed, p->cfg->run.repetition,
+	        p->cfg->source[0] ? p->cfg->source : "(none)");
+	if (uname(&un) == 0)
+		fprintf(fp, "host: %s (%s %s %s)\n", host, un.sysname, un.release, un.machine);
+	else
+		fprintf(fp, "host: %s\n", host);
+	fprintf(fp, "finished: %s\nwall_seconds: %.3f\ncpu_seconds: %.3f\npeak_memory_mib: %.1f\n",
+	        when, p->wall,
+	        (double)ru.ru_utime.tv_sec + 1e-6 * (double)ru.ru_utime.tv_usec +
+	        (double)ru.ru_stime.tv_sec + 1e-6 * (double)ru.ru_stime.tv_usec,
+	        (double)ru.ru_maxrss / 1024.0);
+	/* what this run owns in its folder: a later run into it replaces these */
+	fprintf(fp, "files:");
+	for (i = 0; i < p->files->n; ++i)
+		fprintf(fp, " %s", p->files->name[i]);
+	fprintf(fp, " provenance.txt\n");
+}
+
+static int write_provenance(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
+                            double wall, char *err)
+{
+	char path[2 * PATHLEN];
+	pr_names files = {NULL, 0};
+	provenance p = {cfg, a, &files, wall};
+	int rc;
+
+	if ((rc = pr_outdir_list(dir, &files, err)))
+		return rc;
+	snprintf(path, sizeof path, "%s/provenance.txt", dir);
+	rc = pr_outdir_write_text(path, provenance_text, &p, err);
+	pr_names_free(&files);
+	return rc;
+}
+
+static double seconds_since(const struct timespec *t0)
+{
+	struct timespec t1;
+
+	clock_gettime(CLOCK_MONOTONIC, &t1);
+	return (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec);
+}
+
+/* Messages name the file where it was going to be, not the staging folder. */
+static void unstage(char *err, const char *staging, const char *dir)
+{
+	char out[PR_ERRLEN], *p;
+	size_t n = strlen(staging);
+
+	while ((p = strstr(err, staging))) {
+		snprintf(out, sizeof out, "%.*s%s%s", (int)(p - err), err, dir, p + n);
+		memcpy(err, out, strlen(out) + 1);
+	}
+}
+
+int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
+                  int (*work)(const pr_config *, const char *, const pr_cmd_args *, char *),
+                  char *err)
+{
+	char staging[PATHLEN];
+	struct timespec t0;
+	size_t keep;
+	int rc;
+
+	clock_gettime(CLOCK_MONOTONIC, &t0);
+	if ((rc = mkdir_p(dir, &keep, err)))
+		return rc;
+	if (snprintf(staging, sizeof staging, "%s/.partial-%ld", dir, (long)getpid()) >= (int)sizeof staging)
+		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
+	sweep_stale(dir);
+	remove_tree(staging);
+	if (mkdir(staging, 0777) != 0) {
+		rc = pr_err(err, PR_EIO, "%s: cannot write into the folder: %s", dir, strerror(errno));
+		remove_created(dir, keep);
+		return rc;
+	}
+	pr_cleanup_set_dir(staging, dir, keep);
+	rc = work(cfg, staging, a, err);
+	if (rc == PR_OK)
+		rc = pr_outdir_write_config(cfg, staging, err);
+	if (rc == PR_OK)
+		rc = write_provenance(cfg, a, staging, seconds_since(&t0), err);
+	if (rc == PR_OK && !pr_interrupted)
+		rc = publish(staging, dir, err);
+	remove_tree(staging);
+	pr_cleanup_clear_dir();
+	if (rc == PR_OK && !pr_interrupted)
+		return PR_OK;
+	/* a failed run leaves no trace: drop the folders it made (if empty) */
+	remove_created(dir, keep);
+	unstage(err, staging, dir);
+	/* after a signal every failure is its echo (a fit cut short may report
+	 * itself as a numerical failure): say what the user is left with */
+	if (pr_interrupted)
+		rc = pr_err(err, PR_EINTR, keep == strlen(dir) ?
+		            "interrupted: no output written (signal %d); partial files removed, %s left as it was" :
+		            "interrupted: no output written (signal %d); partial files and the new folders of %s removed",
+		            (int)pr_interrupted, dir);
+	return rc;
+}
+

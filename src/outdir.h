@@ -1,0 +1,41 @@
+/* outdir.h — output folders written all or nothing (outdir.c), shared by
+ * the commands that write a folder: run, merge, sweep. */
+#ifndef POOLREPS_OUTDIR_H
+#define POOLREPS_OUTDIR_H
+
+#include <stddef.h>
+#include <stdio.h>
+
+#include "poolreps/cmd.h"
+
+/* A list of file names. */
+typedef struct {
+	char **name;
+	int n;
+} pr_names;
+void pr_names_free(pr_names *l);
+/* Append the first len bytes of name; PR_ENOMEM on failure. */
+int pr_names_add(pr_names *l, const char *name, size_t len);
+int pr_names_has(const pr_names *l, const char *name);
+
+/* The file names of folder dir (not starting with '.'), sorted, with
+ * provenance.txt last: it marks a complete run. */
+int pr_outdir_list(const char *dir, pr_names *out, char *err);
+
+/* Render text with fn into memory, then write it to path (NULL or "-":
+ * stdout) through a csvio writer: atomically, or not at all. */
+int pr_outdir_write_text(const char *path, void (*fn)(FILE *, const void *), const void *arg,
+                         char *err);
+/* Write DIR/config.ini (the effective configuration). */
+int pr_outdir_write_config(const pr_config *cfg, const char *dir, char *err);
+/* Write arg so that a POSIX shell reads it back as one word: provenance's
+ * command line and a sweep's jobs can be pasted into a shell. */
+void pr_outdir_shell_word(FILE *fp, const char *arg);
+/* Create dir, run work into a staging folder inside it, add config.ini and
+ * provenance.txt (version, command line, seed, host, timings, the files
+ * the run owns), and move everything into dir only if all succeeded. */
+int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
+                  int (*work)(const pr_config *, const char *, const pr_cmd_args *, char *),
+                  char *err);
+
+#endif

@@ -1,0 +1,199 @@
+/* test_exp3_learn.c — Experiment 3's learner through its private API
+ * (exp3_priv.h), and the experiment registry as the configuration's schema. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <gsl/gsl_rng.h>
+
+#include "poolreps/config.h"
+#include "poolreps/exp.h"
+#include "exp3_priv.h"
+
+#define ITERS 3
+
+/* A small Experiment 3 configuration. */
+static void small_config(pr_config *c)
+{
+	static const char *const sets[] = {
+		"experiment.name=exp3", "exp3.init_samples=30", "exp3.window=30", "exp3.samples=10",
+		"exp3.iterations=3", "policy.n_min=20", "exp3.baseline_n_min=100", "value.trees=3",
+		"value.n_min=10"
+	};
+	char err[PR_ERRLEN];
+	size_t i;
+
+	pr_config_init(c, pr_exp_config);
+	for (i = 0; i < sizeof sets / sizeof sets[0]; ++i)
+		assert_int_equal(pr_config_set(c, sets[i], err), PR_OK);
+	assert_int_equal(pr_config_validate(c, err), PR_OK);
+}
+
+static gsl_rng *rng(unsigned long seed)
+{
+	gsl_rng *r = gsl_rng_alloc(gsl_rng_mt19937);
+
+	assert_non_null(r);
+	gsl_rng_set(r, seed);
+	return r;
+}
+
+/* Every episode and iteration row of a and b, bit for bit. */
+static void assert_same(const pr_exp3_episodes *a, const pr_exp3_episodes *b)
+{
+	size_t n = (size_t)a->n;
+
+	assert_int_equal(a->n, b->n);
+	assert_int_equal(a->niter, b->niter);
+	assert_memory_equal(a->S, b->S, n * (size_t)a->ds * sizeof *a->S);
+	assert_memory_equal(a->A, b->A, 2 * n * sizeof *a->A);
+	assert_memory_equal(a->R, b->R, n * sizeof *a->R);
+	assert_memory_equal(a->F, b->F, 2 * n * sizeof *a->F);
+	assert_memory_equal(a->pocket, b->pocket, n * sizeof *a->pocket);
+	assert_memory_equal(a->iter, b->iter, n * sizeof *a->iter);
+	assert_memory_equal(a->it, b->it, (size_t)a->niter * sizeof *a->it);
+}
+
+static void run_iterations(pr_exp3_learner *L)
+{
+	char err[PR_ERRLEN];
+	int t;
+
+	for (t = 0; t < ITERS; ++t)
+		assert_int_equal(pr_exp3_learner_iterate(L, err), PR_OK);
+	assert_int_not_equal(pr_exp3_learner_iterate(L, err), PR_OK); /* past exp3.iterations */
+}
+
+/* A learner seeded with another's iteration 0 (and the streams where that
+ * one's stood after it) continues exactly as the other one does, for every
+ * variant: seeded episodes are the learner's own. */
+static void test_seeded_learner_continues_the_same(void **state)
+{
+	pr_config c;
+	char err[PR_ERRLEN];
+	int v;
+
+	(void)state;
+	small_config(&c);
+	for (v = 0; v < PR_EXP3_NVAR; ++v) {
+		const pr_exp3_opts *e = pr_exp3_opts_of(&c);
+		gsl_rng *s1 = rng(11), *i1 = rng(12), *l1 = rng(13), *s2, *i2 = rng(99), *l2;
+		pr_exp3_learner *A, *B;
+		const pr_exp3_episodes *ea;
+		double *logq, mean[2] = {0.0, 0.0}, cov[4] = {0.0, 0.0, 0.0, 0.0};
+		int i, n0;
+
+		assert_int_equal(pr_exp3_learner_new(&c, e, v, s1, i1, l1, &A, err), PR_OK);
+		assert_int_equal(pr_exp3_learner_start(A, err), PR_OK);
+		s2 = gsl_rng_clone(s1);
+		l2 = gsl_rng_clone(l1);
+		ea = pr_exp3_learner_episodes(A);
+		n0 = ea->n;
+		assert_int_equal(n0, e->init_samples);
+		/* the log-densities under pi_0 = N(0, init_std^2 I), as drawn */
+		cov[0] = cov[3] = e->init_std * e->init_std;
+		logq = malloc((size_t)n0 * sizeof *logq);
+		for (i = 0; i < n0; ++i)
+			assert_int_equal(pr_policy_gauss_logpdf(2, mean, cov, ea->A + 2 * i, &logq[i], err), PR_OK);
+		assert_int_equal(pr_exp3_learner_new(&c, e, v, s2, i2, l2, &B, err), PR_OK);
+		assert_int_equal(pr_exp3_learner_seed(B, n0, ea->S, ea->A, ea->R, ea->F, ea->pocket, ea->hit,
+		                                      logq, err), PR_OK);
+		assert_int_equal(pr_exp3_learner_start(B, err), PR_OK); /* seeded: nothing to draw */
+		run_iterations(A);
+		run_iterations(B);
+		assert_same(pr_exp3_learner_episodes(A), pr_exp3_learner_episodes(B));
+		pr_exp3_learner_free(A);
+		pr_exp3_learner_free(B);
+		free(logq);
+		gsl_rng_free(s1);
+		gsl_rng_free(i1);
+		gsl_rng_free(l1);
+		gsl_rng_free(s2);
+		gsl_rng_free(i2);
+		gsl_rng_free(l2);
+	}
+}
+
+/* An initial policy object equal to N(0, init_std^2 I) gives the default
+ * learner's run; a second one, or one after iteration 0, is refused. */
+static void test_initial_policy(void **state)
+{
+	pr_config c;
+	char err[PR_ERRLEN];
+	const pr_exp3_opts *e;
+	pr_exp3_learner *A, *B;
+	gsl_rng *r[6];
+	double mean[2] = {0.0, 0.0}, cov[4] = {0.0, 0.0, 0.0, 0.0};
+	const int *xdim;
+	int nx, i;
+
+	(void)state;
+	small_config(&c);
+	e = pr_exp3_opts_of(&c);
+	for (i = 0; i < 6; ++i)
+		r[i] = rng(20 + (unsigned long)i % 3);
+	assert_int_equal(pr_exp3_learner_new(&c, e, PR_EXP3_NRVR_RS, r[0], r[1], r[2], &A, err), PR_OK);
+	assert_int_equal(pr_exp3_learner_new(&c, e, PR_EXP3_NRVR_RS, r[3], r[4], r[5], &B, err), PR_OK);
+	nx = pr_exp3_learner_state_dims(B, &xdim);
+	assert_int_equal(nx, 2); /* the reward ball's box; the cue ball starts at a point */
+	assert_int_equal(xdim[0], 2);
+	cov[0] = cov[3] = e->init_std * e->init_std;
+	assert_int_equal(pr_exp3_learner_set_policy(B, pr_policy_gaussian_new(nx, 2, mean, cov, err),
+	                                            err), PR_OK);
+	assert_int_not_equal(pr_exp3_learner_set_policy(B, pr_policy_gaussian_new(nx, 2, mean, cov, err),
+	                                                err), PR_OK);
+	assert_int_equal(pr_exp3_learner_start(A, err), PR_OK);
+	assert_int_equal(pr_exp3_learner_start(B, err), PR_OK);
+	run_iterations(A);
+	run_iterations(B);
+	assert_same(pr_exp3_learner_episodes(A), pr_exp3_learner_episodes(B));
+	pr_exp3_learner_free(A);
+	pr_exp3_learner_free(B);
+	for (i = 0; i < 6; ++i)
+		gsl_rng_free(r[i]);
+}
+
+/* Every registered experiment's defaults are valid keys and values, and
+ * every block fits into a pr_config. */
+static void test_registry_schema(void **state)
+{
+	pr_config c;
+	pr_config_exp x;
+	char err[PR_ERRLEN], set[64];
+	int i;
+
+	(void)state;
+	for (i = 0; pr_exp_config(i, &x); ++i) {
+		pr_config_init(&c, pr_exp_config);
+		assert_int_equal(c.dropped, 0);
+		snprintf(set, sizeof set, "experiment.name=%s", x.name);
+		assert_int_equal(pr_config_set(&c, set, err), PR_OK);
+		assert_int_equal(pr_config_validate(&c, err), PR_OK);
+		assert_non_null(pr_exp_find(x.name));
+		if (x.block)
+			assert_non_null(pr_config_opts(&c, x.block));
+	}
+	assert_true(i >= 7);
+	/* a schema without experiments: the modules' keys alone, and no name */
+	pr_config_init(&c, NULL);
+	assert_int_equal(pr_config_set(&c, "reps.epsilon=0.3", err), PR_OK);
+	assert_int_equal(pr_config_set(&c, "exp3.window=10", err), PR_EINVAL);
+	assert_int_equal(pr_config_set(&c, "experiment.name=exp3", err), PR_EINVAL);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_seeded_learner_continues_the_same),
+		cmocka_unit_test(test_initial_policy),
+		cmocka_unit_test(test_registry_schema),
+	};
+
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}
