@@ -79,3 +79,89 @@ def test_exp3_handcrafted_variants(tmp_path, sets):
     if "ccmaes" in sets[0]:
         assert all(float(r["eta"]) == 0 and int(r["features"]) == 6 for r in reps)
         assert [float(r["q_ess"]) for r in reps[:2]] == [40.0, 10.0]
+
+
+TINY_EXP3 = ["exp3.iterations=5", "exp3.init_samples=60", "exp3.window=60", "exp3.samples=10",
+             "policy.n_min=20", "exp3.baseline_n_min=100", "exp3.final_episodes=30",
+             "experiment.repetitions=2"]
+
+
+def episodes_by_run(path):
+    """{(policy, repetition): [(iteration, vx, vy), ...]} of exp3_episodes.csv."""
+    out = {}
+    for r in csv_rows(path)[1]:
+        out.setdefault((r["policy"], r["repetition"]), []).append((r["iteration"], r["vx"], r["vy"]))
+    return out
+
+
+@pytest.mark.slow
+def test_exp3_old_centre_every_variant(tmp_path):
+    """policy.cov_center = old reaches every Experiment 3 variant (the tree-LWR
+    fits centre eq. 6.8 on the recorded sampling means): each variant shares
+    the default's initial episodes and then draws other actions; the output
+    does not depend on the thread count."""
+    run_experiment("exp3.ini", tmp_path / "new", TINY_EXP3)
+    for t in ("1", "2"):
+        run_experiment("exp3.ini", tmp_path / f"old{t}",
+                       TINY_EXP3 + ["policy.cov_center=old", f"experiment.threads={t}"])
+    for f in ("exp3_episodes.csv", "exp3_reps.csv"):
+        assert (tmp_path / "old1" / f).read_bytes() == (tmp_path / "old2" / f).read_bytes()
+    new, old = episodes_by_run(tmp_path / "new" / "exp3_episodes.csv"), \
+        episodes_by_run(tmp_path / "old1" / "exp3_episodes.csv")
+    assert len(old) == 12
+    for run, eps in old.items():
+        assert [e for e in eps if e[0] == "0"] == [e for e in new[run] if e[0] == "0"]
+        assert [e for e in eps if e[0] != "0"] != [e for e in new[run] if e[0] != "0"], run
+
+
+def table_cells(text):
+    """The rows of a markdown table in text (header and rule left out) as lists of cells."""
+    rows = [line.strip("|").split(" | ") for line in text.splitlines() if line.startswith("| ")]
+    return [[c.strip() for c in r] for r in rows[1:]]
+
+
+@pytest.mark.slow
+def test_exp3_explore_table(tmp_path):
+    """scripts/exp3_explore.sh runs the arms and scripts/exp3_table.py --compare
+    gives, per arm and policy, the paired difference of the per-repetition
+    means (mean ± sd / sqrt(n)) and the pocket counts that poolreps's own
+    exp3_final.csv implies; the ccmaes arm lists only the hand-crafted
+    variant; the table replaces the marked block of a document; an arm with
+    another seed is refused."""
+    doc = tmp_path / "doc.md"
+    doc.write_text("before\n<!-- explore-2:begin -->\nold table\n<!-- explore-2:end -->\nafter\n")
+    sets = [x for s in TINY_EXP3[:-1] for x in ("--set", s)]
+    env = dict(os.environ, LC_ALL="C", POOLREPS=os.environ.get("POOLREPS", str(ROOT / "poolreps")),
+               PYTHON=os.environ.get("PYTHON") or sys.executable)
+    out = tmp_path / "arms"
+    p = subprocess.run(["sh", str(ROOT / "scripts" / "exp3_explore.sh"), str(out), "2", str(doc)] + sets,
+                       capture_output=True, text=True, env=env, timeout=600)
+    assert p.returncode == 0, p.stderr
+    table = (out / "compare.md").read_text()
+    assert doc.read_text() == ("before\n<!-- explore-2:begin -->\n" + table +
+                               "<!-- explore-2:end -->\nafter\n")
+
+    def final(arm):
+        return {(r["policy"], r["repetition"]): r for r in csv_rows(out / arm / "exp3_final.csv")[1]}
+
+    base = final("default")
+    rows = table_cells(table)
+    arms = {"policy.cov_center = old": "cov_center_old", "exp3.handcrafted_method = ccmaes": "ccmaes",
+            "policy.cov = residual": "cov_residual"}
+    assert [r[1] for r in rows if r[0] == "exp3.handcrafted_method = ccmaes"] == ["handcrafted"]
+    assert "exp3.handcrafted_method = ccmaes: nrvr_rs, rvr_rs, nrvr_a, rvr_a, baseline" in table
+    assert len([r for r in rows if r[0] == "policy.cov_center = old"]) == 6
+    for label, pol, means, diff, target, other, _speed, _vs in rows:
+        fin = final(arms[label])
+        d = [float(fin[(pol, k)]["mean_return"]) - float(base[(pol, k)]["mean_return"]) for k in "01"]
+        m, se = diff.split(" ± ")
+        assert abs(float(m) - sum(d) / 2) <= 5e-4, (label, pol)
+        assert abs(float(se) - abs(d[0] - d[1]) / 2) <= 5e-4, (label, pol)
+        assert target == f"{base[(pol, '-1')]['pocketed_target']} → {fin[(pol, '-1')]['pocketed_target']}"
+        assert other == f"{base[(pol, '-1')]['pocketed_other']} → {fin[(pol, '-1')]['pocketed_other']}"
+        assert means == f"{float(base[(pol, '-1')]['mean_return']):.3f} → " \
+                        f"{float(fin[(pol, '-1')]['mean_return']):.3f}"
+    run_experiment("exp3.ini", tmp_path / "seed2", TINY_EXP3 + ["experiment.seed=2"])
+    p = subprocess.run([env["PYTHON"], str(ROOT / "scripts" / "exp3_table.py"), "--compare",
+                        str(out / "default"), str(tmp_path / "seed2")], capture_output=True, text=True)
+    assert p.returncode != 0 and p.stderr.count("\n") == 1 and "seed 2" in p.stderr
