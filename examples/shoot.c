@@ -30,10 +30,10 @@ int main(int argc, char **argv)
 	gsl_set_error_handler_off(); /* the library checks every GSL status itself */
 
 	/* defaults first (every option struct has an _init), then what differs */
-	pr_table_init(&table);
+	pr_sim_table_init(&table);
 	pr_sim_opts_init(&opts);
-	pr_reward_opts_init(&reward);
-	pr_start_opts_init(&start);
+	pr_sim_reward_opts_init(&reward);
+	pr_sim_start_opts_init(&start);
 	start.reward_box[0] = 0.05, start.reward_box[1] = 0.15;
 	start.reward_box[2] = -0.1, start.reward_box[3] = 0.1;
 

@@ -22,7 +22,7 @@ mkdir -p "$OUT/data"
 make -s lib
 BIN=$OUT/bench_forest
 $CC -std=c11 -O2 -D_POSIX_C_SOURCE=200809L -Iinclude tests/bench/bench_forest.c \
-	build/rel/libpoolreps.a $(pkg-config --libs gsl nlopt) -lglpk -lcsv -linih -lpthread -lm -o "$BIN"
+	build/rel/libpoolreps.a $(pkg-config --libs gsl) -lglpk -lcsv -linih -lpthread -lm -o "$BIN"
 
 if ! "$VENV/bin/python" -c 'import sklearn, numpy' 2>/dev/null; then
 	echo "bench_forest: installing scikit-learn and numpy into $VENV" >&2

@@ -10,7 +10,7 @@ LIB=${LIB:-build/rel/libpoolreps.a}
 BIN=build/rel/bench_sim
 mkdir -p build/rel
 $CC -std=c11 -O2 -Wall -Wextra -D_POSIX_C_SOURCE=200809L -Iinclude tests/bench/bench_sim.c "$LIB" \
-	$(pkg-config --cflags --libs gsl nlopt) -lglpk -lcsv -linih -lpthread -lm -o "$BIN"
+	$(pkg-config --cflags --libs gsl) -lglpk -lcsv -linih -lpthread -lm -o "$BIN"
 
 field() { printf '%s\n' "$1" | tr ' ' '\n' | sed -n "s/^$2=//p"; }
 

@@ -16,10 +16,8 @@ has_header() { [ $cc_ok = 0 ] || printf '#include <%s>\n' "$1" | $CC -E -x c - >
 command -v pkg-config >/dev/null 2>&1 || need pkg-config
 if command -v pkg-config >/dev/null 2>&1; then
 	pkg-config --exists gsl || need libgsl-dev
-	pkg-config --exists nlopt || need libnlopt-dev
 else
 	has_header gsl/gsl_rng.h || need libgsl-dev
-	has_header nlopt.h || need libnlopt-dev
 fi
 has_header csv.h || need libcsv-dev
 has_header ini.h || need libinih-dev

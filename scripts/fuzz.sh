@@ -36,8 +36,8 @@ mkdir -p "$obj" || exit 1
 warn="-std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes"
 defs="-D_POSIX_C_SOURCE=200809L"
 san="-g -O1 -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all"
-cflags="$warn $defs -Iinclude -Isrc $(pkg-config --cflags gsl nlopt) $san"
-libs="$(pkg-config --libs gsl nlopt) -lglpk -lcsv -linih -lm -lpthread"
+cflags="$warn $defs -Iinclude -Isrc $(pkg-config --cflags gsl) $san"
+libs="$(pkg-config --libs gsl) -lglpk -lcsv -linih -lm -lpthread"
 
 # The library, instrumented for coverage but without libFuzzer's main.
 # An object is rebuilt when its source or any header is newer.

@@ -6,7 +6,7 @@
 # As root it runs apt-get; otherwise it prints the exact command and stops
 # if anything is missing.
 set -e
-PKGS="build-essential pkg-config git libgsl-dev libnlopt-dev libglpk-dev libcsv-dev libinih-dev \
+PKGS="build-essential pkg-config git libgsl-dev libglpk-dev libcsv-dev libinih-dev \
 libcmocka-dev python3 python3-numpy python3-scipy python3-matplotlib python3-pytest"
 # tests that need these skip without them
 EXTRAS="python3-venv python3-wheel parallel valgrind clang libclang-rt-14-dev \

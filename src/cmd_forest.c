@@ -1,4 +1,4 @@
-/* cmd_forest.c — `poolreps forest` (SPEC.md §6): fit extra trees on one CSV,
+/* cmd_forest.c — `poolreps forest`: fit extra trees on one CSV,
  * predict another.
  *
  * Inputs are every training column except the targets (--target, a comma
@@ -8,7 +8,8 @@
  * row per test row; --leaves FILE: columns tree0..tree{M-1}, each test row's
  * active leaf, numbered within its tree. Options come from cfg->forest and
  * the seed from cfg->run.seed. Every check runs before anything is written;
- * on an error no output file is left.
+ * on an error no output file is left. The timings and the test MSE go into
+ * a->note, which the CLI prints after a success.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -19,6 +20,8 @@
 #include "poolreps/cmd.h"
 #include "poolreps/csvio.h"
 #include "poolreps/forest.h"
+#include "cmd_util.h"
+#include "csvio_priv.h"
 
 static double seconds(void)
 {
@@ -31,7 +34,7 @@ static double seconds(void)
 static int write_pred(pr_csvw *w, const pr_csv *tr, const int *tc, int dy, const double *P,
                       long nt)
 {
-	char name[300];
+	char name[PR_CSV_MAX_FIELD + sizeof "pred_"];
 	int rc = 0;
 
 	for (int k = 0; k < dy && !rc; k++) {
@@ -74,146 +77,140 @@ static int write_leaves(pr_csvw *w, const pr_forest *f, const double *Xt, int dx
 	return rc;
 }
 
+/* The training and test tables and the columns they play. */
+typedef struct {
+	pr_csv *tr, *te;
+	int *tc, dy;        /* training targets */
+	int *xc, dx;        /* training inputs: every other column but the weight */
+	int wc;             /* training weight column, or -1 */
+	int *xt, *yt;       /* the inputs and targets in the test table (yt: -1 if absent) */
+	int have_y;         /* the test table holds every target */
+} tables;
+
+static void tables_free(tables *t)
+{
+	pr_csv_free(t->tr);
+	pr_csv_free(t->te);
+	free(t->tc);
+	free(t->xc);
+	free(t->xt);
+	free(t->yt);
+}
+
+/* Read both tables and find the columns: every check before any fit. */
+static int read_tables(const pr_config *cfg, const pr_cmd_args *a, tables *t, char *err)
+{
+	int ncol, rc;
+	long n;
+
+	if ((rc = pr_csv_read(a->train, &t->tr, err)) || (rc = pr_csv_read(a->test, &t->te, err)) ||
+	    (rc = pr_cmd_check_rows(t->tr, err)))
+		return rc;
+	n = pr_csv_nrows(t->tr);
+	ncol = pr_csv_ncols(t->tr);
+	if (n < cfg->forest.n_c)
+		return pr_err(err, PR_EINVAL, "%s: %ld rows, fewer than forest.n_c = %d",
+		              pr_csv_path(t->tr), n, cfg->forest.n_c);
+	if ((long long)n * cfg->forest.trees >= 2147483647LL)
+		return pr_err(err, PR_EINVAL, "%s: %ld rows x forest.trees = %d is too large",
+		              pr_csv_path(t->tr), n, cfg->forest.trees);
+	if ((t->dy = pr_cmd_columns(t->tr, a->target, &t->tc, err)) < 0)
+		return t->dy;
+	for (int k = 0; k < t->dy; k++)
+		for (int q = 0; q < k; q++)
+			if (t->tc[q] == t->tc[k])
+				return pr_err(err, PR_EINVAL, "%s: target column '%s' given twice",
+				              pr_csv_path(t->tr), pr_csv_name(t->tr, t->tc[k]));
+	t->wc = -1;
+	if (a->weight && (t->wc = pr_cmd_column(t->tr, a->weight, "--weight", err)) < 0)
+		return t->wc;
+	for (int k = 0; k < t->dy; k++)
+		if (t->tc[k] == t->wc)
+			return pr_err(err, PR_EINVAL, "%s: column '%s' is both a target and the weight",
+			              pr_csv_path(t->tr), a->weight);
+	t->xc = malloc((size_t)ncol * sizeof *t->xc);
+	t->xt = malloc((size_t)ncol * sizeof *t->xt);
+	t->yt = malloc((size_t)ncol * sizeof *t->yt);
+	if (!t->xc || !t->xt || !t->yt)
+		return pr_err(err, PR_ENOMEM, "forest: out of memory");
+	for (int j = 0; j < ncol; j++) {
+		int used = j == t->wc;
+		for (int k = 0; k < t->dy; k++)
+			used |= t->tc[k] == j;
+		if (!used)
+			t->xc[t->dx++] = j;
+	}
+	if (t->dx == 0)
+		return pr_err(err, PR_EINVAL, "%s: no input columns besides the targets and weight",
+		              pr_csv_path(t->tr));
+	for (int j = 0; j < t->dx; j++) {
+		t->xt[j] = pr_csv_find(t->te, pr_csv_name(t->tr, t->xc[j]));
+		if (t->xt[j] < 0)
+			return pr_err(err, PR_EIO, "%s:1: missing input column '%s'", pr_csv_path(t->te),
+			              pr_csv_name(t->tr, t->xc[j]));
+	}
+	t->have_y = 1;
+	for (int k = 0; k < t->dy; k++) {
+		t->yt[k] = pr_csv_find(t->te, pr_csv_name(t->tr, t->tc[k]));
+		t->have_y &= t->yt[k] >= 0;
+	}
+	return PR_OK;
+}
+
+/* The forest's timings and, when the test table holds the targets, the
+ * test MSE, as the command's note. */
+static void note_fit(const pr_cmd_args *a, const tables *t, const pr_forest *f, const double *P,
+                     double tfit, double tpred)
+{
+	long nt = pr_csv_nrows(t->te);
+	int len = snprintf(a->note, PR_ERRLEN, "forest: %d trees, %d leaves, fit %.3f s, predict %.3f s",
+	                   pr_forest_ntrees(f), pr_forest_nleaves(f), tfit, tpred);
+	double sse = 0;
+
+	if (!t->have_y || nt == 0 || len <= 0 || len >= PR_ERRLEN)
+		return;
+	for (long i = 0; i < nt; i++)
+		for (int k = 0; k < t->dy; k++) {
+			double e = P[(size_t)i * t->dy + k] - pr_csv_get(t->te, i, t->yt[k]);
+			sse += e * e;
+		}
+	snprintf(a->note + len, (size_t)(PR_ERRLEN - len), ", test MSE %.6g", sse / ((double)nt * t->dy));
+}
+
 int pr_cmd_forest(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
-	pr_csv *tr = NULL, *te = NULL;
+	tables t = { 0 };
 	pr_forest *f = NULL;
 	pr_outset *set = NULL;
 	pr_csvw *pw = NULL, *lw = NULL;
 	gsl_rng *rng = NULL;
 	double *X = NULL, *Y = NULL, *W = NULL, *Xt = NULL, *P = NULL;
-	int *tc = NULL, *xc = NULL, *xt = NULL, *yt = NULL, *act = NULL;
-	int ncol, dy, dx = 0, wc = -1, have_y = 1, rc;
+	int *act = NULL, rc;
 	long n, nt;
 	double t0, tfit, tpred;
 
 	if (!a->train || !a->test || !a->target)
 		return pr_err(err, PR_EINVAL, "forest: --train, --test and --target are required");
-	if ((rc = pr_forest_opts_check(&cfg->forest, "forest", err)))
-		return rc;
-	if ((rc = pr_csv_read(a->train, &tr, err)) || (rc = pr_csv_read(a->test, &te, err)))
+	if ((rc = pr_forest_opts_check(&cfg->forest, "forest", err)) || (rc = read_tables(cfg, a, &t, err)))
 		goto done;
-	n = pr_csv_nrows(tr);
-	nt = pr_csv_nrows(te);
-	ncol = pr_csv_ncols(tr);
-	if (n < 1 || n > 100000000) {
-		rc = pr_err(err, PR_EIO, "%s: no data rows", pr_csv_path(tr));
+	n = pr_csv_nrows(t.tr);
+	nt = pr_csv_nrows(t.te);
+	if (!(X = pr_cmd_matrix(t.tr, t.xc, t.dx, err)) || !(Y = pr_cmd_matrix(t.tr, t.tc, t.dy, err)) ||
+	    !(Xt = pr_cmd_matrix(t.te, t.xt, t.dx, err))) {
+		rc = PR_ENOMEM;
 		goto done;
 	}
-	if (n < cfg->forest.n_c) {
-		rc = pr_err(err, PR_EINVAL, "%s: %ld rows, fewer than forest.n_c = %d",
-		            pr_csv_path(tr), n, cfg->forest.n_c);
+	if (t.wc >= 0 && (rc = pr_cmd_weights(t.tr, t.wc, a->weight, "weight", &W, err)))
 		goto done;
-	}
-	if ((long long)n * cfg->forest.trees >= 2147483647LL) {
-		rc = pr_err(err, PR_EINVAL, "%s: %ld rows x forest.trees = %d is too large",
-		            pr_csv_path(tr), n, cfg->forest.trees);
-		goto done;
-	}
-	tc = malloc((size_t)ncol * sizeof *tc);
-	xc = malloc((size_t)ncol * sizeof *xc);
-	xt = malloc((size_t)ncol * sizeof *xt);
-	yt = malloc((size_t)ncol * sizeof *yt);
-	if (!tc || !xc || !xt || !yt) {
-		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
-		goto done;
-	}
-	dy = pr_csv_select(tr, a->target, tc, ncol, err);
-	if (dy < 0) {
-		rc = PR_EIO;
-		goto done;
-	}
-	for (int k = 0; k < dy; k++)
-		for (int q = 0; q < k; q++)
-			if (tc[q] == tc[k]) {
-				rc = pr_err(err, PR_EINVAL, "%s: target column '%s' given twice",
-				            pr_csv_path(tr), pr_csv_name(tr, tc[k]));
-				goto done;
-			}
-	if (a->weight) {
-		wc = pr_csv_find(tr, a->weight);
-		if (wc < 0) {
-			rc = pr_err(err, PR_EIO, "%s:1: no column '%s' (--weight)", pr_csv_path(tr),
-			            a->weight);
-			goto done;
-		}
-		for (int k = 0; k < dy; k++)
-			if (tc[k] == wc) {
-				rc = pr_err(err, PR_EINVAL, "%s: column '%s' is both a target and the weight",
-				            pr_csv_path(tr), a->weight);
-				goto done;
-			}
-	}
-	for (int j = 0; j < ncol; j++) {
-		int used = j == wc;
-		for (int k = 0; k < dy; k++)
-			used |= tc[k] == j;
-		if (!used)
-			xc[dx++] = j;
-	}
-	if (dx == 0) {
-		rc = pr_err(err, PR_EINVAL, "%s: no input columns besides the targets and weight",
-		            pr_csv_path(tr));
-		goto done;
-	}
-	for (int j = 0; j < dx; j++) {
-		xt[j] = pr_csv_find(te, pr_csv_name(tr, xc[j]));
-		if (xt[j] < 0) {
-			rc = pr_err(err, PR_EIO, "%s:1: missing input column '%s'", pr_csv_path(te),
-			            pr_csv_name(tr, xc[j]));
-			goto done;
-		}
-	}
-	for (int k = 0; k < dy; k++) {
-		yt[k] = pr_csv_find(te, pr_csv_name(tr, tc[k]));
-		have_y &= yt[k] >= 0;
-	}
-	X = malloc((size_t)n * dx * sizeof *X);
-	Y = malloc((size_t)n * dy * sizeof *Y);
-	W = wc >= 0 ? malloc((size_t)n * sizeof *W) : NULL;
-	Xt = malloc(((size_t)nt + 1) * dx * sizeof *Xt);
-	P = malloc(((size_t)nt + 1) * dy * sizeof *P);
+	P = malloc(((size_t)nt + 1) * t.dy * sizeof *P);
 	act = malloc((size_t)cfg->forest.trees * sizeof *act);
-	if (!X || !Y || (wc >= 0 && !W) || !Xt || !P || !act) {
-		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
-		goto done;
-	}
-	for (long i = 0; i < n; i++) {
-		const double *row = pr_csv_row(tr, i);
-		for (int j = 0; j < dx; j++)
-			X[(size_t)i * dx + j] = row[xc[j]];
-		for (int k = 0; k < dy; k++)
-			Y[(size_t)i * dy + k] = row[tc[k]];
-		if (W) {
-			W[i] = row[wc];
-			if (!(W[i] >= 0)) {
-				rc = pr_err(err, PR_EINVAL, "%s:%ld: column '%s': weight must be >= 0 (got %g)",
-				            pr_csv_path(tr), pr_csv_line(tr, i), a->weight, W[i]);
-				goto done;
-			}
-		}
-	}
-	if (W) {
-		double s = 0;
-		for (long i = 0; i < n; i++)
-			s += W[i];
-		if (!(s > 0)) {
-			rc = pr_err(err, PR_EINVAL, "%s: column '%s': weights are all zero",
-			            pr_csv_path(tr), a->weight);
-			goto done;
-		}
-	}
-	for (long i = 0; i < nt; i++)
-		for (int j = 0; j < dx; j++)
-			Xt[(size_t)i * dx + j] = pr_csv_get(te, i, xt[j]);
-	rng = gsl_rng_alloc(gsl_rng_mt19937);
-	if (!rng) {
+	if (!P || !act || !(rng = gsl_rng_alloc(gsl_rng_mt19937))) {
 		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
 		goto done;
 	}
 	gsl_rng_set(rng, cfg->run.seed);
 	t0 = seconds();
-	f = pr_forest_fit(&cfg->forest, X, (int)n, dx, Y, dy, W, rng, err);
+	f = pr_forest_fit(&cfg->forest, X, (int)n, t.dx, Y, t.dy, W, rng, err);
 	tfit = seconds() - t0;
 	if (!f) {
 		/* the options and data were checked above: what is left is memory
@@ -233,34 +230,18 @@ int pr_cmd_forest(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	if ((rc = pr_outset_add(set, a->output, &pw, err)) ||
 	    (a->leaves && (rc = pr_outset_add(set, a->leaves, &lw, err))))
 		goto done;
-	write_pred(pw, tr, tc, dy, P, nt);
-	if (lw && write_leaves(lw, f, Xt, dx, nt, act) == PR_EINVAL) {
-		rc = pr_err(err, PR_ENUM, "%s: a test row reaches no leaf of some tree", pr_csv_path(te));
+	write_pred(pw, t.tr, t.tc, t.dy, P, nt);
+	if (lw && write_leaves(lw, f, Xt, t.dx, nt, act) == PR_EINVAL) {
+		rc = pr_err(err, PR_ENUM, "%s: a test row reaches no leaf of some tree", pr_csv_path(t.te));
 		goto done;
 	}
-	if (!a->quiet) {
-		int len = snprintf(a->note, PR_ERRLEN, "forest: %d trees, %d leaves, fit %.3f s, predict %.3f s",
-		                   pr_forest_ntrees(f), pr_forest_nleaves(f), tfit, tpred);
-		if (have_y && nt > 0 && len > 0 && len < PR_ERRLEN) {
-			double sse = 0;
-			for (long i = 0; i < nt; i++)
-				for (int k = 0; k < dy; k++) {
-					double e = P[(size_t)i * dy + k] - pr_csv_get(te, i, yt[k]);
-					sse += e * e;
-				}
-			snprintf(a->note + len, (size_t)(PR_ERRLEN - len), ", test MSE %.6g", sse / ((double)nt * dy));
-		}
-	}
+	if (!a->quiet)
+		note_fit(a, &t, f, P, tfit, tpred);
 done:
 	rc = pr_outset_commit(set, rc, err);
 	pr_forest_free(f);
 	gsl_rng_free(rng);
-	pr_csv_free(tr);
-	pr_csv_free(te);
-	free(tc);
-	free(xc);
-	free(xt);
-	free(yt);
+	tables_free(&t);
 	free(X);
 	free(Y);
 	free(W);

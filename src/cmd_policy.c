@@ -25,25 +25,13 @@
 #include "poolreps/cmd.h"
 #include "poolreps/csvio.h"
 #include "poolreps/policy.h"
-
-/* Copy the selected columns of every row into X (n x k). */
-static void gather(const pr_csv *t, const int *cols, int k, double *X)
-{
-	long i, n = pr_csv_nrows(t);
-	int j;
-
-	for (i = 0; i < n; i++) {
-		const double *row = pr_csv_row(t, i);
-
-		for (j = 0; j < k; j++)
-			X[(size_t)i * k + j] = row[cols[j]];
-	}
-}
+#include "cmd_util.h"
+#include "csvio_priv.h"
 
 static int write_header(pr_csvw *w, const pr_csv *tr, const int *sc, int ds, const int *ac,
                         int da, int sampling)
 {
-	char name[300];
+	char name[PR_CSV_MAX_FIELD + sizeof "mean_"];
 	int j, l, rc = 0;
 
 	for (j = 0; j < ds && !rc; j++)
@@ -91,22 +79,125 @@ static int write_row(pr_csvw *w, const double *s, int ds, long sample, const dou
 	return rc ? rc : pr_csvw_endrow(w);
 }
 
+/* The training samples and query states with their columns and arrays. */
+typedef struct {
+	pr_csv *tr, *in;
+	int *sc, *ac, *yc, *mc, *qc; /* states, actions, targets, sampling means in tr; states in in */
+	int ds, da, dy;
+	double *S, *A, *Y, *Mo, *wt, *Q;
+} samples;
+
+static void samples_free(samples *m)
+{
+	pr_csv_free(m->tr);
+	pr_csv_free(m->in);
+	free(m->sc);
+	free(m->ac);
+	free(m->yc);
+	free(m->mc);
+	free(m->qc);
+	free(m->S);
+	free(m->A);
+	free(m->Y);
+	free(m->Mo);
+	free(m->wt);
+	free(m->Q);
+}
+
+/* Read the training samples and the query states: every check before the fit. */
+static int read_samples(const pr_cmd_args *a, int reward, int old, samples *m, char *err)
+{
+	int wcol = -1, dm = 0, j, rc;
+
+	if ((rc = pr_csv_read(a->train, &m->tr, err)) || (rc = pr_csv_read(a->input, &m->in, err)))
+		return rc;
+	if ((m->ds = pr_cmd_columns(m->tr, a->state, &m->sc, err)) < 0)
+		return m->ds;
+	if ((m->da = pr_cmd_columns(m->tr, a->action, &m->ac, err)) < 0)
+		return m->da;
+	if (reward && (m->dy = pr_cmd_columns(m->tr, a->target, &m->yc, err)) < 0)
+		return m->dy;
+	if (old && (dm = pr_cmd_columns(m->tr, a->old_mean, &m->mc, err)) < 0)
+		return dm;
+	if (old && dm != m->da)
+		return pr_err(err, PR_EINVAL, "%s: --old-mean selects %d columns, --action %d",
+		              pr_csv_path(m->tr), dm, m->da);
+	if (a->weight && (wcol = pr_cmd_column(m->tr, a->weight, "--weight", err)) < 0)
+		return wcol;
+	if ((rc = pr_cmd_check_rows(m->tr, err)))
+		return rc;
+	if (!(m->qc = malloc((size_t)m->ds * sizeof *m->qc)))
+		return pr_err(err, PR_ENOMEM, "policy: out of memory");
+	for (j = 0; j < m->ds; j++) {
+		m->qc[j] = pr_csv_find(m->in, pr_csv_name(m->tr, m->sc[j]));
+		if (m->qc[j] < 0)
+			return pr_err(err, PR_EIO, "%s:1: missing state column '%s'", pr_csv_path(m->in),
+			              pr_csv_name(m->tr, m->sc[j]));
+	}
+	if (!(m->S = pr_cmd_matrix(m->tr, m->sc, m->ds, err)) ||
+	    !(m->A = pr_cmd_matrix(m->tr, m->ac, m->da, err)) ||
+	    (reward && !(m->Y = pr_cmd_matrix(m->tr, m->yc, m->dy, err))) ||
+	    (old && !(m->Mo = pr_cmd_matrix(m->tr, m->mc, m->da, err))) ||
+	    !(m->Q = pr_cmd_matrix(m->in, m->qc, m->ds, err)))
+		return PR_ENOMEM;
+	return pr_cmd_weights(m->tr, wcol, a->weight, "weight", &m->wt, err);
+}
+
+/* Fit the policy and query it at every state of m->in: means, covariances,
+ * status and, with --sample N, N draws each. */
+static int fit_and_query(const pr_config *cfg, const samples *m, long ns, double *mean, double *cov,
+                         int *status, double *draws, char *err)
+{
+	pr_policy_data d = { 0 };
+	pr_policy *p = NULL;
+	pr_policy_work *ws = NULL;
+	gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
+	long i, nq = pr_csv_nrows(m->in);
+	int rc = PR_OK;
+
+	if (!rng)
+		return pr_err(err, PR_ENOMEM, "policy: out of memory");
+	gsl_rng_set(rng, cfg->run.seed);
+	d.n = (int)pr_csv_nrows(m->tr);
+	d.ds = m->ds;
+	d.da = m->da;
+	d.dy = m->dy;
+	d.S = m->S;
+	d.A = m->A;
+	d.Y = m->Y;
+	d.w = m->wt;
+	d.M = m->Mo;
+	/* the options and data were checked: a failed fit is memory (main
+	 * turns it into exit 4) or a numerical failure */
+	if (!(p = pr_policy_tree_fit(&cfg->policy, &d, rng, err)))
+		rc = PR_ENUM;
+	else if (!(ws = pr_policy_work_new(p, err)))
+		rc = PR_ENOMEM;
+	for (i = 0; rc == PR_OK && i < nq; i++) {
+		const int da = m->da;
+		rc = pr_policy_eval(p, m->Q + (size_t)i * m->ds, mean + (size_t)i * da,
+		                    cov + (size_t)i * da * da, status + i, ws, err);
+		if (!rc && ns)
+			rc = pr_policy_gauss_sample(da, mean + (size_t)i * da, cov + (size_t)i * da * da,
+			                            (int)ns, rng, draws + (size_t)i * ns * da, err);
+	}
+	pr_policy_work_free(ws);
+	pr_policy_free(p);
+	gsl_rng_free(rng);
+	return rc;
+}
+
 int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	const int reward = cfg->policy.target == PR_TARGET_REWARD_STATE;
 	const int old = cfg->policy.cov_center == PR_COV_CENTER_OLD;
-	pr_csv *tr = NULL, *in = NULL;
+	samples m = { 0 };
 	pr_outset *set = NULL;
 	pr_csvw *w = NULL;
-	pr_policy *p = NULL;
-	pr_policy_work *ws = NULL;
-	pr_policy_data d = { 0 };
-	gsl_rng *rng = NULL;
-	double *S = NULL, *A = NULL, *Y = NULL, *Mo = NULL, *wt = NULL, *Q = NULL, *mean = NULL;
-	double *cov = NULL, *draws = NULL, sw = 0.0;
-	int *sc = NULL, *ac = NULL, *yc = NULL, *mc = NULL, *qc = NULL, *status = NULL;
-	int ds, da, dy = 0, dm = 0, wcol = -1, nc, j, rc;
-	long i, n, nq, k, ns = a->sample > 0 ? a->sample : 0;
+	double *mean = NULL, *cov = NULL, *draws = NULL;
+	int *status = NULL, rc;
+	long i, nq, k, ns = a->sample > 0 ? a->sample : 0;
+	size_t nq1;
 
 	if (!a->train || !a->state || !a->action)
 		return pr_err(err, PR_EINVAL, "policy: --train FILE, --state COLS and --action COLS are required");
@@ -120,157 +211,36 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		              "(the means of the policies that drew the training rows)");
 	if (!old && a->old_mean)
 		return pr_err(err, PR_EINVAL, "policy: --old-mean applies only with policy.cov_center = old");
-	if ((rc = pr_policy_opts_check(&cfg->policy, err)))
-		return rc;
-	if ((rc = pr_csv_read(a->train, &tr, err)))
-		return rc;
-	if ((rc = pr_csv_read(a->input, &in, err)))
+	if ((rc = pr_policy_opts_check(&cfg->policy, err)) ||
+	    (rc = read_samples(a, reward, old, &m, err)))
 		goto done;
-	nc = pr_csv_ncols(tr);
-	n = pr_csv_nrows(tr);
-	nq = pr_csv_nrows(in);
-	sc = malloc((size_t)nc * sizeof *sc);
-	ac = malloc((size_t)nc * sizeof *ac);
-	yc = malloc((size_t)nc * sizeof *yc);
-	mc = malloc((size_t)nc * sizeof *mc);
-	if (!sc || !ac || !yc || !mc) {
+	nq = pr_csv_nrows(m.in);
+	nq1 = (size_t)(nq > 0 ? nq : 1);
+	mean = malloc(nq1 * m.da * sizeof *mean);
+	cov = malloc(nq1 * m.da * m.da * sizeof *cov);
+	status = malloc(nq1 * sizeof *status);
+	draws = ns ? malloc(nq1 * ns * m.da * sizeof *draws) : NULL;
+	if (!mean || !cov || !status || (ns && !draws)) {
 		rc = pr_err(err, PR_ENOMEM, "policy: out of memory");
 		goto done;
 	}
-	if ((ds = pr_csv_select(tr, a->state, sc, nc, err)) < 0 ||
-	    (da = pr_csv_select(tr, a->action, ac, nc, err)) < 0 ||
-	    (reward && (dy = pr_csv_select(tr, a->target, yc, nc, err)) < 0) ||
-	    (old && (dm = pr_csv_select(tr, a->old_mean, mc, nc, err)) < 0)) {
-		rc = PR_EIO;
+	if ((rc = fit_and_query(cfg, &m, ns, mean, cov, status, draws, err)))
 		goto done;
-	}
-	if (old && dm != da) {
-		rc = pr_err(err, PR_EINVAL, "%s: --old-mean selects %d columns, --action %d",
-		            pr_csv_path(tr), dm, da);
-		goto done;
-	}
-	if (a->weight && (wcol = pr_csv_find(tr, a->weight)) < 0) {
-		rc = pr_err(err, PR_EIO, "%s:1: missing column '%s' (--weight)", pr_csv_path(tr), a->weight);
-		goto done;
-	}
-	if (n < 1 || n > 100000000) {
-		rc = pr_err(err, PR_EIO, "%s: no data rows", pr_csv_path(tr));
-		goto done;
-	}
-	qc = malloc((size_t)ds * sizeof *qc);
-	if (!qc) {
-		rc = pr_err(err, PR_ENOMEM, "policy: out of memory");
-		goto done;
-	}
-	for (j = 0; j < ds; j++) {
-		qc[j] = pr_csv_find(in, pr_csv_name(tr, sc[j]));
-		if (qc[j] < 0) {
-			rc = pr_err(err, PR_EIO, "%s:1: missing state column '%s'", pr_csv_path(in),
-			            pr_csv_name(tr, sc[j]));
-			goto done;
-		}
-	}
-	S = malloc((size_t)n * ds * sizeof *S);
-	A = malloc((size_t)n * da * sizeof *A);
-	Y = reward ? malloc((size_t)n * dy * sizeof *Y) : NULL;
-	Mo = old ? malloc((size_t)n * da * sizeof *Mo) : NULL;
-	wt = malloc((size_t)n * sizeof *wt);
-	Q = malloc((size_t)(nq > 0 ? nq : 1) * ds * sizeof *Q);
-	mean = malloc((size_t)(nq > 0 ? nq : 1) * da * sizeof *mean);
-	cov = malloc((size_t)(nq > 0 ? nq : 1) * da * da * sizeof *cov);
-	status = malloc((size_t)(nq > 0 ? nq : 1) * sizeof *status);
-	draws = ns ? malloc((size_t)(nq > 0 ? nq : 1) * ns * da * sizeof *draws) : NULL;
-	if (!S || !A || (reward && !Y) || (old && !Mo) || !wt || !Q || !mean || !cov || !status || (ns && !draws)) {
-		rc = pr_err(err, PR_ENOMEM, "policy: out of memory");
-		goto done;
-	}
-	gather(tr, sc, ds, S);
-	gather(tr, ac, da, A);
-	if (reward)
-		gather(tr, yc, dy, Y);
-	if (old)
-		gather(tr, mc, da, Mo);
-	for (i = 0; i < n; i++) {
-		wt[i] = wcol >= 0 ? pr_csv_get(tr, i, wcol) : 1.0;
-		if (wt[i] < 0.0) {
-			rc = pr_err(err, PR_EINVAL, "%s:%ld: column '%s': weight must be >= 0 (got %g)",
-			            pr_csv_path(tr), pr_csv_line(tr, i), a->weight, wt[i]);
-			goto done;
-		}
-		sw += wt[i];
-	}
-	if (!(sw > 0.0)) {
-		rc = pr_err(err, PR_EINVAL, "%s: column '%s': weights are all zero", pr_csv_path(tr),
-		            a->weight);
-		goto done;
-	}
-	gather(in, qc, ds, Q);
-
-	d.n = (int)n;
-	d.ds = ds;
-	d.da = da;
-	d.dy = dy;
-	d.S = S;
-	d.A = A;
-	d.Y = Y;
-	d.w = wt;
-	d.M = Mo;
-	rng = gsl_rng_alloc(gsl_rng_mt19937);
-	if (!rng) {
-		rc = pr_err(err, PR_ENOMEM, "policy: out of memory");
-		goto done;
-	}
-	gsl_rng_set(rng, cfg->run.seed);
-	if (!(p = pr_policy_tree_fit(&cfg->policy, &d, rng, err))) {
-		/* the options and data were checked above: memory (main turns it
-		 * into exit 4) or a numerical failure */
-		rc = PR_ENUM;
-		goto done;
-	}
-	if (!(ws = pr_policy_work_new(p, err))) {
-		rc = PR_ENOMEM;
-		goto done;
-	}
-	for (i = 0; i < nq; i++) {
-		rc = pr_policy_eval(p, Q + (size_t)i * ds, mean + (size_t)i * da,
-		                    cov + (size_t)i * da * da, status + i, ws, err);
-		if (!rc && ns)
-			rc = pr_policy_gauss_sample(da, mean + (size_t)i * da, cov + (size_t)i * da * da,
-			                            (int)ns, rng, draws + (size_t)i * ns * da, err);
-		if (rc)
-			goto done;
-	}
-
 	if (!(set = pr_outset_new(err))) {
 		rc = PR_ENOMEM;
 		goto done;
 	}
 	if ((rc = pr_outset_add(set, a->output, &w, err)))
 		goto done;
-	write_header(w, tr, sc, ds, ac, da, ns > 0);
+	write_header(w, m.tr, m.sc, m.ds, m.ac, m.da, ns > 0);
 	for (i = 0; i < nq && !pr_csvw_status(w); i++)
 		for (k = 0; k < (ns ? ns : 1); k++)
-			write_row(w, Q + (size_t)i * ds, ds, k, ns ? draws + ((size_t)i * ns + k) * da : NULL,
-			          mean + (size_t)i * da, cov + (size_t)i * da * da, da, status[i]);
+			write_row(w, m.Q + (size_t)i * m.ds, m.ds, k,
+			          ns ? draws + ((size_t)i * ns + k) * m.da : NULL, mean + (size_t)i * m.da,
+			          cov + (size_t)i * m.da * m.da, m.da, status[i]);
 done:
 	rc = pr_outset_commit(set, rc, err);
-	pr_policy_work_free(ws);
-	pr_policy_free(p);
-	if (rng)
-		gsl_rng_free(rng);
-	pr_csv_free(tr);
-	pr_csv_free(in);
-	free(sc);
-	free(ac);
-	free(yc);
-	free(mc);
-	free(qc);
-	free(S);
-	free(A);
-	free(Y);
-	free(Mo);
-	free(wt);
-	free(Q);
+	samples_free(&m);
 	free(mean);
 	free(cov);
 	free(status);

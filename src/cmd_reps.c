@@ -10,7 +10,8 @@
  * certified exits 3 with one line naming what failed (e.g. the feature
  * residual). Features that are all 0 or 1 take the solver's one-hot path
  * (reps.h). Every input check runs before anything is written;
- * on an error no file is left.
+ * on an error no file is left. An unreachable KL bound is no error: it is
+ * said in a->note, which the CLI prints after a success.
  */
 #include <math.h>
 #include <stdio.h>
@@ -19,6 +20,7 @@
 #include "poolreps/cmd.h"
 #include "poolreps/csvio.h"
 #include "poolreps/reps.h"
+#include "cmd_util.h"
 
 static int write_weights(pr_csvw *w, const pr_reps_result *r)
 {
@@ -52,6 +54,42 @@ static int write_summary(pr_csvw *w, const pr_reps_result *r)
 	return rc ? rc : pr_csvw_endrow(w);
 }
 
+/* The arrays of a REPS problem read from a table. */
+typedef struct {
+	double *R, *q, *phi;
+	int *fc;            /* feature columns */
+} arrays;
+
+/* The REPS problem of table in: returns, base weights and features. */
+static int read_problem(const pr_cmd_args *a, const pr_csv *in, pr_reps_problem *pb, arrays *m,
+                        char *err)
+{
+	int rcol, bcol = -1, d = 0, j, rc;
+
+	if ((rc = pr_cmd_check_rows(in, err)) || (rcol = pr_cmd_column(in, a->ret, "--return", err)) < 0)
+		return rc ? rc : rcol;
+	if (a->base && (bcol = pr_cmd_column(in, a->base, "--base", err)) < 0)
+		return bcol;
+	if (a->features && (d = pr_cmd_columns(in, a->features, &m->fc, err)) < 0)
+		return d;
+	for (j = 0; j < d; j++)
+		if (m->fc[j] == rcol || m->fc[j] == bcol)
+			return pr_err(err, PR_EINVAL, "%s: column '%s' is both a feature and the %s",
+			              pr_csv_path(in), pr_csv_name(in, m->fc[j]),
+			              m->fc[j] == rcol ? "return" : "base weight");
+	if (!(m->R = pr_cmd_matrix(in, &rcol, 1, err)) ||
+	    (d > 0 && !(m->phi = pr_cmd_matrix(in, m->fc, d, err))))
+		return PR_ENOMEM;
+	if ((rc = pr_cmd_weights(in, bcol, a->base, "base weight", &m->q, err)))
+		return rc;
+	pb->n = (int)pr_csv_nrows(in);
+	pb->d = d;
+	pb->R = m->R;
+	pb->q = m->q;
+	pb->phi = m->phi;
+	return PR_OK;
+}
+
 int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	pr_reps_opts o = cfg->reps;
@@ -60,9 +98,8 @@ int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pr_csv *in = NULL;
 	pr_outset *set = NULL;
 	pr_csvw *w = NULL, *sw = NULL;
-	double *R = NULL, *q = NULL, *phi = NULL, sq = 0.0;
-	int *fc = NULL, rcol, bcol = -1, d = 0, j, rc;
-	long i, n;
+	arrays m = { NULL, NULL, NULL, NULL };
+	int rc;
 
 	if (a->epsilon_set) {
 		o.epsilon = a->epsilon;
@@ -71,73 +108,8 @@ int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	}
 	if (!a->ret)
 		return pr_err(err, PR_EINVAL, "reps: --return COL is required");
-	if ((rc = pr_csv_read(a->input, &in, err)))
-		return rc;
-	n = pr_csv_nrows(in);
-	if (n < 1 || n > 100000000) {
-		rc = pr_err(err, PR_EIO, "%s: no data rows", pr_csv_path(in));
-		goto done;
-	}
-	rcol = pr_csv_find(in, a->ret);
-	if (rcol < 0) {
-		rc = pr_err(err, PR_EIO, "%s:1: missing column '%s' (--return)", pr_csv_path(in), a->ret);
-		goto done;
-	}
-	if (a->base && (bcol = pr_csv_find(in, a->base)) < 0) {
-		rc = pr_err(err, PR_EIO, "%s:1: missing column '%s' (--base)", pr_csv_path(in), a->base);
-		goto done;
-	}
-	fc = malloc((size_t)pr_csv_ncols(in) * sizeof *fc);
-	R = malloc((size_t)n * sizeof *R);
-	q = malloc((size_t)n * sizeof *q);
-	if (!fc || !R || !q) {
-		rc = pr_err(err, PR_ENOMEM, "reps: out of memory");
-		goto done;
-	}
-	if (a->features) {
-		d = pr_csv_select(in, a->features, fc, pr_csv_ncols(in), err);
-		if (d < 0) {
-			rc = PR_EIO;
-			goto done;
-		}
-		for (j = 0; j < d; j++)
-			if (fc[j] == rcol || fc[j] == bcol) {
-				rc = pr_err(err, PR_EINVAL, "%s: column '%s' is both a feature and the %s",
-				            pr_csv_path(in), pr_csv_name(in, fc[j]),
-				            fc[j] == rcol ? "return" : "base weight");
-				goto done;
-			}
-		phi = malloc((size_t)n * (size_t)d * sizeof *phi);
-		if (!phi) {
-			rc = pr_err(err, PR_ENOMEM, "reps: out of memory");
-			goto done;
-		}
-	}
-	for (i = 0; i < n; i++) {
-		const double *row = pr_csv_row(in, i);
-
-		R[i] = row[rcol];
-		q[i] = bcol >= 0 ? row[bcol] : 1.0;
-		if (q[i] < 0.0) {
-			rc = pr_err(err, PR_EINVAL, "%s:%ld: column '%s': base weight must be >= 0 (got %g)",
-			            pr_csv_path(in), pr_csv_line(in, i), a->base, q[i]);
-			goto done;
-		}
-		sq += q[i];
-		for (j = 0; j < d; j++)
-			phi[(size_t)i * d + j] = row[fc[j]];
-	}
-	if (!(sq > 0.0)) {
-		rc = pr_err(err, PR_EINVAL, "%s: column '%s': base weights are all zero",
-		            pr_csv_path(in), a->base);
-		goto done;
-	}
-	pb.n = (int)n;
-	pb.d = d;
-	pb.R = R;
-	pb.q = q;
-	pb.phi = phi;
-	if ((rc = pr_reps_solve(&o, &pb, &r, err)))
+	if ((rc = pr_csv_read(a->input, &in, err)) || (rc = read_problem(a, in, &pb, &m, err)) ||
+	    (rc = pr_reps_solve(&o, &pb, &r, err)))
 		goto done;
 	if (r->status == PR_REPS_FAILED) {
 		rc = pr_err(err, PR_ENUM, "reps: %s: no certified answer: %s", pr_csv_path(in), r->reason);
@@ -163,9 +135,9 @@ done:
 	rc = pr_outset_commit(set, rc, err);
 	pr_reps_result_free(r);
 	pr_csv_free(in);
-	free(fc);
-	free(R);
-	free(q);
-	free(phi);
+	free(m.fc);
+	free(m.R);
+	free(m.q);
+	free(m.phi);
 	return rc;
 }

@@ -15,7 +15,6 @@
 #include "exp_priv.h"
 #include "outdir.h"
 
-#define PATHLEN 4096
 
 static void config_text(FILE *fp, const void *cfg)
 {
@@ -31,7 +30,7 @@ static int run_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a,
 {
 	const pr_experiment *e = pr_exp_find(cfg->run.name);
 	pr_variants variants;
-	char at[320];
+	char at[PR_WHERE_LEN];
 	int rc;
 
 	if (!e)
@@ -47,7 +46,7 @@ static int run_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a,
 
 int pr_cmd_run(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
-	char dir[PATHLEN];
+	char dir[PR_PATHLEN];
 
 	if (a->output && snprintf(dir, sizeof dir, "%s", a->output) >= (int)sizeof dir)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", a->output);
@@ -102,7 +101,7 @@ typedef struct {
 /* Input k's config.ini into c. */
 static int input_config(const pr_cmd_args *a, int k, pr_config *c, char *err)
 {
-	char path[PATHLEN + 16];
+	char path[PR_PATHLEN + 16];
 	struct stat st;
 
 	pr_config_init(c, pr_exp_config);
@@ -123,7 +122,7 @@ static int merge_csv(merge_ctx *m, const char *name, const char *outdir, char *e
 	mrow *rows = NULL;
 	origin *o = &m->o[m->no];
 	long n = 0, i;
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	int k, j, rc = PR_OK;
 	pr_csvw *w = NULL;
 
@@ -200,7 +199,7 @@ static int merge_csv(merge_ctx *m, const char *name, const char *outdir, char *e
 
 static int is_raw_csv(const char *dir, const char *name)
 {
-	char path[PATHLEN], buf[16] = "";
+	char path[PR_PATHLEN], buf[16] = "";
 	size_t n = strlen(name);
 	struct stat st;
 	FILE *fp;

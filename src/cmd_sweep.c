@@ -41,7 +41,6 @@
 #include "exp_priv.h"
 #include "outdir.h"
 
-#define PATHLEN 1024
 #define ROOTMAX 480  /* a sweep folder's path; names below it: NAMEMAX */
 #define NAMEMAX 400
 #define MAX_AXES 16
@@ -76,7 +75,7 @@ static void grid_free(grid *g)
 }
 
 /* snprintf into buf[n] for paths below a sweep folder: checked lengths
- * (ROOTMAX, NAMEMAX) make them fit PATHLEN. */
+ * (ROOTMAX, NAMEMAX) make them fit PR_PATHLEN. */
 static void fmt(char *buf, size_t n, const char *f, ...)
 #if defined(__GNUC__)
 	__attribute__((format(printf, 3, 4)))
@@ -212,7 +211,7 @@ static int value_index(const grid *g, long p, int i)
 /* The configuration of point p: the base with the point's values, checked. */
 static int point_config(const pr_config *base, const grid *g, long p, pr_config *pt, char *err)
 {
-	char set[PATHLEN];
+	char set[PR_PATHLEN];
 	int i, rc;
 
 	*pt = *base;
@@ -242,7 +241,7 @@ static void job_output(char *buf, size_t n, const char *point, int rep, const ch
 /* root/name, as sh reads it back as one word. */
 static void put_path(FILE *fp, const char *root, const char *name)
 {
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 
 	fmt(path, sizeof path, "%s/%s", root, name);
 	pr_outdir_shell_word(fp, path);
@@ -251,7 +250,7 @@ static void put_path(FILE *fp, const char *root, const char *name)
 static void write_job(FILE *fp, const char *exe, const char *root, const char *point, int rep,
                       int var, const char *out)
 {
-	char cfg[PATHLEN];
+	char cfg[PR_PATHLEN];
 
 	pr_outdir_shell_word(fp, exe);
 	fputs(" run -q ", fp);
@@ -270,7 +269,7 @@ static FILE *open_text(const char *dir, const char *name, char *path, char *err)
 {
 	FILE *fp;
 
-	fmt(path, PATHLEN, "%s/%s", dir, name);
+	fmt(path, PR_PATHLEN, "%s/%s", dir, name);
 	if (!(fp = fopen(path, "w")))
 		pr_err(err, PR_EIO, "%s: cannot write: %s", path, strerror(errno));
 	return fp;
@@ -287,7 +286,7 @@ static int close_text(FILE *fp, const char *path, char *err)
 /* slurm.sbatch and parallel.sh: the two ways to run jobs.txt. */
 static int write_runners(const char *dir, const char *root, long njobs, int threads, char *err)
 {
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	FILE *fp;
 	int rc;
 
@@ -339,8 +338,8 @@ typedef struct {
 	const pr_config *cfg;
 	const grid *g;
 	const char *dir;
-	char root[PATHLEN];  /* SWEEP_DIR, absolute */
-	char exe[PATHLEN];   /* this poolreps, absolute */
+	char root[PR_PATHLEN];  /* SWEEP_DIR, absolute */
+	char exe[PR_PATHLEN];   /* this poolreps, absolute */
 	FILE *jobs;
 	pr_csvw *man;
 	long njobs;
@@ -349,7 +348,7 @@ typedef struct {
 
 static int manifest_header(sweep_out *s, char *err)
 {
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	int i;
 
 	fmt(path, sizeof path, "%s/manifest.csv", s->dir);
@@ -370,7 +369,7 @@ static int sweep_point(sweep_out *s, long p, char *err)
 	const grid *g = s->g;
 	pr_config pt;
 	pr_variants *vl = malloc(sizeof *vl);
-	char point[64], path[PATHLEN], out[PATHLEN];
+	char point[64], path[PR_PATHLEN], out[PR_PATHLEN];
 	int r, v, i, nr, nv, units, rc;
 
 	if (!vl)
@@ -423,7 +422,7 @@ static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 {
 	sweep_out s;
 	grid g;
-	char path[PATHLEN], *slash;
+	char path[PR_PATHLEN], *slash;
 	ssize_t n;
 	long p;
 	int rc;
@@ -516,7 +515,7 @@ static void manifest_free(manifest *m)
 static int manifest_read(const char *root, manifest *m, char *err)
 {
 	static const char *const tail[] = {"repetition", "variant", "variant_name", "output"};
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	long i, v;
 	int nc, j, rc;
 
@@ -544,7 +543,7 @@ static int manifest_read(const char *root, manifest *m, char *err)
 	if (!(m->state = malloc((size_t)m->njobs * sizeof *m->state)))
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	for (i = 0; i < m->njobs; ++i) {
-		char dir[PATHLEN], file[PATHLEN];
+		char dir[PR_PATHLEN], file[PR_PATHLEN];
 		if (strlen(pr_exp_table_str(m->t, i, m->c_out)) > NAMEMAX)
 			return pr_err(err, PR_EIO, "%s:%ld: column 'output': path too long", path,
 			              pr_exp_table_line(m->t, i));
@@ -590,30 +589,35 @@ static int not_done(const char *root, const manifest *m, long nbad, char *err)
 	return pr_err(err, PR_EIO, "%s", buf);
 }
 
-/* sweep --missing SWEEP_DIR: the lines of jobs.txt whose jobs are not done. */
+/* sweep --missing SWEEP_DIR: the lines of jobs.txt whose jobs are not
+ * done, written to standard output (the command's data, like a CSV to "-"). */
 static int print_missing(const char *root, char *err)
 {
 	manifest m;
-	char path[PATHLEN], *line = NULL;
+	char path[PR_PATHLEN], *line = NULL;
 	size_t cap = 0;
 	long i = 0;
+	ssize_t len;
 	FILE *fp = NULL;
+	pr_csvw *w = NULL;
 	int rc;
 
 	rc = manifest_read(root, &m, err);
 	fmt(path, sizeof path, "%s/jobs.txt", root);
 	if (rc == PR_OK && !(fp = fopen(path, "r")))
 		rc = pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
-	while (rc == PR_OK && getline(&line, &cap, fp) != -1) {
+	if (rc == PR_OK && !(w = pr_csvw_open(NULL, err)))
+		rc = PR_EIO;
+	while (rc == PR_OK && (len = getline(&line, &cap, fp)) != -1) {
 		if (i >= m.njobs)
 			rc = pr_err(err, PR_EIO, "%s:%ld: more jobs than manifest.csv lists", path, i + 1);
 		else if (m.state[i++] != JOB_DONE)
-			fputs(line, stdout);
+			pr_csvw_raw(w, line, (size_t)len);
 	}
 	if (rc == PR_OK && i < m.njobs)
 		rc = pr_err(err, PR_EIO, "%s: %ld jobs, but manifest.csv lists %ld", path, i, m.njobs);
-	if (rc == PR_OK && fflush(stdout) != 0)
-		rc = pr_err(err, PR_EIO, "<stdout>: write error");
+	if (w)
+		rc = pr_csvw_finish(w, rc, err);
 	if (fp)
 		fclose(fp);
 	free(line);
@@ -624,7 +628,7 @@ static int print_missing(const char *root, char *err)
 int pr_cmd_sweep(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	const pr_experiment *e = pr_exp_find(cfg->run.name);
-	char at[320];
+	char at[PR_WHERE_LEN];
 	int rc;
 
 	if (a->missing)
@@ -687,7 +691,7 @@ typedef struct {
 	const pr_cmd_args *a;
 	const char *root;
 	const manifest *m;
-	char stage[PATHLEN];
+	char stage[PR_PATHLEN];
 	pr_csvw *w;
 	int ncols;          /* summary columns, once the first point is read */
 	const char *summary;
@@ -726,7 +730,7 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 	pr_config pt;
 	pr_exp_table *t = NULL;
 	const pr_experiment *e;
-	char point[64], out[PATHLEN], path[PATHLEN], mine[PATHLEN], **in;
+	char point[64], out[PR_PATHLEN], path[PR_PATHLEN], mine[PR_PATHLEN], **in;
 	long i, r;
 	int j, rc = PR_OK;
 
@@ -734,10 +738,10 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 	if (!(in = calloc((size_t)(last - first), sizeof *in)))
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	for (i = first; rc == PR_OK && i < last; ++i)
-		if (!(in[i - first] = malloc(PATHLEN)))
+		if (!(in[i - first] = malloc(PR_PATHLEN)))
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
 		else
-			fmt(in[i - first], PATHLEN, "%s/%s", c->root, pr_exp_table_str(m->t, i, m->c_out));
+			fmt(in[i - first], PR_PATHLEN, "%s/%s", c->root, pr_exp_table_str(m->t, i, m->c_out));
 	fmt(out, sizeof out, "%s/%s", c->stage, point);
 	memset(&ma, 0, sizeof ma);
 	ma.command = "merge";
@@ -782,7 +786,7 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
  * stage, removed with it), then sweep_summary.csv. */
 static int publish_collected(const collector *c, char *err)
 {
-	char point[64], from[PATHLEN], to[PATHLEN], old[PATHLEN];
+	char point[64], from[PR_PATHLEN], to[PR_PATHLEN], old[PR_PATHLEN];
 	long p;
 
 	for (p = 0; p < c->m->npoints; ++p) {
@@ -804,7 +808,7 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	collector c;
 	manifest m;
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	long i, first, nbad = 0;
 	int rc;
 

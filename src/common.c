@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "poolreps/common.h"
+#include "common_priv.h"
 
 #ifndef PR_VERSION_STR
 #define PR_VERSION_STR "0.1.0"

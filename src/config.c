@@ -24,8 +24,9 @@
 
 #define F(field) offsetof(pr_config, field)
 #define NAMELEN 64        /* a section, key or "section.key" */
-#define WHERELEN 320      /* "file:line: " of a message */
 #define LINE_MAX_BYTES 4096 /* a parameter file's line */
+/* resource limit, refused up front: past 1e9 steps one shot runs for minutes to days */
+#define MAX_STEPS_PER_SHOT 1e9
 
 static const pr_config_key core_keys[] = {
 	{"experiment", "name", PR_KEY_EXPERIMENT, F(run.name), 0, 0, 0, "",
@@ -74,8 +75,8 @@ static const pr_config_key core_keys[] = {
 
 	{"forest", "trees", PR_KEY_INT, F(forest.trees), 1, 10000, 0, "", "M trees"},
 	{"forest", "cuts", PR_KEY_INT, F(forest.cuts), 1, 10000, 0, "", "K random tests per node"},
-	{"forest", "n_min", PR_KEY_INT, F(forest.n_min), 1, 100000000, 0, "", "split nodes with more samples"},
-	{"forest", "n_c", PR_KEY_INT, F(forest.n_c), 1, 100000000, 0, "", "smallest child a split may leave"},
+	{"forest", "n_min", PR_KEY_INT, F(forest.n_min), 1, PR_KEY_COUNT_MAX, 0, "", "split nodes with more samples"},
+	{"forest", "n_c", PR_KEY_INT, F(forest.n_c), 1, PR_KEY_COUNT_MAX, 0, "", "smallest child a split may leave"},
 	{"forest", "score", PR_KEY_ENUM, F(forest.score), 0, 0, 0, "rvr|nrvr", "split score (eq. 4.1) or its negation"},
 	{"forest", "replacement", PR_KEY_ENUM, F(forest.with_replacement), 0, 0, 0, "without|with",
 	 "draw the K cut dimensions with or without replacement"},
@@ -84,8 +85,8 @@ static const pr_config_key core_keys[] = {
 
 	{"value", "trees", PR_KEY_INT, F(value.trees), 1, 10000, 0, "", "value-feature forest: M (exp3: 10)"},
 	{"value", "cuts", PR_KEY_INT, F(value.cuts), 1, 10000, 0, "", "value-feature forest: K"},
-	{"value", "n_min", PR_KEY_INT, F(value.n_min), 1, 100000000, 0, "", "value-feature forest: n_min (exp3: 60)"},
-	{"value", "n_c", PR_KEY_INT, F(value.n_c), 1, 100000000, 0, "", "value-feature forest: n_c"},
+	{"value", "n_min", PR_KEY_INT, F(value.n_min), 1, PR_KEY_COUNT_MAX, 0, "", "value-feature forest: n_min (exp3: 60)"},
+	{"value", "n_c", PR_KEY_INT, F(value.n_c), 1, PR_KEY_COUNT_MAX, 0, "", "value-feature forest: n_c"},
 	{"value", "score", PR_KEY_ENUM, F(value.score), 0, 0, 0, "rvr|nrvr", "value-feature forest score (exp3: nrvr)"},
 	{"value", "replacement", PR_KEY_ENUM, F(value.with_replacement), 0, 0, 0, "without|with", "value-feature forest cut draws"},
 	{"value", "outputs", PR_KEY_ENUM, F(value.outputs), 0, 0, 0, "sum|relative", "value-feature forest: several outputs"},
@@ -105,8 +106,8 @@ static const pr_config_key core_keys[] = {
 	{"policy", "min_std", PR_KEY_DOUBLE, F(policy.min_std), 1e-100, 100, 0, "m/s", "floor on action standard deviations"},
 	{"policy", "trees", PR_KEY_INT, F(policy.forest.trees), 1, 10000, 0, "", "policy forest: M (exp2: 30)"},
 	{"policy", "cuts", PR_KEY_INT, F(policy.forest.cuts), 1, 10000, 0, "", "policy forest: K (exp2: 10)"},
-	{"policy", "n_min", PR_KEY_INT, F(policy.forest.n_min), 1, 100000000, 0, "", "policy forest: n_min"},
-	{"policy", "n_c", PR_KEY_INT, F(policy.forest.n_c), 1, 100000000, 0, "", "policy forest: n_c"},
+	{"policy", "n_min", PR_KEY_INT, F(policy.forest.n_min), 1, PR_KEY_COUNT_MAX, 0, "", "policy forest: n_min"},
+	{"policy", "n_c", PR_KEY_INT, F(policy.forest.n_c), 1, PR_KEY_COUNT_MAX, 0, "", "policy forest: n_c"},
 	{"policy", "score", PR_KEY_ENUM, F(policy.forest.score), 0, 0, 0, "rvr|nrvr", "policy forest score"},
 	{"policy", "replacement", PR_KEY_ENUM, F(policy.forest.with_replacement), 0, 0, 0, "without|with", "policy forest cut draws"},
 	{"policy", "outputs", PR_KEY_ENUM, F(policy.forest.outputs), 0, 0, 0, "sum|relative",
@@ -114,7 +115,7 @@ static const pr_config_key core_keys[] = {
 	{"policy", "cov", PR_KEY_ENUM, F(policy.cov), 0, 0, 0, "query|residual",
 	 "eq. 6.8 centred on the query mean (as printed) or on each sample's own fit"},
 	{"policy", "cov_center", PR_KEY_ENUM, F(policy.cov_center), 0, 0, 0, "new|old",
-	 "linear weighted ML: residuals around the new mean or the sampling policy's (benchmarks: old)"},
+	 "residuals (linear weighted ML; tree-LWR eq. 6.8) around the new mean or the sampling policy's (benchmarks: old)"},
 };
 #define NCORE ((int)(sizeof core_keys / sizeof core_keys[0]))
 
@@ -234,11 +235,11 @@ static void base_init(pr_config *c, pr_config_schema schema)
 
 	memset(c, 0, sizeof *c);
 	pr_run_opts_init(&c->run);
-	pr_table_init(&c->table);
+	pr_sim_table_init(&c->table);
 	pr_sim_opts_init(&c->sim);
-	pr_reward_opts_init(&c->reward);
-	pr_start_opts_init(&c->start);
-	pr_expert_opts_init(&c->expert);
+	pr_sim_reward_opts_init(&c->reward);
+	pr_sim_start_opts_init(&c->start);
+	pr_sim_expert_opts_init(&c->expert);
 	pr_forest_opts_init(&c->forest);
 	pr_reps_opts_init(&c->reps);
 	pr_policy_opts_init(&c->policy);
@@ -632,7 +633,7 @@ static char *read_line(char *str, int num, void *stream)
 static int on_pair(void *user, const char *section_raw, const char *name, const char *value)
 {
 	loader *L = user;
-	char where[WHERELEN], buf[NAMELEN];
+	char where[PR_WHERE_LEN], buf[NAMELEN];
 	const char *section;
 	int i;
 
@@ -753,7 +754,7 @@ static int box_inside(const pr_config *c, const double *b, const char *name, cha
 {
 	double hx = c->table.length / 2 - c->table.ball_radius;
 	double hy = c->table.width / 2 - c->table.ball_radius;
-	char key[NAMELEN], at[WHERELEN];
+	char key[NAMELEN], at[PR_WHERE_LEN];
 
 	snprintf(key, sizeof key, "start.%s", name);
 	if (b[0] < -hx || b[1] > hx || b[2] < -hy || b[3] > hy)
@@ -764,7 +765,7 @@ static int box_inside(const pr_config *c, const double *b, const char *name, cha
 
 int pr_config_validate(const pr_config *c, char *err)
 {
-	char at[WHERELEN];
+	char at[PR_WHERE_LEN];
 	int rc, b;
 
 #define AT(key) pr_config_where(c, key, at, sizeof at)
@@ -780,8 +781,7 @@ int pr_config_validate(const pr_config *c, char *err)
 		return rc;
 	if (c->sim.mode == PR_SIM_STEPPED && c->sim.dt >= c->sim.max_time)
 		return pr_err(err, PR_EINVAL, "%s: sim.dt: must be smaller than sim.max_time", AT("sim.dt"));
-	/* resource limit, refused up front: past 1e9 steps one shot runs for minutes to days */
-	if (c->sim.mode == PR_SIM_STEPPED && c->sim.max_time / c->sim.dt > 1e9)
+	if (c->sim.mode == PR_SIM_STEPPED && c->sim.max_time / c->sim.dt > MAX_STEPS_PER_SHOT)
 		return pr_err(err, PR_EINVAL, "%s: sim.dt: sim.max_time / sim.dt = %.3g steps per shot, "
 		              "at most 1e9", AT("sim.dt"), c->sim.max_time / c->sim.dt);
 	if (c->run.repetition >= c->run.repetitions)
@@ -926,7 +926,19 @@ int pr_config_write(const pr_config *c, FILE *fp)
 	return ferror(fp) ? PR_EIO : PR_OK;
 }
 
-void pr_config_help(pr_config_schema schema, FILE *fp)
+int pr_config_key_listed(const char *list, const char *key)
+{
+	while (*list) {
+		size_t n = strcspn(list, ",");
+		if (n && (list[n - 1] == '.' ? strncmp(key, list, n) == 0
+		                             : strlen(key) == n && strncmp(key, list, n) == 0))
+			return 1;
+		list += n + (list[n] == ',');
+	}
+	return 0;
+}
+
+void pr_config_help(pr_config_schema schema, const char *only, FILE *fp)
 {
 	pr_config c;
 	char lo[40], hi[40], names[PR_ERRLEN], *base;
@@ -939,6 +951,8 @@ void pr_config_help(pr_config_schema schema, FILE *fp)
 		const pr_config_key *k = key_at(&c, i, &base);
 		char name[2 * NAMELEN];
 		snprintf(name, sizeof name, "%s.%s", k->section, k->key);
+		if (only && !pr_config_key_listed(only, name))
+			continue;
 		fprintf(fp, "  %-26s = ", name);
 		write_value(&c, i, fp);
 		if (k->type == PR_KEY_EXPERIMENT) {

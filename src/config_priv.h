@@ -36,6 +36,8 @@ enum { PR_KEY_OPEN_LO = 1, PR_KEY_OPEN_HI = 2 };
 
 /* A bound that leaves a value unlimited (boxes). */
 #define PR_KEY_UNBOUNDED 1e300
+/* The largest sample count a key or a raw CSV may give (n_min, sizes). */
+#define PR_KEY_COUNT_MAX 100000000
 
 typedef struct {
 	const char *section, *key;

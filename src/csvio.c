@@ -21,6 +21,7 @@
 #include <csv.h>
 
 #include "poolreps/csvio.h"
+#include "common_priv.h"
 #include "csvio_priv.h"
 
 

@@ -39,7 +39,6 @@
 #include "exp_priv.h"
 #include "streams.h"
 
-#define PATHLEN 1024
 #define DX 4 /* state: cue ball and reward ball */
 
 enum { SWEEP_NMIN, SWEEP_TREES, SWEEP_CUTS, NSWEEPS };
@@ -53,7 +52,7 @@ void pr_exp1_opts_init(pr_exp1_opts *o)
 	pr_expert_opts e;
 
 	memset(o, 0, sizeof *o);
-	pr_expert_opts_init(&e);
+	pr_sim_expert_opts_init(&e);
 	o->aim_speed = e.aim_speed;
 	o->train = 1000;
 	o->test = 1000;
@@ -340,7 +339,7 @@ static int check_opts(const pr_config *cfg, char *err)
 
 static int write_mse(const char *dir, const job_ctx *c, int lo, int hi, char *err)
 {
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int k, s;
 
@@ -364,7 +363,7 @@ static int write_mse(const char *dir, const job_ctx *c, int lo, int hi, char *er
 
 static int write_map(const char *dir, const job_ctx *c, int lo, int hi, char *err)
 {
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int k, i;
 
@@ -501,7 +500,7 @@ static int accumulate(const pr_exp_table *t, int pass, group *g, int *ng, char *
 		if (sw == NSWEEPS)
 			return pr_err(err, PR_EIO, "%s:%ld: column 'sweep': '%.40s' is not n_min, trees or cuts",
 			              pr_exp_table_path(t), pr_exp_table_line(t, r), s);
-		if ((rc = pr_exp_table_int(t, r, col[sw], 1, 100000000, &value, err)) ||
+		if ((rc = pr_exp_table_int(t, r, col[sw], 1, PR_KEY_COUNT_MAX, &value, err)) ||
 		    (rc = pr_exp_table_num(t, r, cmse, &mse, err)))
 			return rc;
 		if ((k = find_group(g, ng, sw, value)) < 0)
@@ -520,7 +519,7 @@ static int accumulate(const pr_exp_table *t, int pass, group *g, int *ng, char *
 
 int pr_exp1_summarize(const pr_config *cfg, const char *dir, char *err)
 {
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_exp_table *t = NULL;
 	group g[NSWEEPS * PR_LIST_MAX];
 	int ng = 0, i, rc;

@@ -46,7 +46,6 @@
 #include "exp_priv.h"
 #include "streams.h"
 
-#define PATHLEN 1024
 #define DS 4 /* state: cue ball and reward ball */
 #define DA 2
 
@@ -351,7 +350,7 @@ static int write_returns(const char *dir, const job_ctx *c, int lo, int hi, char
 {
 	static const char *const cols[] = {"repetition", "size", "policy", "mode", "mean_return",
 	                                   "std_return", "n", "pocketed", "policy_flags"};
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_csvw *w;
 	size_t i;
 	int k, j, pol, m;
@@ -469,10 +468,10 @@ static int accumulate(const pr_exp_table *t, int pass, group *g, int *ng, char *
 		if (pol < 0 || mode < 0)
 			return pr_err(err, PR_EIO, "%s:%ld: unknown policy '%.40s' or mode '%.40s'",
 			              pr_exp_table_path(t), pr_exp_table_line(t, r), ps, ms);
-		if ((rc = pr_exp_table_int(t, r, col[0], 0, 100000000, &size, err)) ||
+		if ((rc = pr_exp_table_int(t, r, col[0], 0, PR_KEY_COUNT_MAX, &size, err)) ||
 		    (rc = pr_exp_table_num(t, r, col[3], &mean, err)) ||
 		    (rc = pr_exp_table_num(t, r, col[4], &sd, err)) ||
-		    (rc = pr_exp_table_int(t, r, col[5], 1, 100000000, &n, err)) ||
+		    (rc = pr_exp_table_int(t, r, col[5], 1, PR_KEY_COUNT_MAX, &n, err)) ||
 		    (rc = pr_exp_table_num(t, r, col[6], &pk, err)) ||
 		    (rc = pr_exp_table_int(t, r, col[7], 0, 1 << 20, &fl, err)))
 			return rc;
@@ -511,7 +510,7 @@ int pr_exp2_summarize(const pr_config *cfg, const char *dir, char *err)
 	static const char *const cols[] = {"size", "policy", "mode", "mean_return", "two_se",
 	                                   "two_se_shots", "repetitions", "shots", "pocketed",
 	                                   "policy_flags"};
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_exp_table *t = NULL;
 	group *g;
 	size_t c;

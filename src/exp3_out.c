@@ -19,7 +19,6 @@
 #include "poolreps/sim.h"
 #include "exp3_priv.h"
 
-#define PATHLEN 1024
 #define DIST_BINS_PER_M 20 /* Fig. 7.10 histogram: 0.05 m bins */
 
 /* ---- raw output ---- */
@@ -27,7 +26,7 @@
 static int write_episodes(const pr_config *cfg, const pr_exp3_job *runs, int nruns,
                           const char *dir, char *err)
 {
-	char path[PATHLEN], name[32];
+	char path[PR_PATHLEN], name[32];
 	pr_csvw *w;
 	int j, i, b, rc = PR_OK;
 
@@ -67,7 +66,7 @@ static int write_episodes(const pr_config *cfg, const pr_exp3_job *runs, int nru
 
 static int write_reps(const pr_exp3_job *runs, int nruns, const char *dir, char *err)
 {
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int j, t, rc = PR_OK;
 
@@ -185,7 +184,7 @@ static int read_episodes(const pr_config *cfg, const char *dir, const int *var, 
 	static const char *const cname[NC] = {
 		"repetition", "policy", "iteration", "return", "rx", "ry", "pocket"
 	};
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_exp_table *t = NULL;
 	int col[NC], c, rc;
 	long i, j, x;
@@ -274,7 +273,7 @@ static int write_curve(const pr_config *cfg, const episodes *E, const int *var, 
 	size_t cells = (size_t)E->nv * E->nr * (E->T + 1);
 	double *sum = calloc(cells, sizeof *sum);
 	long *cnt = calloc(cells, sizeof *cnt), i;
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_csvw *w = NULL;
 	int v, r, t, rc = PR_OK;
 
@@ -364,7 +363,7 @@ static int mark_final(const episodes *E, long last, char *fin, char *err)
 static int write_final(const pr_config *cfg, const episodes *E, const int *var, const char *fin,
                        const char *dir, char *err)
 {
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int v, r, rc = PR_OK;
 
@@ -410,7 +409,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 {
 	int nbins = (int)ceil(hypot(cfg->table.length, cfg->table.width) * DIST_BINS_PER_M);
 	long *hist = calloc((size_t)nbins + 1, sizeof *hist), pk[PR_SIM_POCKETS + 1], tot, i;
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int v, b, rc = PR_OK;
 
@@ -485,7 +484,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		"policy", "kl", "ess", "bound", "q_ess", "features", "redraws", "policy_flags", "residual",
 		"residual_rel", "status"
 	};
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_exp_table *t = NULL;
 	pr_csvw *w = NULL;
 	double (*acc)[5] = calloc((size_t)nvar, sizeof *acc);

@@ -18,7 +18,6 @@
 #include "exp_priv.h"
 #include "streams.h"
 
-#define PATHLEN 1024
 
 enum { P_QUADRATIC, P_SPHERE, P_ROSENBROCK };
 
@@ -397,7 +396,7 @@ done:
 
 static int write_curve(const char *dir, const bench_ctx *c, int lo, int hi, char *err)
 {
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int rep, it, j, rc = 0;
 
@@ -479,7 +478,7 @@ int pr_exp_benchmark_summarize(const pr_config *cfg, const char *dir, char *err)
 	enum { S_RET, S_TRET, S_TERR, S_BOUND, S_UNREACH, S_FAILED, NS };
 	static const int src[NS] = { M_RETURN, M_TEST_RETURN, M_TEST_ERROR, M_BOUND, M_UNREACH,
 	                             M_FAILED };
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 	pr_csv *t = NULL;
 	pr_csvw *w = NULL;
 	double *sum = NULL, *ss = NULL, *samples = NULL;

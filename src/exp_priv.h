@@ -14,6 +14,7 @@
 
 #include "poolreps/config.h"
 #include "poolreps/exp.h"
+#include "common_priv.h"
 #include "config_priv.h"
 
 /* ---- options ---- */

@@ -23,13 +23,12 @@
 #include "poolreps/csvio.h"
 #include "outdir.h"
 
-#define PATHLEN 4096
 
 /* Remove the folders of dir below its first keep bytes (those mkdir_p
  * created), deepest first, each only if empty. */
 static void remove_created(const char *dir, size_t keep)
 {
-	char buf[PATHLEN];
+	char buf[PR_PATHLEN];
 	char *slash;
 
 	snprintf(buf, sizeof buf, "%s", dir);
@@ -42,7 +41,7 @@ static void remove_created(const char *dir, size_t keep)
  * removes what it created. */
 static int mkdir_p(const char *dir, size_t *keep, char *err)
 {
-	char buf[PATHLEN];
+	char buf[PR_PATHLEN];
 	char *p;
 	struct stat st;
 	int rc = PR_OK;
@@ -95,7 +94,7 @@ static void sweep_stale(const char *dir)
 {
 	DIR *d = opendir(dir);
 	struct dirent *e;
-	char path[PATHLEN];
+	char path[PR_PATHLEN];
 
 	if (!d)
 		return;
@@ -184,7 +183,7 @@ int pr_outdir_list(const char *dir, pr_names *out, char *err)
  * provenance.txt. Nothing when dir holds no poolreps run. */
 static int earlier_run(const char *dir, pr_names *out)
 {
-	char path[PATHLEN + 16], line[1 << 16];
+	char path[PR_PATHLEN + 16], line[1 << 16];
 	struct stat st;
 	FILE *fp;
 	int rc = PR_OK, n = 0;
@@ -222,7 +221,7 @@ static int earlier_run(const char *dir, pr_names *out)
 static int publish(const char *staging, const char *dir, char *err)
 {
 	pr_names now = {NULL, 0}, old = {NULL, 0};
-	char from[2 * PATHLEN], to[2 * PATHLEN], bak[2 * PATHLEN];
+	char from[2 * PR_PATHLEN], to[2 * PR_PATHLEN], bak[2 * PR_PATHLEN];
 	char *had = NULL;
 	struct stat st;
 	sigset_t mask;
@@ -320,7 +319,7 @@ static void config_file_text(FILE *fp, const void *cfg)
 
 int pr_outdir_write_config(const pr_config *cfg, const char *dir, char *err)
 {
-	char path[2 * PATHLEN];
+	char path[2 * PR_PATHLEN];
 
 	snprintf(path, sizeof path, "%s/config.ini", dir);
 	return pr_outdir_write_text(path, config_file_text, cfg, err);
@@ -392,7 +391,7 @@ static void provenance_text(FILE *fp, const void *arg)
 static int write_provenance(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
                             double wall, char *err)
 {
-	char path[2 * PATHLEN];
+	char path[2 * PR_PATHLEN];
 	pr_names files = {NULL, 0};
 	provenance p = {cfg, a, &files, wall};
 	int rc;
@@ -429,7 +428,7 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
                   int (*work)(const pr_config *, const char *, const pr_cmd_args *, char *),
                   char *err)
 {
-	char staging[PATHLEN];
+	char staging[PR_PATHLEN];
 	struct timespec t0;
 	size_t keep;
 	int rc;

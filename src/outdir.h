@@ -7,6 +7,7 @@
 #include <stdio.h>
 
 #include "poolreps/cmd.h"
+#include "common_priv.h"
 
 /* A list of file names. */
 typedef struct {

@@ -432,7 +432,6 @@ void pr_policy_free(pr_policy *p)
 	free(p);
 }
 
-int pr_policy_kind(const pr_policy *p) { return p->kind; }
 int pr_policy_ds(const pr_policy *p) { return p->ds; }
 int pr_policy_da(const pr_policy *p) { return p->da; }
 const pr_forest *pr_policy_forest(const pr_policy *p) { return p->forest; }

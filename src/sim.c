@@ -9,7 +9,7 @@
 
 #define POS_SLACK 1e-12 /* m: touching balls and cushions survive rounding */
 
-void pr_table_init(pr_table *t)
+void pr_sim_table_init(pr_table *t)
 {
 	t->length = 1.0;
 	t->width = 0.5;
@@ -32,7 +32,7 @@ void pr_sim_opts_init(pr_sim_opts *o)
 	o->trace_dt = 0.01;
 }
 
-void pr_reward_opts_init(pr_reward_opts *o)
+void pr_sim_reward_opts_init(pr_reward_opts *o)
 {
 	memset(o, 0, sizeof *o);
 	o->ntargets = 2;
@@ -42,7 +42,7 @@ void pr_reward_opts_init(pr_reward_opts *o)
 	o->scratch_penalty = 0.0;
 }
 
-void pr_start_opts_init(pr_start_opts *o)
+void pr_sim_start_opts_init(pr_start_opts *o)
 {
 	/* Experiments 1 and 2 (SPEC.md §3); obstacles anywhere on the default table. */
 	const double cue[4] = {-0.25, -0.25, 0.0, 0.0};
@@ -55,7 +55,7 @@ void pr_start_opts_init(pr_start_opts *o)
 	o->max_tries = 1000;
 }
 
-void pr_expert_opts_init(pr_expert_opts *o)
+void pr_sim_expert_opts_init(pr_expert_opts *o)
 {
 	o->arrival_speed = 0.05;
 	o->aim = PR_GHOST_AIM_CENTRE;

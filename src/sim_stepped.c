@@ -350,6 +350,7 @@ static void run_pair(pr_sim *s, stepper *k, long maxsteps)
  * measured at every step exactly as gap2() does. */
 #define WIN_MIN 8         /* shorter windows run the tested steps instead */
 #define WIN_CAP (1L << 24)
+#define WIN_REL 1e-9      /* the relative margin on every rate and distance */
 
 /* Safe step count (0 if below WIN_MIN) for the moving balls. Sets *track
  * to the number of cue-reward pairs whose gap must be measured per step;
@@ -357,7 +358,7 @@ static void run_pair(pr_sim *s, stepper *k, long maxsteps)
 static long safe_steps(pr_sim *s, const stepper *k, long limit, int *track)
 {
 	const pr_sim_ball *b = s->b;
-	const double dt = k->dt, rel = 1 + 1e-9, lo = 1 - 1e-9, r2R = 2 * s->t.ball_radius * rel;
+	const double dt = k->dt, rel = 1 + WIN_REL, lo = 1 - WIN_REL, r2R = 2 * s->t.ball_radius * rel;
 	const double rp = s->t.pocket_radius * rel, hx = k->hx, hy = k->hy, ypk = k->ypk;
 	double *ae = s->scr, S = 1 + s->t.length + s->t.width, eps, mg, K = (double)limit;
 	int i, j, n = k->n, nt = 0;
@@ -606,9 +607,12 @@ static int run_window(pr_sim *s, stepper *k, long maxsteps)
 	return 1;
 }
 
+#define STEP_COUNT_TOL 1e-9
+
 int pr_sim_run_stepped(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err)
 {
-	const long maxsteps = (long)ceil(s->o.max_time / s->o.dt - 1e-9);
+	/* a max_time that is a whole number of steps up to rounding is that number */
+	const long maxsteps = (long)ceil(s->o.max_time / s->o.dt - STEP_COUNT_TOL);
 	const long tk = lround(s->o.trace_dt / s->o.dt) > 1 ? lround(s->o.trace_dt / s->o.dt) : 1;
 	pr_sim_ball *b = s->b;
 	stepper k;

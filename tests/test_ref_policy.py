@@ -32,12 +32,12 @@ only lifts the zero eigenvalue of a rank-one or zero covariance: twice
 that, the floor and its round-off, is added to the tolerance). The test checks that most queries are compared.
 """
 import os
-import subprocess
 
 import numpy as np
 import pytest
 
 import ref_policy
+from conftest import run_cmd
 
 BIN = os.environ.get("POOLREPS") or os.path.join(os.path.dirname(__file__), "..", "poolreps")
 ENV = dict(os.environ, LC_ALL="C")
@@ -105,7 +105,7 @@ def sampling_means(rng, S, A):
 
 
 def run(args):
-    r = subprocess.run([BIN] + args, capture_output=True, text=True, env=ENV, timeout=60)
+    r = run_cmd([BIN] + args, capture_output=True, text=True, env=ENV, timeout=60)
     assert r.returncode == 0, r.stderr
     return r
 

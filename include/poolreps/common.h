@@ -3,7 +3,8 @@
  * Library functions that can fail return an int status (PR_OK or a negative
  * PR_E* code) and write a one-line message into a caller-owned buffer of
  * PR_ERRLEN bytes. Constructors return NULL on failure and fill the buffer.
- * The library never prints and never exits; only main() does.
+ * The library never prints and never exits; only main() does. These
+ * headers need nothing beyond C11 (compile with -std=c11).
  */
 #ifndef POOLREPS_COMMON_H
 #define POOLREPS_COMMON_H
@@ -49,30 +50,5 @@ extern volatile sig_atomic_t pr_interrupted;
  * PR_ENOMEM, in any thread): the command's failure is then out of memory,
  * whatever status the code above it turned the report into. */
 extern volatile sig_atomic_t pr_out_of_memory;
-
-/* ---- clean-up on fatal signals ----
- * Temporary files and staging folders are registered while they exist; a
- * signal handler calls pr_cleanup_run, which removes them using only
- * async-signal-safe calls. pr_cleanup_hold blocks the fatal signals in the
- * calling thread around a step that must not be cut in half (renaming a set
- * of finished files into place); pr_cleanup_release delivers them after. */
-void pr_cleanup_add_file(const char *path);
-void pr_cleanup_remove_file(const char *path);
-/* A staging folder (its files, then itself), then the output folder dir and
- * its parents below its first keep bytes (those the run created), each
- * removed only if empty. */
-void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep);
-void pr_cleanup_clear_dir(void);
-void pr_cleanup_run(void);
-void pr_cleanup_hold(sigset_t *old);
-void pr_cleanup_release(const sigset_t *old);
-/* The fatal signals the CLI handles: SIGINT, SIGTERM, SIGHUP, SIGQUIT,
- * SIGPIPE, SIGXFSZ, SIGXCPU, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPOLL,
- * SIGPWR, SIGSTKFLT (every one whose default ends the process, but the
- * faults of a bug); terminated by 0. */
-extern const int pr_fatal_signals[];
-/* 1 if process pid no longer exists (a staging folder or temporary file
- * named after it is left over from a killed run). */
-int pr_pid_gone(long pid);
 
 #endif

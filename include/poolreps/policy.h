@@ -139,7 +139,6 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 
 void pr_policy_free(pr_policy *p);
 
-int pr_policy_kind(const pr_policy *p);
 int pr_policy_ds(const pr_policy *p);
 int pr_policy_da(const pr_policy *p);
 /* The tree policy's forest (NULL for the other kinds); owned by the policy. */

@@ -25,7 +25,7 @@ typedef struct {
 	int balls;            /* cue + reward + obstacle balls */
 	int reward_balls;     /* b */
 } pr_table;
-void pr_table_init(pr_table *t);
+void pr_sim_table_init(pr_table *t);
 
 enum { PR_SIM_EVENT = 0, PR_SIM_STEPPED = 1 };
 
@@ -47,7 +47,7 @@ typedef struct {
 	double miss_penalty;         /* times the smallest cue-reward gap */
 	double scratch_penalty;      /* added (subtracted) when the cue ball is pocketed */
 } pr_reward_opts;
-void pr_reward_opts_init(pr_reward_opts *o);
+void pr_sim_reward_opts_init(pr_reward_opts *o);
 
 /* Start-state boxes of eq. 7.2 (keys start.*). */
 typedef struct {
@@ -56,7 +56,7 @@ typedef struct {
 	double obstacle_box[4];
 	int max_tries;          /* redraws before giving up */
 } pr_start_opts;
-void pr_start_opts_init(pr_start_opts *o);
+void pr_sim_start_opts_init(pr_start_opts *o);
 
 /* Expert and scripted shots (keys ghost.*, exp1.aim_speed). */
 enum { PR_GHOST_AIM_CENTRE = 0, PR_GHOST_AIM_CORRIDOR = 1 };
@@ -65,7 +65,7 @@ typedef struct {
 	int aim;              /* ghost.aim: PR_GHOST_AIM_CENTRE or PR_GHOST_AIM_CORRIDOR */
 	double aim_speed;     /* m/s, Experiment 1's aim-at-ball data policy */
 } pr_expert_opts;
-void pr_expert_opts_init(pr_expert_opts *o);
+void pr_sim_expert_opts_init(pr_expert_opts *o);
 
 /* ---- Simulator --------------------------------------------------------- */
 

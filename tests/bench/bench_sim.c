@@ -59,9 +59,9 @@ int main(int argc, char **argv)
 	unsigned long seed = 1;
 	double *st, *act, *rate, sink = 0;
 
-	pr_table_init(&t);
+	pr_sim_table_init(&t);
 	pr_sim_opts_init(&o);
-	pr_start_opts_init(&so);
+	pr_sim_start_opts_init(&so);
 	while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
 		switch (c) {
 		case 'm': o.mode = strcmp(optarg, "stepped") ? PR_SIM_EVENT : PR_SIM_STEPPED; break;

@@ -1,0 +1,40 @@
+/* common_priv.h — library internals shared by every module: path buffers
+ * and the clean-up of temporary files and staging folders on fatal signals
+ * (common.c). POSIX types (sigset_t) stay out of the public headers. */
+#ifndef POOLREPS_COMMON_PRIV_H
+#define POOLREPS_COMMON_PRIV_H
+
+#include <signal.h>
+#include <stddef.h>
+
+#include "poolreps/common.h"
+
+/* A file or folder path the library builds (PATH_MAX on Linux). */
+#define PR_PATHLEN 4096
+
+/* ---- clean-up on fatal signals ----
+ * Temporary files and staging folders are registered while they exist; a
+ * signal handler calls pr_cleanup_run, which removes them using only
+ * async-signal-safe calls. pr_cleanup_hold blocks the fatal signals in the
+ * calling thread around a step that must not be cut in half (renaming a set
+ * of finished files into place); pr_cleanup_release delivers them after. */
+void pr_cleanup_add_file(const char *path);
+void pr_cleanup_remove_file(const char *path);
+/* A staging folder (its files, then itself), then the output folder dir and
+ * its parents below its first keep bytes (those the run created), each
+ * removed only if empty. */
+void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep);
+void pr_cleanup_clear_dir(void);
+void pr_cleanup_run(void);
+void pr_cleanup_hold(sigset_t *old);
+void pr_cleanup_release(const sigset_t *old);
+/* The fatal signals the CLI handles: SIGINT, SIGTERM, SIGHUP, SIGQUIT,
+ * SIGPIPE, SIGXFSZ, SIGXCPU, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPOLL,
+ * SIGPWR, SIGSTKFLT (every one whose default ends the process, but the
+ * faults of a bug); terminated by 0. */
+extern const int pr_fatal_signals[];
+/* 1 if process pid no longer exists (a staging folder or temporary file
+ * named after it is left over from a killed run). */
+int pr_pid_gone(long pid);
+
+#endif
