@@ -16,10 +16,13 @@ repetitions as DEFAULT and one changed setting each (ARM). Per arm and
 policy both folders hold: the pooled mean return of the last N episodes in
 DEFAULT and in ARM, the paired difference ARM - DEFAULT of the per-repetition
 means (mean +- standard error of the mean over repetitions, sd / sqrt(n)),
-the reward balls pocketed in pocket 2 or 5 and in other pockets (DEFAULT ->
-ARM), the median cue speed (DEFAULT -> ARM), and the policy's paired
-difference to the baseline of its own folder (mean +- standard error;
-DEFAULT -> ARM), the thesis's comparison. The arm is
+the pocket rates (percent of the pooled last N episodes whose reward ball
+went into pocket 2 or 5, and into another pocket; DEFAULT -> ARM), the
+median cue speed, the spread of the actions at the end of learning (per
+run, sqrt(var vx + var vy) over the episodes of its last iteration, median
+over runs; DEFAULT -> ARM), and the policy's paired difference to
+the baseline of its own folder (mean +- standard error; DEFAULT -> ARM),
+the thesis's comparison. The arm is
 labelled by the keys its config.ini sets differently (or --label). Policies
 the arm leaves unchanged (every per-repetition mean and pocket count
 identical) are named below the table instead of listed.
@@ -67,12 +70,30 @@ def policies(runs):
     return [p for p in ORDER if p in found] + [p for p in found if p not in ORDER]
 
 
+def last_spread(eps):
+    """sqrt(var vx + var vy) (sample variances) of the episodes of the last
+    iteration among eps, None under two episodes."""
+    last = max(int(e["iteration"]) for e in eps)
+    v = [(float(e["vx"]), float(e["vy"])) for e in eps if int(e["iteration"]) == last]
+    if len(v) < 2:
+        return None
+    return math.sqrt(statistics.variance(x for x, _ in v) + statistics.variance(y for _, y in v))
+
+
+def median_or_none(values):
+    """The median of the values that are not None, None if there are none."""
+    values = [v for v in values if v is not None]
+    return statistics.median(values) if values else None
+
+
 def summary(runs):
     """{policy: stats} with: reps (sorted), episodes (pooled count), mean
     (pooled mean return), run_means {rep: mean}, std_runs (sample std of the
     run means, 0 with one run), paired (run mean minus the baseline's, per
     repetition, [] without a baseline), pockets {pocket id string: count},
-    target, other (counts), hit_rate, median_speed (m/s)."""
+    target, other (counts), hit_rate, median_speed (m/s), spread (m/s: the
+    median over runs of the spread of the actions of a run's last iteration,
+    sqrt(var vx + var vy) with sample variances; None under two episodes)."""
     out = {}
     for p in policies(runs):
         reps = sorted(r for q, r in runs if q == p)
@@ -93,6 +114,7 @@ def summary(runs):
             "hit_rate": sum(int(e["hit"]) for e in eps) / len(eps),
             "median_speed": statistics.median(math.hypot(float(e["vx"]), float(e["vy"]))
                                               for e in eps),
+            "spread": median_or_none([last_spread(runs[(p, r)]) for r in reps]),
         }
     base = out.get("baseline")
     for s in out.values():
@@ -109,6 +131,16 @@ def fmt_se(values):
     if len(values) < 2:
         return f"{values[0]:+.3f}"
     return f"{statistics.mean(values):+.3f} ± {statistics.stdev(values) / math.sqrt(len(values)):.3f}"
+
+
+def fmt_opt(x):
+    """'0.37' or '–' for None."""
+    return "–" if x is None else f"{x:.2f}"
+
+
+def rate(stats, key):
+    """stats[key] (a pocket count) in percent of stats['episodes'], '4.4'."""
+    return f"{100.0 * stats[key] / stats['episodes']:.1f}"
 
 
 def config_diff(base, arm, ignore=("experiment.threads",)):
@@ -133,8 +165,9 @@ def compare_rows(base, arms, labels=None, last=None):
     bruns, last = load(base, last)
     bstats = summary(bruns)
     rows = [["arm", "policy", "mean return (default → arm)", "paired arm − default",
-             "pocketed 2 or 5 (default → arm)", "other pockets (default → arm)",
-             "median speed, m/s (default → arm)", "vs baseline (default → arm)"]]
+             "pocket 2 or 5, % (default → arm)", "other pocket, % (default → arm)",
+             "median speed, m/s (default → arm)", "spread at the end, m/s (default → arm)",
+             "vs baseline (default → arm)"]]
     unchanged = {}
     for j, arm in enumerate(arms):
         seeds = [exp_data.config(d).get("experiment", "seed", fallback=None) for d in (base, arm)]
@@ -156,8 +189,10 @@ def compare_rows(base, arms, labels=None, last=None):
             arm_vs = "–" if p == "baseline" or not s["paired"] else fmt_se(s["paired"])
             rows.append([label, p, f"{b['mean']:.3f} → {s['mean']:.3f}",
                          fmt_se(paired(s["run_means"], b["run_means"])),
-                         f"{b['target']} → {s['target']}", f"{b['other']} → {s['other']}",
-                         f"{b['median_speed']:.2f} → {s['median_speed']:.2f}", f"{base_vs} → {arm_vs}"])
+                         f"{rate(b, 'target')} → {rate(s, 'target')}",
+                         f"{rate(b, 'other')} → {rate(s, 'other')}",
+                         f"{b['median_speed']:.2f} → {s['median_speed']:.2f}",
+                         f"{fmt_opt(b['spread'])} → {fmt_opt(s['spread'])}", f"{base_vs} → {arm_vs}"])
     return rows, unchanged
 
 
@@ -201,7 +236,7 @@ def main():
         if args.dir or len(args.compare) < 2:
             ap.error("--compare takes DEFAULT and at least one ARM, and no DIR")
         rows, unchanged = compare_rows(args.compare[0], args.compare[1:], args.label, args.last)
-        print_table(rows, ["---", "---", "---:", "---:", "---:", "---:", "---:", "---:"])
+        print_table(rows, ["---", "---"] + ["---:"] * 7)
         if unchanged:
             print("\nUnchanged by the arm (identical per-repetition means and pocket counts), "
                   "not listed: " + "; ".join(f"{k}: {', '.join(v)}" for k, v in unchanged.items()) + ".")
