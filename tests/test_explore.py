@@ -184,8 +184,9 @@ def test_exp3_explore_table(explore, tmp_path):
     the difference to the baseline. Tolerances:
     half a unit of the printed last digit (3 decimals for returns, 1 for
     percentages, 2 for speeds) plus 1e-9. The ccmaes arm lists only the
-    hand-crafted variant; the table replaces the marked block of a document;
-    an arm with another seed is refused with one line."""
+    hand-crafted variant; without --label an arm is named by its changed key;
+    the table replaces the marked block of a document; an arm with another
+    seed is refused with one line."""
     arms, doc, reps, quick = explore
     table = (arms / "compare.md").read_text()
     assert doc.read_text() == (f"before\n<!-- explore-{reps}:begin -->\n" + table +
@@ -216,6 +217,11 @@ def test_exp3_explore_table(explore, tmp_path):
         for cell, ref in zip(vs.split(" → "), (b[0] - base["baseline"][0], a[0] - arm["baseline"][0])):
             m, se = mean_se(cell)
             assert abs(m - ref.mean()) <= t3 and abs(se - ref.std(ddof=1) / np.sqrt(ref.size)) <= t3
+    # without --label an arm is named by the keys its config.ini sets differently
+    p = run_cmd([explore_env()["PYTHON"], ROOT / "scripts" / "exp3_table.py", "--compare",
+                 arms / "default", arms / "ccmaes"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert [r[0] for r in table_cells(p.stdout)] == ["exp3.handcrafted_method=ccmaes"]
     run_experiment("exp3.ini", tmp_path / "seed2", quick + ["experiment.seed=2"])
     p = run_cmd([explore_env()["PYTHON"], ROOT / "scripts" / "exp3_table.py", "--compare",
                  arms / "default", tmp_path / "seed2"], capture_output=True, text=True)
