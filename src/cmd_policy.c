@@ -4,7 +4,9 @@
  * --train FILE holds the samples: --state COLS, --action COLS (comma lists
  * or prefixes ending in '*'), --weight COL (REPS weights; omitted = 1) and,
  * for policy.target = reward_state, --target COLS (the final reward-ball
- * positions the forest learns). -i holds the query states, with the same
+ * positions the forest learns), for policy.cov_center = old, --old-mean
+ * COLS (the means of the policies that drew the rows, one per action, at
+ * the rows' states). -i holds the query states, with the same
  * state column names. Output, one row per query state:
  *   <state cols>, mean_<action>..., cov_<i>_<j> (i <= j, action indices
  *   0-based, upper triangle of the symmetric covariance), status
@@ -80,9 +82,9 @@ static int write_row(pr_csvw *w, const double *s, int ds, long sample, const dou
 /* The training samples and query states with their columns and arrays. */
 typedef struct {
 	pr_csv *tr, *in;
-	int *sc, *ac, *yc, *qc;   /* states, actions, targets in tr; states in in */
+	int *sc, *ac, *yc, *mc, *qc; /* states, actions, targets, sampling means in tr; states in in */
 	int ds, da, dy;
-	double *S, *A, *Y, *wt, *Q;
+	double *S, *A, *Y, *Mo, *wt, *Q;
 } samples;
 
 static void samples_free(samples *m)
@@ -92,18 +94,20 @@ static void samples_free(samples *m)
 	free(m->sc);
 	free(m->ac);
 	free(m->yc);
+	free(m->mc);
 	free(m->qc);
 	free(m->S);
 	free(m->A);
 	free(m->Y);
+	free(m->Mo);
 	free(m->wt);
 	free(m->Q);
 }
 
 /* Read the training samples and the query states: every check before the fit. */
-static int read_samples(const pr_cmd_args *a, int reward, samples *m, char *err)
+static int read_samples(const pr_cmd_args *a, int reward, int old, samples *m, char *err)
 {
-	int wcol = -1, j, rc;
+	int wcol = -1, dm = 0, j, rc;
 
 	if ((rc = pr_csv_read(a->train, &m->tr, err)) || (rc = pr_csv_read(a->input, &m->in, err)))
 		return rc;
@@ -113,6 +117,11 @@ static int read_samples(const pr_cmd_args *a, int reward, samples *m, char *err)
 		return m->da;
 	if (reward && (m->dy = pr_cmd_columns(m->tr, a->target, &m->yc, err)) < 0)
 		return m->dy;
+	if (old && (dm = pr_cmd_columns(m->tr, a->old_mean, &m->mc, err)) < 0)
+		return dm;
+	if (old && dm != m->da)
+		return pr_err(err, PR_EINVAL, "%s: --old-mean selects %d columns, --action %d",
+		              pr_csv_path(m->tr), dm, m->da);
 	if (a->weight && (wcol = pr_cmd_column(m->tr, a->weight, "--weight", err)) < 0)
 		return wcol;
 	if ((rc = pr_cmd_check_rows(m->tr, err)))
@@ -128,6 +137,7 @@ static int read_samples(const pr_cmd_args *a, int reward, samples *m, char *err)
 	if (!(m->S = pr_cmd_matrix(m->tr, m->sc, m->ds, err)) ||
 	    !(m->A = pr_cmd_matrix(m->tr, m->ac, m->da, err)) ||
 	    (reward && !(m->Y = pr_cmd_matrix(m->tr, m->yc, m->dy, err))) ||
+	    (old && !(m->Mo = pr_cmd_matrix(m->tr, m->mc, m->da, err))) ||
 	    !(m->Q = pr_cmd_matrix(m->in, m->qc, m->ds, err)))
 		return PR_ENOMEM;
 	return pr_cmd_weights(m->tr, wcol, a->weight, "weight", &m->wt, err);
@@ -156,6 +166,7 @@ static int fit_and_query(const pr_config *cfg, const samples *m, long ns, double
 	d.A = m->A;
 	d.Y = m->Y;
 	d.w = m->wt;
+	d.M = m->Mo;
 	/* the options and data were checked: a failed fit is memory (main
 	 * turns it into exit 4) or a numerical failure */
 	if (!(p = pr_policy_tree_fit(&cfg->policy, &d, rng, err)))
@@ -179,6 +190,7 @@ static int fit_and_query(const pr_config *cfg, const samples *m, long ns, double
 int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	const int reward = cfg->policy.target == PR_TARGET_REWARD_STATE;
+	const int old = cfg->policy.cov_center == PR_COV_CENTER_OLD;
 	samples m = { 0 };
 	pr_outset *set = NULL;
 	pr_csvw *w = NULL;
@@ -194,7 +206,13 @@ int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		              "policy: policy.target = reward_state needs --target COLS (final reward-ball positions)");
 	if (!reward && a->target)
 		return pr_err(err, PR_EINVAL, "policy: --target applies only with policy.target = reward_state");
-	if ((rc = pr_policy_opts_check(&cfg->policy, err)) || (rc = read_samples(a, reward, &m, err)))
+	if (old && !a->old_mean)
+		return pr_err(err, PR_EINVAL, "policy: policy.cov_center = old needs --old-mean COLS "
+		              "(the means of the policies that drew the training rows)");
+	if (!old && a->old_mean)
+		return pr_err(err, PR_EINVAL, "policy: --old-mean applies only with policy.cov_center = old");
+	if ((rc = pr_policy_opts_check(&cfg->policy, err)) ||
+	    (rc = read_samples(a, reward, old, &m, err)))
 		goto done;
 	nq = pr_csv_nrows(m.in);
 	nq1 = (size_t)(nq > 0 ? nq : 1);

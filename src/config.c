@@ -115,7 +115,7 @@ static const pr_config_key core_keys[] = {
 	{"policy", "cov", PR_KEY_ENUM, F(policy.cov), 0, 0, 0, "query|residual",
 	 "eq. 6.8 centred on the query mean (as printed) or on each sample's own fit"},
 	{"policy", "cov_center", PR_KEY_ENUM, F(policy.cov_center), 0, 0, 0, "new|old",
-	 "linear weighted ML: residuals around the new mean or the sampling policy's (benchmarks: old)"},
+	 "residuals (linear weighted ML; tree-LWR eq. 6.8) around the new mean or the sampling policy's (benchmarks: old)"},
 };
 #define NCORE ((int)(sizeof core_keys / sizeof core_keys[0]))
 

@@ -57,8 +57,9 @@ struct pr_exp3_learner {
 	/* window scratch */
 	double *q, *logpi, *logcur, *p, *phi, *u;
 	int *counts, *rowptr, *col;
-	/* handcrafted: sampling means per episode (policy.cov_center = old), or
-	 * the C-CMA-ES state and its baseline features (handcrafted_method) */
+	/* sampling means per episode (policy.cov_center = old: every fitted
+	 * policy, linear or tree-LWR, centres its covariance on them), or the
+	 * C-CMA-ES state and its baseline features (handcrafted_method) */
 	double *mu;
 	pr_cmaes *cm;
 	double *base;
@@ -673,7 +674,7 @@ static int begin(pr_exp3_learner *L, int n0, char *err)
 		L->base = malloc((size_t)(n0 > e->samples ? n0 : e->samples) * nq * sizeof *L->base);
 		if (!L->cm || !L->base)
 			return pr_err(err, PR_ENOMEM, "out of memory");
-	} else if (L->v == PR_EXP3_HANDCRAFTED && L->cfg->policy.cov_center == PR_COV_CENTER_OLD &&
+	} else if (L->cfg->policy.cov_center == PR_COV_CENTER_OLD &&
 	           !(L->mu = malloc(DA * cap * sizeof *L->mu))) {
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	}

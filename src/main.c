@@ -20,7 +20,7 @@
 enum {
 	O_SET = 256, O_SEED, O_VERSION, O_TRACE, O_TRAIN, O_TEST, O_TARGET, O_WEIGHT,
 	O_LEAVES, O_RETURN, O_FEATURES, O_BASE, O_EPSILON, O_SUMMARY, O_STATE, O_ACTION,
-	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP, O_HELP_KEYS, O_PROGRESS
+	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP, O_HELP_KEYS, O_PROGRESS, O_OLD_MEAN
 };
 
 static const struct option longopts[] = {
@@ -48,6 +48,7 @@ static const struct option longopts[] = {
 	{"missing", required_argument, 0, O_MISSING},
 	{"keep", no_argument, 0, O_KEEP},
 	{"progress", no_argument, 0, O_PROGRESS},
+	{"old-mean", required_argument, 0, O_OLD_MEAN},
 	{0, 0, 0, 0}
 };
 
@@ -84,12 +85,14 @@ static const command commands[] = {
 	 "  iterations,kl_gap,residual_rel,status: the certificate; status is active\n"
 	 "  (|KL - epsilon| and the relative feature residual <= 1e-9), unreachable (eta = 0:\n"
 	 "  p is the eta -> 0 limit, KL < epsilon) or failed, which exits 3."},
-	{"policy", "c,i,o,set,seed,train,state,action,weight,sample,target", pr_cmd_policy,
+	{"policy", "c,i,o,set,seed,train,state,action,weight,sample,target,old-mean", pr_cmd_policy,
 	 "poolreps policy --train FILE --state COLS --action COLS --weight COL [--sample N]\n"
-	 "                [--target COLS] [-i STATES.csv] [-o OUT.csv] [--set policy.key=value]...\n"
+	 "                [--target COLS] [--old-mean COLS] [-i STATES.csv] [-o OUT.csv]\n"
+	 "                [--set policy.key=value]...\n"
 	 "  Fit the tree-LWR Gaussian policy; write mean and covariance (and N samples)\n"
 	 "  for every state row of the input. policy.target = reward_state needs --target\n"
-	 "  (the training rows' final reward-ball positions)."},
+	 "  (the training rows' final reward-ball positions); policy.cov_center = old\n"
+	 "  needs --old-mean (the means of the policies that drew the training rows)."},
 	{"config", "c,o,set,seed", pr_cmd_config,
 	 "poolreps config [-c FILE] [--set section.key=value]... [--seed N] [-o FILE]\n"
 	 "  Write the effective configuration (defaults, file, overrides) as INI."},
@@ -410,6 +413,7 @@ int main(int argc, char **argv)
 		case O_SPLIT: a.split = optarg; break;
 		case O_MISSING: a.missing = optarg; break;
 		case O_KEEP: a.keep = 1; break;
+		case O_OLD_MEAN: a.old_mean = optarg; break;
 		case O_EPSILON: {
 			char *end;
 			a.epsilon = strtod(optarg, &end);

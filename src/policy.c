@@ -116,13 +116,16 @@ struct pr_policy {
 	double *w;          /* n REPS weights */
 	double *lm;         /* nl moment records (mom_*): each leaf's samples */
 	double *gm;         /* one moment record: all samples */
+	double *D;          /* n x da: a_i - m_i, m_i the mean of the policy that
+	                       drew sample i (cov_center old), else NULL */
+	double *ld, *gd;    /* moment records of D per leaf and overall, or NULL */
 	double *w2;         /* nl x nl: sum of w^2 over the samples two leaves
 	                       share (a leaf with itself: its own), or NULL when
 	                       too large (then sums walk the samples) */
 	double gw2;         /* sum of w^2 over all samples */
 	int *lpos, gpos;    /* samples with w > 0 per leaf, and overall */
 	double lambda, min_std;
-	int covmode;
+	int covmode, center;
 };
 
 /* Linear algebra scratch of one size. */
@@ -162,6 +165,7 @@ struct pr_policy_work {
 	int *touched;     /* n: the samples with what > 0 */
 	int *leaves;      /* cap active leaves */
 	double *mom;      /* one moment record */
+	double *dmom;     /* one moment record of a - m (cov_center old) */
 	double *B;        /* ds x da slopes */
 	double *mean, *cov, *cov2, *z, *lam;
 	double *sw;       /* ds + ds x da + ds x da: slope-solve scratch */
@@ -178,6 +182,7 @@ void pr_policy_work_free(pr_policy_work *w)
 	free(w->touched);
 	free(w->leaves);
 	free(w->mom);
+	free(w->dmom);
 	free(w->B);
 	free(w->mean);
 	free(w->cov);
@@ -190,7 +195,8 @@ void pr_policy_work_free(pr_policy_work *w)
 	free(w);
 }
 
-/* Doubles in one moment record for ds states and da actions: see mom_*. */
+/* Doubles in one moment record of ds + da values (states and actions, or
+ * da differences and 0): see mom_*. */
 static size_t mom_size(int ds, int da)
 {
 	size_t dz = (size_t)ds + (size_t)da;
@@ -215,6 +221,7 @@ static pr_policy_work *work_new(int n, int ds, int da, int cap, char *err)
 	w->touched = calloc((size_t)(n > 0 ? n : 1), sizeof *w->touched);
 	w->leaves = calloc((size_t)(cap > 0 ? cap : 1), sizeof *w->leaves);
 	w->mom = calloc(mom_size(ds, da) + k + a, sizeof *w->mom); /* + mom_merge's scratch */
+	w->dmom = calloc(mom_size(da, 0) + a, sizeof *w->dmom);
 	w->B = calloc(k * a + 1, sizeof *w->B);
 	w->mean = calloc(a, sizeof *w->mean);
 	w->cov = calloc(a * a, sizeof *w->cov);
@@ -222,7 +229,7 @@ static pr_policy_work *work_new(int n, int ds, int da, int cap, char *err)
 	w->z = calloc(a, sizeof *w->z);
 	w->lam = calloc(a, sizeof *w->lam);
 	w->sw = calloc(k + 2 * k * a + 1, sizeof *w->sw);
-	if (!w->what || !w->touched || !w->leaves || !w->mom || !w->B || !w->mean || !w->cov ||
+	if (!w->what || !w->touched || !w->leaves || !w->mom || !w->dmom || !w->B || !w->mean || !w->cov ||
 	    !w->cov2 || !w->z || !w->lam || !w->sw || (ds > 0 && eig_alloc(&w->ek, ds)) ||
 	    eig_alloc(&w->ea, da)) {
 		pr_policy_work_free(w);
@@ -417,6 +424,9 @@ void pr_policy_free(pr_policy *p)
 	free(p->w);
 	free(p->lm);
 	free(p->gm);
+	free(p->D);
+	free(p->ld);
+	free(p->gd);
 	free(p->w2);
 	free(p->lpos);
 	free(p);
@@ -801,19 +811,23 @@ fail:
 
 /* ---- moment records ----
  * One record summarises weighted samples z = (x, a) (dz = ds + da values,
- * relative to p->zref): rec[0] = sum w, rec[1..dz] = the weighted mean,
- * then the dz x dz centred sums sum w (z - mean)(z - mean)^T. */
+ * relative to p->zref; or z = a - m, the residuals about the sampling
+ * means, with ds = da and no second block): rec[0] = sum w, rec[1..dz] =
+ * the weighted mean, then the dz x dz centred sums
+ * sum w (z - mean)(z - mean)^T. */
 
-/* The record of samples idx (count k) with weights w. */
-static void mom_of(const pr_policy *p, const int *idx, int k, double *rec)
+/* The record of samples idx (count k) with weights w: z_i is row i of X
+ * (ds values) followed by row i of A (da values). */
+static void mom_of(const double *w, const int *idx, int k, const double *X, int ds,
+                   const double *A, int da, double *rec)
 {
-	const int ds = p->ds, da = p->da, dz = ds + da;
+	const int dz = ds + da;
 	double *mu = rec + 1, *S = rec + 1 + dz;
 	int i, j, l, pass;
 
 	memset(rec, 0, mom_size(ds, da) * sizeof *rec);
 	for (i = 0; i < k; i++)
-		rec[0] += p->w[idx[i]];
+		rec[0] += w[idx[i]];
 	if (!(rec[0] > 0.0))
 		return;
 	/* the mean twice: the second pass takes out the first's round-off */
@@ -822,8 +836,8 @@ static void mom_of(const pr_policy *p, const int *idx, int k, double *rec)
 
 		memset(cc, 0, (size_t)dz * sizeof *cc);
 		for (i = 0; i < k; i++) {
-			const double wi = p->w[idx[i]], *x = p->X + (size_t)idx[i] * ds,
-			             *a = p->A + (size_t)idx[i] * da;
+			const double wi = w[idx[i]], *x = X + (size_t)idx[i] * ds,
+			             *a = A + (size_t)idx[i] * da;
 
 			for (j = 0; j < dz; j++)
 				cc[j] += wi * ((j < ds ? x[j] : a[j - ds]) - mu[j]);
@@ -833,8 +847,7 @@ static void mom_of(const pr_policy *p, const int *idx, int k, double *rec)
 	}
 	memset(S, 0, (size_t)dz * dz * sizeof *S);
 	for (i = 0; i < k; i++) {
-		const double wi = p->w[idx[i]], *x = p->X + (size_t)idx[i] * ds,
-		             *a = p->A + (size_t)idx[i] * da;
+		const double wi = w[idx[i]], *x = X + (size_t)idx[i] * ds, *a = A + (size_t)idx[i] * da;
 
 		for (j = 0; j < dz; j++) {
 			double dj = wi * ((j < ds ? x[j] : a[j - ds]) - mu[j]);
@@ -878,11 +891,13 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 {
 	pr_policy *p;
 	const int reward = o->target == PR_TARGET_REWARD_STATE, ds = d->ds, da = d->da;
-	const size_t LM = mom_size(ds, da);
+	const size_t LM = mom_size(ds, da), LD = mom_size(da, 0);
+	const int old = o->cov_center == PR_COV_CENTER_OLD;
 	double sw;
 	int *all = NULL, i, j, l;
 
-	if (pr_policy_opts_check(o, err) != PR_OK || check_data(d, reward, &sw, err) != PR_OK)
+	if (pr_policy_opts_check(o, err) != PR_OK || check_data(d, reward, &sw, err) != PR_OK ||
+	    check_centres(d, o->cov_center, err) != PR_OK)
 		return NULL;
 	p = policy_alloc(PR_POLICY_TREE, ds, da);
 	if (!p) {
@@ -893,12 +908,15 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 	p->lambda = o->lambda;
 	p->min_std = o->min_std;
 	p->covmode = o->cov;
+	p->center = o->cov_center;
 	p->X = malloc((size_t)d->n * ds * sizeof *p->X);
 	p->A = malloc((size_t)d->n * da * sizeof *p->A);
 	p->zref = calloc((size_t)(ds + da), sizeof *p->zref);
 	p->w = malloc((size_t)d->n * sizeof *p->w);
 	all = malloc((size_t)d->n * sizeof *all);
-	if (!p->X || !p->A || !p->zref || !p->w || !all) {
+	if (old)
+		p->D = malloc((size_t)d->n * da * sizeof *p->D);
+	if (!p->X || !p->A || !p->zref || !p->w || !all || (old && !p->D)) {
 		free(all);
 		pr_policy_free(p);
 		pr_err(err, PR_ENOMEM, "policy: out of memory");
@@ -919,6 +937,9 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 		for (j = 0; j < da; j++)
 			p->A[(size_t)i * da + j] = d->A[(size_t)i * da + j] - p->zref[ds + j];
 	}
+	/* cov_center old: each sample's residual about its own sampling mean */
+	for (i = 0; old && i < d->n * da; i++)
+		p->D[i] = d->A[i] - d->M[i];
 	/* eq. 6.3: the weighted score uses the REPS weights */
 	p->forest = pr_forest_fit(&o->forest, d->S, d->n, ds, reward ? d->Y : d->A,
 	                          reward ? d->dy : da, p->w, rng, err);
@@ -937,7 +958,12 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 	p->lpos = calloc((size_t)p->nl, sizeof *p->lpos);
 	if ((size_t)p->nl * (size_t)p->nl <= 4u << 20)
 		p->w2 = calloc((size_t)p->nl * (size_t)p->nl, sizeof *p->w2);
-	if (!p->lm || !p->gm || !p->lpos || ((size_t)p->nl * (size_t)p->nl <= 4u << 20 && !p->w2)) {
+	if (old) {
+		p->ld = malloc((size_t)p->nl * LD * sizeof *p->ld);
+		p->gd = malloc(LD * sizeof *p->gd);
+	}
+	if (!p->lm || !p->gm || !p->lpos || ((size_t)p->nl * (size_t)p->nl <= 4u << 20 && !p->w2) ||
+	    (old && (!p->ld || !p->gd))) {
 		free(all);
 		pr_policy_free(p);
 		pr_err(err, PR_ENOMEM, "policy: out of memory");
@@ -947,11 +973,15 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 		const int *idx;
 		int k = pr_forest_leaf_samples(p->forest, l, &idx);
 
-		mom_of(p, idx, k, p->lm + (size_t)l * LM);
+		mom_of(p->w, idx, k, p->X, ds, p->A, da, p->lm + (size_t)l * LM);
+		if (old)
+			mom_of(p->w, idx, k, p->D, da, p->D, 0, p->ld + (size_t)l * LD);
 		for (i = 0; i < k; i++)
 			p->lpos[l] += p->w[idx[i]] > 0.0;
 	}
-	mom_of(p, all, d->n, p->gm);
+	mom_of(p->w, all, d->n, p->X, ds, p->A, da, p->gm);
+	if (old)
+		mom_of(p->w, all, d->n, p->D, da, p->D, 0, p->gd);
 	p->gw2 = 0.0;
 	p->gpos = 0;
 	for (i = 0; i < d->n; i++) {
@@ -1023,14 +1053,16 @@ static void unwalk(pr_policy_work *ws, int nt)
  *   Sigma = sum w-hat (a - mu)(a - mu)^T / Z, Z = tot (1 - s2n) (eq. 6.8-6.9):
  *   about mu(s) this is tot [C_aa + (a_bar - mu)(a_bar - mu)^T]; about each
  *   sample's own fit (residual covariance) the samples are walked: the nt
- *   weights in ws->what / ws->touched, or every sample with w when global.
+ *   weights in ws->what / ws->touched, or every sample with w when global;
+ *   about each sample's sampling mean m_i (cov_center old) it is
+ *   tot [C_dd + d_bar d_bar^T] from drec, the pooled record of d = a - m.
  * few: fewer weighted samples than ds + 1, too few to fit a slope: the
  * weighted mean (PR_POLICY_MEANONLY).
  * Mean and (unfloored) covariance into ws->mean, ws->cov. Returns the
  * flags, PR_POLICY_COVFALL when Z <= ZMIN tot (mean still valid), or a
  * negative status. */
-static int lwr(const pr_policy *p, const double *rec, double tot, double s2n, int global, int nt,
-               int few, const double *s, pr_policy_work *ws)
+static int lwr(const pr_policy *p, const double *rec, const double *drec, double tot, double s2n,
+               int global, int nt, int few, const double *s, pr_policy_work *ws)
 {
 	const int ds = p->ds, da = p->da, dz = ds + da;
 	const double *mu = rec + 1, *S = rec + 1 + dz;
@@ -1053,7 +1085,15 @@ static int lwr(const pr_policy *p, const double *rec, double tot, double s2n, in
 	memset(C, 0, (size_t)da * da * sizeof *C);
 	if (!(1.0 - s2n > ZMIN))
 		return flags | PR_POLICY_COVFALL;
-	if (p->covmode == PR_COV_RESIDUAL && !(flags & PR_POLICY_MEANONLY)) {
+	if (p->center == PR_COV_CENTER_OLD) {
+		/* about the sampling means: whatever the fit, the spread the old
+		 * policies saw (the query's mean plays no part) */
+		const double *dbar = drec + 1, *Sd = drec + 1 + da;
+
+		for (j = 0; j < da; j++)
+			for (l = j; l < da; l++)
+				C[j * da + l] = Sd[j * da + l] / drec[0] + dbar[j] * dbar[l];
+	} else if (p->covmode == PR_COV_RESIDUAL && !(flags & PR_POLICY_MEANONLY)) {
 		int n = global ? p->n : nt;
 		double wt = 0.0;
 
@@ -1092,15 +1132,23 @@ static int lwr(const pr_policy *p, const double *rec, double tot, double s2n, in
 	return flags;
 }
 
+/* The records of all samples (the global weights) into rec and drec. */
+static void global_records(const pr_policy *p, double *rec, double *drec)
+{
+	memcpy(rec, p->gm, mom_size(p->ds, p->da) * sizeof *rec);
+	if (drec)
+		memcpy(drec, p->gd, mom_size(p->da, 0) * sizeof *drec);
+}
+
 /* The tree policy at s: eq. 6.4's weights pooled leaf by leaf (sum w-hat f =
  * (1/M) sum over the active leaves of sum w f), then lwr(), with the
  * fallbacks of PR_POLICY_*. */
 static int tree_eval(const pr_policy *p, const double *s, int *flags, pr_policy_work *ws,
                      char *err)
 {
-	const size_t LM = mom_size(p->ds, p->da);
+	const size_t LM = mom_size(p->ds, p->da), LD = mom_size(p->da, 0);
 	const int dz = p->ds + p->da;
-	double *rec = ws->mom, s2 = 0.0, tot, s2n;
+	double *rec = ws->mom, *drec = p->D ? ws->dmom : NULL, s2 = 0.0, tot, s2n;
 	int nl, t, u, f = 0, st, nt = 0, walk, maxpos = 0;
 
 	nl = pr_forest_active(p->forest, s, p->ds, ws->leaves, ws->cap);
@@ -1109,17 +1157,22 @@ static int tree_eval(const pr_policy *p, const double *s, int *flags, pr_policy_
 	rec[0] = 0.0;
 	for (t = 0; t < nl; t++)
 		mom_merge(dz, rec, p->lm + (size_t)ws->leaves[t] * LM);
+	if (drec) {
+		drec[0] = 0.0;
+		for (t = 0; t < nl; t++)
+			mom_merge(p->da, drec, p->ld + (size_t)ws->leaves[t] * LD);
+	}
 	/* the samples are walked for the residual covariance, for sum w-hat^2
 	 * without the pair table, and to count them when no active leaf alone
 	 * holds ds + 1 weighted samples */
 	for (t = 0; t < nl; t++)
 		maxpos = p->lpos[ws->leaves[t]] > maxpos ? p->lpos[ws->leaves[t]] : maxpos;
-	walk = !p->w2 || p->covmode == PR_COV_RESIDUAL || maxpos < p->ds + 1;
+	walk = !p->w2 || (p->covmode == PR_COV_RESIDUAL && !drec) || maxpos < p->ds + 1;
 	if (!(rec[0] > 0.0) || !isfinite(rec[0])) {
 		/* no weight around s: the global weighted fit */
 		f |= PR_POLICY_GLOBAL;
-		memcpy(rec, p->gm, LM * sizeof *rec);
-		st = lwr(p, rec, rec[0], p->gw2 / (rec[0] * rec[0]), 1, 0, p->gpos < p->ds + 1, s, ws);
+		global_records(p, rec, drec);
+		st = lwr(p, rec, drec, rec[0], p->gw2 / (rec[0] * rec[0]), 1, 0, p->gpos < p->ds + 1, s, ws);
 	} else {
 		if (walk)
 			nt = walk_weights(p, ws->leaves, nl, ws);
@@ -1133,7 +1186,7 @@ static int tree_eval(const pr_policy *p, const double *s, int *flags, pr_policy_
 		}
 		tot = rec[0] / p->M;
 		s2n = s2 / (rec[0] * rec[0]);
-		st = lwr(p, rec, tot, s2n, 0, nt, walk && nt < p->ds + 1, s, ws);
+		st = lwr(p, rec, drec, tot, s2n, 0, nt, walk && nt < p->ds + 1, s, ws);
 		if (walk)
 			unwalk(ws, nt);
 	}
@@ -1144,8 +1197,8 @@ static int tree_eval(const pr_policy *p, const double *s, int *flags, pr_policy_
 		/* one effective local sample: take the spread of the global weights
 		 * around the local mean's global counterpart */
 		memcpy(ws->cov2, ws->mean, (size_t)p->da * sizeof *ws->mean);
-		memcpy(rec, p->gm, LM * sizeof *rec);
-		st = lwr(p, rec, rec[0], p->gw2 / (rec[0] * rec[0]), 1, 0, p->gpos < p->ds + 1, s, ws);
+		global_records(p, rec, drec);
+		st = lwr(p, rec, drec, rec[0], p->gw2 / (rec[0] * rec[0]), 1, 0, p->gpos < p->ds + 1, s, ws);
 		if (st < 0)
 			return pr_err(err, PR_ENUM, "policy: global regression failed");
 		memcpy(ws->mean, ws->cov2, (size_t)p->da * sizeof *ws->mean);

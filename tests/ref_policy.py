@@ -18,7 +18,9 @@ prints them), at the query state s:
   eq. 6.7   mu = a_bar + B^T (s - s_bar); with fewer weighted samples than
             ds + 1 (too few for the ds + 1 coefficients) mu = a_bar;
   eq. 6.8   Sigma = sum w^ (a_i - mu)(a_i - mu)^T / Z  (query-centred), or
-            about each sample's own fit a_bar + B^T (s_i - s_bar) (residual);
+            about each sample's own fit a_bar + B^T (s_i - s_bar) (residual),
+            or about m_i, the mean of the policy that drew sample i at s_i
+            (old: Sigma = sum w^ (a_i - m_i)(a_i - m_i)^T / Z, whatever the fit);
   eq. 6.9   Z = ((sum w^)^2 - sum w^2) / sum w^.
 Everything is exact; the results are rounded once to floats.
 """
@@ -44,10 +46,12 @@ def solve(M, b):
     return [row[n:] for row in aug]
 
 
-def lwr(S, A, w, leaves, qleaves, s, lam, cov="query"):
-    """Mean (da floats) and covariance (da x da floats) at s, or None when
-    the standardised normal matrix is singular (a rank-deficient
-    neighbourhood: compared elsewhere)."""
+def lwr(S, A, w, leaves, qleaves, s, lam, cov="query", Mold=None):
+    """Mean (da floats) and covariance (da x da floats) at s. The mean is
+    None when the standardised normal matrix is singular (a rank-deficient
+    neighbourhood: compared elsewhere), and so is the covariance unless it
+    is centred on the sampling means Mold (cov = "old", n x da); the
+    covariance is None when Z = 0."""
     F = Fraction
     n, ds, da, M = len(S), len(S[0]), len(A[0]), len(qleaves)
     wh = [F(w[i]) / M * sum(1 for t in range(M) if leaves[i][t] == qleaves[t]) for i in range(n)]
@@ -72,23 +76,27 @@ def lwr(S, A, w, leaves, qleaves, s, lam, cov="query"):
         B = [[F(0)] * da for _ in range(ds)]
     else:
         B = solve(N, Csa)
-    if B is None:
-        return None
+    if B is None and cov != "old":
+        return None, None
     sq = [F(x) for x in s]
-    mu = [abar[m] + sum(B[j][m] * (sq[j] - sbar[j]) for j in range(ds)) for m in range(da)]
+    mu = None if B is None else \
+        [abar[m] + sum(B[j][m] * (sq[j] - sbar[j]) for j in range(ds)) for m in range(da)]
     s2 = sum(x * x for x in wh)
     Z = (tot * tot - s2) / tot
+    fmu = None if mu is None else [float(x) for x in mu]
     if Z == 0:
-        return [float(x) for x in mu], None
+        return fmu, None
     C = [[F(0)] * da for _ in range(da)]
     for i in range(n):
         if wh[i] == 0:
             continue
         if cov == "query":
             r = [Af[i][m] - mu[m] for m in range(da)]
-        else:
+        elif cov == "residual":
             r = [xa[i][m] - sum(B[j][m] * xs[i][j] for j in range(ds)) for m in range(da)]
+        else:
+            r = [Af[i][m] - F(Mold[i][m]) for m in range(da)]
         for a in range(da):
             for b in range(da):
                 C[a][b] += wh[i] * r[a] * r[b]
-    return [float(x) for x in mu], [[float(C[a][b] / Z) for b in range(da)] for a in range(da)]
+    return fmu, [[float(C[a][b] / Z) for b in range(da)] for a in range(da)]

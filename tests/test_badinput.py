@@ -256,6 +256,19 @@ CASES = [
          files={"train.csv": TRAIN_CSV, "states.csv": STATES_CSV}),
     Case("policy_sample_absurd", POLICY + ["--sample", "1000000000"], USAGE, ("--sample",),
          files={"train.csv": TRAIN_CSV, "states.csv": STATES_CSV}),
+    Case("policy_old_without_means", POLICY + ["--set", "policy.cov_center=old"], USAGE,
+         ("policy.cov_center", "--old-mean"),
+         files={"train.csv": TRAIN_CSV, "states.csv": STATES_CSV}),
+    Case("policy_means_without_old", POLICY + ["--old-mean", "a0,a1"], USAGE,
+         ("--old-mean", "policy.cov_center"),
+         files={"train.csv": TRAIN_CSV, "states.csv": STATES_CSV}),
+    Case("policy_old_mean_missing_column", POLICY + ["--old-mean", "m0,m1", "--set", "policy.cov_center=old"],
+         IO, ("train.csv", "m0"), files={"train.csv": TRAIN_CSV, "states.csv": STATES_CSV}),
+    Case("policy_old_mean_count", POLICY + ["--old-mean", "a0", "--set", "policy.cov_center=old"], USAGE,
+         ("train.csv", "--old-mean"), files={"train.csv": TRAIN_CSV, "states.csv": STATES_CSV}),
+    Case("policy_old_mean_nan", POLICY + ["--old-mean", "m0,m1", "--set", "policy.cov_center=old"], IO,
+         ("train.csv:3:", "m1"), files={"train.csv": b"s0,s1,a0,a1,w,m0,m1\n0,0,1,1,1,1,1\n1,1,2,2,1,2,nan\n",
+                                        "states.csv": STATES_CSV}),
 ]
 
 

@@ -25,6 +25,61 @@ static gsl_rng *new_rng(unsigned long seed)
 	return r;
 }
 
+/* The reference weighted linear fit of a on [1, s] (GSL's weighted least
+ * squares) for n samples of ds state dimensions. */
+typedef struct {
+	int n, ds;
+	gsl_matrix *X, *C;
+	gsl_vector *y, *w, *b;
+	gsl_multifit_linear_workspace *mw;
+} wfit;
+
+static void wfit_init(wfit *f, int n, int ds, const double *S)
+{
+	int i, j;
+
+	f->n = n;
+	f->ds = ds;
+	f->X = gsl_matrix_alloc((size_t)n, (size_t)ds + 1);
+	f->C = gsl_matrix_alloc((size_t)ds + 1, (size_t)ds + 1);
+	f->y = gsl_vector_alloc((size_t)n);
+	f->w = gsl_vector_alloc((size_t)n);
+	f->b = gsl_vector_alloc((size_t)ds + 1);
+	f->mw = gsl_multifit_linear_alloc((size_t)n, (size_t)ds + 1);
+	for (i = 0; i < n; i++) {
+		gsl_matrix_set(f->X, (size_t)i, 0, 1.0);
+		for (j = 0; j < ds; j++)
+			gsl_matrix_set(f->X, (size_t)i, (size_t)j + 1, S[i * ds + j]);
+	}
+}
+
+/* Fit action column j of A (n x da) with weights w; returns the fit at s. */
+static double wfit_at(wfit *f, const double *A, int da, int j, const double *w, const double *s)
+{
+	double chisq, v;
+	int i;
+
+	for (i = 0; i < f->n; i++) {
+		gsl_vector_set(f->y, (size_t)i, A[i * da + j]);
+		gsl_vector_set(f->w, (size_t)i, w[i]);
+	}
+	assert_int_equal(gsl_multifit_wlinear(f->X, f->w, f->y, f->b, f->C, &chisq, f->mw), GSL_SUCCESS);
+	v = gsl_vector_get(f->b, 0);
+	for (i = 0; i < f->ds; i++)
+		v += gsl_vector_get(f->b, (size_t)i + 1) * s[i];
+	return v;
+}
+
+static void wfit_free(wfit *f)
+{
+	gsl_matrix_free(f->X);
+	gsl_matrix_free(f->C);
+	gsl_vector_free(f->y);
+	gsl_vector_free(f->w);
+	gsl_vector_free(f->b);
+	gsl_multifit_linear_free(f->mw);
+}
+
 static void test_gaussian_logpdf_sample(void **state)
 {
 	double mu[2] = { 0.3, -0.2 }, cov[4] = { 0.04, 0.012, 0.012, 0.09 };
@@ -146,11 +201,8 @@ static void test_single_node_is_global(void **state)
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
 	gsl_rng *rng = new_rng(3);
-	gsl_matrix *X = gsl_matrix_alloc(N, DS + 1), *C = gsl_matrix_alloc(DS + 1, DS + 1);
-	gsl_vector *y = gsl_vector_alloc(N), *wv = gsl_vector_alloc(N), *c = gsl_vector_alloc(DS + 1);
-	gsl_multifit_linear_workspace *mw = gsl_multifit_linear_alloc(N, DS + 1);
+	wfit f;
 	pr_policy *p;
-	double chisq;
 	int i, j, l, flags;
 
 	(void)state;
@@ -160,10 +212,6 @@ static void test_single_node_is_global(void **state)
 		A[i * DA] = sin(3 * S[i * DS]) + S[i * DS + 1] + 0.1 * gsl_ran_gaussian(rng, 1);
 		A[i * DA + 1] = S[i * DS] * S[i * DS + 1] + 0.1 * gsl_ran_gaussian(rng, 1);
 		w[i] = gsl_rng_uniform(rng);
-		gsl_matrix_set(X, i, 0, 1.0);
-		gsl_matrix_set(X, i, 1, S[i * DS]);
-		gsl_matrix_set(X, i, 2, S[i * DS + 1]);
-		gsl_vector_set(wv, i, w[i]);
 		sw += w[i];
 		sw2 += w[i] * w[i];
 	}
@@ -175,13 +223,12 @@ static void test_single_node_is_global(void **state)
 	assert_int_equal(pr_forest_nleaves(pr_policy_forest(p)), 3);
 	assert_int_equal(pr_policy_eval(p, s, mean, cov, &flags, NULL, err), PR_OK);
 	assert_int_equal(flags, 0);
+	wfit_init(&f, N, DS, S);
 	for (j = 0; j < DA; j++) {
-		for (i = 0; i < N; i++)
-			gsl_vector_set(y, i, A[i * DA + j]);
-		assert_int_equal(gsl_multifit_wlinear(X, wv, y, c, C, &chisq, mw), GSL_SUCCESS);
-		mu[j] = gsl_vector_get(c, 0) + gsl_vector_get(c, 1) * s[0] + gsl_vector_get(c, 2) * s[1];
+		mu[j] = wfit_at(&f, A, DA, j, w, s);
 		assert_near(mean[j], mu[j], 1e-8);
 	}
+	wfit_free(&f);
 	/* eq. 6.8-6.9 with unnormalised weights, centred on mu(s_hat) */
 	for (i = 0; i < N; i++)
 		for (j = 0; j < DA; j++)
@@ -190,22 +237,19 @@ static void test_single_node_is_global(void **state)
 	for (j = 0; j < DA * DA; j++)
 		assert_near(cov[j], want_cov[j] / ((sw * sw - sw2) / sw), 1e-9);
 	pr_policy_free(p);
-	gsl_matrix_free(X);
-	gsl_matrix_free(C);
-	gsl_vector_free(y);
-	gsl_vector_free(wv);
-	gsl_vector_free(c);
-	gsl_multifit_linear_free(mw);
 	gsl_rng_free(rng);
 }
 
 /* Hand-checked eq. 6.6-6.9: s = 0, 1, 2; a = 0, 1, 3; w = 1, 1, 2; query 1.
  * Weighted LS: alpha = -2/11, beta = 17/11, mu(1) = 15/11.
  * sum w (a - mu)^2 = (225 + 16 + 648)/121 = 889/121; Z = (16 - 6)/4 = 2.5;
- * Sigma = 889/302.5. Residual centring: (4 + 16 + 2)/121 / 2.5 = 22/302.5. */
+ * Sigma = 889/302.5. Residual centring: (4 + 16 + 2)/121 / 2.5 = 22/302.5.
+ * Centred on sampling means m = 1/2 (cov_center old, either policy.cov):
+ * (1/4 + 1/4 + 2 * 25/4) / 2.5 = 5.2; the mean is unchanged. */
 static void test_covariance_hand(void **state)
 {
 	double S[3] = { 0, 1, 2 }, A[3] = { 0, 1, 3 }, w[3] = { 1, 1, 2 }, s = 1.0, mean, cov;
+	double M[3] = { 0.5, 0.5, 0.5 };
 	pr_policy_data d = { 3, 1, 1, 0, S, A, NULL, w, NULL };
 	pr_policy_opts o;
 	char err[PR_ERRLEN];
@@ -230,6 +274,195 @@ static void test_covariance_hand(void **state)
 	assert_int_equal(pr_policy_eval(p, &s, &mean, &cov, &flags, NULL, err), PR_OK);
 	assert_near(mean, 15.0 / 11.0, 1e-9);
 	assert_near(cov, 22.0 / 302.5, 1e-9);
+	pr_policy_free(p);
+	o.cov_center = PR_COV_CENTER_OLD;
+	d.M = M;
+	for (o.cov = PR_COV_QUERY; o.cov <= PR_COV_RESIDUAL; o.cov++) {
+		p = pr_policy_tree_fit(&o, &d, rng, err);
+		assert_non_null(p);
+		assert_int_equal(pr_policy_eval(p, &s, &mean, &cov, &flags, NULL, err), PR_OK);
+		assert_int_equal(flags, 0);
+		assert_near(mean, 15.0 / 11.0, 1e-9);
+		assert_near(cov, 5.2, 1e-12);
+		pr_policy_free(p);
+	}
+	gsl_rng_free(rng);
+}
+
+/* Tree-LWR eq. 6.8 centred on the sampling means m_i (cov_center old)
+ * against the residual centre, on a forest: when the drawing policy's mean
+ * is affine in the state, m_i = c + G s_i, the local weighted normal
+ * equations (lambda = 0) remove the cross terms and
+ *   Sigma_old(s) = Sigma_res(s) + sum_i w^_i d_i d_i^T / Z,
+ *   d_i = l(s_i) - m_i,
+ * l the query's local weighted linear fit (here from gsl_multifit_wlinear
+ * with the eq. 6.4 weights w^ read off the forest's leaves), Z of eq. 6.9.
+ * The means agree bit for bit. Tolerance: 1e-10 of the largest variance. */
+static void test_tree_old_shift(void **state)
+{
+	enum { N = 300, DS = 2, DA = 2, NQ = 12 };
+	double S[N * DS], A[N * DA], M[N * DA], w[N], wh[N], s[DS];
+	double mo[DA], co[DA * DA], mr[DA], cr[DA * DA], want[DA * DA], l[N * DA];
+	const double c[DA] = { 0.3, -0.2 }, G[DA * DS] = { 0.5, -1.0, 0.25, 0.8 };
+	pr_policy_data d = { N, DS, DA, 0, S, A, NULL, w, M };
+	pr_policy_opts o;
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(21);
+	wfit f;
+	pr_policy *po, *pn;
+	int i, j, k, q, t, fo, fr, lv[8], lq[8], nt, compared = 0;
+
+	(void)state;
+	for (i = 0; i < N; i++) {
+		S[i * DS] = gsl_rng_uniform(rng) * 2 - 1;
+		S[i * DS + 1] = gsl_rng_uniform(rng) * 2 - 1;
+		for (j = 0; j < DA; j++) {
+			M[i * DA + j] = c[j] + G[j * DS] * S[i * DS] + G[j * DS + 1] * S[i * DS + 1];
+			A[i * DA + j] = (j ? S[i * DS] * S[i * DS + 1] : sin(2 * S[i * DS])) +
+			                0.1 * gsl_ran_gaussian(rng, 1);
+		}
+		w[i] = gsl_rng_uniform(rng) < 0.2 ? 0.0 : gsl_ran_exponential(rng, 1.0);
+	}
+	wfit_init(&f, N, DS, S);
+	pr_policy_opts_init(&o);
+	o.forest.trees = 5;
+	o.forest.n_min = 40;
+	o.lambda = 0.0;
+	o.min_std = 1e-150;
+	o.cov = PR_COV_RESIDUAL;
+	gsl_rng_set(rng, 22);
+	pn = pr_policy_tree_fit(&o, &d, rng, err);
+	o.cov_center = PR_COV_CENTER_OLD;
+	gsl_rng_set(rng, 22); /* the same forest */
+	po = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(pn);
+	assert_non_null(po);
+	nt = pr_forest_ntrees(pr_policy_forest(po));
+	assert_int_equal(nt, 5);
+	for (q = 0; q < NQ; q++) {
+		double tot = 0.0, tot2 = 0.0, Z, big;
+
+		s[0] = gsl_rng_uniform(rng) * 2 - 1;
+		s[1] = gsl_rng_uniform(rng) * 2 - 1;
+		assert_int_equal(pr_policy_eval(po, s, mo, co, &fo, NULL, err), PR_OK);
+		assert_int_equal(pr_policy_eval(pn, s, mr, cr, &fr, NULL, err), PR_OK);
+		assert_int_equal(fo, fr);
+		assert_memory_equal(mo, mr, sizeof mo);
+		if (fo)
+			continue;
+		/* eq. 6.4 weights from the leaves */
+		assert_int_equal(pr_forest_active(pr_policy_forest(po), s, DS, lq, 8), nt);
+		for (i = 0; i < N; i++) {
+			int shared = 0;
+
+			assert_int_equal(pr_forest_active(pr_policy_forest(po), S + i * DS, DS, lv, 8), nt);
+			for (t = 0; t < nt; t++)
+				shared += lv[t] == lq[t];
+			wh[i] = w[i] / nt * shared;
+			tot += wh[i];
+			tot2 += wh[i] * wh[i];
+		}
+		Z = (tot * tot - tot2) / tot;
+		for (j = 0; j < DA; j++) {
+			assert_near(mr[j], wfit_at(&f, A, DA, j, wh, s), 1e-9);
+			for (i = 0; i < N; i++)
+				l[i * DA + j] = gsl_vector_get(f.b, 0) + gsl_vector_get(f.b, 1) * S[i * DS] +
+				                gsl_vector_get(f.b, 2) * S[i * DS + 1] - M[i * DA + j];
+		}
+		for (j = 0; j < DA; j++)
+			for (k = 0; k < DA; k++) {
+				want[j * DA + k] = cr[j * DA + k];
+				for (i = 0; i < N; i++)
+					want[j * DA + k] += wh[i] * l[i * DA + j] * l[i * DA + k] / Z;
+			}
+		big = fmax(want[0], want[3]);
+		for (j = 0; j < DA * DA; j++)
+			assert_near(co[j], want[j], 1e-10 * big);
+		/* and the shift matters: the centres differ by far more than that */
+		assert_true(fabs(co[0] - cr[0]) > 1e-3 * big);
+		compared++;
+	}
+	assert_true(compared >= NQ / 2);
+	pr_policy_free(po);
+	pr_policy_free(pn);
+	wfit_free(&f);
+	gsl_rng_free(rng);
+}
+
+/* n uniform states in the unit square and the noiseless actions
+ * a = (s0, -s1): the degenerate cases' data. */
+static void mirror_data(gsl_rng *rng, int n, double *S, double *A)
+{
+	int i;
+
+	for (i = 0; i < n; i++) {
+		S[2 * i] = gsl_rng_uniform(rng);
+		S[2 * i + 1] = gsl_rng_uniform(rng);
+		A[2 * i] = S[2 * i];
+		A[2 * i + 1] = -S[2 * i + 1];
+	}
+}
+
+/* cov_center old on degenerate data: no sampling means or a non-finite one
+ * is refused (naming the key or the sample); one weighted neighbour (Z = 0)
+ * falls back to the global weights, centred on the sampling means too;
+ * residuals that are all 0 give min_std^2 I. */
+static void test_tree_old_degenerate(void **state)
+{
+	enum { N = 30 };
+	double S[N * 2], A[N * 2], M[N * 2], w[N], mean[2], cov[4], want[4] = { 0 };
+	double tot = 0.0, tot2 = 0.0, Z;
+	pr_policy_data d = { N, 2, 2, 0, S, A, NULL, w, NULL };
+	pr_policy_opts o;
+	char err[PR_ERRLEN];
+	gsl_rng *rng = new_rng(23);
+	pr_policy *p;
+	int i, j, k, flags;
+
+	(void)state;
+	mirror_data(rng, N, S, A);
+	for (i = 0; i < N; i++) {
+		M[2 * i] = A[2 * i] + 0.1 * gsl_ran_gaussian(rng, 1);
+		M[2 * i + 1] = A[2 * i + 1] - 0.2;
+		w[i] = 1.0 + i % 3;
+		tot += w[i];
+		tot2 += w[i] * w[i];
+	}
+	pr_policy_opts_init(&o);
+	o.cov_center = PR_COV_CENTER_OLD;
+	assert_null(pr_policy_tree_fit(&o, &d, rng, err));
+	assert_non_null(strstr(err, "policy.cov_center"));
+	d.M = M;
+	M[5] = NAN;
+	assert_null(pr_policy_tree_fit(&o, &d, rng, err));
+	assert_non_null(strstr(err, "sample 2: sampling mean 1 is not finite"));
+	M[5] = A[5] - 0.2;
+	/* leaves of one sample, one tree: Z = 0 at a training state -> the
+	 * global weights' covariance about the sampling means */
+	o.forest.trees = 1;
+	o.forest.n_min = 1;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	assert_int_equal(pr_policy_eval(p, S + 10, mean, cov, &flags, NULL, err), PR_OK);
+	assert_true((flags & PR_POLICY_MEANONLY) && (flags & PR_POLICY_COVFALL));
+	Z = (tot * tot - tot2) / tot;
+	for (i = 0; i < N; i++)
+		for (j = 0; j < 2; j++)
+			for (k = 0; k < 2; k++)
+				want[j * 2 + k] += w[i] * (A[2 * i + j] - M[2 * i + j]) * (A[2 * i + k] - M[2 * i + k]) / Z;
+	for (j = 0; j < 4; j++)
+		assert_near(cov[j], want[j], 1e-12 * want[0]);
+	pr_policy_free(p);
+	/* m = a: no residual at all -> the floor */
+	memcpy(M, A, sizeof M);
+	o.forest.n_min = N + 1;
+	p = pr_policy_tree_fit(&o, &d, rng, err);
+	assert_non_null(p);
+	assert_int_equal(pr_policy_eval(p, S, mean, cov, &flags, NULL, err), PR_OK);
+	assert_true(flags & PR_POLICY_FLOOR);
+	assert_near(cov[0], o.min_std * o.min_std, 1e-18);
+	assert_near(cov[1], 0.0, 1e-18);
+	assert_near(cov[3], o.min_std * o.min_std, 1e-18);
 	pr_policy_free(p);
 	gsl_rng_free(rng);
 }
@@ -303,13 +536,9 @@ static void test_degenerate(void **state)
 	int i, flags;
 
 	(void)state;
-	for (i = 0; i < N; i++) {
-		S[2 * i] = gsl_rng_uniform(rng);
-		S[2 * i + 1] = gsl_rng_uniform(rng);
-		A[2 * i] = S[2 * i];
-		A[2 * i + 1] = -S[2 * i + 1];
+	mirror_data(rng, N, S, A);
+	for (i = 0; i < N; i++)
 		w[i] = 1.0;
-	}
 	pr_policy_opts_init(&o);
 	/* leaves of one sample, one tree: a training state has a single weighted
 	 * neighbour -> mean only, Z = 0 -> global covariance */
@@ -556,6 +785,8 @@ int main(void)
 		cmocka_unit_test(test_quadratic_features),
 		cmocka_unit_test(test_single_node_is_global),
 		cmocka_unit_test(test_covariance_hand),
+		cmocka_unit_test(test_tree_old_shift),
+		cmocka_unit_test(test_tree_old_degenerate),
 		cmocka_unit_test(test_tree_is_local),
 		cmocka_unit_test(test_degenerate),
 		cmocka_unit_test(test_offset_states),

@@ -25,6 +25,7 @@ typedef struct {
 	int epsilon_set;
 	/* policy */
 	const char *state, *action;
+	const char *old_mean;  /* --old-mean COLS: sampling means (policy.cov_center = old) */
 	long sample;           /* --sample N, 0 = none */
 	/* merge: the input directories; collect: the sweep folder */
 	int ninputs;

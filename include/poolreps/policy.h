@@ -22,17 +22,22 @@
 
 enum { PR_TARGET_ACTION = 0, PR_TARGET_REWARD_STATE = 1 };
 
-/* Centre of the covariance eq. 6.8: the query mean mu(s_hat) as printed in
- * the thesis, or each sample's own prediction mu(s_i) (residual covariance). */
+/* Centre of the covariance eq. 6.8 under PR_COV_CENTER_NEW: the query mean
+ * mu(s_hat) as printed in the thesis, or the query's local fit at each
+ * sample's state (residual covariance). No effect under PR_COV_CENTER_OLD. */
 enum { PR_COV_QUERY = 0, PR_COV_RESIDUAL = 1 };
 
 /* Centre of the residuals of a weighted-ML covariance (key policy.cov_center):
  *   PR_COV_CENTER_NEW  the newly fitted mean, Sigma = sum w_i (a_i - W psi_i)(.)^T
- *                      (textbook weighted ML, eq. 3.10; the thesis's rule);
+ *                      (textbook weighted ML, eq. 3.10; the thesis's rule), and
+ *                      for the tree-LWR policy eq. 6.8 as policy.cov says;
  *   PR_COV_CENTER_OLD  the mean m_i of the policy that drew sample i, at that
  *                      sample's state, Sigma = sum w_i (a_i - m_i)(.)^T (the
- *                      rank-mu form of CMA-ES: keeps the spread along the step).
- * Used by pr_policy_linear_fit; the tree-LWR policy keeps eq. 6.8 (policy.cov). */
+ *                      rank-mu form of CMA-ES: keeps the spread along the step);
+ *                      for the tree-LWR policy, with eq. 6.4's weights w^_i(s)
+ *                      and eq. 6.9's Z at the query s:
+ *                      Sigma(s) = sum w^_i (a_i - m_i)(.)^T / Z.
+ * Both fits need pr_policy_data.M for PR_COV_CENTER_OLD. */
 enum { PR_COV_CENTER_NEW = 0, PR_COV_CENTER_OLD = 1 };
 
 /* Policy parameters (keys policy.*). */
@@ -45,7 +50,7 @@ typedef struct {
 	double min_std;        /* floor on each action standard deviation, m/s */
 	pr_forest_opts forest; /* policy.trees, policy.cuts, policy.n_min, ... */
 	int cov;               /* PR_COV_QUERY (eq. 6.8 as printed) or PR_COV_RESIDUAL */
-	int cov_center;        /* PR_COV_CENTER_NEW or PR_COV_CENTER_OLD (linear fits) */
+	int cov_center;        /* PR_COV_CENTER_NEW or PR_COV_CENTER_OLD */
 } pr_policy_opts;
 /* Defaults: target action, lambda 1e-10 (thesis 6.3), min_std 1e-3 m/s,
  * forest M = 10, K = 20, n_min = 75 (Experiment 3, thesis 7.5.1), n_c and
@@ -92,7 +97,7 @@ typedef struct {
 	const double *Y;  /* n x dy final reward-ball positions (target reward_state), or NULL */
 	const double *w;  /* n REPS weights >= 0, not all 0; NULL = unit weights */
 	const double *M;  /* n x da means of the policies that drew each sample, at
-	                     that sample's state (PR_COV_CENTER_OLD), or NULL */
+	                     that sample's state (PR_COV_CENTER_OLD, both fits), or NULL */
 } pr_policy_data;
 
 typedef struct pr_policy pr_policy;
@@ -127,7 +132,8 @@ int pr_policy_linear_params(const pr_policy *p, double *W, double *cov, char *er
 
 /* The tree-LWR policy: fits the forest (inputs S; outputs A for target
  * action, Y for target reward_state) with weights w (eq. 6.3), keeps copies
- * of S, A and w. One draw from rng seeds the forest. */
+ * of S, A and w (and of A - M for cov_center PR_COV_CENTER_OLD, which needs
+ * d->M). One draw from rng seeds the forest. */
 pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
                               gsl_rng *rng, char *err);
 
