@@ -9,7 +9,15 @@ VERSION := $(shell git describe --always --dirty --tags 2>/dev/null || cat VERSI
 WARN    := -std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 DEFS    := -D_POSIX_C_SOURCE=200809L -DHAVE_INLINE -DPR_VERSION_STR='"$(VERSION)"'
 PKGS    := gsl
-ifeq ($(SAN),1)
+# FUZZ=1: the library instrumented for libFuzzer (clang), for the harnesses
+# of tests/fuzz (target fuzz-bin; `make fuzz` runs them)
+FUZZ_CC ?= clang
+ifeq ($(FUZZ),1)
+  override CC := $(FUZZ_CC)
+  CFLAGS += -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
+  LDFLAGS += -fsanitize=address,undefined
+  BUILD := build/fuzz
+else ifeq ($(SAN),1)
   CFLAGS += -O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
   LDFLAGS += -fsanitize=address,undefined
   BUILD := build/san
@@ -26,7 +34,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
 .PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power quick-sums FORCE
-.PHONY: shared install-lib examples python check-pybind
+.PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin
 
 all: poolreps
 
@@ -71,12 +79,19 @@ check-c: $(TEST_BIN)
 check-py: $(BUILD)/poolreps $(BUILD)/tests/ref_driver
 	LC_ALL=C SAN=$(SAN) POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q tests
 
+# the scripts build their binaries through the rules below (bench-bin, fuzz-bin)
 bench: all
-	@for b in scripts/bench_*.sh; do echo "== $$b"; CC="$(CC)" PYTHON="$(PYTHON)" sh $$b || exit 1; done
+	@for b in scripts/bench_*.sh; do echo "== $$b"; MAKE="$(MAKE)" PYTHON="$(PYTHON)" sh $$b || exit 1; done
 
 FUZZ_SECONDS ?= 20
 fuzz:
-	sh scripts/fuzz.sh $(FUZZ_SECONDS)
+	MAKE="$(MAKE)" FUZZ_CC="$(FUZZ_CC)" sh scripts/fuzz.sh $(FUZZ_SECONDS)
+
+# the libFuzzer harnesses: `make FUZZ=1 fuzz-bin` (scripts/fuzz.sh does)
+FUZZ_BIN := $(patsubst tests/fuzz/%.c,$(BUILD)/%,$(wildcard tests/fuzz/fuzz_*.c))
+fuzz-bin: $(FUZZ_BIN)
+$(FUZZ_BIN): $(BUILD)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(LIB)
+	$(CC) $(ALL_CFLAGS) $(LDFLAGS) -fsanitize=fuzzer $< $(LIB) $(LIBS) -o $@
 
 valgrind: $(BUILD)/poolreps
 	sh scripts/valgrind.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"
@@ -196,8 +211,10 @@ python: $(SOLIB)
 	cp $(SOLIB) python/poolreps/$(SONAME)
 	cd python && PYTHONPATH=. $(PYTHON) -c 'import poolreps; print("poolreps", poolreps.__version__, "from", poolreps.library_path())'
 
-# the C benches that scripts/bench_python.sh compares poolreps.shoot with
-$(BUILD)/bench_sim $(BUILD)/bench_bind: $(BUILD)/bench_%: tests/bench/bench_%.c $(LIB)
+# the C benches of tests/bench (scripts/bench_*.sh build them through here)
+BENCH_BIN := $(patsubst tests/bench/%.c,$(BUILD)/%,$(wildcard tests/bench/*.c))
+bench-bin: $(BENCH_BIN)
+$(BENCH_BIN): $(BUILD)/bench_%: tests/bench/bench_%.c $(LIB)
 	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(LIB) $(LIBS) -o $@
 
 # Before compiling anything, one line naming the missing Debian packages

@@ -1,6 +1,6 @@
 #!/bin/sh
 # bench_forest.sh — our extra trees against scikit-learn's ExtraTreesRegressor
-# (issue 3 benchmark). Both tools fit the same CSVs (written once with fixed
+# (docs/benchmarks.md). Both tools fit the same CSVs (written once with fixed
 # seeds), each run in its own process, one core each (n_jobs=1):
 # n in {200, 2000, 20000, 200000}, d in {2, 4, 10}, M = 30, n_min = 20,
 # n_c = 1, 10000 test rows. Ours runs twice: K = 10 with replacement (the
@@ -14,15 +14,12 @@ set -eu
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 cd "$ROOT"
 QUICK=${1:-0}
-CC=${CC:-cc}
 OUT=build/bench
 VENV=build/bench-venv
 mkdir -p "$OUT/data"
 
-make -s lib
-BIN=$OUT/bench_forest
-$CC -std=c11 -O2 -D_POSIX_C_SOURCE=200809L -Iinclude tests/bench/bench_forest.c \
-	build/rel/libpoolreps.a $(pkg-config --libs gsl) -lglpk -lcsv -linih -lpthread -lm -o "$BIN"
+BIN=build/rel/bench_forest
+${MAKE:-make} -s SAN=0 "$BIN"
 
 if ! "$VENV/bin/python" -c 'import sklearn, numpy' 2>/dev/null; then
 	echo "bench_forest: installing scikit-learn and numpy into $VENV" >&2

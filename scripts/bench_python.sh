@@ -14,7 +14,7 @@ cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
 RUNS=${RUNS:-5}
 SHOTS=${SHOTS:-1000000}
-make -s build/rel/bench_sim build/rel/bench_bind build/rel/libpoolreps.so.0.1.0
+${MAKE:-make} -s SAN=0 build/rel/bench_sim build/rel/bench_bind build/rel/libpoolreps.so.0.1.0
 export POOLREPS_LIB="$PWD/build/rel/libpoolreps.so.0.1.0"
 field() { printf '%s\n' "$1" | tr ' ' '\n' | sed -n "s/^$2=//p"; }
 crun() { build/rel/bench_sim --mode event --actions gauss --shots "$1" --runs 1; }

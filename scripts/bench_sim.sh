@@ -1,16 +1,11 @@
 #!/bin/sh
-# bench_sim.sh — simulator throughput (issue 2): 2-ball shots from
+# bench_sim.sh — simulator throughput: 2-ball shots from
 # Experiment 3's start region, single thread, median of 5 runs, as a
 # markdown table. Run from anywhere: sh scripts/bench_sim.sh
 set -e
 cd "$(dirname "$0")/.."
-CC=${CC:-cc}
-LIB=${LIB:-build/rel/libpoolreps.a}
-[ -n "${LIB_BUILT:-}" ] || make -s lib
 BIN=build/rel/bench_sim
-mkdir -p build/rel
-$CC -std=c11 -O2 -Wall -Wextra -D_POSIX_C_SOURCE=200809L -Iinclude tests/bench/bench_sim.c "$LIB" \
-	$(pkg-config --cflags --libs gsl) -lglpk -lcsv -linih -lpthread -lm -o "$BIN"
+${MAKE:-make} -s SAN=0 "$BIN"
 
 field() { printf '%s\n' "$1" | tr ' ' '\n' | sed -n "s/^$2=//p"; }
 

@@ -1,11 +1,13 @@
 #!/bin/sh
 # fuzz.sh SECONDS — build the libFuzzer harnesses of tests/fuzz/ with clang
-# (ASan + UBSan), run each for SECONDS from its seed corpus, then run every
-# kept regression input once. Exits non-zero if a harness does not build,
-# finds a crash, a leak, a timeout or an out-of-memory, or if a regression
-# input fails. SECONDS = 0 runs the regression inputs only.
+# (ASan + UBSan; `make FUZZ=1 fuzz-bin`, so the flags are the Makefile's),
+# run each for SECONDS from its seed corpus, then run every kept regression
+# input once. Exits non-zero if a harness does not build, finds a crash, a
+# leak, a timeout or an out-of-memory, or if a regression input fails.
+# SECONDS = 0 runs the regression inputs only.
 #
-#   build/fuzz/fuzz_<name>          the harness binaries
+#   build/fuzz/fuzz_<name>          the harness binaries (the instrumented
+#                                   library and its objects next to them)
 #   build/fuzz/corpus/<name>/       the growing corpus (seeds stay untouched)
 #   build/fuzz/crash-<name>-*       what libFuzzer found (crash-, leak-,
 #                                   timeout-, oom-), to keep as a regression case
@@ -25,43 +27,15 @@ cc=${FUZZ_CC:-clang}
 timeout=${FUZZ_TIMEOUT:-10}
 harnesses=${FUZZ_HARNESSES:-config csv shoot}
 out=build/fuzz
-obj=$out/obj
 
 if ! command -v "$cc" >/dev/null 2>&1; then
 	echo "fuzz.sh: $cc not found (Debian: apt-get install clang libclang-rt-14-dev)" >&2
 	exit 1
 fi
-mkdir -p "$obj" || exit 1
-
-warn="-std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes"
-defs="-D_POSIX_C_SOURCE=200809L"
-san="-g -O1 -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all"
-cflags="$warn $defs -Iinclude -Isrc $(pkg-config --cflags gsl) $san"
-libs="$(pkg-config --libs gsl) -lglpk -lcsv -linih -lm -lpthread"
-
-# The library, instrumented for coverage but without libFuzzer's main.
-# An object is rebuilt when its source or any header is newer.
-objs=""
-for src in src/*.c; do
-	name=$(basename "$src" .c)
-	[ "$name" = main ] && continue
-	o=$obj/$name.o
-	if [ ! -f "$o" ] || [ -n "$(find "$src" src/*.h include/poolreps/*.h -newer "$o" 2>/dev/null | head -1)" ]; then
-		echo "fuzz.sh: CC $src"
-		# shellcheck disable=SC2086
-		$cc $cflags -fsanitize=fuzzer-no-link -c "$src" -o "$o" || { echo "fuzz.sh: $src does not build" >&2; exit 1; }
-	fi
-	objs="$objs $o"
-done
-rm -f "$out/libpoolreps-fuzz.a"
 # shellcheck disable=SC2086
-ar rcs "$out/libpoolreps-fuzz.a" $objs || exit 1
-
+${MAKE:-make} -s FUZZ=1 FUZZ_CC="$cc" fuzz-bin || { echo "fuzz.sh: the harnesses do not build" >&2; exit 1; }
 for h in $harnesses; do
-	echo "fuzz.sh: LINK fuzz_$h"
-	# shellcheck disable=SC2086
-	$cc $cflags -fsanitize=fuzzer "tests/fuzz/fuzz_$h.c" "$out/libpoolreps-fuzz.a" $libs \
-		-o "$out/fuzz_$h" || { echo "fuzz.sh: harness fuzz_$h does not build" >&2; exit 1; }
+	[ -x "$out/fuzz_$h" ] || { echo "fuzz.sh: no harness tests/fuzz/fuzz_$h.c" >&2; exit 1; }
 done
 
 if [ -z "${TMPDIR:-}" ] && [ -d /dev/shm ] && [ -w /dev/shm ]; then

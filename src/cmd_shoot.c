@@ -1,4 +1,4 @@
-/* cmd_shoot.c — `poolreps shoot` (SPEC.md §6): one shot per input row.
+/* cmd_shoot.c — `poolreps shoot`: one shot per input row.
  *
  * Input columns x0,y0,...,x{n-1},y{n-1},vx,vy (any order, no others); the
  * ball count n comes from them. Every row is checked before anything is

@@ -1,5 +1,5 @@
 /* sim.c — the pool simulator's options, checks, reward, start states and
- * scripted shots (thesis 7.1–7.4, SPEC.md §1–3). The two time-advance
+ * scripted shots (thesis 7.1–7.4). The two time-advance
  * schemes live in sim_event.c and sim_stepped.c. */
 #include <math.h>
 #include <stdlib.h>
@@ -44,7 +44,7 @@ void pr_sim_reward_opts_init(pr_reward_opts *o)
 
 void pr_sim_start_opts_init(pr_start_opts *o)
 {
-	/* Experiments 1 and 2 (SPEC.md §3); obstacles anywhere on the default table. */
+	/* Experiments 1 and 2 (thesis 7.3.1, 7.4.1); obstacles anywhere on the default table. */
 	const double cue[4] = {-0.25, -0.25, 0.0, 0.0};
 	const double reward[4] = {0.05, 0.45, -0.2, 0.2};
 	const double obstacle[4] = {-0.485, 0.485, -0.235, 0.235};

@@ -1,4 +1,4 @@
-/* sim_event.c — exact event-driven time advance (SPEC.md §1, sim.mode = event).
+/* sim_event.c — exact event-driven time advance (sim.mode = event).
  *
  * Invariant. Every moving ball decays at the same rate, v(t) = v(t0) e^{-c(t-t0)},
  * so with tau = (1 - e^{-ct})/c a moving ball's velocity is u e^{-ct} for a

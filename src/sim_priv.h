@@ -7,7 +7,7 @@
 /* Ball states. */
 enum { PR_BALL_MOVING = 0, PR_BALL_REST = 1, PR_BALL_POCKETED = 2 };
 
-/* Event-mode event types, in tie-break order (SPEC.md §1: pocket and stop
+/* Event-mode event types, in tie-break order (pocket and stop
  * before collisions, then by ball index). */
 enum { PR_EV_POCKET = 0, PR_EV_STOP = 1, PR_EV_CUSHION = 2, PR_EV_BALL = 3, PR_EV_NONE = 4 };
 

@@ -1,4 +1,4 @@
-"""Bad-input suite (issue 7): malformed parameter files, CSVs and command lines.
+"""Bad-input suite: malformed parameter files, CSVs and command lines.
 
 Every case runs the real binary (env POOLREPS, LC_ALL=C) in its own temporary
 folder and checks the contract of docs/hardening.md:

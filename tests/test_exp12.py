@@ -147,7 +147,7 @@ def test_exp2_schema_and_ranges(tmp_path):
         assert 0 <= int(r["policy_flags"]) < 64
         if r["policy"] == "expert":
             assert r["policy_flags"] == "0"
-    # the ghost-ball expert pockets (nearly) every test shot (SPEC.md §3)
+    # the ghost-ball expert pockets (nearly) every test shot (thesis 7.4.1)
     for r in ret:
         if r["policy"] == "expert":
             assert float(r["pocketed"]) >= 0.95

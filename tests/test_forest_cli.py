@@ -1,4 +1,4 @@
-"""End-to-end tests of `poolreps forest` (SPEC.md §6, issue 3 items 3 and 5).
+"""End-to-end tests of `poolreps forest` (the `forest` command of docs/forest.md).
 
 The binary is $POOLREPS (default ./poolreps at the repository root); run
 with LC_ALL=C.

@@ -1,4 +1,4 @@
-"""End-to-end tests of `poolreps shoot` (SPEC.md §6, issue 2 item 4).
+"""End-to-end tests of `poolreps shoot` (docs/sim.md, `poolreps shoot`).
 
 The binary is $POOLREPS (default ./poolreps at the repository root); run
 with LC_ALL=C.

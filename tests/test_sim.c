@@ -299,7 +299,7 @@ static void test_max_events(void **state)
 	destroy(f);
 }
 
-/* Reward of SPEC.md §2 on hand-made outcomes. */
+/* Reward of eq. 7.7 on hand-made outcomes. */
 static void test_reward(void **state)
 {
 	fixture *f = make(PR_SIM_EVENT, 1);

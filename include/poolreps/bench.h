@@ -1,4 +1,4 @@
-/* bench.h — REPS validation problems (issue 4 item 5), run as experiments
+/* bench.h — REPS validation problems, run as experiments
  * named by experiment.name:
  *
  *   quadratic   1-D contextual quadratic: context c ~ U[-1, 1], action x,

@@ -1,4 +1,4 @@
-/* cmd.h — the component commands behind the CLI (SPEC.md §6).
+/* cmd.h — the component commands behind the CLI.
  * main.c parses the command line into pr_cmd_args and a pr_config, then
  * calls one of these. They read and write CSV; they never print to stdout
  * except CSV data when the output is "-", and never exit. */

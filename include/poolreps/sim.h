@@ -1,4 +1,4 @@
-/* sim.h — the 2-D pool simulator of thesis section 7.1 (SPEC.md §1–3).
+/* sim.h — the 2-D pool simulator of thesis section 7.1.
  *
  * Coordinates in metres, origin at the table centre, x along the long side.
  * Ball 0 is the cue ball, balls 1..reward_balls the reward balls, the rest
@@ -40,7 +40,7 @@ typedef struct {
 } pr_sim_opts;
 void pr_sim_opts_init(pr_sim_opts *o);
 
-/* Reward of SPEC.md §2, eq. 7.7 (keys reward.*). */
+/* Reward, eq. 7.7 (keys reward.*). */
 typedef struct {
 	int ntargets;
 	int targets[PR_SIM_POCKETS]; /* pocket ids */
@@ -109,7 +109,7 @@ long pr_sim_trace_len(const pr_sim_trace *tr);
 /* The rows, owned by tr, valid until its next use or free. */
 const pr_sim_trace_row *pr_sim_trace_rows(const pr_sim_trace *tr);
 
-/* Pocket centre of pocket id (0..5), SPEC.md §1 numbering. */
+/* Pocket centre of pocket id (0..5): 0-2 along y = -W/2 from x = -L/2, 3-5 along y = +W/2. */
 void pr_sim_pocket_xy(const pr_table *t, int id, double xy[2]);
 
 /* PR_OK if nballs is in 1..PR_SIM_MAX_BALLS and every ball is finite, on the
@@ -129,7 +129,7 @@ int pr_sim_check_action(const pr_sim_opts *o, const double action[2], char *err)
 int pr_sim_shoot(pr_sim *s, const double *state, int nballs, const double action[2],
                  pr_shot *res, pr_sim_trace *trace, char *err);
 
-/* Return of SPEC.md §2 (eq. 7.7): 0 if a reward ball fell into a target
+/* Return of eq. 7.7: 0 if a reward ball fell into a target
  * pocket, else minus the smallest distance from a reward ball's final
  * position to a target pocket centre; minus miss_penalty * min_gap if the cue
  * ball touched no reward ball; minus scratch_penalty if the cue ball fell. */
@@ -168,7 +168,7 @@ typedef struct {
 	double v0;         /* m/s, cue speed at the start */
 } pr_sim_ghost;
 
-/* Ghost-ball expert of SPEC.md §3 (thesis 7.4.1): target = the target pocket
+/* Ghost-ball expert (thesis 7.4.1): target = the target pocket
  * nearest reward ball 1 (by its centre); aim point = its centre or, with
  * e->aim = PR_GHOST_AIM_CORRIDOR, its corridor entry (pr_sim_pocket_entry,
  * as the caption of the thesis's Fig. 7.5 says); speed from v = v0 - c s so

@@ -8,6 +8,7 @@
  * pr_config_set, the --set path. */
 #include "fuzz_common.h"
 #include "poolreps/config.h"
+#include "poolreps/exp.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -21,7 +22,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		fuzz_tmp_path(again, sizeof again, "config_again", "ini");
 	}
 	fuzz_write_file(path, data, size);
-	pr_config_init(&c);
+	pr_config_init(&c, pr_exp_config);
 	err[0] = '\0';
 	if (pr_config_load(&c, path, err) != PR_OK) {
 		fuzz_check_err(err, path);
@@ -31,7 +32,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		fp = fopen(again, "wb");
 		if (!fp || pr_config_write(&c, fp) != PR_OK || fclose(fp) != 0)
 			abort();
-		pr_config_init(&d);
+		pr_config_init(&d, pr_exp_config);
 		if (pr_config_load(&d, again, err) != PR_OK) {
 			fprintf(stderr, "fuzz harness: effective configuration does not reload: %s\n", err);
 			abort();
@@ -43,7 +44,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		abort();
 	memcpy(s, data, size);
 	s[size] = '\0';
-	pr_config_init(&c);
+	pr_config_init(&c, pr_exp_config);
 	if (pr_config_set(&c, s, err) != PR_OK)
 		fuzz_check_err(err, NULL);
 	free(s);

@@ -8,6 +8,7 @@
 #include "fuzz_common.h"
 #include "poolreps/cmd.h"
 #include "poolreps/csvio.h"
+#include "poolreps/exp.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -21,7 +22,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		fuzz_tmp_path(in, sizeof in, "shoot_in", "csv");
 		fuzz_tmp_path(out, sizeof out, "shoot_out", "csv");
 		fuzz_tmp_path(trace, sizeof trace, "shoot_trace", "csv");
-		pr_config_init(&cfg);
+		pr_config_init(&cfg, pr_exp_config);
 	}
 	fuzz_write_file(in, data, size);
 	unlink(out);
