@@ -48,20 +48,45 @@ static int write_episodes(const pr_config *cfg, const pr_exp3_job *runs, int nru
 		for (i = 0; rc == PR_OK && i < o->n; ++i) {
 			rc |= pr_csvw_int(w, runs[j].repetition);
 			rc |= pr_csvw_str(w, pr_exp3_variant_name[runs[j].variant]);
-			rc |= pr_csvw_int(w, o->iter[i]);
-			for (b = 0; b < o->ds; ++b)
-				rc |= pr_csvw_num(w, o->S[(size_t)i * o->ds + b]);
-			rc |= pr_csvw_num(w, o->A[2 * i]);
-			rc |= pr_csvw_num(w, o->A[2 * i + 1]);
-			rc |= pr_csvw_num(w, o->R[i]);
-			rc |= pr_csvw_num(w, o->F[2 * i]);
-			rc |= pr_csvw_num(w, o->F[2 * i + 1]);
-			rc |= pr_csvw_int(w, o->pocket[i]);
-			rc |= pr_csvw_int(w, o->hit[i]);
-			rc |= pr_csvw_endrow(w);
+			rc |= pr_exp3_write_episode(w, o, i);
 		}
 	}
 	return pr_csvw_finish(w, rc, err);
+}
+
+int pr_exp3_write_episode(pr_csvw *w, const pr_exp3_episodes *o, int i)
+{
+	int b, rc = pr_csvw_int(w, o->iter[i]);
+
+	for (b = 0; b < o->ds; ++b)
+		rc |= pr_csvw_num(w, o->S[(size_t)i * o->ds + b]);
+	rc |= pr_csvw_num(w, o->A[2 * i]);
+	rc |= pr_csvw_num(w, o->A[2 * i + 1]);
+	rc |= pr_csvw_num(w, o->R[i]);
+	rc |= pr_csvw_num(w, o->F[2 * i]);
+	rc |= pr_csvw_num(w, o->F[2 * i + 1]);
+	rc |= pr_csvw_int(w, o->pocket[i]);
+	rc |= pr_csvw_int(w, o->hit[i]);
+	return rc | pr_csvw_endrow(w);
+}
+
+int pr_exp3_write_iter(pr_csvw *w, const pr_exp3_iter *r)
+{
+	int rc = pr_csvw_num(w, r->eta);
+
+	rc |= pr_csvw_num(w, r->kl);
+	rc |= pr_csvw_num(w, r->ess);
+	rc |= pr_csvw_int(w, r->bound);
+	rc |= pr_csvw_num(w, r->residual);
+	rc |= pr_csvw_num(w, r->q_ess);
+	rc |= pr_csvw_int(w, r->nfeat);
+	rc |= pr_csvw_int(w, r->evals);
+	rc |= pr_csvw_int(w, r->redraws);
+	rc |= pr_csvw_int(w, r->flags);
+	rc |= pr_csvw_num(w, r->kl_gap);
+	rc |= pr_csvw_num(w, r->residual_rel);
+	rc |= pr_csvw_str(w, pr_reps_status_name(r->status));
+	return rc | pr_csvw_endrow(w);
 }
 
 static int write_reps(const pr_exp3_job *runs, int nruns, const char *dir, char *err)
@@ -73,28 +98,13 @@ static int write_reps(const pr_exp3_job *runs, int nruns, const char *dir, char 
 	snprintf(path, sizeof path, "%s/exp3_reps.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
-	rc = pr_csvw_header(w, "repetition,policy,iteration,eta,kl,ess,bound,residual,q_ess,"
-	                       "features,dual_evals,redraws,policy_flags,kl_gap,residual_rel,status");
+	rc = pr_csvw_header(w, "repetition,policy,iteration," PR_EXP3_ITER_COLUMNS);
 	for (j = 0; rc == PR_OK && j < nruns; ++j)
 		for (t = 0; rc == PR_OK && t < runs[j].ep.niter; ++t) {
-			const pr_exp3_iter *r = &runs[j].ep.it[t];
 			rc |= pr_csvw_int(w, runs[j].repetition);
 			rc |= pr_csvw_str(w, pr_exp3_variant_name[runs[j].variant]);
 			rc |= pr_csvw_int(w, t + 1);
-			rc |= pr_csvw_num(w, r->eta);
-			rc |= pr_csvw_num(w, r->kl);
-			rc |= pr_csvw_num(w, r->ess);
-			rc |= pr_csvw_int(w, r->bound);
-			rc |= pr_csvw_num(w, r->residual);
-			rc |= pr_csvw_num(w, r->q_ess);
-			rc |= pr_csvw_int(w, r->nfeat);
-			rc |= pr_csvw_int(w, r->evals);
-			rc |= pr_csvw_int(w, r->redraws);
-			rc |= pr_csvw_int(w, r->flags);
-			rc |= pr_csvw_num(w, r->kl_gap);
-			rc |= pr_csvw_num(w, r->residual_rel);
-			rc |= pr_csvw_str(w, pr_reps_status_name(r->status));
-			rc |= pr_csvw_endrow(w);
+			rc |= pr_exp3_write_iter(w, &runs[j].ep.it[t]);
 		}
 	return pr_csvw_finish(w, rc, err);
 }
@@ -137,7 +147,7 @@ static int cmp_long(const void *a, const void *b)
 	return (x > y) - (x < y);
 }
 
-static int is_target(const pr_reward_opts *ro, int pocket)
+int pr_exp3_is_target(const pr_reward_opts *ro, int pocket)
 {
 	int j;
 
@@ -158,14 +168,12 @@ static int variant_of(const char *name, const int *var, int nvar)
 	return -1;
 }
 
-/* Distance of the final reward-ball position to the nearest target pocket
- * (0 when it fell into one): the distance term of eq. 7.7. */
-static double target_distance(const pr_config *cfg, int pocket, double rx, double ry)
+double pr_exp3_target_distance(const pr_config *cfg, int pocket, double rx, double ry)
 {
 	double best = HUGE_VAL, p[2];
 	int j;
 
-	if (is_target(&cfg->reward, pocket))
+	if (pr_exp3_is_target(&cfg->reward, pocket))
 		return 0.0;
 	for (j = 0; j < cfg->reward.ntargets; ++j) {
 		double d;
@@ -225,7 +233,7 @@ static int read_episodes(const pr_config *cfg, const char *dir, const int *var, 
 		    (rc = pr_exp_table_num(t, i, col[C_RX], &rx, err)) ||
 		    (rc = pr_exp_table_num(t, i, col[C_RY], &ry, err)))
 			break;
-		E->dist[i] = target_distance(cfg, E->pocket[i], rx, ry);
+		E->dist[i] = pr_exp3_target_distance(cfg, E->pocket[i], rx, ry);
 		if ((E->v[i] = variant_of(pr_exp_table_str(t, i, col[C_POL]), var, nvar)) < 0)
 			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in exp3.policies",
 			            path, i + 2, pr_exp_table_str(t, i, col[C_POL]));
@@ -383,7 +391,7 @@ static int write_final(const pr_config *cfg, const episodes *E, const int *var, 
 					ds += E->dist[i];
 					n++;
 					if (E->pocket[i] >= 0)
-						*(is_target(&cfg->reward, E->pocket[i]) ? &tgt : &other) += 1;
+						*(pr_exp3_is_target(&cfg->reward, E->pocket[i]) ? &tgt : &other) += 1;
 				}
 			m = s / (double)n;
 			for (i = 0; i < E->n; ++i)
@@ -431,7 +439,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 		for (b = -1; b < PR_SIM_POCKETS; ++b) {
 			pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
 			pr_csvw_int(w, b);
-			pr_csvw_int(w, is_target(&cfg->reward, b));
+			pr_csvw_int(w, pr_exp3_is_target(&cfg->reward, b));
 			pr_csvw_int(w, pk[b + 1]);
 			pr_csvw_num(w, (double)pk[b + 1] / (double)tot);
 			rc = pr_csvw_endrow(w);

@@ -121,4 +121,10 @@ int pr_exp_table_int(const pr_exp_table *t, long i, int j, long lo, long hi, lon
 /* A list key whose values must be integers >= 1 (counts such as n_min). */
 int pr_exp_int_list(const pr_list *l, const char *key, int *out, char *err);
 
+/* A start state of nballs balls (s, 2 * nballs values) where the ghost-ball
+ * expert (pr_sim_ghost_action) has a shot, and that shot: states where it
+ * has none are drawn again, at most start.max_tries times. */
+int pr_exp_expert_state(const pr_config *cfg, int nballs, gsl_rng *rng, double *s, double a[2],
+                        char *err);
+
 #endif
