@@ -81,11 +81,12 @@ fuzz:
 valgrind: $(BUILD)/poolreps
 	sh scripts/valgrind.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"
 
-# docs/poolreps.1 and the README's key list from --help; tests/test_cli.py and
-# tests/test_readme.py fail until this is rerun after a help change
+# docs/poolreps.1 and docs/parameters.md from --help and --help-keys;
+# tests/test_cli.py and tests/test_readme.py fail until this is rerun after a
+# help change
 man: $(BUILD)/poolreps
 	sh scripts/gen-man.sh $(BUILD)/poolreps docs/poolreps.1
-	sh scripts/gen-readme-keys.sh $(BUILD)/poolreps README.md
+	sh scripts/gen-params.sh $(BUILD)/poolreps docs/parameters.md
 
 # tests/data/quick_reproduce.sha256: the bytes of every CSV of the quick
 # reproduction (tests/test_report.py compares); rerun only when results are
@@ -117,10 +118,11 @@ power: all
 	sh scripts/power.sh "$(OUT)/power" "$(POWER_REPS)" "$(POWER_DOCS)" "$(PYTHON)" $(POWER_ARGS)
 
 install: all
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/poolreps/data \
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/poolreps/data/quick \
 	  $(DESTDIR)$(PREFIX)/share/poolreps/scripts $(DESTDIR)$(PREFIX)/share/man/man1
 	install -m 755 poolreps $(DESTDIR)$(PREFIX)/bin/poolreps
 	install -m 644 data/*.ini $(DESTDIR)$(PREFIX)/share/poolreps/data
+	install -m 644 data/quick/*.ini $(DESTDIR)$(PREFIX)/share/poolreps/data/quick
 	install -m 755 scripts/*.py scripts/*.sh scripts/plot $(DESTDIR)$(PREFIX)/share/poolreps/scripts
 	install -m 644 scripts/power_template.md $(DESTDIR)$(PREFIX)/share/poolreps/scripts
 	install -m 644 docs/poolreps.1 $(DESTDIR)$(PREFIX)/share/man/man1

@@ -1,6 +1,7 @@
 #!/bin/sh
-# Generate the man page from `poolreps --help`, so that the man page and the
-# help text cannot drift apart (tests/test_cli.py checks that they agree).
+# Generate the man page from `poolreps --help` and `poolreps --help-keys`, so
+# that the man page and the help text cannot drift apart (tests/test_cli.py
+# checks that they agree).
 #   scripts/gen-man.sh [POOLREPS [OUT]]    defaults: ./poolreps, docs/poolreps.1
 # OUT - writes to stdout. The page depends on the help text alone (no date,
 # no version, C locale), so the same binary always gives the same bytes.
@@ -11,7 +12,7 @@ bin=${1:-./poolreps}
 out=${2:-docs/poolreps.1}
 export LC_ALL=C
 # fails here, not halfway through the page, if the binary cannot run
-help=$("$bin" --help)
+help=$("$bin" --help && echo && "$bin" --help-keys)
 
 page() {
 	cat <<'HEAD'
@@ -33,7 +34,9 @@ Gaussian policy, and the thesis's three experiments. Parameter files are INI; al
 data in and out is CSV with a header row.
 .PP
 The sections below are the output of
-.BR "poolreps \-\-help" .
+.B "poolreps \-\-help"
+and
+.BR "poolreps \-\-help\-keys" .
 .SH USAGE
 HEAD
 	printf '%s\n' "$help" | awk '

@@ -26,6 +26,10 @@ import statistics
 import figstyle as fs
 import matplotlib.pyplot as plt  # noqa: E402  (after figstyle: it picks the Python)
 
+# units of the summary columns the shipped experiments write (others: none shown)
+UNITS = {"mean_return": "m", "std_return": "m", "mean_distance": "m", "mean_mse": "m²",
+         "std_mse": "m²"}
+
 DEFAULTS = [  # (columns that identify a summary, its defaults)
     ({"policy", "repetition", "mean_return"},
      {"y": "mean_return", "panel": "policy", "exclude": ["repetition=-1"]}),
@@ -150,7 +154,7 @@ def main():
             ax.set_xticks(range(len(xs)))
             ax.set_xticklabels(xs)
     for ax in axes[:, 0]:
-        ax.set_ylabel(a.y)
+        ax.set_ylabel(fs.label(a.y, UNITS.get(a.y)))
     if lines:
         axes.flat[0].legend(fontsize=8)
     n = sorted(counts)

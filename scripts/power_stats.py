@@ -635,17 +635,16 @@ def draw_effects(study, png, svg):
     """Paired effect on the mean return against the baseline, with 95 % t
     intervals, per variant: event mode left, stepped mode (1 and 0.5 ms)
     right. Self-contained so that a shared plot style can replace it."""
-    import matplotlib
-    matplotlib.use("Agg")
+    import figstyle as fs
     import matplotlib.pyplot as plt
-    matplotlib.rcParams.update({"svg.hashsalt": "poolreps-power", "font.size": 9})
+    fs.setup()
     panels = [("event", ["event"]), ("stepped", ["stepped", "stepped05"])]
     present = {a.name: a for a in study.arms}
     variants = [p for p in study.arms[0].policies if p != BASELINE]
-    style = {"event": ("o", "#1f77b4"), "stepped": ("s", "#d62728"),
-             "stepped05": ("^", "#ff7f0e")}
+    style = {"event": ("o", fs.PALETTE["blue"]), "stepped": ("s", fs.PALETTE["vermillion"]),
+             "stepped05": ("^", fs.PALETTE["orange"])}
     eff = {(e["arm"], e["policy"]): e for e in study.effects}
-    fig, axes = plt.subplots(1, 2, figsize=(9, 4.2), sharey=True, sharex=True)
+    fig, axes = plt.subplots(1, 2, figsize=(fs.WIDTH["full"], 3.6), sharey=True, sharex=True)
     handles = []
     for ax, (title, arms) in zip(axes, panels):
         arms = [x for x in arms if x in present]
@@ -659,24 +658,23 @@ def draw_effects(study, png, svg):
             m, c = style[arm]
             handles.append(ax.errorbar(x, ys, xerr=err, fmt=m, color=c, capsize=3, ms=5,
                                        label=present[arm].label))
-        zero = ax.axvline(0, color="black", lw=0.8, label="no difference")
-        thesis = ax.axvline(MARGIN, color="grey", lw=0.8, ls=":",
+        zero = ax.axvline(0, color=fs.PALETTE["black"], lw=0.8, label="no difference")
+        thesis = ax.axvline(MARGIN, color=fs.PALETTE["grey"], lw=0.8, ls=":",
                             label=f"{MARGIN}: thesis's nrvr, s→rs")
-        big = ax.axvline(CONSIDERABLE, color="grey", lw=0.8, ls="--",
+        big = ax.axvline(CONSIDERABLE, color=fs.PALETTE["grey"], lw=0.8, ls="--",
                          label=f"{CONSIDERABLE}: \"considerably better\"")
         ax.set_title(f"{title} mode")
-        ax.set_xlabel("mean return minus the baseline's (paired)")
-        ax.grid(axis="x", alpha=0.3)
+        ax.set_xlabel(fs.label("return − baseline's (paired)", "m"))
+        ax.grid(axis="y", visible=False)
     axes[0].set_yticks(range(len(variants)))
     axes[0].set_yticklabels([LABEL.get(p, p) for p in reversed(variants)])
-    fig.legend(handles=handles + [zero, thesis, big], loc="lower center", ncol=3, fontsize=8,
-               frameon=False)
+    fig.legend(handles=handles + [zero, thesis, big], loc="lower center", ncol=3, frameon=False)
     fig.suptitle(f"Experiment 3, {len(study.arms[0].reps)} repetitions, each run's last "
-                 f"{study.arms[0].final} episodes: 95 % paired t intervals", fontsize=9)
-    fig.tight_layout(rect=(0, 0.11, 1, 1))
-    fig.savefig(png, dpi=120, metadata={"Software": None})
-    fig.savefig(svg, metadata={"Date": None, "Creator": None})
-    plt.close(fig)
+                 f"{study.arms[0].final} episodes: 95 % paired t intervals")
+    fig.tight_layout(rect=(0, 0.13, 1, 1))
+    stem = os.path.splitext(os.path.basename(png))[0]
+    assert svg == os.path.join(os.path.dirname(png), stem + ".svg")
+    fs.save(fig, os.path.dirname(png) or ".", stem)
 
 
 def md_table(header, rows, align=None):

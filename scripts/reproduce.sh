@@ -5,7 +5,8 @@
 # OUT/<name>/: each experiment's CSVs, figures and provenance (the simulator
 # figures' data in OUT/sim); OUT/figures/: every figure as PNG and SVG;
 # OUT/timings.csv: wall seconds per step; OUT/report.html: the report page.
-# QUICK=1: a smoke run at tiny sizes (CI), same code paths and scripts.
+# QUICK=1: a smoke run at tiny sizes (CI), same code paths and scripts: the
+# keys of data/quick/<name>.ini on top of data/<name>.ini.
 # POOLREPS=path picks the binary (default ./poolreps).
 set -e
 OUT=${1:-results}
@@ -30,28 +31,20 @@ timed() { # step name, then the command; appends its wall time to timings.csv
 	echo "reproduce: $step took $t s"
 }
 
-run() { # name, then the --set options of the QUICK run
-	name=$1; shift
+run() { # name: data/NAME.ini; QUICK=1 adds the keys of data/quick/NAME.ini
+	name=$1
 	dir=$name; [ "$name" = figures ] && dir=sim
-	if [ "$QUICK" = 1 ]; then
-		timed "$name: run" "$BIN" "data/$name.ini" -o "$OUT/$dir" "$@"
-	else
-		timed "$name: run" "$BIN" "data/$name.ini" -o "$OUT/$dir"
+	quick=
+	if [ "$QUICK" = 1 ] && [ -f "data/quick/$name.ini" ]; then
+		quick=$(sh scripts/quick-sets.sh "data/quick/$name.ini")
 	fi
+	# shellcheck disable=SC2086 # the quick --set words are meant to split
+	timed "$name: run" "$BIN" "data/$name.ini" -o "$OUT/$dir" $quick
 	timed "$name: figures" sh scripts/plot "$OUT/$dir"
 }
 
-run figures
-run exp1 --set exp1.train=200 --set exp1.test=200 --set exp1.subset=100 \
-	--set exp1.test_subset=100 --set experiment.repetitions=2 \
-	--set exp1.n_min_list=5,20,100 --set exp1.trees_list=1,10 --set exp1.cuts_list=1,10 \
-	--set exp1.map_grid=11
-run exp2 --set exp2.sizes=10,50,100 --set exp2.test=100 --set experiment.repetitions=2
-run exp3 --set exp3.iterations=5 --set exp3.init_samples=60 --set exp3.window=60 \
-	--set exp3.samples=10 --set experiment.repetitions=2 --set policy.n_min=20 \
-	--set exp3.baseline_n_min=100 --set exp3.final_episodes=30
-for b in quadratic sphere rosenbrock; do
-	run $b --set experiment.repetitions=2 --set bench.iterations=10
+for name in figures exp1 exp2 exp3 quadratic sphere rosenbrock; do
+	run $name
 done
 for d in sim exp1 exp2 exp3; do
 	cp "$OUT/$d"/*.png "$OUT/$d"/*.svg "$OUT/figures/"

@@ -926,7 +926,19 @@ int pr_config_write(const pr_config *c, FILE *fp)
 	return ferror(fp) ? PR_EIO : PR_OK;
 }
 
-void pr_config_help(pr_config_schema schema, FILE *fp)
+int pr_config_key_listed(const char *list, const char *key)
+{
+	while (*list) {
+		size_t n = strcspn(list, ",");
+		if (n && (list[n - 1] == '.' ? strncmp(key, list, n) == 0
+		                             : strlen(key) == n && strncmp(key, list, n) == 0))
+			return 1;
+		list += n + (list[n] == ',');
+	}
+	return 0;
+}
+
+void pr_config_help(pr_config_schema schema, const char *only, FILE *fp)
 {
 	pr_config c;
 	char lo[40], hi[40], names[PR_ERRLEN], *base;
@@ -939,6 +951,8 @@ void pr_config_help(pr_config_schema schema, FILE *fp)
 		const pr_config_key *k = key_at(&c, i, &base);
 		char name[2 * NAMELEN];
 		snprintf(name, sizeof name, "%s.%s", k->section, k->key);
+		if (only && !pr_config_key_listed(only, name))
+			continue;
 		fprintf(fp, "  %-26s = ", name);
 		write_value(&c, i, fp);
 		if (k->type == PR_KEY_EXPERIMENT) {

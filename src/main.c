@@ -20,11 +20,12 @@
 enum {
 	O_SET = 256, O_SEED, O_VERSION, O_TRACE, O_TRAIN, O_TEST, O_TARGET, O_WEIGHT,
 	O_LEAVES, O_RETURN, O_FEATURES, O_BASE, O_EPSILON, O_SUMMARY, O_STATE, O_ACTION,
-	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP
+	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP, O_HELP_KEYS
 };
 
 static const struct option longopts[] = {
 	{"help", no_argument, 0, 'h'},
+	{"help-keys", no_argument, 0, O_HELP_KEYS},
 	{"version", no_argument, 0, O_VERSION},
 	{"set", required_argument, 0, O_SET},
 	{"seed", required_argument, 0, O_SEED},
@@ -73,7 +74,7 @@ static const command commands[] = {
 	 "                [-o OUT.csv] [-c FILE] [--set forest.key=value]...\n"
 	 "  Fit extra trees on the training CSV (inputs = every other column), predict the\n"
 	 "  test CSV: one pred_<name> column per target. --leaves writes each test row's\n"
-	 "  active leaf per tree. Timings and test MSE go to stderr."},
+	 "  active leaf per tree. Timings and test MSE go to stderr (not with -q)."},
 	{"reps", "c,i,o,set,return,features,base,epsilon,summary", pr_cmd_reps,
 	 "poolreps reps --return COL --features LIST [--base COL] [--epsilon E]\n"
 	 "              [--summary FILE] [-i IN.csv] [-o OUT.csv]\n"
@@ -133,22 +134,8 @@ static const char *command_keys(const command *cmd)
 	return NULL;
 }
 
-/* 1 if key ("section.key") is in list ("a.,b.c": section a, key b.c). */
-static int key_listed(const char *list, const char *key)
-{
-	while (*list) {
-		size_t n = strcspn(list, ",");
-		if (n && (list[n - 1] == '.' ? strncmp(key, list, n) == 0
-		                             : strlen(key) == n && strncmp(key, list, n) == 0))
-			return 1;
-		list += n + (list[n] == ',');
-	}
-	return 0;
-}
-
-/* "Accepts: -c, -o, --set" from a command's option list, and the keys its
- * --set may change. */
-static void print_options(FILE *fp, const char *options, const char *keys)
+/* "Accepts: -c, -o, --set" from a command's option list. */
+static void print_options(FILE *fp, const char *options)
 {
 	const char *p = options;
 
@@ -159,30 +146,26 @@ static void print_options(FILE *fp, const char *options, const char *keys)
 		p += n + (p[n] == ',');
 	}
 	fprintf(fp, " -q, -h.\n");
-	for (p = keys; p && *p;) {
-		size_t n = strcspn(p, ",");
-		fprintf(fp, "%s%.*s%s", p == keys ? "  --set keys: " : ", ", (int)n, p,
-		        p[n - 1] == '.' ? "*" : "");
-		p += n + (p[n] == ',');
-		if (!*p)
-			fprintf(fp, ".\n");
-	}
 }
 
-static void usage(FILE *fp, const command *cmd)
+/* The keys a command's --set may change: listed with their defaults, or
+ * (run, config, sweep: every key) a pointer to --help-keys. */
+static void print_keys(FILE *fp, const command *cmd)
 {
-	size_t i;
+	const char *keys = command_keys(cmd);
 
-	if (cmd) {
-		fprintf(fp, "Usage: %s\n", cmd->usage);
-		print_options(fp, cmd->options, command_keys(cmd));
-	} else {
-		fprintf(fp, "Usage: poolreps CONFIG | poolreps COMMAND [options]\n\nCommands:\n");
-		for (i = 0; i < NCOMMANDS; ++i) {
-			fprintf(fp, "  %s\n", commands[i].usage);
-			print_options(fp, commands[i].options, command_keys(&commands[i]));
-		}
+	if (!strstr(cmd->options, "set"))
+		return;
+	if (!keys) {
+		fprintf(fp, "  --set keys: every parameter key (poolreps --help-keys).\n");
+		return;
 	}
+	fprintf(fp, "\n");
+	pr_config_help(pr_exp_config, keys, fp);
+}
+
+static void common_options(FILE *fp)
+{
 	fprintf(fp,
 	        "\nCommon options (a command takes those its Accepts line lists, each at\n"
 	        "most once except --set; any other is refused):\n"
@@ -192,11 +175,36 @@ static void usage(FILE *fp, const command *cmd)
 	        "  -i FILE, -o FILE     input (default stdin) and output (default stdout)\n"
 	        "  -q                   quiet: no progress, no summary line\n"
 	        "  -h, --help           this help; after a COMMAND, that command's usage\n"
+	        "  --help-keys          every parameter key with default, unit and range\n"
 	        "  --version            print the version and exit\n"
 	        "\nExit codes: 0 ok, 1 bad usage or parameter, 2 I/O or malformed CSV,\n"
 	        "  3 numerical failure, 4 out of memory, 128 + N stopped by signal N\n"
-	        "  (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT, 141 SIGPIPE, 153 SIGXFSZ).\n\n");
-	pr_config_help(pr_exp_config, fp);
+	        "  (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT, 141 SIGPIPE, 153 SIGXFSZ).\n");
+}
+
+/* poolreps --help (cmd NULL): every command and the common options;
+ * poolreps CMD --help, poolreps help CMD: that command, its options and
+ * the keys it reads. */
+static void usage(FILE *fp, const command *cmd)
+{
+	size_t i;
+
+	if (cmd) {
+		fprintf(fp, "Usage: %s\n", cmd->usage);
+		print_options(fp, cmd->options);
+		print_keys(fp, cmd);
+	} else {
+		fprintf(fp, "Usage: poolreps CONFIG | poolreps COMMAND [options] | poolreps help [COMMAND]\n"
+		            "\nCommands:\n");
+		for (i = 0; i < NCOMMANDS; ++i) {
+			fprintf(fp, "  %s\n", commands[i].usage);
+			print_options(fp, commands[i].options);
+		}
+	}
+	common_options(fp);
+	if (!cmd)
+		fprintf(fp, "\nParameter keys: poolreps --help-keys lists them all (also docs/parameters.md\n"
+		            "and the man page).\n");
 }
 
 /* During a run or merge, the first signal asks the loops to stop (they
@@ -369,6 +377,11 @@ int main(int argc, char **argv)
 		case 'o': a.output = optarg; break;
 		case 'q': a.quiet = 1; break;
 		case 'h': help = 1; break;
+		case O_HELP_KEYS:
+			pr_config_help(pr_exp_config, NULL, stdout);
+			free(orig);
+			free(used);
+			return stdout_done();
 		case O_VERSION:
 			printf("poolreps %s\n", pr_version());
 			free(orig);
@@ -426,6 +439,20 @@ int main(int argc, char **argv)
 		}
 	}
 
+	/* poolreps help [COMMAND]: that command's --help */
+	if (optind < argc && strcmp(argv[optind], "help") == 0) {
+		help = 1;
+		if (++optind < argc) {
+			for (j = 0; j < NCOMMANDS && strcmp(argv[optind], commands[j].name) != 0; ++j)
+				;
+			if (j == NCOMMANDS)
+				FAIL("help: unknown command '%.60s' (see poolreps --help)", argv[optind]);
+			if (optind + 1 < argc)
+				FAIL("help: unexpected argument '%.60s'", argv[optind + 1]);
+		} else {
+			optind = argc;
+		}
+	}
 	/* The first operand names a command; anything else is a parameter file. */
 	if (optind < argc) {
 		for (j = 0; j < NCOMMANDS; ++j)
@@ -476,10 +503,10 @@ int main(int argc, char **argv)
 		while (n && (p[n - 1] == ' ' || p[n - 1] == '\t'))
 			--n;
 		snprintf(key, sizeof key, "%.*s", (int)n, p);
-		if (!key_listed(command_keys(cmd), key))
+		if (!pr_config_key_listed(command_keys(cmd), key))
 			FAIL("%s: --set %s does not apply (see poolreps %s --help)", cmd->name, key, cmd->name);
 	}
-	if (command_keys(cmd) && seed && !key_listed(command_keys(cmd), "experiment.seed"))
+	if (command_keys(cmd) && seed && !pr_config_key_listed(command_keys(cmd), "experiment.seed"))
 		FAIL("%s: option --seed does not apply (see poolreps %s --help)", cmd->name, cmd->name);
 #undef FAIL
 	free(used);

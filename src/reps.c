@@ -1142,7 +1142,7 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 	gsl_matrix *N = gsl_matrix_alloc((size_t)nr, (size_t)nr);
 	prob F;
 	work w;
-	double rmax, tscale = 1.0, pR = 0.0, delta, emax, *err = malloc((size_t)m * sizeof *err);
+	double rmax, tscale = 1.0, delta, emax, *err = malloc((size_t)m * sizeof *err);
 	int i, k, nz = 0, nb = 0, ns = 0, st = PR_OK, rc;
 
 	memset(&F, 0, sizeof F);
@@ -1265,7 +1265,6 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 		L->p[F.rowid[i]] = pi;
 		if (pi > 0.0)
 			L->kl += pi * log(pi / F.q[i]);
-		pR += pi * P->R[F.rowid[i]];
 	}
 	/* Certificate, for the problem whose targets are the features p_0
 	 * matches, b' = A p_0 (they differ from phi_hat by p_0's residual,

@@ -1,14 +1,18 @@
 """Shared pytest helpers for the end-to-end tests.
 
-`make check` sets POOLREPS to the absolute path of the binary. Tests may keep
-reading os.environ["POOLREPS"] directly; the `poolreps` fixture below adds:
-  - LC_ALL=C for every run,
-  - an optional wrapper from env POOLREPS_WRAPPER (a command line, e.g.
-    "valgrind -q --error-exitcode=99"), prepended to the binary,
-  - a timeout, so that a hang fails the test instead of stalling the suite
-    (multiplied by env POOLREPS_TIMEOUT_SCALE, which scripts/valgrind.sh sets).
+`make check` sets POOLREPS to the absolute path of the binary. Every command
+a test starts goes through run_cmd (subprocess.run with LC_ALL=C unless the
+test's env sets a locale, and a timeout, so that a hang fails the test instead
+of stalling the suite, multiplied by env POOLREPS_TIMEOUT_SCALE, which
+scripts/valgrind.sh sets). The binary itself goes through run_poolreps (the
+`poolreps` fixture), which adds an optional wrapper from env POOLREPS_WRAPPER
+(a command line, e.g. "valgrind -q --error-exitcode=99"), or run_experiment
+(no wrapper: an experiment takes minutes under valgrind).
+Tests that must start a process and act on it while it runs (signals, a
+terminal) use subprocess.Popen with timeout_scale().
 Mark long experiment tests @pytest.mark.slow: scripts/valgrind.sh skips them.
 """
+import configparser
 import csv
 import os
 import shlex
@@ -30,6 +34,22 @@ def poolreps_path():
     return path if os.access(path, os.X_OK) else None
 
 
+def timeout_scale():
+    """How much slower than usual the commands run (valgrind: POOLREPS_TIMEOUT_SCALE)."""
+    return float(os.environ.get("POOLREPS_TIMEOUT_SCALE", "1"))
+
+
+def run_cmd(args, *, timeout=120, env=None, **kw):
+    """subprocess.run(args, **kw) for any command of a test: C locale unless
+    env sets LC_ALL, a timeout of `timeout` seconds times timeout_scale(),
+    list arguments turned into str."""
+    full_env = dict(os.environ if env is None else env)
+    full_env.setdefault("LC_ALL", "C")
+    if isinstance(args, (list, tuple)):
+        args = [a if isinstance(a, bytes) else str(a) for a in args]
+    return subprocess.run(args, env=full_env, timeout=timeout * timeout_scale(), **kw)
+
+
 def run_poolreps(args, *, input=None, cwd=None, timeout=120, env=None):
     """Run poolreps with args (each turned into str); returns CompletedProcess
     with bytes stdout and stderr."""
@@ -39,10 +59,8 @@ def run_poolreps(args, *, input=None, cwd=None, timeout=120, env=None):
     full_env = dict(os.environ if env is None else env)
     full_env["LC_ALL"] = "C"
     wrapper = shlex.split(os.environ.get("POOLREPS_WRAPPER", ""))
-    scale = float(os.environ.get("POOLREPS_TIMEOUT_SCALE", "1"))
-    return subprocess.run(wrapper + [binary] + [str(a) for a in args], input=input,
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=cwd,
-                          env=full_env, timeout=timeout * scale)
+    return run_cmd(wrapper + [binary] + list(args), input=input, stdout=subprocess.PIPE,
+                   stderr=subprocess.PIPE, cwd=cwd, env=full_env, timeout=timeout)
 
 
 @pytest.fixture
@@ -61,11 +79,19 @@ def run_experiment(ini, out, sets=(), check=True, extra=()):
     for s in sets:
         cmd += ["--set", s]
     cmd += list(extra)
-    p = subprocess.run(cmd, capture_output=True, text=True, env=dict(os.environ, LC_ALL="C"),
-                       timeout=120 * float(os.environ.get("POOLREPS_TIMEOUT_SCALE", "1")))
+    p = run_cmd(cmd, capture_output=True, text=True)
     if check:
         assert p.returncode == 0, p.stderr
     return p
+
+
+def quick_sets(name):
+    """The keys of data/quick/NAME.ini (the quick settings that `make
+    reproduce QUICK=1` adds to data/NAME.ini) as "section.key=value"."""
+    ini = configparser.ConfigParser(inline_comment_prefixes=None, comment_prefixes=(";", "#"))
+    ini.read(ROOT / "data" / "quick" / f"{name}.ini")
+    return [f"{section}.{key}={value}" for section in ini.sections()
+            for key, value in ini[section].items()]
 
 
 def csv_rows(path):

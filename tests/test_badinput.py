@@ -12,6 +12,7 @@ Valid-but-odd inputs (CRLF, BOM, quoted fields, blanks, comments) must work
 and give the same result as their plain spelling.
 """
 import os
+import re
 import random
 from dataclasses import dataclass
 from typing import Callable, Optional
@@ -66,7 +67,6 @@ class Case:
     files: Optional[dict] = None    # name -> bytes, written before the run
     setup: Optional[Callable] = None  # f(tmp_path) after the files are written
     stdin: Optional[bytes] = None
-    needs: Optional[str] = None     # a component command: skipped if "not available"
     root_ok: bool = True            # False: meaningless as root (root reads anything)
 
 
@@ -231,28 +231,27 @@ CASES = [
     Case("reps_epsilon_nan", REPS + ["--epsilon", "nan"], USAGE, ("--epsilon",), files={"r.csv": REPS_CSV}),
     Case("reps_epsilon_inf", REPS + ["--epsilon", "inf"], USAGE, ("--epsilon",), files={"r.csv": REPS_CSV}),
     Case("reps_missing_return_column", REPS[:2] + ["S"] + REPS[3:], IO, ("r.csv", "'S'"),
-         files={"r.csv": REPS_CSV}, needs="reps"),
+         files={"r.csv": REPS_CSV}),
     Case("reps_nan_return", REPS, IO, ("r.csv:3:", "R"),
-         files={"r.csv": b"R,phi0\n-1,1\nnan,1\n"}, needs="reps"),
+         files={"r.csv": b"R,phi0\n-1,1\nnan,1\n"}),
     Case("reps_negative_base_weight", REPS + ["--base", "q"], USAGE, ("r.csv:4:", "q"),
-         files={"r.csv": b"R,phi0,q\n-1,1,1\n-2,1,1\n-3,1,-1\n"}, needs="reps"),
-    Case("reps_no_rows", REPS, IO, ("r.csv",), files={"r.csv": b"R,phi0,phi1\n"}, needs="reps"),
+         files={"r.csv": b"R,phi0,q\n-1,1,1\n-2,1,1\n-3,1,-1\n"}),
+    Case("reps_no_rows", REPS, IO, ("r.csv",), files={"r.csv": b"R,phi0,phi1\n"}),
     Case("forest_missing_train", ["forest", "--train", "nope.csv", "--test", "test.csv", "--target", "a0",
                                   "-o", "out.csv", "-q"], IO, ("nope.csv",),
-         files={"test.csv": TRAIN_CSV}, needs="forest"),
+         files={"test.csv": TRAIN_CSV}),
     Case("forest_unknown_target", FOREST[:6] + ["zz"] + FOREST[7:], IO, ("train.csv", "zz"),
-         files={"train.csv": TRAIN_CSV, "test.csv": TRAIN_CSV}, needs="forest"),
+         files={"train.csv": TRAIN_CSV, "test.csv": TRAIN_CSV}),
     Case("forest_test_lacks_input_column", FOREST, IO, ("test.csv", "s1"),
-         files={"train.csv": TRAIN_CSV, "test.csv": b"s0,a0,a1\n1,2,3\n"}, needs="forest"),
+         files={"train.csv": TRAIN_CSV, "test.csv": b"s0,a0,a1\n1,2,3\n"}),
     Case("forest_malformed_test", FOREST, IO, ("test.csv:2:",),
-         files={"train.csv": TRAIN_CSV, "test.csv": b"s0,s1\n1,2,3\n"}, needs="forest"),
+         files={"train.csv": TRAIN_CSV, "test.csv": b"s0,s1\n1,2,3\n"}),
     Case("policy_negative_weight", POLICY, USAGE, ("train.csv:3:", "w"),
-         files={"train.csv": b"s0,s1,a0,a1,w\n0,0,1,1,1\n1,1,2,2,-1\n", "states.csv": STATES_CSV},
-         needs="policy"),
+         files={"train.csv": b"s0,s1,a0,a1,w\n0,0,1,1,1\n1,1,2,2,-1\n", "states.csv": STATES_CSV}),
     Case("policy_missing_weight_column", POLICY[:8] + ["ww"] + POLICY[9:], IO, ("train.csv", "ww"),
-         files={"train.csv": TRAIN_CSV, "states.csv": STATES_CSV}, needs="policy"),
+         files={"train.csv": TRAIN_CSV, "states.csv": STATES_CSV}),
     Case("policy_states_lack_column", POLICY, IO, ("states.csv", "s1"),
-         files={"train.csv": TRAIN_CSV, "states.csv": b"s0\n0.1\n"}, needs="policy"),
+         files={"train.csv": TRAIN_CSV, "states.csv": b"s0\n0.1\n"}),
     Case("policy_sample_zero", POLICY + ["--sample", "0"], USAGE, ("--sample",),
          files={"train.csv": TRAIN_CSV, "states.csv": STATES_CSV}),
     Case("policy_sample_absurd", POLICY + ["--sample", "1000000000"], USAGE, ("--sample",),
@@ -276,8 +275,6 @@ def test_bad_input(case, tmp_path, poolreps):
         case.setup(tmp_path)
     r = poolreps(case.args, input=case.stdin, cwd=tmp_path, timeout=120)
     err = r.stderr.decode("latin-1")
-    if case.needs and f"{case.needs}: not available" in err:
-        pytest.skip(f"the {case.needs} command is not built yet")
     assert r.returncode == case.code, f"exit {r.returncode}, expected {case.code}; stderr: {err!r}"
     assert err.startswith("poolreps: "), f"stderr: {err!r}"
     assert err.endswith("\n") and err.count("\n") == 1 and "\r" not in err, \
@@ -289,9 +286,36 @@ def test_bad_input(case, tmp_path, poolreps):
     assert leftovers(tmp_path) == []
 
 
-def test_enough_cases():
-    assert len(CASES) >= 40
-    assert len({c.id for c in CASES}) == len(CASES)
+# every command that reads a file, with that file missing
+MISSING_INPUT = {
+    "run": ["run", "nosuch.ini", "-o", "outdir", "-q"],
+    "shoot": ["shoot", "-i", "nosuch.csv", "-o", "out.csv", "-q"],
+    "forest": ["forest", "--train", "nosuch.csv", "--test", "nosuch.csv", "--target", "a",
+               "-o", "out.csv", "-q"],
+    "reps": ["reps", "--return", "R", "-i", "nosuch.csv", "-o", "out.csv", "-q"],
+    "policy": ["policy", "--train", "nosuch.csv", "--state", "s", "--action", "a",
+               "-i", "nosuch.csv", "-o", "out.csv", "-q"],
+    "config": ["config", "-c", "nosuch.ini", "-o", "out.csv", "-q"],
+    "merge": ["merge", "-o", "outdir", "nosuch", "-q"],
+    "sweep": ["sweep", "nosuch.ini", "-o", "outdir", "-q"],
+    "collect": ["collect", "nosuch", "-q"],
+}
+
+
+def test_every_command_refuses_a_missing_input(tmp_path, poolreps):
+    """Each command `poolreps --help` lists, given an input that does not
+    exist: the bad-input contract (one line naming the file, no output)."""
+    help_text = poolreps(["--help"]).stdout.decode()
+    listed = {n.strip("[]") for n in re.findall(r"^  poolreps (\[run\]|[a-z]+) ", help_text, re.M)}
+    assert listed == set(MISSING_INPUT), "a command without a missing-input case"
+    for cmd, args in MISSING_INPUT.items():
+        r = poolreps(args, input=b"", cwd=tmp_path)
+        err = r.stderr.decode("latin-1")
+        assert r.returncode in (1, 2), (cmd, r.returncode, err)
+        assert err.startswith("poolreps: ") and err.count("\n") == 1, (cmd, err)
+        assert "nosuch" in err, (cmd, err)
+        assert not (tmp_path / "out.csv").exists() and not (tmp_path / "outdir").exists(), cmd
+        assert leftovers(tmp_path) == [], cmd
 
 
 def test_output_onto_folder_keeps_folder(tmp_path, poolreps):

@@ -1,17 +1,16 @@
 """Building on a machine that lacks packages: make stops before compiling,
 with one line that names the missing Debian packages and `make deps`."""
 import os
-import subprocess
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, run_cmd
 
 
 def make(tmp_path, *args, env=None):
     e = dict(os.environ, LC_ALL="C", **(env or {}))
     e.pop("MAKEFLAGS", None)
-    return subprocess.run(["make", "-C", str(ROOT), f"BUILD={tmp_path / 'b'}", *args],
+    return run_cmd(["make", "-C", str(ROOT), f"BUILD={tmp_path / 'b'}", *args],
                           capture_output=True, text=True, env=e, timeout=120)
 
 
@@ -30,10 +29,10 @@ def test_missing_build_packages_give_one_line(tmp_path, args, env, names):
 
 
 def test_missing_test_packages_are_named():
-    p = subprocess.run(["sh", str(ROOT / "scripts/check-deps.sh"), "check", "/bin/false"],
+    p = run_cmd(["sh", str(ROOT / "scripts/check-deps.sh"), "check", "/bin/false"],
                        capture_output=True, text=True, timeout=60)
     assert p.returncode == 1 and p.stdout.count("\n") == 1
     assert "python3-pytest python3-numpy python3-scipy python3-matplotlib" in p.stdout
-    ok = subprocess.run(["sh", str(ROOT / "scripts/check-deps.sh"), "build"],
+    ok = run_cmd(["sh", str(ROOT / "scripts/check-deps.sh"), "build"],
                         capture_output=True, text=True, timeout=60)
     assert ok.returncode == 0 and ok.stdout == ""

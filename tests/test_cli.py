@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from conftest import ROOT, poolreps_path
+from conftest import ROOT, poolreps_path, run_cmd
 
 COMMON_LONG = {"set", "seed", "help", "version"}
 SPEC_COMMANDS = {"run", "shoot", "forest", "reps", "policy"}
@@ -33,8 +33,16 @@ def binary():
 
 @pytest.fixture(scope="module")
 def help_text():
-    return subprocess.run([binary(), "--help"], capture_output=True, text=True,
+    return run_cmd([binary(), "--help"], capture_output=True, text=True,
                           env=dict(os.environ, LC_ALL="C"), timeout=30).stdout
+
+
+@pytest.fixture(scope="module")
+def keys_text():
+    p = run_cmd([binary(), "--help-keys"], capture_output=True, text=True,
+                       env=dict(os.environ, LC_ALL="C"), timeout=30)
+    assert p.returncode == 0, p.stderr
+    return p.stdout
 
 
 def commands(help_text):
@@ -52,9 +60,9 @@ def usage_part(text):
 
 def test_man_page_matches_help():
     gen = ["sh", str(ROOT / "scripts" / "gen-man.sh"), binary(), "-"]
-    first = subprocess.run(gen, capture_output=True, cwd=ROOT, timeout=60)
+    first = run_cmd(gen, capture_output=True, cwd=ROOT, timeout=60)
     assert first.returncode == 0, first.stderr
-    again = subprocess.run(gen, capture_output=True, cwd=ROOT, timeout=60,
+    again = run_cmd(gen, capture_output=True, cwd=ROOT, timeout=60,
                            env=dict(os.environ, LC_ALL="C.UTF-8", LANG="de_DE.UTF-8"))
     assert again.stdout == first.stdout, "scripts/gen-man.sh is not deterministic"
     page = (ROOT / "docs" / "poolreps.1").read_bytes()
@@ -66,7 +74,7 @@ def test_man_page_matches_help():
 def test_man_page_renders_cleanly():
     if shutil.which("groff") is None:
         pytest.skip("groff not installed")
-    r = subprocess.run(["groff", "-man", "-ww", "-z", str(ROOT / "docs" / "poolreps.1")],
+    r = run_cmd(["groff", "-man", "-ww", "-z", str(ROOT / "docs" / "poolreps.1")],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and r.stderr == "", r.stderr
 
@@ -74,7 +82,7 @@ def test_man_page_renders_cleanly():
 def test_gen_man_keeps_old_page_when_binary_fails(tmp_path):
     out = tmp_path / "poolreps.1"
     out.write_text("old\n")
-    r = subprocess.run(["sh", str(ROOT / "scripts" / "gen-man.sh"), str(tmp_path / "nobin"),
+    r = run_cmd(["sh", str(ROOT / "scripts" / "gen-man.sh"), str(tmp_path / "nobin"),
                         str(out)], capture_output=True, cwd=ROOT, timeout=60)
     assert r.returncode != 0
     assert out.read_text() == "old\n"
@@ -93,7 +101,7 @@ def test_version(poolreps, args):
 
 # ---- (c) every parameter key is documented with its default ----
 
-def test_every_key_in_help_with_its_default(poolreps, help_text):
+def test_every_key_in_help_with_its_default(poolreps, keys_text):
     r = poolreps(["config"])
     assert r.returncode == 0, r.stderr
     keys, section = {}, None
@@ -108,16 +116,16 @@ def test_every_key_in_help_with_its_default(poolreps, help_text):
     assert len(keys) > 50
     for name, default in keys.items():
         assert re.search(rf"^  {re.escape(name)} += {re.escape(default)}(?=[ :]|$)",
-                         help_text, re.M), f"{name} = {default} not in --help"
-    listed = set(re.findall(r"^  ([a-z0-9_]+\.[a-z0-9_]+) += ", help_text, re.M))
+                         keys_text, re.M), f"{name} = {default} not in --help-keys"
+    listed = set(re.findall(r"^  ([a-z0-9_]+\.[a-z0-9_]+) += ", keys_text, re.M))
     assert listed == set(keys)
 
 
 @pytest.mark.parametrize("key,unit", [("table.length", "m"), ("table.friction", "1/s"),
                                       ("sim.dt", "s"), ("sim.max_speed", "m/s"),
                                       ("reps.epsilon", "nats"), ("exp3.init_std", "m/s")])
-def test_units_in_help(help_text, key, unit):
-    assert re.search(rf"^  {re.escape(key)} += \S+ {re.escape(unit)}  ", help_text, re.M), key
+def test_units_in_help(keys_text, key, unit):
+    assert re.search(rf"^  {re.escape(key)} += \S+ {re.escape(unit)}  ", keys_text, re.M), key
 
 
 # ---- (d) commands, options and exit codes ----
@@ -128,14 +136,34 @@ def test_help_lists_the_commands(help_text):
 
 
 def test_every_command_help(poolreps, help_text):
+    """poolreps CMD --help and poolreps help CMD: that command's usage, its
+    options, the keys its --set reads (or where to find them all); short."""
+    assert "--help-keys" in help_text and "Parameter keys (" not in help_text
     for cmd in commands(help_text):
         r = poolreps([cmd, "--help"])
         assert r.returncode == 0, (cmd, r.stderr)
         text = r.stdout.decode()
+        assert poolreps(["help", cmd]).stdout.decode() == text, cmd
         assert text.startswith(f"Usage: poolreps {'[run]' if cmd == 'run' else cmd} "), text[:80]
-        for part in ("Common options", "Accepts:", "--version", "Exit codes:",
-                     "Parameter keys", "experiment.seed"):
+        for part in ("Common options", "Accepts:", "--version", "Exit codes:"):
             assert part in text, (cmd, part)
+        assert len(text.splitlines()) < 45, (cmd, "help too long")
+        keys = re.findall(r"^  ([a-z0-9_]+\.[a-z0-9_]+) += (\S+)", text, re.M)
+        if cmd in ("run", "config", "sweep"):
+            assert "every parameter key (poolreps --help-keys)" in text, cmd
+        elif cmd in ("merge", "collect"):
+            assert not keys, cmd
+        else:
+            assert keys, cmd
+            # the listed keys are those its --set accepts (the command then
+            # stops for want of its input, not for the key), and no other
+            for key, default in keys + [("exp3.window", "200")]:
+                r = poolreps([cmd, "--set", f"{key}={default}"], input=b"")
+                refused = b"does not apply" in r.stderr
+                assert refused == (key == "exp3.window"), (cmd, key, r.stderr)
+    assert poolreps(["help"]).stdout.decode() == help_text
+    r = poolreps(["help", "nosuch"])
+    assert r.returncode == 1 and b"unknown command 'nosuch'" in r.stderr
 
 
 FLAGS = {"keep"}  # command options that take no value
@@ -148,7 +176,7 @@ def test_help_lists_exactly_the_options_a_command_takes(help_text, tmp_path):
     binary_only = binary()
 
     def call(args, **kw):
-        return subprocess.run([binary_only] + [str(a) for a in args], capture_output=True,
+        return run_cmd([binary_only] + [str(a) for a in args], capture_output=True,
                               env=dict(os.environ, LC_ALL="C"), timeout=60, **kw)
 
     specific = set(re.findall(r"--([a-z]+)", help_text)) - COMMON_LONG
@@ -206,11 +234,11 @@ def test_exit_code_out_of_memory(tmp_path):
     with open(b, "rb") as f:
         if f.read(4) != b"\x7fELF":
             pytest.skip("POOLREPS is a wrapper (valgrind): the limit would apply to the wrapper")
-    probe = subprocess.run([b, "--help"], capture_output=True, preexec_fn=_limit_memory,
+    probe = run_cmd([b, "--help"], capture_output=True, preexec_fn=_limit_memory,
                            timeout=30)
     if probe.returncode != 0:
         pytest.skip("this build cannot start with 200 MiB of address space (sanitizers?)")
-    r = subprocess.run([b, ROOT / "data" / "exp1.ini", "-q", "-o", tmp_path / "out",
+    r = run_cmd([b, ROOT / "data" / "exp1.ini", "-q", "-o", tmp_path / "out",
                         "--set", "exp1.train=10000000"], capture_output=True,
                        preexec_fn=_limit_memory, timeout=60)
     assert r.returncode == 4, r.stderr
@@ -243,13 +271,13 @@ def test_make_install(tmp_path):
     # a fresh make: not the jobserver of a `make check` that may run this test
     env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL")}
     dest = tmp_path / "dest"
-    r = subprocess.run([make, "-s", "install", "PREFIX=/usr", f"DESTDIR={dest}"], cwd=ROOT,
+    r = run_cmd([make, "-s", "install", "PREFIX=/usr", f"DESTDIR={dest}"], cwd=ROOT,
                        capture_output=True, text=True, env=env, timeout=600)
     assert r.returncode == 0, r.stdout + r.stderr
     usr = dest / "usr"
     exe = usr / "bin" / "poolreps"
     assert os.access(exe, os.X_OK)
-    v = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=30)
+    v = run_cmd([exe, "--version"], capture_output=True, text=True, timeout=30)
     assert v.returncode == 0 and v.stdout.startswith("poolreps ")
     assert (usr / "share" / "man" / "man1" / "poolreps.1").read_bytes() == \
         (ROOT / "docs" / "poolreps.1").read_bytes()

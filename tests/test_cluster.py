@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT, run_poolreps
+from conftest import ROOT, run_poolreps, run_cmd
 from test_sweep import (EXP1_TINY, SWEEPS, assert_points_match_single_process,
                         assert_summary_is_the_points_summaries, make_sweep, run_ok, wait_for)
 
@@ -171,7 +171,7 @@ def slurm(tmp_path_factory):
 
         def idle():
             daemons.check_alive()
-            r = subprocess.run(["sinfo", "-h", "-n", "poolrepsnode", "-o", "%T"],
+            r = run_cmd(["sinfo", "-h", "-n", "poolrepsnode", "-o", "%T"],
                                capture_output=True, text=True, env=env, timeout=WAIT)
             return r.returncode == 0 and r.stdout.strip() == "idle"
         if not wait_for(idle, WAIT):
@@ -179,14 +179,14 @@ def slurm(tmp_path_factory):
         yield env
     finally:
         # jobs of this private cluster only, then its daemons
-        subprocess.run(["scancel", "--full", "--user", getpass.getuser()], env=env,
+        run_cmd(["scancel", "--full", "--user", getpass.getuser()], env=env,
                        capture_output=True, timeout=WAIT)
         daemons.stop()
 
 
 def sbatch(env, *args, check=True):
     """sbatch --wait: returns once every task ended."""
-    r = subprocess.run(["sbatch", "--wait", *map(str, args)], capture_output=True, text=True,
+    r = run_cmd(["sbatch", "--wait", *map(str, args)], capture_output=True, text=True,
                        env=env, timeout=300)
     if check:
         assert r.returncode == 0, r.stdout + r.stderr
@@ -290,7 +290,7 @@ def ssh(tmp_path_factory):
     need_root(sshd, "ssh", "ssh-keygen", "parallel")
     d = tmp_path_factory.mktemp("ssh")
     for k in ("host_key", "user_key"):
-        subprocess.run(["ssh-keygen", "-q", "-t", "ed25519", "-N", "", "-f", d / k], check=True,
+        run_cmd(["ssh-keygen", "-q", "-t", "ed25519", "-N", "", "-f", d / k], check=True,
                        timeout=WAIT)
     (d / "authorized_keys").write_bytes((d / "user_key.pub").read_bytes())
     (port,) = free_ports(1)
@@ -311,7 +311,7 @@ def ssh(tmp_path_factory):
 
         def login():
             daemons.check_alive()
-            r = subprocess.run(command.split() + ["poolrepstest", "true"], capture_output=True,
+            r = run_cmd(command.split() + ["poolrepstest", "true"], capture_output=True,
                                env=clean_env(), timeout=WAIT)
             return r.returncode == 0
         if not wait_for(login, WAIT):
@@ -332,7 +332,7 @@ def test_parallel_over_ssh_matches_single_process(ssh, tmp_path):
                            split="variant")
     assert len(jobs) == 16
     t0 = time.monotonic()
-    r = subprocess.run(["sh", sweep / "parallel.sh", "--ssh", command, "--sshlogin",
+    r = run_cmd(["sh", sweep / "parallel.sh", "--ssh", command, "--sshlogin",
                         "2/poolrepstest", "--halt", "now,fail=1"], capture_output=True, text=True,
                        env=clean_env(), timeout=300)
     print(f"parallel over ssh: {len(jobs)} jobs in {time.monotonic() - t0:.1f} s")

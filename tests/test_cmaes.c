@@ -15,6 +15,7 @@
 
 #include "poolreps/cmaes.h"
 #include "poolreps/policy.h"
+#include "test_util.h"
 
 static gsl_rng *new_rng(unsigned long seed)
 {
@@ -85,7 +86,7 @@ static void test_cov_center_shift(void **state)
 	assert_true(D[0] + D[3] > 0.1 * (Cn[0] + Cn[3]));
 	/* tolerance: round-off of sums of 60 terms and two eigen round trips */
 	for (j = 0; j < DA * DA; j++)
-		assert_true(fabs(Co[j] - Cn[j] - D[j]) <= 1e-12 * (Co[0] + Co[3]));
+		assert_near(Co[j] - Cn[j], D[j], 1e-12 * (Co[0] + Co[3]));
 	/* old without the sampling means is refused */
 	d.M = NULL;
 	assert_null(pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, 0.0, 1e-12, PR_COV_CENTER_OLD, NULL,
@@ -188,7 +189,8 @@ static void test_cmaes_contextual_quadratic(void **state)
 	(void)state;
 	c = run(F_CQUAD, 1, 50, G, W0, 1.0, 3, sig);
 	pr_cmaes_state(c, W, C);
-	assert_true(fabs(W[0]) < 1e-8 && fabs(W[1] - 1.0) < 1e-8);
+	assert_near(W[0], 0.0, 1e-8);
+	assert_near(W[1], 1.0, 1e-8);
 	assert_true(sig[G] * sqrt(C[0]) < 1e-6);
 	pr_cmaes_free(c);
 }
@@ -246,10 +248,10 @@ static void test_cmaes_invariance_and_errors(void **state)
 	pr_cmaes_state(c3, Wb, Cb);
 	/* tolerance: round-off of the reordered regression sums */
 	for (j = 0; j < DA * NF; j++)
-		assert_true(fabs(Wa[j] - Wb[j]) <= 1e-12);
+		assert_near(Wa[j], Wb[j], 1e-12);
 	for (j = 0; j < DA * DA; j++)
-		assert_true(fabs(Ca[j] - Cb[j]) <= 1e-12);
-	assert_true(fabs(pr_cmaes_sigma(c1) - pr_cmaes_sigma(c3)) <= 1e-12);
+		assert_near(Ca[j], Cb[j], 1e-12);
+	assert_near(pr_cmaes_sigma(c1), pr_cmaes_sigma(c3), 1e-12);
 	/* errors */
 	R3[4] = NAN;
 	assert_int_equal(pr_cmaes_update(c3, &b, NULL, err), PR_EINVAL);

@@ -7,12 +7,11 @@ POOLREPS_STAGE (the DESTDIR they were installed into)."""
 import csv
 import io
 import os
-import subprocess
 from pathlib import Path
 
 import pytest
 
-from conftest import run_poolreps
+from conftest import run_poolreps, run_cmd
 
 EXAMPLES = os.environ.get("POOLREPS_EXAMPLES")
 STAGE = os.environ.get("POOLREPS_STAGE")
@@ -25,7 +24,7 @@ def run(name, *args):
     env = dict(os.environ, LD_LIBRARY_PATH=f"{STAGE}/usr/local/lib", LC_ALL="C")
     outs = []
     for exe in (name, name + "-static"):
-        p = subprocess.run([str(Path(EXAMPLES) / exe), *map(str, args)], capture_output=True,
+        p = run_cmd([str(Path(EXAMPLES) / exe), *map(str, args)], capture_output=True,
                            text=True, env=env, timeout=60)
         assert p.returncode == 0, p.stderr
         assert p.stderr == ""

@@ -6,11 +6,10 @@ data/exp2.ini with --set overrides that shrink it.
 """
 import math
 import os
-import subprocess
 from pathlib import Path
 
 import pytest
-from conftest import csv_rows, run_experiment
+from conftest import csv_rows, run_experiment, run_cmd
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
@@ -98,7 +97,7 @@ def test_exp1_reproducible_threads_and_merge(tmp_path):
     run("exp1.ini", tmp_path / "b", sets + ["experiment.threads=2"])
     for k in range(3):
         run("exp1.ini", tmp_path / f"r{k}", sets + [f"experiment.repetition={k}"])
-    p = subprocess.run([BIN, "merge", "-q", "-o", str(tmp_path / "m"), str(tmp_path / "r2"),
+    p = run_cmd([BIN, "merge", "-q", "-o", str(tmp_path / "m"), str(tmp_path / "r2"),
                         str(tmp_path / "r0"), str(tmp_path / "r1")],
                        capture_output=True, text=True, env=ENV, timeout=60)
     assert p.returncode == 0, p.stderr
@@ -185,7 +184,7 @@ def test_exp2_reproducible_threads_and_merge(tmp_path):
     run("exp2.ini", tmp_path / "b", sets + ["experiment.threads=2"])
     for k in range(3):
         run("exp2.ini", tmp_path / f"r{k}", sets + [f"experiment.repetition={k}"])
-    p = subprocess.run([BIN, "merge", "-q", "-o", str(tmp_path / "m"), str(tmp_path / "r1"),
+    p = run_cmd([BIN, "merge", "-q", "-o", str(tmp_path / "m"), str(tmp_path / "r1"),
                         str(tmp_path / "r2"), str(tmp_path / "r0")],
                        capture_output=True, text=True, env=ENV, timeout=60)
     assert p.returncode == 0, p.stderr
@@ -216,7 +215,7 @@ def test_plot_scripts_make_their_pngs(tmp_path):
             ("plot_exp1.py", "e1", ["fig7_4a_nmin.png", "fig7_4b_trees.png", "fig7_4c_cuts.png",
                                     "exp1_map.png"]),
             ("plot_exp2.py", "e2", ["fig7_6.png"])):
-        p = subprocess.run([PY, str(ROOT / "scripts" / script), str(tmp_path / d)],
+        p = run_cmd([PY, str(ROOT / "scripts" / script), str(tmp_path / d)],
                            capture_output=True, text=True, env=ENV, timeout=120)
         assert p.returncode == 0, p.stderr
         for png in pngs:

@@ -1,12 +1,11 @@
 """End-to-end runs of the exploration options: policy.cov_center, bench.method
 = ccmaes, exp3.handcrafted_method = ccmaes, and the comparison plot."""
 import os
-import subprocess
 import sys
 
 import pytest
 
-from conftest import ROOT, csv_rows, run_experiment
+from conftest import ROOT, csv_rows, run_experiment, run_cmd
 
 
 def test_bench_methods_and_compare_plot(tmp_path):
@@ -31,7 +30,7 @@ def test_bench_methods_and_compare_plot(tmp_path):
     for r in new + old:
         assert abs(float(r["kl"]) - 1.0) < 1e-6 and int(r["bound"]) == 1
     py = os.environ.get("PYTHON") or sys.executable
-    p = subprocess.run([py, str(ROOT / "scripts" / "plot_bench_compare.py"), str(tmp_path)],
+    p = run_cmd([py, str(ROOT / "scripts" / "plot_bench_compare.py"), str(tmp_path)],
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
     assert "| sphere | ccmaes | 6 |" in p.stdout

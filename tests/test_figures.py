@@ -11,11 +11,10 @@ import csv
 import math
 import os
 import shutil
-import subprocess
 import sys
 
 import pytest
-from conftest import ROOT, poolreps_path, run_experiment
+from conftest import ROOT, poolreps_path, run_experiment, run_cmd
 
 SCRIPTS = ROOT / "scripts"
 PY = os.environ.get("PYTHON") or "/usr/bin/python3"
@@ -29,7 +28,7 @@ EXP3_TINY = ["exp3.iterations=3", "exp3.init_samples=40", "exp3.window=40", "exp
 
 def has_matplotlib(python):
     try:
-        return subprocess.run([python, "-c", "import matplotlib, numpy"], capture_output=True,
+        return run_cmd([python, "-c", "import matplotlib, numpy"], capture_output=True,
                               timeout=60).returncode == 0
     except OSError:
         return False
@@ -40,7 +39,7 @@ needs_mpl = pytest.mark.skipif(not has_matplotlib(PY), reason=f"{PY} lacks matpl
 
 def plot(folder, env=None, script="plot"):
     """scripts/plot (or a plot script) on folder; the CompletedProcess."""
-    return subprocess.run([str(SCRIPTS / script), str(folder)], capture_output=True, text=True,
+    return run_cmd([str(SCRIPTS / script), str(folder)], capture_output=True, text=True,
                           env=env or dict(ENV, PYTHON=PY), timeout=300)
 
 
@@ -121,7 +120,7 @@ def test_scripts_find_matplotlib_when_python3_lacks_it(exp2, tmp_path):
     if not has_matplotlib("/usr/bin/python3"):
         pytest.skip("/usr/bin/python3 lacks matplotlib: no fallback to find")
     venv = tmp_path / "venv"
-    if subprocess.run(["/usr/bin/python3", "-m", "venv", "--without-pip", str(venv)],
+    if run_cmd(["/usr/bin/python3", "-m", "venv", "--without-pip", str(venv)],
                       capture_output=True, timeout=120).returncode:
         pytest.skip("cannot create a virtual environment")
     bare = venv / "bin" / "python3"
@@ -154,7 +153,7 @@ def test_figures_data_goes_to_results_sim(tmp_path):
     binary = poolreps_path()
     if binary is None:
         pytest.skip("no poolreps binary (set POOLREPS)")
-    p = subprocess.run([binary, str(ROOT / "data" / "figures.ini"), "-q"], cwd=tmp_path,
+    p = run_cmd([binary, str(ROOT / "data" / "figures.ini"), "-q"], cwd=tmp_path,
                        capture_output=True, text=True, env=ENV, timeout=120 * SCALE)
     assert p.returncode == 0, p.stderr
     assert (tmp_path / "results" / "sim" / "fig7_1_balls.csv").is_file()

@@ -16,6 +16,7 @@
 #include <gsl/gsl_rng.h>
 
 #include "poolreps/forest.h"
+#include "test_util.h"
 
 static pr_forest *fit(const pr_forest_opts *o, const double *X, int n, int dx,
                       const double *Y, int dy, const double *w, unsigned long seed)
@@ -263,8 +264,7 @@ static void assert_same_forest(const pr_forest *a, const pr_forest *b, int trees
 		assert_int_equal(m, pr_forest_leaf_samples(b, l, &i2));
 		assert_memory_equal(i1, i2, (size_t)m * sizeof *i1);
 		for (int k = 0; k < pr_forest_dy(a); k++)
-			assert_true(fabs(pr_forest_leaf_mean(a, l)[k] - pr_forest_leaf_mean(b, l)[k])
-			            <= 1e-12 * (1 + fabs(pr_forest_leaf_mean(a, l)[k])));
+			assert_near(pr_forest_leaf_mean(a, l)[k], pr_forest_leaf_mean(b, l)[k], 1e-12 * (1 + fabs(pr_forest_leaf_mean(a, l)[k])));
 	}
 }
 
@@ -371,7 +371,7 @@ static void test_weighted_known(void **state)
 	f = fit(&o, X4, 4, 1, Y4, 1, W4, 3);
 	assert_int_equal(pr_forest_nleaves(f), 3);
 	pr_forest_predict(f, (double[]){ 1.5 }, &y);
-	assert_true(fabs(y - 2.0 / 6.0) < 1e-15);
+	assert_near(y, 2.0 / 6.0, 1e-15);
 	pr_forest_free(f);
 }
 
@@ -404,7 +404,7 @@ static void test_multi_output(void **state)
 		for (int i = 0; i < 100; i++) {
 			pr_forest_predict(f, X + 2 * i, p);
 			assert_true(p[0] == Y[2 * i]);
-			assert_true(fabs(p[1] - (X[2 * i + 1] < 0.5 ? 200.0 : 700.0)) < 1e-9);
+			assert_near(p[1], (X[2 * i + 1] < 0.5 ? 200.0 : 700.0), 1e-9);
 		}
 		pr_forest_free(f);
 	}
@@ -430,7 +430,7 @@ static void test_predict_is_average(void **state)
 		double s = 0;
 		for (int j = 0; j < m; j++)
 			s += Y[idx[j]];
-		assert_true(fabs(pr_forest_leaf_mean(f, l)[0] - s / m) < 1e-12);
+		assert_near(pr_forest_leaf_mean(f, l)[0], s / m, 1e-12);
 	}
 	pr_forest_predict_many(f, Xq, Q, Yq);
 	for (int q = 0; q < Q; q++) {
@@ -439,8 +439,8 @@ static void test_predict_is_average(void **state)
 		for (int t = 0; t < 7; t++)
 			s += pr_forest_leaf_mean(f, leaves[t])[0];
 		pr_forest_predict(f, Xq + q * DX, &y);
-		assert_true(fabs(y - s / 7) < 1e-12);
-		assert_true(fabs(Yq[q] - y) < 1e-12);
+		assert_near(y, s / 7, 1e-12);
+		assert_near(Yq[q], y, 1e-12);
 	}
 	pr_forest_free(f);
 }
@@ -508,7 +508,7 @@ static void test_active_samples_hand(void **state)
 		assert_true(phi[i] == (i < 8 ? 1.0 : 0.0));
 	assert_int_equal(pr_forest_active_samples(f, (double[]){ 3, 0 }, 2, phi), PR_OK);
 	for (int i = 0; i < N; i++)
-		assert_true(fabs(phi[i] - (i < 8 && i % 2 == 0 ? 1.0 : 0.0)) < 1e-15);
+		assert_near(phi[i], (i < 8 && i % 2 == 0 ? 1.0 : 0.0), 1e-15);
 	assert_int_equal(pr_forest_active(f, NULL, 0, leaves, 4 * M), 4 * M);
 	pr_forest_free(f);
 }
@@ -573,7 +573,7 @@ static void test_state_action_features(void **state)
 			double v = 0;
 			for (int k = 0; k < c; k++)
 				v += Phi[(size_t)act[k] * N + i];
-			assert_true(fabs(phi[i] - v / M) < 1e-12);
+			assert_near(phi[i], v / M, 1e-12);
 		}
 	}
 	free(act);

@@ -6,10 +6,10 @@ with LC_ALL=C.
 import csv
 import os
 import random
-import subprocess
 from pathlib import Path
 
 import pytest
+from conftest import run_cmd
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
@@ -24,7 +24,7 @@ EXACT = ["--set", "forest.cuts=200", "--set", "forest.n_min=5", "--set", "forest
 
 def run(args, cwd):
     env = dict(os.environ, LC_ALL="C")
-    return subprocess.run([BIN, "forest"] + args, capture_output=True, text=True, cwd=cwd,
+    return run_cmd([BIN, "forest"] + args, capture_output=True, text=True, cwd=cwd,
                           env=env, timeout=60)
 
 

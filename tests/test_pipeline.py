@@ -9,10 +9,9 @@ import io
 import math
 import os
 import re
-import subprocess
 
 import pytest
-from conftest import ROOT, poolreps_path
+from conftest import ROOT, poolreps_path, run_cmd
 
 SCALE = float(os.environ.get("POOLREPS_TIMEOUT_SCALE", "1"))  # valgrind runs are slower
 
@@ -89,9 +88,9 @@ def test_shoot_keep_pipes_into_forest(tmp_path):
     (tmp_path / "shots.csv").write_text(random_shots(200, 1))
     (tmp_path / "test_shots.csv").write_text(random_shots(50, 2))
     env = dict(os.environ, LC_ALL="C", P=binary)
-    subprocess.run(f'"$P" shoot --keep -i test_shots.csv -o test.csv', shell=True, cwd=tmp_path,
+    run_cmd(f'"$P" shoot --keep -i test_shots.csv -o test.csv', shell=True, cwd=tmp_path,
                    env=env, check=True, timeout=60 * SCALE)
-    p = subprocess.run(f'"$P" shoot --keep -i shots.csv | '
+    p = run_cmd(f'"$P" shoot --keep -i shots.csv | '
                        f'"$P" forest --train - --test test.csv --target reward',
                        shell=True, cwd=tmp_path, env=env, capture_output=True, text=True,
                        timeout=60 * SCALE)
@@ -116,7 +115,7 @@ def test_readme_pipeline_runs_as_printed(tmp_path):
     script = readme_pipeline()
     for step in ("./poolreps shoot --keep", "./poolreps forest", "--leaves", "./poolreps reps"):
         assert step in script
-    p = subprocess.run(["sh", "-e", "-c", script], cwd=tmp_path, capture_output=True, text=True,
+    p = run_cmd(["sh", "-e", "-c", script], cwd=tmp_path, capture_output=True, text=True,
                        env=dict(os.environ, LC_ALL="C"), timeout=120 * SCALE)
     assert p.returncode == 0, p.stderr
     with open(tmp_path / "episodes.csv", newline="") as f:

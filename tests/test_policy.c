@@ -15,6 +15,7 @@
 #include <gsl/gsl_rng.h>
 
 #include "poolreps/policy.h"
+#include "test_util.h"
 
 static gsl_rng *new_rng(unsigned long seed)
 {
@@ -40,7 +41,7 @@ static void test_gaussian_logpdf_sample(void **state)
 	assert_int_equal(pr_policy_logpdf(p, s, a, &lp, NULL, NULL, err), PR_OK);
 	want = log(gsl_ran_bivariate_gaussian_pdf(a[0] - mu[0], a[1] - mu[1], 0.2, 0.3,
 	                                          0.012 / (0.2 * 0.3)));
-	assert_true(fabs(lp - want) <= 1e-12);
+	assert_near(lp, want, 1e-12);
 	draws = malloc(2 * (size_t)K * sizeof *draws);
 	assert_int_equal(pr_policy_sample(p, s, K, rng, draws, NULL, NULL, err), PR_OK);
 	for (k = 0; k < K; k++) {
@@ -55,8 +56,11 @@ static void test_gaussian_logpdf_sample(void **state)
 		c11 += d1 * d1 / K;
 	}
 	/* standard errors: sd/sqrt(K) ~ 1e-3 for means, ~2e-4 for covariances */
-	assert_true(fabs(m0 - mu[0]) < 4e-3 && fabs(m1 - mu[1]) < 4e-3);
-	assert_true(fabs(c00 - 0.04) < 1e-3 && fabs(c01 - 0.012) < 1e-3 && fabs(c11 - 0.09) < 2e-3);
+	assert_near(m0, mu[0], 4e-3);
+	assert_near(m1, mu[1], 4e-3);
+	assert_near(c00, 0.04, 1e-3);
+	assert_near(c01, 0.012, 1e-3);
+	assert_near(c11, 0.09, 2e-3);
 	free(draws);
 	cov[1] = 0.5; /* not symmetric */
 	assert_null(pr_policy_gaussian_new(1, 2, mu, cov, err));
@@ -96,18 +100,19 @@ static void test_linear_ml_recovers(void **state)
 	assert_non_null(p);
 	assert_int_equal(flags, 0);
 	assert_int_equal(pr_policy_eval(p, s, mean, cov, NULL, NULL, err), PR_OK);
-	assert_true(fabs(mean[0] - (0.1 + 0.4 + 0.3)) < 0.01);
-	assert_true(fabs(mean[1] - (-0.3 + 0.08 - 0.42)) < 0.01);
-	assert_true(fabs(cov[0] - 0.04) < 0.002);
-	assert_true(fabs(cov[1] - 0.02) < 0.002 && cov[1] == cov[2]);
-	assert_true(fabs(cov[3] - (0.01 + 0.0225)) < 0.002);
+	assert_near(mean[0], (0.1 + 0.4 + 0.3), 0.01);
+	assert_near(mean[1], (-0.3 + 0.08 - 0.42), 0.01);
+	assert_near(cov[0], 0.04, 0.002);
+	assert_near(cov[1], 0.02, 0.002);
+	assert_true(cov[1] == cov[2]);
+	assert_near(cov[3], (0.01 + 0.0225), 0.002);
 	pr_policy_free(p);
 	/* quadratic features contain the affine ones: same answer */
 	p = pr_policy_linear_fit(PR_FEATURES_QUADRATIC, &d, 1e-10, 1e-6, PR_COV_CENTER_NEW, &flags, err);
 	assert_non_null(p);
 	assert_int_equal(pr_policy_eval(p, s, mean, cov, NULL, NULL, err), PR_OK);
-	assert_true(fabs(mean[0] - 0.8) < 0.01);
-	assert_true(fabs(cov[0] - 0.04) < 0.002);
+	assert_near(mean[0], 0.8, 0.01);
+	assert_near(cov[0], 0.04, 0.002);
 	pr_policy_free(p);
 	free(S);
 	free(A);
@@ -175,7 +180,7 @@ static void test_single_node_is_global(void **state)
 			gsl_vector_set(y, i, A[i * DA + j]);
 		assert_int_equal(gsl_multifit_wlinear(X, wv, y, c, C, &chisq, mw), GSL_SUCCESS);
 		mu[j] = gsl_vector_get(c, 0) + gsl_vector_get(c, 1) * s[0] + gsl_vector_get(c, 2) * s[1];
-		assert_true(fabs(mean[j] - mu[j]) <= 1e-8);
+		assert_near(mean[j], mu[j], 1e-8);
 	}
 	/* eq. 6.8-6.9 with unnormalised weights, centred on mu(s_hat) */
 	for (i = 0; i < N; i++)
@@ -183,7 +188,7 @@ static void test_single_node_is_global(void **state)
 			for (l = 0; l < DA; l++)
 				want_cov[j * DA + l] += w[i] * (A[i * DA + j] - mu[j]) * (A[i * DA + l] - mu[l]);
 	for (j = 0; j < DA * DA; j++)
-		assert_true(fabs(cov[j] - want_cov[j] / ((sw * sw - sw2) / sw)) <= 1e-9);
+		assert_near(cov[j], want_cov[j] / ((sw * sw - sw2) / sw), 1e-9);
 	pr_policy_free(p);
 	gsl_matrix_free(X);
 	gsl_matrix_free(C);
@@ -216,15 +221,15 @@ static void test_covariance_hand(void **state)
 	assert_non_null(p);
 	assert_int_equal(pr_policy_eval(p, &s, &mean, &cov, &flags, NULL, err), PR_OK);
 	assert_int_equal(flags, 0);
-	assert_true(fabs(mean - 15.0 / 11.0) <= 1e-9);
-	assert_true(fabs(cov - 889.0 / 302.5) <= 1e-9);
+	assert_near(mean, 15.0 / 11.0, 1e-9);
+	assert_near(cov, 889.0 / 302.5, 1e-9);
 	pr_policy_free(p);
 	o.cov = PR_COV_RESIDUAL;
 	p = pr_policy_tree_fit(&o, &d, rng, err);
 	assert_non_null(p);
 	assert_int_equal(pr_policy_eval(p, &s, &mean, &cov, &flags, NULL, err), PR_OK);
-	assert_true(fabs(mean - 15.0 / 11.0) <= 1e-9);
-	assert_true(fabs(cov - 22.0 / 302.5) <= 1e-9);
+	assert_near(mean, 15.0 / 11.0, 1e-9);
+	assert_near(cov, 22.0 / 302.5, 1e-9);
 	pr_policy_free(p);
 	gsl_rng_free(rng);
 }
@@ -255,12 +260,14 @@ static void test_tree_is_local(void **state)
 	ws = pr_policy_work_new(p, err);
 	assert_non_null(ws);
 	assert_int_equal(pr_policy_eval(p, &lo, &mean, &cov, &flags, ws, err), PR_OK);
-	assert_true(fabs(mean - 1.0) < 0.05 && cov < 0.01);
+	assert_near(mean, 1.0, 0.05);
+	assert_true(cov < 0.01);
 	assert_int_equal(pr_policy_eval(p, &hi, &mean, &cov, &flags, ws, err), PR_OK);
-	assert_true(fabs(mean + 1.0) < 0.05 && cov < 0.01);
+	assert_near(mean, -1.0, 0.05);
+	assert_true(cov < 0.01);
 	/* log-density agrees with the Gaussian of eval */
 	assert_int_equal(pr_policy_logpdf(p, &hi, &mean, &lp, NULL, ws, err), PR_OK);
-	assert_true(fabs(lp + 0.5 * log(2 * 3.14159265358979323846 * cov)) <= 1e-9);
+	assert_near(lp, -(0.5 * log(2 * 3.14159265358979323846 * cov)), 1e-9);
 	pr_policy_work_free(ws);
 	pr_policy_free(p);
 	/* the global linear fit has slope about -1.5: mean(-0.1) about 0.15 */
@@ -268,7 +275,8 @@ static void test_tree_is_local(void **state)
 	lo = -0.1;
 	p = pr_policy_tree_fit(&o, &d, rng, err);
 	assert_int_equal(pr_policy_eval(p, &lo, &mean, &cov, &flags, NULL, err), PR_OK);
-	assert_true(fabs(mean - 0.15) < 0.1 && cov > 0.2);
+	assert_near(mean, 0.15, 0.1);
+	assert_true(cov > 0.2);
 	pr_policy_free(p);
 	gsl_rng_free(rng);
 }
@@ -312,7 +320,8 @@ static void test_degenerate(void **state)
 	assert_int_equal(pr_policy_eval(p, S + 10, mean, cov, &flags, NULL, err), PR_OK);
 	assert_true(flags & PR_POLICY_MEANONLY);
 	assert_true(flags & PR_POLICY_COVFALL);
-	assert_true(fabs(mean[0] - A[10]) < 1e-12 && fabs(mean[1] - A[11]) < 1e-12);
+	assert_near(mean[0], A[10], 1e-12);
+	assert_near(mean[1], A[11], 1e-12);
 	assert_true(finite_all(cov, 4) && cov[0] > 0 && cov[3] > 0);
 	pr_policy_free(p);
 
@@ -330,7 +339,8 @@ static void test_degenerate(void **state)
 	assert_int_equal(pr_policy_eval(p, s, mean, cov, &flags, NULL, err), PR_OK);
 	assert_true(flags & PR_POLICY_GLOBAL);
 	/* the weighted samples have a = (s0, -s1) exactly */
-	assert_true(fabs(mean[0] - s[0]) < 1e-8 && fabs(mean[1] + s[1]) < 1e-8);
+	assert_near(mean[0], s[0], 1e-8);
+	assert_near(mean[1], -(s[1]), 1e-8);
 	assert_true(finite_all(cov, 4));
 	pr_policy_free(p);
 
@@ -342,8 +352,9 @@ static void test_degenerate(void **state)
 	assert_non_null(p);
 	assert_int_equal(pr_policy_eval(p, S, mean, cov, &flags, NULL, err), PR_OK);
 	assert_true((flags & PR_POLICY_COVFALL) && (flags & PR_POLICY_FLOOR));
-	assert_true(fabs(mean[0] - A[14]) < 1e-12);
-	assert_true(fabs(cov[0] - o.min_std * o.min_std) < 1e-18 && fabs(cov[1]) < 1e-18);
+	assert_near(mean[0], A[14], 1e-12);
+	assert_near(cov[0], o.min_std * o.min_std, 1e-18);
+	assert_near(cov[1], 0.0, 1e-18);
 	pr_policy_free(p);
 
 	/* identical states and no ridge: singular design -> pseudo-inverse */
@@ -419,12 +430,12 @@ static void test_offset_states(void **state)
 
 			assert_int_equal(pr_policy_eval(p, &q[j], &mean, &cov, &flags, NULL, err), PR_OK);
 			assert_int_equal(flags, 0);
-			assert_true(fabs(mean - 2 * q[j]) < 0.01);
+			assert_near(mean, 2 * q[j], 0.01);
 			assert_int_equal(pr_policy_eval(p2, &s2, &mean2, &cov2, &flags, NULL, err), PR_OK);
 			assert_int_equal(flags, 0);
 			/* the states carry round-off of |off| eps relative to their spread */
-			assert_true(fabs(mean2 * sc[k] - mean) <= 1e-9);
-			assert_true(fabs(cov2 * sc[k] * sc[k] - cov) <= 1e-9 * cov);
+			assert_near(mean2 * sc[k], mean, 1e-9);
+			assert_near(cov2 * sc[k] * sc[k], cov, 1e-9 * cov);
 		}
 		pr_policy_free(p2);
 	}
@@ -469,11 +480,12 @@ static void test_linear_fit_offsets(void **state)
 		assert_int_equal(pr_policy_eval(p, s, m1, c1, NULL, NULL, err), PR_OK);
 		assert_int_equal(pr_policy_eval(p2, s2, m2, c2, NULL, NULL, err), PR_OK);
 		/* the quadratic model fits a0 = s0^2 - s1 */
-		assert_true(fabs(m1[0] - (s[0] * s[0] - s[1])) < 0.02);
+		assert_near(m1[0], (s[0] * s[0] - s[1]), 0.02);
 		/* states rounded at 1e6 eps = 1e-10 of their unit spread */
-		assert_true(fabs(m1[0] - m2[0]) <= 1e-8 && fabs(m1[1] - m2[1]) <= 1e-8);
+		assert_near(m1[0], m2[0], 1e-8);
+		assert_near(m1[1], m2[1], 1e-8);
 		for (i = 0; i < 4; i++)
-			assert_true(fabs(c1[i] - c2[i]) <= 1e-8 * c1[0]);
+			assert_near(c1[i], c2[i], 1e-8 * c1[0]);
 	}
 	/* pr_policy_linear_params expands W psi(s - c) to W' psi(s): rebuilt with
 	 * pr_policy_linear_new it gives the same means */
@@ -490,7 +502,7 @@ static void test_linear_fit_offsets(void **state)
 			assert_int_equal(pr_policy_eval(p, s, m1, c1, NULL, NULL, err), PR_OK);
 			assert_int_equal(pr_policy_eval(p3, s, m2, c2, NULL, NULL, err), PR_OK);
 			for (i = 0; i < 2; i++)
-				assert_true(fabs(m1[i] - m2[i]) <= 1e-12 * (1.0 + fabs(m1[i])));
+				assert_near(m1[i], m2[i], 1e-12 * (1.0 + fabs(m1[i])));
 			for (i = 0; i < 4; i++)
 				assert_true(c1[i] == c2[i]);
 		}
@@ -531,7 +543,7 @@ static void test_collinear_states(void **state)
 	s[1] = 0.6;
 	assert_int_equal(pr_policy_eval(p, s, &mean, &cov, &flags, NULL, err), PR_OK);
 	assert_true(flags & PR_POLICY_PINV);
-	assert_true(fabs(mean - 1.9) <= 1e-9);
+	assert_near(mean, 1.9, 1e-9);
 	pr_policy_free(p);
 	gsl_rng_free(rng);
 }

@@ -13,14 +13,13 @@ import os
 import re
 import shlex
 import shutil
-import subprocess
 import sys
 
 import numpy as np
 import pytest
 from scipy import stats
 
-from conftest import ROOT, poolreps_path
+from conftest import ROOT, poolreps_path, run_cmd
 
 spec = importlib.util.spec_from_file_location("power_stats", ROOT / "scripts" / "power_stats.py")
 ps = importlib.util.module_from_spec(spec)
@@ -244,7 +243,7 @@ def study(tmp_path_factory):
     root = tmp_path_factory.mktemp("power")
     out, docs = root / "study", root / "docs"
     sets = [a for s in TINY for a in ("--set", s)]
-    p = subprocess.run(["sh", ROOT / "scripts" / "power.sh", out, str(REPS), docs,
+    p = run_cmd(["sh", ROOT / "scripts" / "power.sh", out, str(REPS), docs,
                         sys.executable] + sets, capture_output=True, text=True, cwd=root,
                        env=dict(os.environ, POOLREPS=binary, LC_ALL="C"),
                        timeout=600 * float(os.environ.get("POOLREPS_TIMEOUT_SCALE", "1")))
@@ -340,7 +339,7 @@ def test_report_is_deterministic_and_readme_cells_update(study, tmp_path):
             "| a | 1 | <!-- power:best -->old words |\n"
             "| b | 2 | <!-- power:unknown -->kept |\n")
     readme.write_text(text, encoding="utf-8")
-    p = subprocess.run([sys.executable, ROOT / "scripts" / "power_stats.py", out,
+    p = run_cmd([sys.executable, ROOT / "scripts" / "power_stats.py", out,
                         "--docs", tmp_path / "docs", "--readme", readme],
                        capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
@@ -358,7 +357,7 @@ def test_report_is_deterministic_and_readme_cells_update(study, tmp_path):
 def test_bad_study_fails_with_one_line(study, tmp_path):
     out, _ = study
     script = [sys.executable, ROOT / "scripts" / "power_stats.py"]
-    p = subprocess.run(script + [tmp_path], capture_output=True, text=True)
+    p = run_cmd(script + [tmp_path], capture_output=True, text=True)
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and "event and stepped" in p.stderr
     # a truncated arm: named, exit 3, nothing written
     bad = tmp_path / "bad"
@@ -367,7 +366,7 @@ def test_bad_study_fails_with_one_line(study, tmp_path):
     path = bad / "stepped" / "exp3_episodes.csv"
     lines = path.read_text().splitlines(keepends=True)
     path.write_text("".join(lines[:-1]))
-    p = subprocess.run(script + [bad, "--docs", bad / "docs"], capture_output=True, text=True)
+    p = run_cmd(script + [bad, "--docs", bad / "docs"], capture_output=True, text=True)
     assert p.returncode == 3 and p.stderr.count("\n") == 1, p.stderr
     assert "exp3_episodes.csv" in p.stderr and "episodes, expected" in p.stderr
     assert sorted(os.listdir(bad)) == ["event", "stepped"]
@@ -375,7 +374,7 @@ def test_bad_study_fails_with_one_line(study, tmp_path):
     fields = lines[5].split(",")
     fields[2] = "x"
     path.write_text("".join(lines[:5]) + ",".join(fields) + "".join(lines[6:]))
-    p = subprocess.run(script + [bad], capture_output=True, text=True)
+    p = run_cmd(script + [bad], capture_output=True, text=True)
     assert p.returncode == 2 and "exp3_episodes.csv:6:" in p.stderr, p.stderr
 
 
@@ -399,7 +398,7 @@ def test_only_the_default_study_writes_docs():
         pytest.skip("make not installed")
 
     def recipe(*args):
-        p = subprocess.run([make, "-n", "-s", "power", *args], cwd=ROOT, capture_output=True,
+        p = run_cmd([make, "-n", "-s", "power", *args], cwd=ROOT, capture_output=True,
                            text=True, timeout=60)
         assert p.returncode == 0, p.stderr
         line = [x for x in p.stdout.splitlines() if "scripts/power.sh" in x]

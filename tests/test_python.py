@@ -8,7 +8,6 @@ package finds build/rel/libpoolreps.so.0 of this checkout."""
 import csv
 import io
 import os
-import subprocess
 import sys
 import threading
 import time
@@ -18,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import ROOT, run_poolreps
+from conftest import ROOT, run_poolreps, run_cmd
 
 sys.path.insert(0, str(ROOT / "python"))
 import poolreps  # noqa: E402
@@ -656,7 +655,7 @@ def test_leak_checker_sees_the_library():
     code = ("import numpy as np, poolreps, poolreps.core as c\n"
             "c.lib.pr_reps_result_free = lambda p: None\n"
             "poolreps.reps(np.arange(20.0), np.ones((20, 1)))\n")
-    p = subprocess.run([sys.executable, "-c", code], capture_output=True,
+    p = run_cmd([sys.executable, "-c", code], capture_output=True,
                                      text=True, env=dict(os.environ,
                                                          PYTHONPATH=str(ROOT / "python")))
     assert p.returncode != 0 and "Direct leak" in p.stderr and "pr_reps_solve" in p.stderr
@@ -675,7 +674,7 @@ def test_the_calls_in_docs_python_md_run():
 
 def test_reps_loop_example_learns():
     env = dict(os.environ, PYTHONPATH=str(ROOT / "python"))
-    p = subprocess.run([sys.executable, str(ROOT / "examples/python/reps_loop.py")],
+    p = run_cmd([sys.executable, str(ROOT / "examples/python/reps_loop.py")],
                                      capture_output=True, text=True, env=env, timeout=600)
     assert p.returncode == 0, p.stderr
     rows = [l.split() for l in p.stdout.splitlines() if l.startswith("iteration")]

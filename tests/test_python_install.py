@@ -5,13 +5,12 @@ python` puts there) or, without that copy, through an installed poolreps.pc."""
 import ctypes.util
 import os
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, run_cmd
 
 LIB = Path(os.environ.get("POOLREPS_LIB") or ROOT / "build/rel/libpoolreps.so.0")
 STAGE = os.environ.get("POOLREPS_STAGE")
@@ -50,13 +49,13 @@ def source_tree(dest, with_library):
 @pytest.fixture(scope="module")
 def venv(tmp_path_factory):
     d = tmp_path_factory.mktemp("venv")
-    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(d / "env")],
+    run_cmd([sys.executable, "-m", "venv", "--system-site-packages", str(d / "env")],
                    check=True, capture_output=True, timeout=300)
     return d
 
 
 def pip_install(venv, src):
-    p = subprocess.run([str(venv / "env/bin/pip"), "install", "-q", "--no-build-isolation",
+    p = run_cmd([str(venv / "env/bin/pip"), "install", "-q", "--no-build-isolation",
                         "--no-deps", "--no-index", "--force-reinstall", str(src)],
                        capture_output=True, text=True, cwd=venv, timeout=300)
     assert p.returncode == 0, p.stdout + p.stderr
@@ -66,7 +65,7 @@ def run_installed(venv, extra_env=None):
     env = {k: v for k, v in os.environ.items()
            if k not in ("POOLREPS_LIB", "PYTHONPATH", "PKG_CONFIG_PATH", "PKG_CONFIG_SYSROOT_DIR")}
     env.update(extra_env or {})
-    p = subprocess.run([str(venv / "env/bin/python"), "-c", PROBE], capture_output=True,
+    p = run_cmd([str(venv / "env/bin/python"), "-c", PROBE], capture_output=True,
                        text=True, cwd=venv, env=env, timeout=120)
     assert p.returncode == 0, p.stderr
     return p.stdout.split("\n")
@@ -93,7 +92,7 @@ def test_pip_install_finds_an_installed_library_through_pkg_config(venv):
     # and with no library anywhere it says where it looked, as an OSError
     if ctypes.util.find_library("poolreps"):
         return  # a system-wide install would be found: nothing to test here
-    p = subprocess.run([str(venv / "env/bin/python"), "-c", "import poolreps"],
+    p = run_cmd([str(venv / "env/bin/python"), "-c", "import poolreps"],
                        capture_output=True, text=True, cwd=venv,
                        env={"PATH": os.environ["PATH"], "PKG_CONFIG_PATH": str(venv)},
                        timeout=120)

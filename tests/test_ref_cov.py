@@ -9,11 +9,11 @@ Tolerances (stated per test): relative to the largest entry of the
 reference matrix, scaled by the condition number where a solve is involved.
 """
 import os
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cmd
 
 ROOT = Path(__file__).resolve().parent.parent
 AFFINE, QUADRATIC = 1, 2
@@ -30,7 +30,7 @@ def driver_path():
 
 
 def run_driver(text):
-    r = subprocess.run([str(driver_path())], input=text.encode(), capture_output=True,
+    r = run_cmd([str(driver_path())], input=text.encode(), capture_output=True,
                        timeout=60)
     assert r.returncode == 0, r.stderr.decode()
     return [np.array([float(x) for x in line.split()]) for line in r.stdout.decode().splitlines()]
@@ -219,7 +219,7 @@ def test_fit_invariances_and_shift():
 
 def test_fit_old_without_means_refused(tmp_path):
     """cov_center = old with a non-finite sampling mean is refused."""
-    r = subprocess.run([str(driver_path())], input=b"fit 1 1 0 0 2 1 1\n0 1 1 nan\n1 2 1 0.5\n",
+    r = run_cmd([str(driver_path())], input=b"fit 1 1 0 0 2 1 1\n0 1 1 nan\n1 2 1 0.5\n",
                        capture_output=True, timeout=60)
     assert r.returncode == 3 and b"sampling mean" in r.stderr
 

@@ -20,12 +20,12 @@ does not model (2 pseudo-inverse, 8 covariance fallback, 16 min_std floor)
 are not compared; the test checks that most queries are compared.
 """
 import os
-import subprocess
 
 import numpy as np
 import pytest
 
 import ref_policy
+from conftest import run_cmd
 
 BIN = os.environ.get("POOLREPS") or os.path.join(os.path.dirname(__file__), "..", "poolreps")
 ENV = dict(os.environ, LC_ALL="C")
@@ -64,7 +64,7 @@ def make_case(seed):
 
 
 def run(args):
-    r = subprocess.run([BIN] + args, capture_output=True, text=True, env=ENV, timeout=60)
+    r = run_cmd([BIN] + args, capture_output=True, text=True, env=ENV, timeout=60)
     assert r.returncode == 0, r.stderr
     return r
 

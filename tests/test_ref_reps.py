@@ -22,12 +22,12 @@ Tolerances (every comparison):
     1e-9), its weights agree to 1e-4 (the optimum is unique).
 """
 import os
-import subprocess
 
 import numpy as np
 import pytest
 
 import ref_reps
+from conftest import run_cmd
 
 BIN = os.environ.get("POOLREPS") or os.path.join(os.path.dirname(__file__), "..", "poolreps")
 ENV = dict(os.environ, LC_ALL="C")
@@ -104,7 +104,7 @@ def run_c(tmp_path, R, q, phi, eps):
             "--summary", str(tmp_path / "s.csv"), "--epsilon", repr(eps), "-q"]
     if phi.shape[1]:
         args += ["--features", "phi*"]
-    r = subprocess.run(args, capture_output=True, text=True, env=ENV, timeout=60)
+    r = run_cmd(args, capture_output=True, text=True, env=ENV, timeout=60)
     assert r.returncode == 0, r.stderr
     p = np.loadtxt(tmp_path / "p.csv", skiprows=1, ndmin=1)
     with open(tmp_path / "s.csv") as f:

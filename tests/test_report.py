@@ -11,12 +11,12 @@ import csv
 import hashlib
 import html.parser
 import os
+import re
 import shutil
-import subprocess
 import sys
 
 import pytest
-from conftest import ROOT, poolreps_path
+from conftest import ROOT, poolreps_path, quick_sets, run_cmd
 
 PY = os.environ.get("PYTHON") or "/usr/bin/python3"
 SCRIPTS = ROOT / "scripts"
@@ -29,7 +29,7 @@ VOID = {"meta", "img", "br", "hr", "link", "input", "source", "wbr"}
 
 def has_matplotlib():
     try:
-        return subprocess.run([PY, "-c", "import matplotlib"], capture_output=True,
+        return run_cmd([PY, "-c", "import matplotlib"], capture_output=True,
                               timeout=60).returncode == 0
     except OSError:
         return False
@@ -46,7 +46,7 @@ def out(tmp_path_factory):
     o = tmp_path_factory.mktemp("reproduce") / "out"
     (o / "figures").mkdir(parents=True)
     (o / "figures" / "fig7_99_old.png").write_bytes(b"from an earlier run")
-    p = subprocess.run(["sh", "scripts/reproduce.sh", str(o), PY, "1"], cwd=ROOT,
+    p = run_cmd(["sh", "scripts/reproduce.sh", str(o), PY, "1"], cwd=ROOT,
                        capture_output=True, text=True, timeout=1800,
                        env=dict(os.environ, LC_ALL="C", POOLREPS=binary))
     assert p.returncode == 0, p.stderr[-3000:]
@@ -67,6 +67,25 @@ def test_quick_reproduction_writes_the_recorded_bytes(out):
     assert sorted(written) == sorted(recorded), "the set of CSVs changed"
     changed = [n for n in sorted(recorded) if written[n] != recorded[n]]
     assert not changed, f"outputs differ from the recorded bytes: {changed}"
+
+
+@pytest.mark.parametrize("name", ["exp1", "exp2", "exp3", "quadratic", "sphere", "rosenbrock"])
+def test_quick_settings_are_valid(name, poolreps):
+    """data/quick/NAME.ini sets keys poolreps knows, to values it accepts, on
+    top of data/NAME.ini."""
+    sets = quick_sets(name)
+    assert sets and any(s.startswith("experiment.repetitions=") for s in sets)
+    args = ["config", "-c", ROOT / "data" / f"{name}.ini"]
+    for s in sets:
+        args += ["--set", s]
+    r = poolreps(args)
+    assert r.returncode == 0, r.stderr
+    ini = r.stdout.decode()
+    for s in sets:
+        key, value = s.split("=", 1)
+        section, k = key.split(".")
+        block = ini[ini.index(f"[{section}]"):]
+        assert re.search(rf"^{k} = {re.escape(value)}$", block, re.M), s
 
 
 class Page(html.parser.HTMLParser):
@@ -191,7 +210,7 @@ def test_report_tables_come_from_the_csvs(out, tmp_path):
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    p = subprocess.run([PY, str(SCRIPTS / "report.py"), str(o)], capture_output=True, text=True,
+    p = run_cmd([PY, str(SCRIPTS / "report.py"), str(o)], capture_output=True, text=True,
                        timeout=300)
     assert p.returncode == 0, p.stderr
     before = dict((r[0], r) for r in parse(out / "report.html").tables[1][1:])
@@ -211,7 +230,7 @@ def chromium():
 @pytest.mark.skipif(chromium() is None, reason="no chromium installed")
 def test_report_renders_in_chromium(out, tmp_path):
     shot = tmp_path / "report.png"
-    p = subprocess.run([chromium(), "--headless", "--no-sandbox", "--disable-gpu",
+    p = run_cmd([chromium(), "--headless", "--no-sandbox", "--disable-gpu",
                         "--disable-background-networking", "--disable-component-update",
                         "--disable-sync", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}",
                         "--hide-scrollbars", "--window-size=1200,5200", f"--screenshot={shot}",

@@ -21,6 +21,7 @@
 #include "exp_priv.h"
 #include "poolreps/csvio.h"
 #include "poolreps/reps.h"
+#include "test_util.h"
 
 #define N 60
 #define D 3
@@ -69,7 +70,7 @@ static void test_gradient_fd(void **state)
 			xp[j] -= 2 * h;
 			fm = pr_reps_dual(&pb, 0.5, ridges[k], xp, NULL);
 			fd = (fp - fm) / (2 * h);
-			assert_true(fabs(fd - g[j]) <= 1e-7 * (1.0 + fabs(g[j])));
+			assert_near(fd, g[j], 1e-7 * (1.0 + fabs(g[j])));
 		}
 	}
 }
@@ -102,9 +103,9 @@ static void test_sparse_equals_dense(void **state)
 		x[j] = 0.1 * j - 0.4;
 	fdn = pr_reps_dual(&pd, 0.8, 0.0, x, gd);
 	fsp = pr_reps_dual(&ps, 0.8, 0.0, x, gs);
-	assert_true(fabs(fdn - fsp) <= 1e-12 * fabs(fdn));
+	assert_near(fdn, fsp, 1e-12 * fabs(fdn));
 	for (j = 0; j <= NL; j++)
-		assert_true(fabs(gd[j] - gs[j]) <= 1e-12);
+		assert_near(gd[j], gs[j], 1e-12);
 }
 
 static double kl_of(const double *p, const double *q, int n)
@@ -140,13 +141,13 @@ static void test_kl_active(void **state)
 		o.epsilon = eps[k];
 		assert_int_equal(pr_reps_solve(&o, &pb, &r, err), PR_OK);
 		assert_int_equal(r->bound, 1);
-		assert_true(fabs(r->kl - eps[k]) <= 1e-6);
+		assert_near(r->kl, eps[k], 1e-6);
 		/* independent KL from the weights themselves */
-		assert_true(fabs(kl_of(r->p, q, N) - eps[k]) <= 1e-6);
+		assert_near(kl_of(r->p, q, N), eps[k], 1e-6);
 		assert_true(r->residual <= 1e-10);
 		for (i = 0; i < N; i++)
 			sum += r->p[i];
-		assert_true(fabs(sum - 1.0) <= 1e-12);
+		assert_near(sum, 1.0, 1e-12);
 		assert_true(r->ess > 1.0 && r->ess < N);
 		pr_reps_result_free(r);
 	}
@@ -182,9 +183,9 @@ static void test_strong_duality(void **state)
 	for (j = 0; j < D; j++)
 		corr += r->theta[j] * (phihat[j] - ep[j]);
 	/* the identity, to rounding */
-	assert_true(fabs(r->dual - (pr + r->eta * (o.epsilon - r->kl) + corr)) <= 1e-9);
+	assert_near(r->dual, (pr + r->eta * (o.epsilon - r->kl) + corr), 1e-9);
 	/* duality gap at the optimum */
-	assert_true(fabs(r->dual - pr) <= 1e-10);
+	assert_near(r->dual, pr, 1e-10);
 	pr_reps_result_free(r);
 }
 
@@ -213,14 +214,12 @@ static void test_affine_invariance(void **state)
 		assert_int_equal(pr_reps_solve(&o, &p2, &r, err), PR_OK);
 		assert_int_equal(r->bound, 1);
 		for (i = 0; i < N; i++)
-			assert_true(fabs(r->p[i] - ref->p[i]) <= 1e-9 * ref->p[i]);
+			assert_near(r->p[i], ref->p[i], 1e-9 * ref->p[i]);
 		/* eta and theta scale with the returns, the dual is affine */
-		assert_true(fabs(r->eta - scale[k] * ref->eta) <= 1e-9 * scale[k] * ref->eta);
+		assert_near(r->eta, scale[k] * ref->eta, 1e-9 * scale[k] * ref->eta);
 		for (j = 0; j < D; j++)
-			assert_true(fabs(r->theta[j] - scale[k] * ref->theta[j]) <=
-			            1e-9 * scale[k] * (fabs(ref->theta[j]) + ref->eta));
-		assert_true(fabs(r->dual - (scale[k] * ref->dual + shift[k])) <=
-		            1e-8 * (fabs(shift[k]) + scale[k] * (fabs(ref->dual) + 1.0)));
+			assert_near(r->theta[j], scale[k] * ref->theta[j], 1e-9 * scale[k] * (fabs(ref->theta[j]) + ref->eta));
+		assert_near(r->dual, (scale[k] * ref->dual + shift[k]), 1e-8 * (fabs(shift[k]) + scale[k] * (fabs(ref->dual) + 1.0)));
 		pr_reps_result_free(r);
 	}
 	pr_reps_result_free(ref);
@@ -247,15 +246,15 @@ static void test_constant_returns(void **state)
 	assert_int_equal(r->constant, 1);
 	assert_int_equal(r->bound, 0);
 	for (i = 0; i < N; i++)
-		assert_true(fabs(r->p[i] - 1.0 / N) <= 1e-13);
-	assert_true(fabs(r->ess - N) <= 1e-9);
-	assert_true(r->dual == -0.3 || fabs(r->dual + 0.3) <= 1e-15);
+		assert_near(r->p[i], 1.0 / N, 1e-13);
+	assert_near(r->ess, N, 1e-9);
+	assert_near(r->dual, -0.3, 1e-15);
 	pr_reps_result_free(r);
 	/* with base weights: p = q normalised */
 	pb.q = q;
 	assert_int_equal(pr_reps_solve(&o, &pb, &r, err), PR_OK);
 	for (i = 0; i < N; i++)
-		assert_true(fabs(r->p[i] - q[i] / sq) <= 1e-15);
+		assert_near(r->p[i], q[i] / sq, 1e-15);
 	pr_reps_result_free(r);
 }
 
@@ -290,9 +289,9 @@ static void test_no_features_known_answer(void **state)
 	}
 	assert_int_equal(pr_reps_solve(&o, &pb, &r, err), PR_OK);
 	assert_int_equal(r->bound, 1);
-	assert_true(fabs(r->eta - lo) <= 1e-7 * lo);
+	assert_near(r->eta, lo, 1e-7 * lo);
 	for (i = 0; i < N; i++)
-		assert_true(fabs(r->p[i] - p[i]) <= 1e-7 * p[i] + 1e-15);
+		assert_near(r->p[i], p[i], 1e-7 * p[i] + 1e-15);
 	pr_reps_result_free(r);
 }
 
@@ -323,7 +322,7 @@ static void test_rich_features_inactive(void **state)
 	assert_true(r->kl < o.epsilon && r->eta == 0.0);
 	/* the leaf masses are matched exactly: p = q */
 	for (i = 0; i < N; i++)
-		assert_true(fabs(r->p[i] - 1.0 / N) <= 1e-13);
+		assert_near(r->p[i], 1.0 / N, 1e-13);
 	assert_true(r->residual <= 1e-13 && isfinite(r->dual));
 	pr_reps_result_free(r);
 	o.ridge = 1e-3;
@@ -400,9 +399,9 @@ static void assert_certified(const pr_reps_result *r, double eps)
 		assert_true(r->p[i] >= 0.0);
 		s += r->p[i];
 	}
-	assert_true(fabs(s - 1.0) <= 1e-13);
+	assert_near(s, 1.0, 1e-13);
 	assert_true(r->residual_rel <= PR_REPS_TOL);
-	assert_true(fabs(r->kl_gap - fabs(r->kl - eps)) <= 1e-15);
+	assert_near(r->kl_gap, fabs(r->kl - eps), 1e-15);
 	if (r->status == PR_REPS_ACTIVE) {
 		assert_int_equal(r->bound, 1);
 		assert_true(r->kl_gap <= PR_REPS_TOL && r->eta > 0.0);
@@ -451,7 +450,7 @@ static void test_rich_forest_unreachable(void **state)
 	pr_a = sum_pr(a, R);
 	assert_true(pr_a <= pr_u + 1e-12);
 	/* and the dual's value at eta = 0 is the limit's sum p R */
-	assert_true(fabs(r->dual - pr_u) <= 1e-12);
+	assert_near(r->dual, pr_u, 1e-12);
 	pr_reps_result_free(r);
 	pr_reps_result_free(a);
 	gsl_rng_free(rng);
@@ -486,7 +485,7 @@ static void test_generic_unreachable(void **state)
 	assert_int_equal(r->status, PR_REPS_UNREACHABLE);
 	assert_certified(r, o.epsilon);
 	for (i = 0; i < NW; i++)
-		assert_true(fabs(r->p[i] - q[i] / sq) <= 1e-13);
+		assert_near(r->p[i], q[i] / sq, 1e-13);
 	pr_reps_result_free(r);
 	make_problem(13, R3, q3, phi3);
 	o.epsilon = 5.0;
@@ -499,7 +498,7 @@ static void test_generic_unreachable(void **state)
 	assert_true(sum_pr(a, R3) <= sum_pr(r, R3) + 1e-12);
 	/* close to the limit, the active answer is close to it too */
 	for (i = 0; i < N; i++)
-		assert_true(fabs(a->p[i] - r->p[i]) <= 1e-3);
+		assert_near(a->p[i], r->p[i], 1e-3);
 	pr_reps_result_free(r);
 	pr_reps_result_free(a);
 	gsl_rng_free(rng);
@@ -533,8 +532,8 @@ static void test_extreme_scales(void **state)
 		assert_int_equal(r->status, PR_REPS_ACTIVE);
 		assert_certified(r, o.epsilon);
 		for (i = 0; i < N; i++)
-			assert_true(fabs(r->p[i] - ref->p[i]) <= 1e-12);
-		assert_true(fabs(r->eta / scales[k] - ref->eta) <= 1e-12 * ref->eta);
+			assert_near(r->p[i], ref->p[i], 1e-12);
+		assert_near(r->eta / scales[k], ref->eta, 1e-12 * ref->eta);
 		pr_reps_result_free(r);
 	}
 	pr_reps_result_free(ref);
@@ -572,7 +571,7 @@ static void test_pinned_tiny_mass(void **state)
 	assert_int_equal(pr_reps_solve(&o, &pb, &r, err), PR_OK);
 	assert_int_equal(r->status, PR_REPS_UNREACHABLE);
 	assert_certified(r, o.epsilon);
-	assert_true(fabs(r->p[0] - q[0] / sq) <= 1e-9 * q[0] / sq);
+	assert_near(r->p[0], q[0] / sq, 1e-9 * q[0] / sq);
 	pr_reps_result_free(r);
 	gsl_rng_free(rng);
 }
@@ -644,7 +643,7 @@ static void test_zero_base_weights(void **state)
 			assert_true(a->p[i] == 0.0);
 			continue;
 		}
-		assert_true(fabs(a->p[i] - b->p[k]) <= 1e-7 * b->p[k]);
+		assert_near(a->p[i], b->p[k], 1e-7 * b->p[k]);
 		k++;
 	}
 	pr_reps_result_free(a);
@@ -663,9 +662,9 @@ static void test_importance_single_policy(void **state)
 	assert_int_equal(pr_reps_importance(1, N, logpi, counts, logpi, q, lr, &ess, err), PR_OK);
 	for (i = 0; i < N; i++) {
 		assert_true(lr[i] == 0.0);
-		assert_true(fabs(q[i] - 1.0 / N) <= 1e-15);
+		assert_near(q[i], 1.0 / N, 1e-15);
 	}
-	assert_true(fabs(ess - N) <= 1e-9);
+	assert_near(ess, N, 1e-9);
 }
 
 /* Two drawing policies (Gaussians N(0,1), N(1,1) on a 1-D action), current
@@ -692,11 +691,11 @@ static void test_importance_mixture(void **state)
 	}
 	assert_int_equal(pr_reps_importance(2, M, logpi, counts, cur, q, lr, &ess, err), PR_OK);
 	for (i = 0; i < M; i++) {
-		assert_true(fabs(exp(lr[i]) - want[i]) <= 1e-12 * want[i]);
-		assert_true(fabs(q[i] - want[i] / sw) <= 1e-12);
+		assert_near(exp(lr[i]), want[i], 1e-12 * want[i]);
+		assert_near(q[i], want[i] / sw, 1e-12);
 		s2 += q[i] * q[i];
 	}
-	assert_true(fabs(ess - 1.0 / s2) <= 1e-12);
+	assert_near(ess, 1.0 / s2, 1e-12);
 	counts[1] = 1;
 	assert_int_equal(pr_reps_importance(2, M, logpi, counts, cur, q, lr, &ess, err), PR_EINVAL);
 }

@@ -7,11 +7,11 @@ import csv
 import math
 import os
 import random
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cmd
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
@@ -19,7 +19,7 @@ BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
 
 def run(args, cwd):
     env = dict(os.environ, LC_ALL="C")
-    return subprocess.run([BIN] + [str(a) for a in args], capture_output=True, text=True,
+    return run_cmd([BIN] + [str(a) for a in args], capture_output=True, text=True,
                           cwd=cwd, env=env, timeout=60)
 
 
@@ -110,7 +110,7 @@ def test_reps_prefix_equals_list_and_set_equals_option(tmp_path):
 
 def test_reps_no_features_stdin_stdout(tmp_path):
     inp = reps_table(tmp_path)
-    r = subprocess.run([BIN, "reps", "--return", "R"], input=inp.read_text(), capture_output=True,
+    r = run_cmd([BIN, "reps", "--return", "R"], input=inp.read_text(), capture_output=True,
                        text=True, cwd=tmp_path, env=dict(os.environ, LC_ALL="C"), timeout=60)
     assert r.returncode == 0, r.stderr
     lines = r.stdout.strip().splitlines()

@@ -28,7 +28,7 @@ from typing import Callable, Optional
 
 import pytest
 
-from conftest import ROOT, poolreps_path
+from conftest import ROOT, poolreps_path, run_cmd
 
 OK, USAGE, IO, NUM, NOMEM = 0, 1, 2, 3, 4
 SAN = os.environ.get("SAN") == "1"
@@ -53,7 +53,7 @@ def env():
 
 
 def run(args, cwd, stdin=b"", timeout=120, pre=None):
-    return subprocess.run([binary()] + [str(a) for a in args], cwd=cwd, input=stdin,
+    return run_cmd([binary()] + [str(a) for a in args], cwd=cwd, input=stdin,
                           capture_output=True, env=env(), timeout=timeout, preexec_fn=pre)
 
 
@@ -589,7 +589,7 @@ def test_ulimit_f_sigxfsz(cmd, tmp_path):
 def test_full_tmpfs(what, tmp_path, runs):
     mnt = tmp_path / "mnt"
     mnt.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)]).returncode:
+    if run_cmd(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)]).returncode:
         pytest.skip("mount -t tmpfs refused (no CAP_SYS_ADMIN)")
     try:
         (tmp_path / "s.csv").write_bytes(b"x0,y0,x1,y1,vx,vy\n" + b"-0.25,0,0.1,0,0.615,0.03\n" * 300)
@@ -610,7 +610,7 @@ def test_full_tmpfs(what, tmp_path, runs):
         one_line(r)
         assert snapshot(mnt) == before
     finally:
-        subprocess.run(["umount", str(mnt)])
+        run_cmd(["umount", str(mnt)])
 
 
 def long_shoot(tmp_path):
@@ -666,7 +666,7 @@ def test_sigpipe_through_head(tmp_path):
     args = long_shoot(tmp_path)
     args[args.index("-o") + 1] = "-"
     before = snapshot(tmp_path)
-    sh = subprocess.run(["bash", "-c", 'set -o pipefail; "$@" | head -1 >/dev/null; echo "${PIPESTATUS[0]}" >&2',
+    sh = run_cmd(["bash", "-c", 'set -o pipefail; "$@" | head -1 >/dev/null; echo "${PIPESTATUS[0]}" >&2',
                          "sh", binary()] + args, cwd=tmp_path, env=env(), capture_output=True,
                         timeout=120)
     lines = sh.stderr.decode().splitlines()
@@ -816,7 +816,7 @@ def test_read_only_target_for_a_non_root_user(target):
                 "run_folder": RUN_Q + ["-o", "out"],
                 "run_file": RUN_Q + ["-o", "out", "--seed", "4"]}[target]
         before = snapshot(d)
-        r = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
+        r = run_cmd(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
                             binary()] + [str(a) for a in args], cwd=d, env=env(),
                            capture_output=True, timeout=120)
         assert r.returncode == IO, r.stderr

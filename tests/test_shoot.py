@@ -6,10 +6,10 @@ with LC_ALL=C.
 import csv
 import math
 import os
-import subprocess
 from pathlib import Path
 
 import pytest
+from conftest import run_cmd
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
@@ -18,7 +18,7 @@ C, VS, R = 0.25, 0.002, 0.015
 
 def run(args, tmp_path, text=None):
     env = dict(os.environ, LC_ALL="C")
-    return subprocess.run([BIN] + args, input=text, capture_output=True, text=True,
+    return run_cmd([BIN] + args, input=text, capture_output=True, text=True,
                           cwd=tmp_path, env=env, timeout=60)
 
 

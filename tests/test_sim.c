@@ -12,14 +12,7 @@
 #include <gsl/gsl_rng.h>
 
 #include "poolreps/sim.h"
-
-/* cmocka's assert_float_equal works in float; this one in double. */
-#define assert_near(a, b, tol)                                                         \
-	do {                                                                           \
-		double a_ = (a), b_ = (b);                                             \
-		if (!(fabs(a_ - b_) <= (tol)))                                         \
-			fail_msg("%s = %.17g, expected %.17g +- %g", #a, a_, b_, (double)(tol)); \
-	} while (0)
+#include "test_util.h"
 
 #define R 0.015
 #define C 0.25
@@ -409,8 +402,10 @@ static void test_sample_start(void **state)
 		assert_near(st[0], -0.25, 0);
 		assert_near(st[1], 0, 0);
 		assert_true(st[2] >= 0.05 && st[2] <= 0.45 && st[3] >= -0.2 && st[3] <= 0.2);
-		for (b = 2; b < 5; ++b)
-			assert_true(fabs(st[2 * b]) <= 0.485 && fabs(st[2 * b + 1]) <= 0.235);
+		for (b = 2; b < 5; ++b) {
+			assert_near(st[2 * b], 0.0, 0.485);
+			assert_near(st[2 * b + 1], 0.0, 0.235);
+		}
 	}
 	/* a reward box on the cue ball can never be drawn */
 	f->so.reward_box[0] = f->so.reward_box[1] = -0.25;
@@ -530,8 +525,8 @@ static void test_invariants(void **state)
 		for (b = 0; b < n; ++b) {
 			if (f->res.pocket[b] >= 0)
 				continue;
-			assert_true(fabs(f->res.final[2 * b]) <= hx + 1e-12);
-			assert_true(fabs(f->res.final[2 * b + 1]) <= hy + 1e-12);
+			assert_near(f->res.final[2 * b], 0.0, hx + 1e-12);
+			assert_near(f->res.final[2 * b + 1], 0.0, hy + 1e-12);
 			for (c = b + 1; c < n; ++c)
 				if (f->res.pocket[c] < 0)
 					assert_true(hypot(f->res.final[2 * c] - f->res.final[2 * b],

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT, poolreps_path, run_poolreps
+from conftest import ROOT, poolreps_path, run_poolreps, run_cmd
 
 # tiny settings (each run well under 3 s), 3 repetitions so that order can vary
 SWEEPS = {
@@ -213,7 +213,7 @@ def make_sweep(config, out, sets=(), grid=(), split=None):
 def run_jobs(lines, order=None):
     """Run job lines one by one through sh, in the given order of indices."""
     for j in (order if order is not None else range(len(lines))):
-        r = subprocess.run(["sh", "-c", lines[j]], capture_output=True, text=True, timeout=300,
+        r = run_cmd(["sh", "-c", lines[j]], capture_output=True, text=True, timeout=300,
                            env=dict(os.environ, LC_ALL="C"))
         assert r.returncode == 0, (lines[j], r.stderr)
 
@@ -268,7 +268,7 @@ def test_sweep_through_parallel_matches_single_process(single, tmp_path):
         assert f"experiment.repetition={m['repetition']}" in words
         assert (f"experiment.variant={m['variant']}" in words) == (m["variant"] != "-1")
         assert words[-2:] == ["-o", str(out / m["output"])]
-    par = subprocess.run(["sh", out / "parallel.sh", "-j2", "--halt", "now,fail=1"],
+    par = run_cmd(["sh", out / "parallel.sh", "-j2", "--halt", "now,fail=1"],
                          capture_output=True, text=True, timeout=300,
                          env=dict(os.environ, LC_ALL="C"))
     assert par.returncode == 0, par.stdout + par.stderr
@@ -287,7 +287,7 @@ def test_sweep_through_parallel_matches_single_process(single, tmp_path):
 
 def test_jobs_sh_prints_the_sweep_jobs(tmp_path):
     config = ROOT / "data" / "quadratic.ini"
-    r = subprocess.run(["sh", ROOT / "scripts" / "jobs.sh", config, tmp_path / "s",
+    r = run_cmd(["sh", ROOT / "scripts" / "jobs.sh", config, tmp_path / "s",
                         "--set", "experiment.repetitions=3"], capture_output=True, text=True,
                        timeout=60, env=dict(os.environ, POOLREPS=poolreps_path(), LC_ALL="C"))
     assert r.returncode == 0, r.stderr
@@ -516,7 +516,7 @@ def test_slurm_script_runs_the_line_of_its_task(tmp_path):
         env = dict(os.environ, LC_ALL="C", SLURM_ARRAY_TASK_ID=str(i))
         if offset is not None:
             env["POOLREPS_OFFSET"] = str(offset)
-        return subprocess.run(["sh", sweep / "slurm.sbatch", *args], capture_output=True,
+        return run_cmd(["sh", sweep / "slurm.sbatch", *args], capture_output=True,
                               text=True, env=env, timeout=60)
 
     assert task(1, offset=2).returncode == 0
@@ -545,7 +545,7 @@ def test_plot_sweep_draws_the_summary_against_the_grid(tmp_path):
     run_ok(["collect", "-q", sweep])
 
     def plot(*args):
-        return subprocess.run([py, ROOT / "scripts" / "plot_sweep.py", sweep, *args],
+        return run_cmd([py, ROOT / "scripts" / "plot_sweep.py", sweep, *args],
                               capture_output=True, text=True, timeout=120)
 
     pngs = []

@@ -111,7 +111,11 @@ int pr_config_diff(const pr_config *a, const pr_config *b, const char *const *sk
                    size_t nkey, char *va, char *vb, size_t n);
 /* Write every key as INI (the effective configuration). */
 int pr_config_write(const pr_config *c, FILE *fp);
-/* List every key of schema with default, unit and range. */
-void pr_config_help(pr_config_schema schema, FILE *fp);
+/* List the keys of schema with default, unit and range: every key, or only
+ * those in the list `only` (as pr_config_key_listed reads it). */
+void pr_config_help(pr_config_schema schema, const char *only, FILE *fp);
+/* 1 if key ("section.key") is in list, a comma list of whole names and of
+ * sections ending in '.': "forest.,experiment.seed". */
+int pr_config_key_listed(const char *list, const char *key);
 
 #endif
