@@ -26,9 +26,9 @@
 static int write_episodes(const pr_config *cfg, const pr_exp3_job *runs, int nruns,
                           const char *dir, char *err)
 {
-	char path[PR_PATHLEN], name[32];
+	char path[PR_PATHLEN];
 	pr_csvw *w;
-	int j, i, b, rc = PR_OK;
+	int j, i, rc = PR_OK;
 
 	snprintf(path, sizeof path, "%s/exp3_episodes.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
@@ -36,12 +36,7 @@ static int write_episodes(const pr_config *cfg, const pr_exp3_job *runs, int nru
 	rc |= pr_csvw_str(w, "repetition");
 	rc |= pr_csvw_str(w, "policy");
 	rc |= pr_csvw_str(w, "iteration");
-	for (b = 0; b < cfg->table.balls; ++b) {
-		snprintf(name, sizeof name, "x%d", b);
-		rc |= pr_csvw_str(w, name);
-		snprintf(name, sizeof name, "y%d", b);
-		rc |= pr_csvw_str(w, name);
-	}
+	rc |= pr_exp3_write_state_names(w, cfg->table.balls);
 	rc |= pr_csvw_header(w, "vx,vy,return,rx,ry,pocket,hit");
 	for (j = 0; rc == PR_OK && j < nruns; ++j) {
 		const pr_exp3_episodes *o = &runs[j].ep;
@@ -52,6 +47,20 @@ static int write_episodes(const pr_config *cfg, const pr_exp3_job *runs, int nru
 		}
 	}
 	return pr_csvw_finish(w, rc, err);
+}
+
+int pr_exp3_write_state_names(pr_csvw *w, int nballs)
+{
+	char name[32];
+	int b, rc = PR_OK;
+
+	for (b = 0; b < nballs; ++b) {
+		snprintf(name, sizeof name, "x%d", b);
+		rc |= pr_csvw_str(w, name);
+		snprintf(name, sizeof name, "y%d", b);
+		rc |= pr_csvw_str(w, name);
+	}
+	return rc;
 }
 
 int pr_exp3_write_episode(pr_csvw *w, const pr_exp3_episodes *o, int i)
@@ -122,7 +131,7 @@ int pr_exp3_write_raw(const pr_config *cfg, const pr_exp3_job *runs, int nruns, 
 /* The raw episodes, parsed. */
 typedef struct {
 	long n;
-	int nv, nr, T;     /* variants (exp3.policies order), repetitions found, iterations */
+	int nv, nr, T;     /* labels (in their order), repetitions found, iterations */
 	long *rep;         /* nr sorted repetition numbers */
 	int *v, *r, *it;   /* per row: variant, repetition index, iteration */
 	int *pocket;
@@ -157,13 +166,13 @@ int pr_exp3_is_target(const pr_reward_opts *ro, int pocket)
 	return 0;
 }
 
-/* Variant index of a name within var[0..nvar), or -1. */
-static int variant_of(const char *name, const int *var, int nvar)
+/* Index of a label within lb, or -1. */
+static int variant_of(const char *name, const pr_exp3_labels *lb)
 {
 	int j;
 
-	for (j = 0; j < nvar; ++j)
-		if (strcmp(pr_exp3_variant_name[var[j]], name) == 0)
+	for (j = 0; j < lb->n; ++j)
+		if (strcmp(lb->name[j], name) == 0)
 			return j;
 	return -1;
 }
@@ -185,7 +194,7 @@ double pr_exp3_target_distance(const pr_config *cfg, int pocket, double rx, doub
 	return best;
 }
 
-static int read_episodes(const pr_config *cfg, const char *dir, const int *var, int nvar,
+static int read_episodes(const pr_config *cfg, const char *dir, const pr_exp3_labels *lb,
                          episodes *E, char *err)
 {
 	enum { C_REP, C_POL, C_IT, C_RET, C_RX, C_RY, C_POCKET, NC };
@@ -198,9 +207,9 @@ static int read_episodes(const pr_config *cfg, const char *dir, const int *var, 
 	long i, j, x;
 
 	memset(E, 0, sizeof *E);
-	E->nv = nvar;
+	E->nv = lb->n;
 	E->T = pr_exp3_opts_of(cfg)->iterations;
-	snprintf(path, sizeof path, "%s/exp3_episodes.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_episodes.csv", dir, lb->prefix);
 	if ((rc = pr_exp_table_read(path, &t, err)))
 		return rc;
 	for (c = 0; c < NC; ++c)
@@ -234,9 +243,9 @@ static int read_episodes(const pr_config *cfg, const char *dir, const int *var, 
 		    (rc = pr_exp_table_num(t, i, col[C_RY], &ry, err)))
 			break;
 		E->dist[i] = pr_exp3_target_distance(cfg, E->pocket[i], rx, ry);
-		if ((E->v[i] = variant_of(pr_exp_table_str(t, i, col[C_POL]), var, nvar)) < 0)
-			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in exp3.policies",
-			            path, i + 2, pr_exp_table_str(t, i, col[C_POL]));
+		if ((E->v[i] = variant_of(pr_exp_table_str(t, i, col[C_POL]), lb)) < 0)
+			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in %s",
+			            path, i + 2, pr_exp_table_str(t, i, col[C_POL]), lb->key);
 	}
 	pr_exp_table_free(t);
 	if (rc)
@@ -274,8 +283,8 @@ static double sample_std(double ss, long n)
 
 /* exp3_curve.csv: per policy and iteration, the mean and std over the
  * repetitions of the iteration's average return (Fig. 7.7). */
-static int write_curve(const pr_config *cfg, const episodes *E, const int *var, const char *dir,
-                       char *err)
+static int write_curve(const pr_config *cfg, const episodes *E, const pr_exp3_labels *lb,
+                       const char *dir, char *err)
 {
 	const pr_exp3_opts *e = pr_exp3_opts_of(cfg);
 	size_t cells = (size_t)E->nv * E->nr * (E->T + 1);
@@ -299,11 +308,11 @@ static int write_curve(const pr_config *cfg, const episodes *E, const int *var, 
 		for (r = 0; rc == PR_OK && r < E->nr; ++r)
 			for (t = 0; t <= E->T; ++t)
 				if (!cnt[((size_t)v * E->nr + r) * (E->T + 1) + t]) {
-					rc = pr_err(err, PR_EIO, "%s/exp3_episodes.csv: policy %s, repetition %ld: "
-					            "no episodes of iteration %d", dir, pr_exp3_variant_name[var[v]], E->rep[r], t);
+					rc = pr_err(err, PR_EIO, "%s/%s_episodes.csv: policy %s, repetition %ld: "
+					            "no episodes of iteration %d", dir, lb->prefix, lb->name[v], E->rep[r], t);
 					break;
 				}
-	snprintf(path, sizeof path, "%s/exp3_curve.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_curve.csv", dir, lb->prefix);
 	if (rc == PR_OK && !(w = pr_csvw_open(path, err)))
 		rc = PR_EIO;
 	if (rc == PR_OK) {
@@ -328,9 +337,9 @@ static int write_curve(const pr_config *cfg, const episodes *E, const int *var, 
 				double dv = sum[c] / (double)cnt[c] - m;
 				ss += dv * dv;
 			}
-			pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
+			pr_csvw_str(w, lb->name[v]);
 			pr_csvw_int(w, t);
-			pr_csvw_int(w, (long)e->init_samples + (long)t * e->samples);
+			pr_csvw_int(w, (long)lb->n0[v] + (long)t * e->samples);
 			pr_csvw_num(w, m);
 			pr_csvw_num(w, sample_std(ss, E->nr));
 			pr_csvw_int(w, E->nr);
@@ -368,14 +377,14 @@ static int mark_final(const episodes *E, long last, char *fin, char *err)
 
 /* exp3_final.csv: the last episodes of each run (Fig. 7.8), one row per
  * policy and repetition and a pooled row with repetition -1. */
-static int write_final(const pr_config *cfg, const episodes *E, const int *var, const char *fin,
+static int write_final(const pr_config *cfg, const episodes *E, const pr_exp3_labels *lb, const char *fin,
                        const char *dir, char *err)
 {
 	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int v, r, rc = PR_OK;
 
-	snprintf(path, sizeof path, "%s/exp3_final.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_final.csv", dir, lb->prefix);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
 	rc = pr_csvw_header(w, "policy,repetition,episodes,mean_return,std_return,pocketed_target,"
@@ -397,7 +406,7 @@ static int write_final(const pr_config *cfg, const episodes *E, const int *var, 
 			for (i = 0; i < E->n; ++i)
 				if (fin[i] && E->v[i] == v && (r == E->nr || E->r[i] == r))
 					ss += (E->ret[i] - m) * (E->ret[i] - m);
-			pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
+			pr_csvw_str(w, lb->name[v]);
 			pr_csvw_int(w, r == E->nr ? -1 : E->rep[r]);
 			pr_csvw_int(w, n);
 			pr_csvw_num(w, m);
@@ -412,7 +421,7 @@ static int write_final(const pr_config *cfg, const episodes *E, const int *var, 
 
 /* exp3_pockets.csv (Fig. 7.9) and exp3_dist.csv (Fig. 7.10) over the last
  * episodes of every repetition. */
-static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int *var,
+static int write_pockets_dist(const pr_config *cfg, const episodes *E, const pr_exp3_labels *lb,
                               const char *fin, const char *dir, char *err)
 {
 	int nbins = (int)ceil(hypot(cfg->table.length, cfg->table.width) * DIST_BINS_PER_M);
@@ -423,7 +432,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 
 	if (!hist)
 		return pr_err(err, PR_ENOMEM, "out of memory");
-	snprintf(path, sizeof path, "%s/exp3_pockets.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_pockets.csv", dir, lb->prefix);
 	if (!(w = pr_csvw_open(path, err))) {
 		free(hist);
 		return PR_EIO;
@@ -437,7 +446,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 				tot++;
 			}
 		for (b = -1; b < PR_SIM_POCKETS; ++b) {
-			pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
+			pr_csvw_str(w, lb->name[v]);
 			pr_csvw_int(w, b);
 			pr_csvw_int(w, pr_exp3_is_target(&cfg->reward, b));
 			pr_csvw_int(w, pk[b + 1]);
@@ -450,7 +459,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 		return rc;
 	}
 
-	snprintf(path, sizeof path, "%s/exp3_dist.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_dist.csv", dir, lb->prefix);
 	if (!(w = pr_csvw_open(path, err))) {
 		free(hist);
 		return PR_EIO;
@@ -465,7 +474,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 				tot++;
 			}
 		for (b = 0; b < nbins; ++b) {
-			pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
+			pr_csvw_str(w, lb->name[v]);
 			pr_csvw_num(w, (double)b / DIST_BINS_PER_M);
 			pr_csvw_num(w, (double)(b + 1) / DIST_BINS_PER_M);
 			pr_csvw_int(w, hist[b]);
@@ -485,7 +494,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
  * sim.max_speed, and the REPS certificates: solves that were unreachable
  * (eta = 0, the eta -> 0 limit) or failed, and the largest relative
  * feature residual. */
-static int write_reps_summary(const int *var, int nvar, const char *dir, char *err)
+static int write_reps_summary(const pr_exp3_labels *lb, const char *dir, char *err)
 {
 	enum { C_POL, C_KL, C_ESS, C_BOUND, C_QESS, C_FEAT, C_REDRAW, C_FLAGS, C_RES, C_RREL, C_ST, NC };
 	static const char *const cname[NC] = {
@@ -495,9 +504,9 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 	char path[PR_PATHLEN];
 	pr_exp_table *t = NULL;
 	pr_csvw *w = NULL;
-	double (*acc)[5] = calloc((size_t)nvar, sizeof *acc);
-	double *maxres = calloc(2 * (size_t)nvar, sizeof *maxres);
-	long (*cnt)[7] = calloc((size_t)nvar, sizeof *cnt), i, x, nr;
+	double (*acc)[5] = calloc((size_t)lb->n, sizeof *acc);
+	double *maxres = calloc(2 * (size_t)lb->n, sizeof *maxres);
+	long (*cnt)[7] = calloc((size_t)lb->n, sizeof *cnt), i, x, nr;
 	int col[NC], c, v, rc;
 
 	if (!acc || !cnt || !maxres) {
@@ -506,7 +515,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		free(maxres);
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	}
-	snprintf(path, sizeof path, "%s/exp3_reps.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_reps.csv", dir, lb->prefix);
 	rc = pr_exp_table_read(path, &t, err);
 	for (c = 0; rc == PR_OK && c < NC; ++c)
 		if ((col[c] = pr_exp_table_col(t, cname[c], err)) < 0)
@@ -515,9 +524,9 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		double kl, ess, qess, nf, res, rrel;
 		const char *st;
 		long bound;
-		if ((v = variant_of(pr_exp_table_str(t, i, col[C_POL]), var, nvar)) < 0) {
-			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in exp3.policies",
-			            path, i + 2, pr_exp_table_str(t, i, col[C_POL]));
+		if ((v = variant_of(pr_exp_table_str(t, i, col[C_POL]), lb)) < 0) {
+			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in %s",
+			            path, i + 2, pr_exp_table_str(t, i, col[C_POL]), lb->key);
 			break;
 		}
 		if ((rc = pr_exp_table_num(t, i, col[C_KL], &kl, err)) ||
@@ -542,7 +551,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		cnt[v][6] += strcmp(st, pr_reps_status_name(PR_REPS_FAILED)) == 0;
 		acc[v][0] += kl;
 		maxres[v] = fmax(maxres[v], res);
-		maxres[nvar + v] = fmax(maxres[nvar + v], rrel);
+		maxres[lb->n + v] = fmax(maxres[lb->n + v], rrel);
 		acc[v][1] += ess;
 		acc[v][2] += qess;
 		acc[v][3] += nf;
@@ -553,7 +562,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		cnt[v][4] += nr;
 	}
 	pr_exp_table_free(t);
-	snprintf(path, sizeof path, "%s/exp3_reps_summary.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_reps_summary.csv", dir, lb->prefix);
 	if (rc == PR_OK && !(w = pr_csvw_open(path, err)))
 		rc = PR_EIO;
 	if (rc == PR_OK) {
@@ -561,9 +570,9 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		                    "mean_ess,mean_q_ess,mean_features,floor_iterations,"
 		                    "fallback_iterations,redraws,unreachable,failed,max_residual_rel");
 	}
-	for (v = 0; rc == PR_OK && v < nvar; ++v) {
+	for (v = 0; rc == PR_OK && v < lb->n; ++v) {
 		double n = cnt[v][0] > 0 ? (double)cnt[v][0] : 1.0;
-		pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
+		pr_csvw_str(w, lb->name[v]);
 		pr_csvw_int(w, cnt[v][0]);
 		pr_csvw_int(w, cnt[v][1]);
 		pr_csvw_int(w, cnt[v][0] - cnt[v][1]);
@@ -577,7 +586,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		pr_csvw_int(w, cnt[v][4]);
 		pr_csvw_int(w, cnt[v][5]);
 		pr_csvw_int(w, cnt[v][6]);
-		pr_csvw_num(w, maxres[nvar + v]);
+		pr_csvw_num(w, maxres[lb->n + v]);
 		rc = pr_csvw_endrow(w);
 	}
 	free(acc);
@@ -588,28 +597,41 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 	return pr_csvw_finish(w, rc, err);
 }
 
-int pr_exp3_summarize(const pr_config *cfg, const char *dir, char *err)
+int pr_exp3_summaries(const pr_config *cfg, const pr_exp3_labels *lb, const char *dir, char *err)
 {
 	episodes E;
 	char *fin = NULL;
-	int var[PR_EXP3_NVAR], nvar, rc;
+	int rc = read_episodes(cfg, dir, lb, &E, err);
 
-	if ((rc = pr_exp3_selected(cfg, var, &nvar, err)))
-		return rc;
-	rc = read_episodes(cfg, dir, var, nvar, &E, err);
 	if (rc == PR_OK)
-		rc = write_curve(cfg, &E, var, dir, err);
+		rc = write_curve(cfg, &E, lb, dir, err);
 	if (rc == PR_OK && !(fin = malloc((size_t)E.n)))
 		rc = pr_err(err, PR_ENOMEM, "out of memory");
 	if (rc == PR_OK)
 		rc = mark_final(&E, pr_exp3_opts_of(cfg)->final_episodes, fin, err);
 	if (rc == PR_OK)
-		rc = write_final(cfg, &E, var, fin, dir, err);
+		rc = write_final(cfg, &E, lb, fin, dir, err);
 	if (rc == PR_OK)
-		rc = write_pockets_dist(cfg, &E, var, fin, dir, err);
+		rc = write_pockets_dist(cfg, &E, lb, fin, dir, err);
 	if (rc == PR_OK)
-		rc = write_reps_summary(var, nvar, dir, err);
+		rc = write_reps_summary(lb, dir, err);
 	free(fin);
 	episodes_free(&E);
 	return rc;
+}
+
+int pr_exp3_summarize(const pr_config *cfg, const char *dir, char *err)
+{
+	char name[PR_EXP3_NVAR][32];
+	int var[PR_EXP3_NVAR], n0[PR_EXP3_NVAR], nvar, v, rc;
+	pr_exp3_labels lb = {"exp3", "exp3.policies", 0, name, n0};
+
+	if ((rc = pr_exp3_selected(cfg, var, &nvar, err)))
+		return rc;
+	for (v = 0; v < nvar; ++v) {
+		snprintf(name[v], sizeof name[v], "%s", pr_exp3_variant_name[var[v]]);
+		n0[v] = pr_exp3_opts_of(cfg)->init_samples;
+	}
+	lb.n = nvar;
+	return pr_exp3_summaries(cfg, &lb, dir, err);
 }

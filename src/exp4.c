@@ -383,10 +383,182 @@ static int eval_fit(const pr_config *cfg, const pr_exp3_opts *e3, const pr_polic
 /* Draw (and forget) the next n start states of `start`. */
 static int skip_starts(const pr_config *cfg, gsl_rng *start, int n, char *err)
 {
-	double s[2 * PR_SIM_MAX_BALLS_SKIP];
-	int i, rc = PR_OK;
+	double *s = malloc(2 * (size_t)cfg->table.balls * sizeof *s);
+	int i, rc = s ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
 
 	for (i = 0; rc == PR_OK && i < n; ++i)
 		rc = pr_sim_sample_start(&cfg->table, &cfg->start, cfg->table.balls, start, s, err);
+	free(s);
+	return rc;
+}
+
+/* ---- the jobs ---- */
+
+/* A variant's own stream offset, fixed whatever the lists hold. */
+static unsigned long variant_id(const pr_exp4_variant *v)
+{
+	return (unsigned long)((v->policy * PR_EXP4_NINIT + v->init) * PR_EXP4_NCOV + v->cov);
+}
+
+/* Read-only after setup; shared by the threads. */
+typedef struct {
+	const pr_config *cfg;
+	const pr_exp4_opts *e4;
+	pr_exp4_variant var[PR_EXP4_NVAR];
+	int nvar, lo, nrep;
+	pr_exp4_job *runs;     /* nrep x nvar, repetition-major */
+	pr_exp_ticker tick;
+} setup;
+
+/* Iteration 0 of a run that starts from the demonstrations: pi_0 fitted to
+ * them, then its own episodes, the demonstrations, or (imitation) its own
+ * episodes and the fit rows. */
+static int start_imitation(const pr_config *cfg, const pr_exp4_opts *e4, pr_exp4_job *run,
+                           pr_exp3_learner *L, gsl_rng *start, char *err)
+{
+	const pr_exp3_opts *e3 = pr_exp3_opts_of(cfg);
+	const pr_exp4_demo *d = &run->demo;
+	const int *xdim;
+	int nx = pr_exp3_learner_state_dims(L, &xdim), rc;
+	pr_policy *p;
+
+	if ((rc = make_demos(cfg, e4, run->repetition, &run->demo, err)))
+		return rc;
+	if (!(p = fit_demos(cfg, e3, e4, run->var.policy, d, nx, xdim, run->repetition, err)))
+		return PR_EINVAL;
+	if (run->var.init == PR_EXP4_IMITATION &&
+	    (rc = eval_fit(cfg, e3, p, nx, xdim, run->repetition, &run->fit, err))) {
+		pr_policy_free(p);
+		return rc;
+	}
+	if ((rc = pr_exp3_learner_set_policy(L, p, err)))
+		return rc;
+	if (run->var.init != PR_EXP4_DEMO)
+		return pr_exp3_learner_start(L, err);
+	/* the start states iteration 0 would have drawn, so later ones match */
+	if ((rc = skip_starts(cfg, start, e3->init_samples, err)))
+		return rc;
+	return pr_exp3_learner_seed(L, d->n, d->S, d->A, d->R, d->F, d->pocket, d->hit, NULL, err);
+}
+
+/* The job behind index j: its learner from iteration 0 to the last. */
+static int run_job(void *ctx, int j, char *err)
+{
+	setup *su = ctx;
+	pr_exp4_job *run = &su->runs[j];
+	const pr_exp4_variant *v = &su->var[j % su->nvar];
+	const int scratch = v->init == PR_EXP4_SCRATCH;
+	unsigned long seed = su->cfg->run.seed, k;
+	pr_config *cfg = malloc(sizeof *cfg);
+	const pr_exp3_opts *e3;
+	gsl_rng *start = NULL, *init = NULL, *learn = NULL;
+	pr_exp3_learner *L = NULL;
+	char msg[PR_ERRLEN], label[64];
+	int rc = PR_OK, t;
+
+	run->repetition = su->lo + j / su->nvar;
+	run->var = *v;
+	k = (unsigned long)run->repetition;
+	if (!cfg)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	*cfg = *su->cfg;
+	if (v->cov != PR_EXP4_COV_NONE)
+		cfg->policy.cov = v->cov;
+	e3 = pr_exp3_opts_of(cfg);
+	/* scratch: Experiment 3's own streams, so its rows are Experiment 3's */
+	start = pr_exp_rng(seed, PR_STREAM_EXP3_START, k);
+	init = scratch ? pr_exp_rng(seed, PR_STREAM_EXP3_INIT, k)
+	               : pr_exp_rng(seed, PR_STREAM_EXP4_INIT + (unsigned long)(kind_of(v->policy) *
+	                            PR_EXP4_NCOV + v->cov), k);
+	learn = scratch ? pr_exp_rng(seed, PR_STREAM_EXP3_LEARN + (unsigned long)v->policy, k)
+	                : pr_exp_rng(seed, PR_STREAM_EXP4_LEARN + variant_id(v), k);
+	if (!start || !init || !learn)
+		rc = pr_err(msg, PR_ENOMEM, "out of memory");
+	if (rc == PR_OK)
+		rc = pr_exp3_learner_new(cfg, e3, v->policy, start, init, learn, &L, msg);
+	if (rc == PR_OK)
+		rc = scratch ? pr_exp3_learner_start(L, msg)
+		             : start_imitation(cfg, su->e4, run, L, start, msg);
+	if (rc == PR_OK)
+		pr_exp_ticker_add(&su->tick, pr_exp3_learner_episodes(L)->n);
+	for (t = 1; rc == PR_OK && t <= e3->iterations; ++t) {
+		if (pr_interrupted) {
+			rc = pr_err(msg, PR_EINTR, "interrupted");
+			break;
+		}
+		rc = v->init == PR_EXP4_IMITATION ? pr_exp3_learner_repeat(L, msg)
+		                                  : pr_exp3_learner_iterate(L, msg);
+		if (rc == PR_OK)
+			pr_exp_ticker_add(&su->tick, e3->samples);
+	}
+	if (L)
+		pr_exp3_learner_take(L, &run->ep);
+	pr_exp3_learner_free(L);
+	gsl_rng_free(start);
+	gsl_rng_free(init);
+	gsl_rng_free(learn);
+	free(cfg);
+	if (rc) {
+		pr_exp4_variant_label(v, label, sizeof label);
+		return pr_err(err, rc, "exp4: repetition %d, %s: %s", run->repetition, label, msg);
+	}
+	return PR_OK;
+}
+
+/* What the learner cannot check itself: a fitted pi_0 for every policy. */
+static int check(const pr_config *cfg, char *err)
+{
+	const pr_exp3_opts *e3 = pr_exp3_opts_of(cfg);
+	char at[PR_WHERE_LEN];
+	int rc = pr_exp3_learner_check(cfg, e3, err);
+
+	if (rc == PR_OK && e3->handcrafted_method == PR_METHOD_CCMAES &&
+	    strstr(e3->policies, pr_exp3_variant_name[PR_EXP3_HANDCRAFTED]))
+		rc = pr_err(err, PR_EINVAL, "%s: exp3.handcrafted_method: exp4 starts the hand-crafted "
+		            "policy from a fit, which C-CMA-ES cannot; use creps",
+		            pr_config_where(cfg, "exp3.handcrafted_method", at, sizeof at));
+	return rc;
+}
+
+static void jobs_free(pr_exp4_job *runs, int n)
+{
+	int j;
+
+	for (j = 0; runs && j < n; ++j) {
+		pr_exp3_episodes_free(&runs[j].ep);
+		pr_exp4_demo_free(&runs[j].demo);
+		pr_exp4_fit_free(&runs[j].fit);
+	}
+	free(runs);
+}
+
+int pr_exp4_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err)
+{
+	const pr_exp3_opts *e3 = pr_exp3_opts_of(cfg);
+	setup su;
+	int hi, njobs = 0, rc;
+
+	memset(&su, 0, sizeof su);
+	su.cfg = cfg;
+	su.e4 = pr_exp4_opts_of(cfg);
+	pr_exp_reps(cfg, &su.lo, &hi);
+	su.nrep = hi - su.lo;
+	rc = check(cfg, err);
+	if (rc == PR_OK)
+		rc = pr_exp4_list(cfg, 1, su.var, &su.nvar, err);
+	if (rc == PR_OK) {
+		njobs = su.nrep * su.nvar;
+		if (!(su.runs = calloc((size_t)njobs, sizeof *su.runs)))
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+	}
+	if (rc == PR_OK) {
+		long neps = e3->init_samples + (long)e3->iterations * e3->samples;
+		pr_exp_ticker_init(&su.tick, prog, (long)njobs * neps, "exp4 episodes");
+		rc = pr_exp_parallel(0, njobs, cfg->run.threads, run_job, &su, err);
+		pr_exp_ticker_destroy(&su.tick);
+	}
+	if (rc == PR_OK)
+		rc = pr_exp4_write_raw(cfg, su.runs, njobs, dir, err);
+	jobs_free(su.runs, njobs);
 	return rc;
 }

@@ -1,7 +1,8 @@
 /* exp4_priv.h — Experiment 4 (beyond the thesis): Experiment 3's policies
  * started by imitation of the ghost-ball expert, then trained with
  * Experiment 3's REPS loop (exp3_priv.h). exp4.c runs it, exp4_out.c writes
- * the raw CSVs and the summaries.
+ * the raw CSVs and the summaries (declared in exp_priv.h with the other
+ * experiments' entry points).
  *
  * A variant is (policy, init, cov): a policy of exp3.policies; how its run
  * starts (exp4.inits: scratch = Experiment 3 itself, imitation = the policy
@@ -77,6 +78,9 @@ typedef struct {
 	pr_exp4_demo demo;
 	pr_exp4_fit fit;
 } pr_exp4_job;
+
+/* Repetitions a summary tells apart. */
+#define PR_EXP4_REPS_MAX 1000
 
 /* Raw exp4_episodes.csv, exp4_reps.csv, exp4_demo.csv and exp4_fit.csv. */
 int pr_exp4_write_raw(const pr_config *cfg, const pr_exp4_job *runs, int nruns, const char *dir,
