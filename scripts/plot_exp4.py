@@ -3,16 +3,16 @@
 
     plot_exp4.py DIR
 
-Reads DIR/exp4_curve.csv, DIR/exp4_final.csv and DIR/config.ini (derived
-files only, so it stays fast whatever the number of episodes) and writes, as
-PNG and SVG:
+Reads DIR/exp4_curve.csv, DIR/exp4_final.csv, DIR/exp4_verdict.csv and
+DIR/config.ini (derived files only, so it stays fast whatever the number of
+episodes) and writes, as PNG and SVG:
   exp4_curves_query, exp4_curves_residual
            average return per iteration, in the style of Fig. 7.7, one panel
            per policy, for each covariance of exp4.covs: the run from scratch
            (Experiment 3, hatched band and dashed mean), imitation only, and
            imitation followed by REPS with the window started from the
            demonstrations or from episodes of the fitted policy; mean over
-           the repetitions, bands from the lowest to the highest;
+           the repetitions, bands: mean +- one standard deviation;
   exp4_final
            the returns of each run's last exp3.final_episodes episodes per
            variant: a box of all runs pooled (quartiles, whiskers at the 5th
@@ -20,7 +20,7 @@ PNG and SVG:
   exp4_rates
            per variant, the share of those episodes that pocketed the reward
            ball in a target pocket and the share in which the cue ball hit it
-           (bars: all runs pooled, dots: each run).
+           (bars: all runs pooled; dots: each run's pocket rate).
 Variants missing from the CSVs are left out.
 """
 import argparse
@@ -54,11 +54,18 @@ INIT_COLOUR = {
 COV_LABEL = {"query": "policy.cov = query (eq. 6.8 as printed)",
              "residual": "policy.cov = residual", "none": "linear-Gaussian covariance"}
 RETURN = fs.label("return", "m")
-CURVE_NEED = ("policy", "init", "cov", "iteration", "episodes", "mean_return", "min_return",
-              "max_return", "repetitions")
-FINAL_NEED = ("policy", "init", "cov", "repetition", "episodes", "mean_return", "q05_return",
-              "q25_return", "median_return", "q75_return", "q95_return", "pocketed_target",
-              "hits")
+CURVE_NEED = ("policy", "iteration", "episodes", "mean_return", "std_return", "repetitions")
+FINAL_NEED = ("policy", "repetition", "episodes", "mean_return", "pocketed_target")
+VERDICT_NEED = ("policy", "init", "cov", "mean_return", "q05_return", "q25_return",
+                "median_return", "q75_return", "q95_return", "pocket_rate", "hit_rate")
+
+
+def split_label(rows):
+    """Rows whose policy column is a run label policy.init.cov, with the
+    three parts as columns of their own."""
+    for r in rows:
+        r["policy"], r["init"], r["cov"] = r["policy"].split(".")
+    return rows
 
 
 def covs_of(rows):
@@ -72,12 +79,12 @@ def variant_cov(policy, cov):
 
 
 def load_curves(d):
-    """{(policy, init, cov): (episodes, mean, low, high)} from exp4_curve.csv."""
+    """{(policy, init, cov): (episodes, mean, mean - std, mean + std)} from
+    exp4_curve.csv."""
     cur = defaultdict(list)
-    for r in exp_data.read_csv(os.path.join(d, "exp4_curve.csv"), CURVE_NEED):
-        cur[(r["policy"], r["init"], r["cov"])].append(
-            (int(r["episodes"]), float(r["mean_return"]), float(r["min_return"]),
-             float(r["max_return"])))
+    for r in split_label(exp_data.read_csv(os.path.join(d, "exp4_curve.csv"), CURVE_NEED)):
+        m, sd = float(r["mean_return"]), float(r["std_return"])
+        cur[(r["policy"], r["init"], r["cov"])].append((int(r["episodes"]), m, m - sd, m + sd))
     return {k: tuple(np.array(c) for c in zip(*sorted(v))) for k, v in cur.items()}
 
 
@@ -124,8 +131,8 @@ def fig_curves(d, cur, cov, nreps, final):
                Line2D([], [], color=INIT_COLOUR["policy"], lw=1.5, label=INIT_LABEL["policy"])]
     fs.legend_below(fig, handles, ncol=2, height=0.1)
     fig.suptitle(f"Experiment 4: average return per iteration, {COV_LABEL.get(cov, cov)}\n"
-                 f"(mean over {nreps} repetitions; bands: lowest to highest; the last "
-                 f"{final} episodes of each run are scored)")
+                 f"(mean of {nreps} repetitions ± one standard deviation; runs are scored on "
+                 f"their last {final} episodes)")
     return fs.save(fig, d, f"exp4_curves_{cov}")
 
 
@@ -152,17 +159,16 @@ def group_positions(vs):
     return pos, ticks
 
 
-def fig_final(d, final, covs, last):
+def fig_final(d, final, verdict, covs, last):
     fig, axes = fs.figure("full", 0.3 * len(covs) + 0.1, nrows=len(covs), ncols=1, sharey=True,
                           squeeze=False)
     lows = []
     for ax, cov in zip(axes[:, 0], covs):
-        vs = variants(final, cov)
+        vs = variants(verdict, cov)
         pos, ticks = group_positions(vs)
         stats = []
         for v in vs:
-            pooled = [r for r in final if (r["policy"], r["init"], r["cov"]) == v and
-                      r["repetition"] == "-1"][0]
+            pooled = [r for r in verdict if (r["policy"], r["init"], r["cov"]) == v][0]
             stats.append({"med": float(pooled["median_return"]),
                           "q1": float(pooled["q25_return"]), "q3": float(pooled["q75_return"]),
                           "whislo": float(pooled["q05_return"]),
@@ -204,26 +210,26 @@ def fig_final(d, final, covs, last):
     return fs.save(fig, d, "exp4_final")
 
 
-def fig_rates(d, final, covs, last):
+def fig_rates(d, final, verdict, covs, last):
     fig, axes = fs.figure("full", 0.3 * 2 * len(covs) + 0.1, nrows=2 * len(covs), ncols=1,
                           squeeze=False)
     for j, cov in enumerate(covs):
-        vs = variants(final, cov)
+        vs = variants(verdict, cov)
         pos, ticks = group_positions(vs)
-        for k, (col, what) in enumerate((("pocketed_target", "pocketed in a target"),
-                                         ("hits", "cue ball hit the reward ball"))):
+        for k, (col, what) in enumerate((("pocket_rate", "pocketed in a target"),
+                                         ("hit_rate", "cue ball hit the reward ball"))):
             ax = axes[2 * j + k, 0]
             for v in vs:
-                rows = [r for r in final if (r["policy"], r["init"], r["cov"]) == v]
-                pooled = [r for r in rows if r["repetition"] == "-1"][0]
-                share = 100 * int(pooled[col]) / int(pooled["episodes"])
-                ax.bar([pos[v]], [share], 0.8, color=INIT_COLOUR[v[1]],
+                pooled = [r for r in verdict if (r["policy"], r["init"], r["cov"]) == v][0]
+                ax.bar([pos[v]], [100 * float(pooled[col])], 0.8, color=INIT_COLOUR[v[1]],
                        alpha=0.7 if v[1] != "imitation" else 0.45,
                        hatch="////" if v[1] == "scratch" else None, edgecolor="0.3", lw=0.4)
-                runs = [100 * int(r[col]) / int(r["episodes"]) for r in rows
-                        if r["repetition"] != "-1"]
-                ax.plot([pos[v]] * len(runs), runs, "o", ms=2.2, mfc="white", mec="black",
-                        mew=0.5)
+                if k == 0:
+                    runs = [100 * int(r["pocketed_target"]) / int(r["episodes"]) for r in final
+                            if (r["policy"], r["init"], r["cov"]) == v and
+                            r["repetition"] != "-1"]
+                    ax.plot([pos[v]] * len(runs), runs, "o", ms=2.2, mfc="white", mec="black",
+                            mew=0.5)
             ax.set_xticks([t for t, _ in ticks], [lab for _, lab in ticks])
             ax.tick_params(axis="x", length=0)
             ax.grid(axis="x", visible=False)
@@ -233,10 +239,10 @@ def fig_rates(d, final, covs, last):
     handles = [Patch(facecolor=INIT_COLOUR[i], alpha=0.7, label=INIT_LABEL[i],
                      hatch="////" if i == "scratch" else None, edgecolor="0.3") for i in INITS]
     handles.append(Line2D([], [], ls="", marker="o", mfc="white", mec="black", ms=2.4,
-                          label="one run"))
+                          label="one run's pocket rate"))
     fs.legend_below(fig, handles, ncol=3, height=0.1 / len(covs) + 0.04)
-    fig.suptitle(f"Experiment 4: pocket rate and hit rate in the last {last} episodes of each "
-                 "run (bars: all runs pooled)")
+    fig.suptitle(f"Experiment 4: pocket and hit rates, last {last} episodes of each run\n"
+                 "(bars: all runs pooled)")
     return fs.save(fig, d, "exp4_rates")
 
 
@@ -245,18 +251,20 @@ def main():
     ap.add_argument("dir")
     d = ap.parse_args().dir
     fs.setup()
-    final = exp_data.read_csv(os.path.join(d, "exp4_final.csv"), FINAL_NEED)
-    if not final:
-        raise SystemExit(f"plot_exp4.py: {d}/exp4_final.csv: no rows")
+    final = split_label(exp_data.read_csv(os.path.join(d, "exp4_final.csv"), FINAL_NEED))
+    verdict = exp_data.read_csv(os.path.join(d, "exp4_verdict.csv"), VERDICT_NEED)
+    if not final or not verdict:
+        raise SystemExit(f"plot_exp4.py: {d}: exp4_final.csv or exp4_verdict.csv has no rows")
     cur = load_curves(d)
     cfg = exp_data.config(d)
     last = cfg.getint("exp3", "final_episodes", fallback=500)
     nreps = len({r["repetition"] for r in final if r["repetition"] != "-1"})
-    covs = covs_of(final)
+    covs = covs_of(verdict)
     written = []
     for cov in covs:
         written += fig_curves(d, cur, cov, nreps, last)
-    written += fig_final(d, final, covs, last) + fig_rates(d, final, covs, last)
+    written += (fig_final(d, final, verdict, covs, last) +
+                fig_rates(d, final, verdict, covs, last))
     fs.finish(d, written, [f"exp4_curves_{c}" for c in ("query", "residual", "none")] +
               ["exp4_final", "exp4_rates"])
 

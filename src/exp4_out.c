@@ -173,6 +173,7 @@ typedef struct {
 	long *pocket, *hit, *n;   /* nv */
 	long nrow;
 	double *speed;     /* per raw row: |a| of a final episode */
+	double *ret;       /* per raw row: its return */
 	int *sv;           /* per raw row: its variant if final, else -1 */
 } finals;
 
@@ -184,6 +185,7 @@ static void finals_free(finals *F)
 	free(F->hit);
 	free(F->n);
 	free(F->speed);
+	free(F->ret);
 	free(F->sv);
 }
 
@@ -230,10 +232,11 @@ static int read_finals(const pr_config *cfg, const char (*name)[32], int nv, con
 	F->n = calloc((size_t)nv, sizeof *F->n);
 	F->nrow = nrow;
 	F->speed = malloc(((size_t)nrow + 1) * sizeof *F->speed);
+	F->ret = malloc(((size_t)nrow + 1) * sizeof *F->ret);
 	F->sv = malloc(((size_t)nrow + 1) * sizeof *F->sv);
 	tot = calloc((size_t)nv * PR_EXP4_REPS_MAX, sizeof *tot);
 	seen = calloc((size_t)nv * PR_EXP4_REPS_MAX, sizeof *seen);
-	if (rc == PR_OK && (!F->sum || !F->cnt || !F->pocket || !F->hit || !F->n || !F->speed || !F->sv ||
+	if (rc == PR_OK && (!F->sum || !F->cnt || !F->pocket || !F->hit || !F->n || !F->speed || !F->ret || !F->sv ||
 	                    !tot || !seen))
 		rc = pr_err(err, PR_ENOMEM, "out of memory");
 	/* two passes: count each run's episodes, then keep its last ones */
@@ -273,6 +276,7 @@ static int read_finals(const pr_config *cfg, const char (*name)[32], int nv, con
 			F->pocket[v] += pk >= 0 && pr_exp3_is_target(&cfg->reward, (int)pk);
 			F->hit[v] += hit;
 			F->speed[i] = hypot(vx, vy);
+			F->ret[i] = ret;
 			F->sv[i] = v;
 			F->n[v]++;
 		}
@@ -291,11 +295,27 @@ static void mean_se(const double *x, int n, double *m, double *se)
 	*se = n > 1 ? gsl_stats_sd_m(x, 1, (size_t)n, *m) / sqrt((double)n) : 0.0;
 }
 
+/* x[i] of variant v's final rows, sorted, into buf (*n of them); their median. */
+static double median_of(const finals *F, const double *x, int v, double *buf, size_t *n)
+{
+	size_t m = 0;
+	long i;
+
+	for (i = 0; i < F->nrow; ++i)
+		if (F->sv[i] == v)
+			buf[m++] = x[i];
+	gsl_sort(buf, 1, m);
+	if (n)
+		*n = m;
+	return gsl_stats_median_from_sorted_data(buf, 1, m);
+}
+
 /* exp4_verdict.csv: per variant, the mean over the repetitions of the mean
  * return of each run's last episodes and its standard error; the paired
  * difference to the same policy and covariance from scratch (repetitions
  * both have) and its standard error (empty without a scratch run); the
- * target-pocket rate, hit rate and median cue speed over those episodes. */
+ * target-pocket rate, hit rate and median cue speed over those episodes,
+ * and quantiles of their returns (GSL's interpolated quantiles). */
 static int write_verdict(const pr_config *cfg, const pr_exp4_variant *var, const char (*name)[32],
                          int nv, const char *dir, char *err)
 {
@@ -303,8 +323,9 @@ static int write_verdict(const pr_config *cfg, const pr_exp4_variant *var, const
 	finals F;
 	double m[PR_EXP4_REPS_MAX], d[PR_EXP4_REPS_MAX], *sp = NULL;
 	pr_csvw *w = NULL;
-	long i, ns;
-	int v, s, r, nm, nd, rc = read_finals(cfg, name, nv, dir, &F, err);
+	static const double quant[5] = {0.05, 0.25, 0.5, 0.75, 0.95};
+	size_t ns;
+	int v, s, r, q, nm, nd, rc = read_finals(cfg, name, nv, dir, &F, err);
 
 	snprintf(path, sizeof path, "%s/exp4_verdict.csv", dir);
 	if (rc == PR_OK && !(sp = malloc(((size_t)F.nrow + 1) * sizeof *sp)))
@@ -313,7 +334,8 @@ static int write_verdict(const pr_config *cfg, const pr_exp4_variant *var, const
 		rc = PR_EIO;
 	if (rc == PR_OK)
 		rc = pr_csvw_header(w, "variant,policy,init,cov,repetitions,episodes,mean_return,"
-		                       "se_return,diff_scratch,se_diff,pocket_rate,hit_rate,median_speed");
+		                       "se_return,diff_scratch,se_diff,pocket_rate,hit_rate,median_speed,"
+		                       "q05_return,q25_return,median_return,q75_return,q95_return");
 	for (v = 0; rc == PR_OK && v < nv; ++v) {
 		double mr, ser, md, sed;
 		for (s = 0; s < nv; ++s)
@@ -351,11 +373,10 @@ static int write_verdict(const pr_config *cfg, const pr_exp4_variant *var, const
 		}
 		pr_csvw_num(w, (double)F.pocket[v] / (double)F.n[v]);
 		pr_csvw_num(w, (double)F.hit[v] / (double)F.n[v]);
-		for (i = 0, ns = 0; i < F.nrow; ++i)
-			if (F.sv[i] == v)
-				sp[ns++] = F.speed[i];
-		gsl_sort(sp, 1, (size_t)ns);
-		pr_csvw_num(w, gsl_stats_median_from_sorted_data(sp, 1, (size_t)ns));
+		pr_csvw_num(w, median_of(&F, F.speed, v, sp, NULL));
+		median_of(&F, F.ret, v, sp, &ns);
+		for (q = 0; q < 5; ++q)
+			pr_csvw_num(w, gsl_stats_quantile_from_sorted_data(sp, 1, (size_t)ns, quant[q]));
 		rc = pr_csvw_endrow(w);
 	}
 	free(sp);
