@@ -40,7 +40,7 @@ POLICY_LABEL = {
 }
 INITS = ["scratch", "imitation", "demo", "policy"]
 INIT_LABEL = {
-    "scratch": "from scratch (Experiment 3)",
+    "scratch": "from scratch (Experiment 3's loop)",
     "imitation": "imitation only, no REPS",
     "demo": "imitation + REPS, window: demonstrations",
     "policy": "imitation + REPS, window: fitted policy's episodes",
