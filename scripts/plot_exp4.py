@@ -211,16 +211,22 @@ def fig_final(d, final, verdict, covs, last):
 
 
 def fig_rates(d, final, verdict, covs, last):
+    # a fixed layout: the constrained one comes out with positions that differ
+    # in the last bits from run to run here, and so would the SVG's clip ids
     fig, axes = fs.figure("full", 0.3 * 2 * len(covs) + 0.1, nrows=2 * len(covs), ncols=1,
-                          squeeze=False)
+                          squeeze=False, layout=None)
+    fig.subplots_adjust(left=0.08, right=0.99, top=1 - 0.85 / fig.get_figheight(),
+                        bottom=0.95 / fig.get_figheight(), hspace=0.45)
     for j, cov in enumerate(covs):
         vs = variants(verdict, cov)
         pos, ticks = group_positions(vs)
         for k, (col, what) in enumerate((("pocket_rate", "pocketed in a target"),
                                          ("hit_rate", "cue ball hit the reward ball"))):
             ax = axes[2 * j + k, 0]
+            top = 0.0
             for v in vs:
                 pooled = [r for r in verdict if (r["policy"], r["init"], r["cov"]) == v][0]
+                top = max(top, 100 * float(pooled[col]))
                 ax.bar([pos[v]], [100 * float(pooled[col])], 0.8, color=INIT_COLOUR[v[1]],
                        alpha=0.7 if v[1] != "imitation" else 0.45,
                        hatch="////" if v[1] == "scratch" else None, edgecolor="0.3", lw=0.4)
@@ -228,19 +234,22 @@ def fig_rates(d, final, verdict, covs, last):
                     runs = [100 * int(r["pocketed_target"]) / int(r["episodes"]) for r in final
                             if (r["policy"], r["init"], r["cov"]) == v and
                             r["repetition"] != "-1"]
+                    top = max([top] + runs)
                     ax.plot([pos[v]] * len(runs), runs, "o", ms=2.2, mfc="white", mec="black",
                             mew=0.5)
             ax.set_xticks([t for t, _ in ticks], [lab for _, lab in ticks])
             ax.tick_params(axis="x", length=0)
             ax.grid(axis="x", visible=False)
-            ax.set_ylim(0, 105)
+            # pocket rates are small: their own scale
+            ax.set_ylim(0, 105 if k else min(105.0, 1.15 * top + 2))
             ax.set_ylabel(fs.label(what.split()[0] if k == 0 else "hit", "%"), fontsize=8)
             ax.set_title(f"{what}, {COV_LABEL.get(cov, cov)}", fontsize=8.5)
     handles = [Patch(facecolor=INIT_COLOUR[i], alpha=0.7, label=INIT_LABEL[i],
                      hatch="////" if i == "scratch" else None, edgecolor="0.3") for i in INITS]
     handles.append(Line2D([], [], ls="", marker="o", mfc="white", mec="black", ms=2.4,
                           label="one run's pocket rate"))
-    fs.legend_below(fig, handles, ncol=3, height=0.1 / len(covs) + 0.04)
+    fig.legend(handles, [h.get_label() for h in handles], loc="lower center",
+               bbox_to_anchor=(0.5, 0.005), ncol=3)
     fig.suptitle(f"Experiment 4: pocket and hit rates, last {last} episodes of each run\n"
                  "(bars: all runs pooled)")
     return fs.save(fig, d, "exp4_rates")
