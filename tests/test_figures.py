@@ -228,7 +228,7 @@ def test_ghost_aim_corridor_refuses_an_empty_corridor(tmp_path):
 
 
 def test_ghost_aim_is_a_documented_key(poolreps):
-    out = poolreps(["--help"]).stdout.decode()
+    out = poolreps(["--help-keys"]).stdout.decode()
     assert "ghost.aim" in out and "centre|corridor" in out
     bad = poolreps(["config", "--set", "ghost.aim=pocket"])
     assert bad.returncode == 1 and b"ghost.aim" in bad.stderr

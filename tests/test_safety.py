@@ -430,10 +430,10 @@ def test_case(case, tmp_path, runs):
 
 
 def test_help_ranges_agree_with_validation(tmp_path):
-    """Every numeric key: the bounds --help documents as allowed pass
+    """Every numeric key: the bounds --help-keys documents as allowed pass
     `config`, the ones it documents as excluded are refused."""
     import re
-    text = run(["--help"], tmp_path).stdout.decode()
+    text = run(["--help-keys"], tmp_path).stdout.decode()
     seen = 0
     for m in re.finditer(r"^  (\S+)\s+= \S+(?: \S+)?  ([\[(])([-0-9.e+]+)\.\.([-0-9.e+]+)([\])])",
                          text, re.M):
