@@ -124,7 +124,6 @@ void pr_exp4_variant_label(const pr_exp4_variant *v, char *buf, size_t n)
 int pr_exp4_list(const pr_config *cfg, int selected, pr_exp4_variant *var, int *nvar, char *err)
 {
 	const pr_exp4_opts *e4 = pr_exp4_opts_of(cfg);
-	static const int none[1] = {PR_EXP4_COV_NONE};
 	pr_variants pv;
 	int pol[PR_EXP3_NVAR], init[PR_EXP4_NINIT], cov[PR_EXP4_NCOV], ni, nc, i, j, c, rc;
 
@@ -141,7 +140,7 @@ int pr_exp4_list(const pr_config *cfg, int selected, pr_exp4_variant *var, int *
 			for (j = 0; j < ni; ++j) {
 				var[*nvar].policy = pol[i];
 				var[*nvar].init = init[j];
-				var[*nvar].cov = hc ? none[0] : cov[c];
+				var[*nvar].cov = hc ? PR_EXP4_COV_NONE : cov[c];
 				++*nvar;
 			}
 	}
@@ -406,6 +405,8 @@ typedef struct {
 	const pr_exp4_opts *e4;
 	pr_exp4_variant var[PR_EXP4_NVAR];
 	int nvar, lo, nrep;
+	int first;             /* index of var[0] among all variants */
+	int writer;            /* index of the variant whose runs keep the demonstrations */
 	pr_exp4_job *runs;     /* nrep x nvar, repetition-major */
 	pr_exp_ticker tick;
 } setup;
@@ -479,6 +480,9 @@ static int run_job(void *ctx, int j, char *err)
 	if (rc == PR_OK)
 		rc = scratch ? pr_exp3_learner_start(L, msg)
 		             : start_imitation(cfg, su->e4, run, L, start, msg);
+	/* one run per repetition keeps its demonstrations for exp4_demo.csv */
+	if (rc == PR_OK && su->first + j % su->nvar != su->writer)
+		pr_exp4_demo_free(&run->demo);
 	if (rc == PR_OK)
 		pr_exp_ticker_add(&su->tick, pr_exp3_learner_episodes(L)->n);
 	for (t = 1; rc == PR_OK && t <= e3->iterations; ++t) {
@@ -532,11 +536,28 @@ static void jobs_free(pr_exp4_job *runs, int n)
 	free(runs);
 }
 
+/* The variants of this process (su->var, su->first) and the one whose runs
+ * write the demonstrations: the first that makes them (-1: none does). */
+static int pick_variants(const pr_config *cfg, setup *su, char *err)
+{
+	pr_exp4_variant all[PR_EXP4_NVAR];
+	int n, v, rc = pr_exp4_list(cfg, 0, all, &n, err);
+
+	if (rc == PR_OK)
+		rc = pr_exp4_list(cfg, 1, su->var, &su->nvar, err);
+	su->first = cfg->run.variant >= 0 ? cfg->run.variant : 0;
+	for (v = 0, su->writer = -1; v < n && su->writer < 0; ++v)
+		if (all[v].init != PR_EXP4_SCRATCH)
+			su->writer = v;
+	return rc;
+}
+
 int pr_exp4_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err)
 {
 	const pr_exp3_opts *e3 = pr_exp3_opts_of(cfg);
 	setup su;
-	int hi, njobs = 0, rc;
+	long neps = 0;
+	int hi, v, njobs = 0, rc;
 
 	memset(&su, 0, sizeof su);
 	su.cfg = cfg;
@@ -545,15 +566,17 @@ int pr_exp4_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 	su.nrep = hi - su.lo;
 	rc = check(cfg, err);
 	if (rc == PR_OK)
-		rc = pr_exp4_list(cfg, 1, su.var, &su.nvar, err);
+		rc = pick_variants(cfg, &su, err);
 	if (rc == PR_OK) {
 		njobs = su.nrep * su.nvar;
 		if (!(su.runs = calloc((size_t)njobs, sizeof *su.runs)))
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
 	}
 	if (rc == PR_OK) {
-		long neps = e3->init_samples + (long)e3->iterations * e3->samples;
-		pr_exp_ticker_init(&su.tick, prog, (long)njobs * neps, "exp4 episodes");
+		for (v = 0; v < su.nvar; ++v)
+			neps += (su.var[v].init == PR_EXP4_DEMO ? su.e4->n_demo : e3->init_samples) +
+			        (long)e3->iterations * e3->samples;
+		pr_exp_ticker_init(&su.tick, prog, neps * su.nrep, "exp4 episodes");
 		rc = pr_exp_parallel(0, njobs, cfg->run.threads, run_job, &su, err);
 		pr_exp_ticker_destroy(&su.tick);
 	}

@@ -72,14 +72,15 @@ static int write_runs(const pr_config *cfg, const pr_exp4_job *runs, int nruns, 
 	return pr_csvw_finish(w, rc, err);
 }
 
-/* exp4_demo.csv: each repetition's demonstrations, from its first run that
- * made them. */
+/* exp4_demo.csv: each repetition's demonstrations, kept by one run (the
+ * first variant that makes them, so a run split by variant writes them
+ * once). */
 static int write_demo(const pr_config *cfg, const pr_exp4_job *runs, int nruns, const char *dir,
                       char *err)
 {
 	char path[PR_PATHLEN];
 	pr_csvw *w;
-	int j, i, b, last = -1, rc = PR_OK;
+	int j, i, b, rc = PR_OK;
 
 	snprintf(path, sizeof path, "%s/exp4_demo.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
@@ -90,9 +91,6 @@ static int write_demo(const pr_config *cfg, const pr_exp4_job *runs, int nruns, 
 	rc |= pr_csvw_header(w, "expert_vx,expert_vy,vx,vy,return,rx,ry,pocket,hit");
 	for (j = 0; rc == PR_OK && j < nruns; ++j) {
 		const pr_exp4_demo *d = &runs[j].demo;
-		if (d->n == 0 || runs[j].repetition == last)
-			continue;
-		last = runs[j].repetition;
 		for (i = 0; rc == PR_OK && i < d->n; ++i) {
 			rc |= pr_csvw_int(w, runs[j].repetition);
 			rc |= pr_csvw_int(w, i);

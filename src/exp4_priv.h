@@ -70,7 +70,8 @@ void pr_exp4_fit_free(pr_exp4_fit *f);
 
 /* One (repetition, variant) run: its episodes (and REPS iterations, none
  * for imitation), the repetition's demonstrations if this run writes them
- * (the run of variant 0), the fit rows if it is an imitation run. */
+ * (the first variant that makes them), the fit rows if it is an imitation
+ * run. */
 typedef struct {
 	int repetition;
 	pr_exp4_variant var;

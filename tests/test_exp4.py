@@ -263,6 +263,20 @@ def test_one_variant_alone_writes_its_rows(tiny, tmp_path):
     assert small == [r for r in full if r["policy"] == "rvr_a.demo.residual"]
 
 
+def test_runs_split_by_variant_merge_to_the_single_run(tiny, tmp_path):
+    """A sweep can split the 44 variants over jobs: `poolreps merge` of the
+    parts gives the single run's bytes (the demonstrations are written by
+    one variant only, not once per part)."""
+    parts = []
+    for v in range(len(labels())):
+        parts.append(tmp_path / f"v{v}")
+        run(parts[-1], TINY + [f"experiment.variant={v}"])
+    p = run_cmd([BIN, "merge", "-q", "-o", str(tmp_path / "m")] + [str(d) for d in parts],
+                capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert csv_bytes(tmp_path / "m") == csv_bytes(tiny)
+
+
 @pytest.mark.parametrize("sets,msg", [
     (["exp4.inits=scratch,foo"], "exp4.inits"),
     (["exp4.covs=query,none"], "exp4.covs"),
