@@ -7,6 +7,7 @@ set -e
 make reproduce QUICK=1 OUT=build/ci-results
 for f in fig7_1_table fig7_2_reward fig7_3_shots fig7_4a_nmin fig7_4b_trees fig7_4c_cuts \
 	exp1_map fig7_5_ghost fig7_6 fig7_7 fig7_8 fig7_9 fig7_10 \
+	exp4_curves_query exp4_curves_residual exp4_final exp4_rates \
 	bench_quadratic bench_sphere bench_rosenbrock; do
 	for ext in png svg; do
 		[ -s "build/ci-results/figures/$f.$ext" ] || { echo "ci-extra: figure $f.$ext missing" >&2; exit 1; }

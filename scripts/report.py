@@ -106,6 +106,24 @@ FIGURES = [
      "episodes per bin, with the range over the runs. Separating the outcomes shows that the "
      "pile of distances near 0.45 m in a single histogram is mostly balls that were never "
      "hit, resting where they started."),
+    ("exp4_curves_query", "Experiment 4 — learning curves, covariance as printed",
+     "Beyond the thesis: does starting from imitation rescue the policies of Experiment 3? "
+     "Average return of each iteration's new episodes, mean over the repetitions with a band of "
+     "one standard deviation, with policy.cov = query (eq. 6.8 as printed). Per policy: the "
+     "run from scratch, which is Experiment 3 itself (hatched band, dashed mean); the policy "
+     "fitted to the ghost-ball demonstrations and never updated (dotted); and that fit "
+     "followed by REPS with the first window holding the demonstrations (blue, starting at "
+     "their return) or episodes of the fitted policy (orange). The hand-crafted policy has no "
+     "such covariance and is the same in both figures."),
+    ("exp4_curves_residual", "Experiment 4 — learning curves, residual covariance",
+     "As above with policy.cov = residual (each sample's own fit as the centre of eq. 6.8)."),
+    ("exp4_final", "Experiment 4 — returns at the end",
+     "The returns of the last episodes of every run of each variant, all runs pooled (boxes: "
+     "quartiles, whiskers: 5th to 95th percentile, diamond: mean) with each run's mean as a "
+     "dot; top with the covariance as printed, bottom with the residual covariance."),
+    ("exp4_rates", "Experiment 4 — pocket and hit rates",
+     "For the same episodes: the share that sank the reward ball in a target pocket (dots: "
+     "each run) and the share in which the cue ball touched the reward ball."),
     ("bench_quadratic", "REPS on the contextual quadratic",
      "Validation of the REPS implementation on a one-dimensional contextual quadratic: the "
      "negated mean return of the samples, of the policy mean on fixed test contexts, and the "
@@ -134,7 +152,7 @@ figcaption { max-width: 60rem; } .note { background: #fbf0c8; padding: 0.5rem 0.
 """
 VERDICT_CLASS = {claims.AGREES: "agrees", claims.PARTLY: "partly",
                  claims.DISAGREES: "disagrees", claims.UNTESTED: "untested"}
-EXPERIMENTS = ["sim", "exp1", "exp2", "exp3", "quadratic", "sphere", "rosenbrock"]
+EXPERIMENTS = ["sim", "exp1", "exp2", "exp3", "exp4", "quadratic", "sphere", "rosenbrock"]
 
 
 def esc(text):
@@ -195,6 +213,32 @@ def exp3_section(out):
             "deviation over the repetitions), the reward balls pocketed in pocket 2, pocket 5 "
             "and elsewhere, the share of shots that touched the reward ball and the median cue "
             "speed. Returns in metres.</p>\n" + table(rows[0], rows[1:], num={1, 2, 3, 5, 6}))
+
+
+EXP4_COLUMNS = ("variant", "repetitions", "mean_return", "se_return", "diff_scratch", "se_diff",
+                "pocket_rate", "hit_rate", "median_speed")
+
+
+def exp4_section(out):
+    path = os.path.join(out, "exp4", "exp4_verdict.csv")
+    if not os.path.exists(path):
+        return '<p class="missing">Experiment 4 did not run.</p>'
+    rows = []
+    for r in exp_data.read_csv(path, EXP4_COLUMNS):
+        diff = (f"{float(r['diff_scratch']):+.3f} ± {float(r['se_diff']):.3f}"
+                if r["diff_scratch"] else "–")
+        rows.append([r["variant"], f"{float(r['mean_return']):.3f} ± {float(r['se_return']):.3f}",
+                     diff, f"{100 * float(r['pocket_rate']):.1f}",
+                     f"{100 * float(r['hit_rate']):.1f}", f"{float(r['median_speed']):.3f}"])
+    return ("<p>Beyond the thesis: each policy of Experiment 3 fitted to ghost-ball "
+            "demonstrations, alone (imitation) or followed by REPS (demo, policy: the first "
+            "window), against the same policy and covariance from scratch (Experiment 3 "
+            "itself). Per variant, over the last episodes of each run: the mean return ± its "
+            "standard error over the repetitions, the paired difference to scratch ± its "
+            "standard error, the pocket and hit rates and the median cue speed "
+            "(<code>exp4_verdict.csv</code>).</p>\n" +
+            table(["variant (policy.init.cov)", "return m", "vs scratch m", "pocketed %",
+                   "hit %", "median speed m/s"], rows, num={1, 2, 3, 4, 5}))
 
 
 def figures_section(out):
@@ -272,6 +316,7 @@ def write(out, quick):
 <em>Feature Extraction for Policy Search</em>; its chapter 7 is what this run reproduces.</p>
 {note}
 <nav><a href="#claims">Claims</a> · <a href="#exp3">Experiment 3 table</a> ·
+<a href="#exp4">Experiment 4 table</a> ·
 <a href="#figures">Figures</a> · <a href="#provenance">Provenance and timings</a></nav>
 </header>
 <main>
@@ -282,6 +327,10 @@ def write(out, quick):
 <section id="exp3">
 <h2>Experiment 3 results</h2>
 {exp3_section(out)}
+</section>
+<section id="exp4">
+<h2>Experiment 4 results (beyond the thesis)</h2>
+{exp4_section(out)}
 </section>
 <section id="figures">
 <h2>Figures</h2>

@@ -43,10 +43,10 @@ run() { # name: data/NAME.ini; QUICK=1 adds the keys of data/quick/NAME.ini
 	timed "$name: figures" sh scripts/plot "$OUT/$dir"
 }
 
-for name in figures exp1 exp2 exp3 quadratic sphere rosenbrock; do
+for name in figures exp1 exp2 exp3 exp4 quadratic sphere rosenbrock; do
 	run $name
 done
-for d in sim exp1 exp2 exp3; do
+for d in sim exp1 exp2 exp3 exp4; do
 	cp "$OUT/$d"/*.png "$OUT/$d"/*.svg "$OUT/figures/"
 done
 for b in quadratic sphere rosenbrock; do

@@ -36,7 +36,7 @@ static const pr_config_key core_keys[] = {
 	{"experiment", "repetition", PR_KEY_INT, F(run.repetition), -1, 9999, 0, "",
 	 "-1 runs all repetitions; k runs only repetition k (sweeps)"},
 	{"experiment", "variant", PR_KEY_INT, F(run.variant), -1, PR_VARIANTS_MAX - 1, 0, "",
-	 "-1 runs all variants; v runs only variant v: exp1 setting, exp3 policy (sweeps)"},
+	 "-1 runs all variants; v runs only variant v: exp1 setting, exp3 policy, exp4 run (sweeps)"},
 	{"experiment", "threads", PR_KEY_INT, F(run.threads), 1, 256, 0, "", "threads for repetitions"},
 
 	{"table", "length", PR_KEY_DOUBLE, F(table.length), 0, 100, PR_KEY_OPEN_LO, "m", "long side (x)"},

@@ -14,6 +14,9 @@ static const pr_experiment experiments[] = {
 	{"exp2", pr_exp2_run, pr_exp2_summarize, NULL, "exp2_summary.csv", &pr_exp2_keys, pr_exp2_defaults},
 	{"exp3", pr_exp3_run, pr_exp3_summarize, pr_exp3_variants, "exp3_final.csv", &pr_exp3_keys,
 	 pr_exp3_defaults},
+	/* Experiment 3's task: its defaults */
+	{"exp4", pr_exp4_run, pr_exp4_summarize, pr_exp4_variants, "exp4_verdict.csv", &pr_exp4_keys,
+	 pr_exp3_defaults},
 	{"quadratic", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv",
 	 &pr_bench_keys, pr_quadratic_defaults},
 	{"sphere", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv",

@@ -144,23 +144,6 @@ static int in_target(const pr_config *cfg, const pr_shot *shot)
 	return 0;
 }
 
-/* A start state where the ghost-ball expert has a shot, and that shot. */
-static int expert_state(const pr_config *cfg, gsl_rng *rng, double *s, double a[2], char *err)
-{
-	char why[PR_ERRLEN] = "";
-	int t, rc;
-
-	for (t = 0; t < cfg->start.max_tries; ++t) {
-		if ((rc = pr_sim_sample_start(&cfg->table, &cfg->start, 2, rng, s, err)))
-			return rc;
-		if (pr_sim_ghost_action(&cfg->table, &cfg->sim, &cfg->reward, &cfg->expert, s, a,
-		                        NULL, why) == PR_OK)
-			return PR_OK;
-	}
-	return pr_err(err, PR_EINVAL, "exp2: no start state the ghost-ball expert can play in "
-	              "%d draws (last: %s)", cfg->start.max_tries, why);
-}
-
 static void summarise(const double *ret, const int *pk, int n, stats *st)
 {
 	double sum = 0, ss = 0;
@@ -298,7 +281,7 @@ static int run_rep(void *arg, int k, char *err)
 		pr_shot shot;
 		if (pr_interrupted)
 			rc = pr_err(err, PR_EINTR, "interrupted");
-		else if ((rc = expert_state(cfg, rng, w.S + DS * i, w.A + DA * i, err)) == PR_OK &&
+		else if ((rc = pr_exp_expert_state(cfg, DS / 2, rng, w.S + DS * i, w.A + DA * i, err)) == PR_OK &&
 		         (rc = pr_sim_shoot(w.sim, w.S + DS * i, 2, w.A + DA * i, &shot, NULL, err)) == PR_OK) {
 			w.Y[2 * i] = shot.final[2];
 			w.Y[2 * i + 1] = shot.final[3];
@@ -313,7 +296,7 @@ static int run_rep(void *arg, int k, char *err)
 		double a[DA];
 		if (pr_interrupted)
 			rc = pr_err(err, PR_EINTR, "interrupted");
-		else if ((rc = expert_state(cfg, rng, w.T + DS * i, a, err)) == PR_OK)
+		else if ((rc = pr_exp_expert_state(cfg, DS / 2, rng, w.T + DS * i, a, err)) == PR_OK)
 			rc = play(cfg, &w, w.T + DS * i, a, i, err);
 	}
 	gsl_rng_free(rng);

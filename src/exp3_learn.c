@@ -49,6 +49,7 @@ struct pr_exp3_learner {
 	pr_policy_work **work;
 	int pmin;                 /* oldest live policy */
 	int redraws;              /* actions drawn again in this iteration */
+	int repeats;              /* pr_exp3_learner_repeat ran: pi_0 is never replaced */
 	/* log pi_m(a_i|s_i) in a ring: episode slot i % SC, policy slot m % PC;
 	 * each cell is tagged with its (i, m) so a stale read is caught. */
 	int SC, PC;
@@ -729,16 +730,47 @@ int pr_exp3_learner_seed(pr_exp3_learner *L, int n, const double *S, const doubl
 	return PR_OK;
 }
 
+/* PR_OK if iteration t may run now: after iteration 0, within the
+ * iterations, and of the same kind as the ones before (repeat or REPS). */
+static int next_ok(const pr_exp3_learner *L, int t, int repeat, char *err)
+{
+	if (L->n0 == 0 || t > L->e->iterations)
+		return pr_err(err, PR_EINVAL, "internal: iteration %d of %d%s", t, L->e->iterations,
+		              L->n0 ? "" : " before iteration 0");
+	if (t > 1 && L->repeats != repeat)
+		return pr_err(err, PR_EINVAL, "internal: REPS iterations and repeats mixed");
+	return PR_OK;
+}
+
 int pr_exp3_learner_iterate(pr_exp3_learner *L, char *err)
 {
 	int t = L->o.niter + 1, rc;
 
-	if (L->n0 == 0 || t > L->e->iterations)
-		return pr_err(err, PR_EINVAL, "internal: iteration %d of %d%s", t, L->e->iterations,
-		              L->n0 ? "" : " before iteration 0");
+	if ((rc = next_ok(L, t, 0, err)))
+		return rc;
 	if ((rc = iterate(L, t, err)) == PR_OK)
 		L->o.niter = t;
 	return rc;
+}
+
+int pr_exp3_learner_repeat(pr_exp3_learner *L, char *err)
+{
+	int t = L->o.niter + 1, end = L->n0 + (t - 1) * L->e->samples, i, rc;
+	pr_exp3_iter *row = &L->o.it[t - 1];
+
+	if ((rc = next_ok(L, t, 1, err)))
+		return rc;
+	if (L->cm)
+		return pr_err(err, PR_EINVAL, "internal: C-CMA-ES does not repeat");
+	L->repeats = 1;
+	memset(row, 0, sizeof *row);
+	/* pi_0 draws them: no other policy lives, so no density is noted but its own */
+	if ((rc = play_iteration(L, 0, end, 0, 0, row, err)))
+		return rc;
+	for (i = end; i < end + L->e->samples; ++i)
+		L->o.iter[i] = t;
+	L->o.niter = t;
+	return PR_OK;
 }
 
 int pr_exp3_learner_state_dims(const pr_exp3_learner *L, const int **xdim)

@@ -26,9 +26,9 @@
 static int write_episodes(const pr_config *cfg, const pr_exp3_job *runs, int nruns,
                           const char *dir, char *err)
 {
-	char path[PR_PATHLEN], name[32];
+	char path[PR_PATHLEN];
 	pr_csvw *w;
-	int j, i, b, rc = PR_OK;
+	int j, i, rc = PR_OK;
 
 	snprintf(path, sizeof path, "%s/exp3_episodes.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
@@ -36,32 +36,66 @@ static int write_episodes(const pr_config *cfg, const pr_exp3_job *runs, int nru
 	rc |= pr_csvw_str(w, "repetition");
 	rc |= pr_csvw_str(w, "policy");
 	rc |= pr_csvw_str(w, "iteration");
-	for (b = 0; b < cfg->table.balls; ++b) {
-		snprintf(name, sizeof name, "x%d", b);
-		rc |= pr_csvw_str(w, name);
-		snprintf(name, sizeof name, "y%d", b);
-		rc |= pr_csvw_str(w, name);
-	}
+	rc |= pr_exp3_write_state_names(w, cfg->table.balls);
 	rc |= pr_csvw_header(w, "vx,vy,return,rx,ry,pocket,hit");
 	for (j = 0; rc == PR_OK && j < nruns; ++j) {
 		const pr_exp3_episodes *o = &runs[j].ep;
 		for (i = 0; rc == PR_OK && i < o->n; ++i) {
 			rc |= pr_csvw_int(w, runs[j].repetition);
 			rc |= pr_csvw_str(w, pr_exp3_variant_name[runs[j].variant]);
-			rc |= pr_csvw_int(w, o->iter[i]);
-			for (b = 0; b < o->ds; ++b)
-				rc |= pr_csvw_num(w, o->S[(size_t)i * o->ds + b]);
-			rc |= pr_csvw_num(w, o->A[2 * i]);
-			rc |= pr_csvw_num(w, o->A[2 * i + 1]);
-			rc |= pr_csvw_num(w, o->R[i]);
-			rc |= pr_csvw_num(w, o->F[2 * i]);
-			rc |= pr_csvw_num(w, o->F[2 * i + 1]);
-			rc |= pr_csvw_int(w, o->pocket[i]);
-			rc |= pr_csvw_int(w, o->hit[i]);
-			rc |= pr_csvw_endrow(w);
+			rc |= pr_exp3_write_episode(w, o, i);
 		}
 	}
 	return pr_csvw_finish(w, rc, err);
+}
+
+int pr_exp3_write_state_names(pr_csvw *w, int nballs)
+{
+	char name[32];
+	int b, rc = PR_OK;
+
+	for (b = 0; b < nballs; ++b) {
+		snprintf(name, sizeof name, "x%d", b);
+		rc |= pr_csvw_str(w, name);
+		snprintf(name, sizeof name, "y%d", b);
+		rc |= pr_csvw_str(w, name);
+	}
+	return rc;
+}
+
+int pr_exp3_write_episode(pr_csvw *w, const pr_exp3_episodes *o, int i)
+{
+	int b, rc = pr_csvw_int(w, o->iter[i]);
+
+	for (b = 0; b < o->ds; ++b)
+		rc |= pr_csvw_num(w, o->S[(size_t)i * o->ds + b]);
+	rc |= pr_csvw_num(w, o->A[2 * i]);
+	rc |= pr_csvw_num(w, o->A[2 * i + 1]);
+	rc |= pr_csvw_num(w, o->R[i]);
+	rc |= pr_csvw_num(w, o->F[2 * i]);
+	rc |= pr_csvw_num(w, o->F[2 * i + 1]);
+	rc |= pr_csvw_int(w, o->pocket[i]);
+	rc |= pr_csvw_int(w, o->hit[i]);
+	return rc | pr_csvw_endrow(w);
+}
+
+int pr_exp3_write_iter(pr_csvw *w, const pr_exp3_iter *r)
+{
+	int rc = pr_csvw_num(w, r->eta);
+
+	rc |= pr_csvw_num(w, r->kl);
+	rc |= pr_csvw_num(w, r->ess);
+	rc |= pr_csvw_int(w, r->bound);
+	rc |= pr_csvw_num(w, r->residual);
+	rc |= pr_csvw_num(w, r->q_ess);
+	rc |= pr_csvw_int(w, r->nfeat);
+	rc |= pr_csvw_int(w, r->evals);
+	rc |= pr_csvw_int(w, r->redraws);
+	rc |= pr_csvw_int(w, r->flags);
+	rc |= pr_csvw_num(w, r->kl_gap);
+	rc |= pr_csvw_num(w, r->residual_rel);
+	rc |= pr_csvw_str(w, pr_reps_status_name(r->status));
+	return rc | pr_csvw_endrow(w);
 }
 
 static int write_reps(const pr_exp3_job *runs, int nruns, const char *dir, char *err)
@@ -73,28 +107,13 @@ static int write_reps(const pr_exp3_job *runs, int nruns, const char *dir, char 
 	snprintf(path, sizeof path, "%s/exp3_reps.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
-	rc = pr_csvw_header(w, "repetition,policy,iteration,eta,kl,ess,bound,residual,q_ess,"
-	                       "features,dual_evals,redraws,policy_flags,kl_gap,residual_rel,status");
+	rc = pr_csvw_header(w, "repetition,policy,iteration," PR_EXP3_ITER_COLUMNS);
 	for (j = 0; rc == PR_OK && j < nruns; ++j)
 		for (t = 0; rc == PR_OK && t < runs[j].ep.niter; ++t) {
-			const pr_exp3_iter *r = &runs[j].ep.it[t];
 			rc |= pr_csvw_int(w, runs[j].repetition);
 			rc |= pr_csvw_str(w, pr_exp3_variant_name[runs[j].variant]);
 			rc |= pr_csvw_int(w, t + 1);
-			rc |= pr_csvw_num(w, r->eta);
-			rc |= pr_csvw_num(w, r->kl);
-			rc |= pr_csvw_num(w, r->ess);
-			rc |= pr_csvw_int(w, r->bound);
-			rc |= pr_csvw_num(w, r->residual);
-			rc |= pr_csvw_num(w, r->q_ess);
-			rc |= pr_csvw_int(w, r->nfeat);
-			rc |= pr_csvw_int(w, r->evals);
-			rc |= pr_csvw_int(w, r->redraws);
-			rc |= pr_csvw_int(w, r->flags);
-			rc |= pr_csvw_num(w, r->kl_gap);
-			rc |= pr_csvw_num(w, r->residual_rel);
-			rc |= pr_csvw_str(w, pr_reps_status_name(r->status));
-			rc |= pr_csvw_endrow(w);
+			rc |= pr_exp3_write_iter(w, &runs[j].ep.it[t]);
 		}
 	return pr_csvw_finish(w, rc, err);
 }
@@ -112,7 +131,7 @@ int pr_exp3_write_raw(const pr_config *cfg, const pr_exp3_job *runs, int nruns, 
 /* The raw episodes, parsed. */
 typedef struct {
 	long n;
-	int nv, nr, T;     /* variants (exp3.policies order), repetitions found, iterations */
+	int nv, nr, T;     /* labels (in their order), repetitions found, iterations */
 	long *rep;         /* nr sorted repetition numbers */
 	int *v, *r, *it;   /* per row: variant, repetition index, iteration */
 	int *pocket;
@@ -137,7 +156,7 @@ static int cmp_long(const void *a, const void *b)
 	return (x > y) - (x < y);
 }
 
-static int is_target(const pr_reward_opts *ro, int pocket)
+int pr_exp3_is_target(const pr_reward_opts *ro, int pocket)
 {
 	int j;
 
@@ -147,25 +166,23 @@ static int is_target(const pr_reward_opts *ro, int pocket)
 	return 0;
 }
 
-/* Variant index of a name within var[0..nvar), or -1. */
-static int variant_of(const char *name, const int *var, int nvar)
+/* Index of a label within lb, or -1. */
+static int variant_of(const char *name, const pr_exp3_labels *lb)
 {
 	int j;
 
-	for (j = 0; j < nvar; ++j)
-		if (strcmp(pr_exp3_variant_name[var[j]], name) == 0)
+	for (j = 0; j < lb->n; ++j)
+		if (strcmp(lb->name[j], name) == 0)
 			return j;
 	return -1;
 }
 
-/* Distance of the final reward-ball position to the nearest target pocket
- * (0 when it fell into one): the distance term of eq. 7.7. */
-static double target_distance(const pr_config *cfg, int pocket, double rx, double ry)
+double pr_exp3_target_distance(const pr_config *cfg, int pocket, double rx, double ry)
 {
 	double best = HUGE_VAL, p[2];
 	int j;
 
-	if (is_target(&cfg->reward, pocket))
+	if (pr_exp3_is_target(&cfg->reward, pocket))
 		return 0.0;
 	for (j = 0; j < cfg->reward.ntargets; ++j) {
 		double d;
@@ -177,7 +194,7 @@ static double target_distance(const pr_config *cfg, int pocket, double rx, doubl
 	return best;
 }
 
-static int read_episodes(const pr_config *cfg, const char *dir, const int *var, int nvar,
+static int read_episodes(const pr_config *cfg, const char *dir, const pr_exp3_labels *lb,
                          episodes *E, char *err)
 {
 	enum { C_REP, C_POL, C_IT, C_RET, C_RX, C_RY, C_POCKET, NC };
@@ -190,9 +207,9 @@ static int read_episodes(const pr_config *cfg, const char *dir, const int *var, 
 	long i, j, x;
 
 	memset(E, 0, sizeof *E);
-	E->nv = nvar;
+	E->nv = lb->n;
 	E->T = pr_exp3_opts_of(cfg)->iterations;
-	snprintf(path, sizeof path, "%s/exp3_episodes.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_episodes.csv", dir, lb->prefix);
 	if ((rc = pr_exp_table_read(path, &t, err)))
 		return rc;
 	for (c = 0; c < NC; ++c)
@@ -225,10 +242,10 @@ static int read_episodes(const pr_config *cfg, const char *dir, const int *var, 
 		    (rc = pr_exp_table_num(t, i, col[C_RX], &rx, err)) ||
 		    (rc = pr_exp_table_num(t, i, col[C_RY], &ry, err)))
 			break;
-		E->dist[i] = target_distance(cfg, E->pocket[i], rx, ry);
-		if ((E->v[i] = variant_of(pr_exp_table_str(t, i, col[C_POL]), var, nvar)) < 0)
-			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in exp3.policies",
-			            path, i + 2, pr_exp_table_str(t, i, col[C_POL]));
+		E->dist[i] = pr_exp3_target_distance(cfg, E->pocket[i], rx, ry);
+		if ((E->v[i] = variant_of(pr_exp_table_str(t, i, col[C_POL]), lb)) < 0)
+			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in %s",
+			            path, i + 2, pr_exp_table_str(t, i, col[C_POL]), lb->key);
 	}
 	pr_exp_table_free(t);
 	if (rc)
@@ -266,8 +283,8 @@ static double sample_std(double ss, long n)
 
 /* exp3_curve.csv: per policy and iteration, the mean and std over the
  * repetitions of the iteration's average return (Fig. 7.7). */
-static int write_curve(const pr_config *cfg, const episodes *E, const int *var, const char *dir,
-                       char *err)
+static int write_curve(const pr_config *cfg, const episodes *E, const pr_exp3_labels *lb,
+                       const char *dir, char *err)
 {
 	const pr_exp3_opts *e = pr_exp3_opts_of(cfg);
 	size_t cells = (size_t)E->nv * E->nr * (E->T + 1);
@@ -291,11 +308,11 @@ static int write_curve(const pr_config *cfg, const episodes *E, const int *var, 
 		for (r = 0; rc == PR_OK && r < E->nr; ++r)
 			for (t = 0; t <= E->T; ++t)
 				if (!cnt[((size_t)v * E->nr + r) * (E->T + 1) + t]) {
-					rc = pr_err(err, PR_EIO, "%s/exp3_episodes.csv: policy %s, repetition %ld: "
-					            "no episodes of iteration %d", dir, pr_exp3_variant_name[var[v]], E->rep[r], t);
+					rc = pr_err(err, PR_EIO, "%s/%s_episodes.csv: policy %s, repetition %ld: "
+					            "no episodes of iteration %d", dir, lb->prefix, lb->name[v], E->rep[r], t);
 					break;
 				}
-	snprintf(path, sizeof path, "%s/exp3_curve.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_curve.csv", dir, lb->prefix);
 	if (rc == PR_OK && !(w = pr_csvw_open(path, err)))
 		rc = PR_EIO;
 	if (rc == PR_OK) {
@@ -320,9 +337,9 @@ static int write_curve(const pr_config *cfg, const episodes *E, const int *var, 
 				double dv = sum[c] / (double)cnt[c] - m;
 				ss += dv * dv;
 			}
-			pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
+			pr_csvw_str(w, lb->name[v]);
 			pr_csvw_int(w, t);
-			pr_csvw_int(w, (long)e->init_samples + (long)t * e->samples);
+			pr_csvw_int(w, (long)lb->n0[v] + (long)t * e->samples);
 			pr_csvw_num(w, m);
 			pr_csvw_num(w, sample_std(ss, E->nr));
 			pr_csvw_int(w, E->nr);
@@ -360,14 +377,14 @@ static int mark_final(const episodes *E, long last, char *fin, char *err)
 
 /* exp3_final.csv: the last episodes of each run (Fig. 7.8), one row per
  * policy and repetition and a pooled row with repetition -1. */
-static int write_final(const pr_config *cfg, const episodes *E, const int *var, const char *fin,
+static int write_final(const pr_config *cfg, const episodes *E, const pr_exp3_labels *lb, const char *fin,
                        const char *dir, char *err)
 {
 	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int v, r, rc = PR_OK;
 
-	snprintf(path, sizeof path, "%s/exp3_final.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_final.csv", dir, lb->prefix);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
 	rc = pr_csvw_header(w, "policy,repetition,episodes,mean_return,std_return,pocketed_target,"
@@ -383,13 +400,13 @@ static int write_final(const pr_config *cfg, const episodes *E, const int *var, 
 					ds += E->dist[i];
 					n++;
 					if (E->pocket[i] >= 0)
-						*(is_target(&cfg->reward, E->pocket[i]) ? &tgt : &other) += 1;
+						*(pr_exp3_is_target(&cfg->reward, E->pocket[i]) ? &tgt : &other) += 1;
 				}
 			m = s / (double)n;
 			for (i = 0; i < E->n; ++i)
 				if (fin[i] && E->v[i] == v && (r == E->nr || E->r[i] == r))
 					ss += (E->ret[i] - m) * (E->ret[i] - m);
-			pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
+			pr_csvw_str(w, lb->name[v]);
 			pr_csvw_int(w, r == E->nr ? -1 : E->rep[r]);
 			pr_csvw_int(w, n);
 			pr_csvw_num(w, m);
@@ -404,7 +421,7 @@ static int write_final(const pr_config *cfg, const episodes *E, const int *var, 
 
 /* exp3_pockets.csv (Fig. 7.9) and exp3_dist.csv (Fig. 7.10) over the last
  * episodes of every repetition. */
-static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int *var,
+static int write_pockets_dist(const pr_config *cfg, const episodes *E, const pr_exp3_labels *lb,
                               const char *fin, const char *dir, char *err)
 {
 	int nbins = (int)ceil(hypot(cfg->table.length, cfg->table.width) * DIST_BINS_PER_M);
@@ -415,7 +432,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 
 	if (!hist)
 		return pr_err(err, PR_ENOMEM, "out of memory");
-	snprintf(path, sizeof path, "%s/exp3_pockets.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_pockets.csv", dir, lb->prefix);
 	if (!(w = pr_csvw_open(path, err))) {
 		free(hist);
 		return PR_EIO;
@@ -429,9 +446,9 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 				tot++;
 			}
 		for (b = -1; b < PR_SIM_POCKETS; ++b) {
-			pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
+			pr_csvw_str(w, lb->name[v]);
 			pr_csvw_int(w, b);
-			pr_csvw_int(w, is_target(&cfg->reward, b));
+			pr_csvw_int(w, pr_exp3_is_target(&cfg->reward, b));
 			pr_csvw_int(w, pk[b + 1]);
 			pr_csvw_num(w, (double)pk[b + 1] / (double)tot);
 			rc = pr_csvw_endrow(w);
@@ -442,7 +459,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 		return rc;
 	}
 
-	snprintf(path, sizeof path, "%s/exp3_dist.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_dist.csv", dir, lb->prefix);
 	if (!(w = pr_csvw_open(path, err))) {
 		free(hist);
 		return PR_EIO;
@@ -457,7 +474,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
 				tot++;
 			}
 		for (b = 0; b < nbins; ++b) {
-			pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
+			pr_csvw_str(w, lb->name[v]);
 			pr_csvw_num(w, (double)b / DIST_BINS_PER_M);
 			pr_csvw_num(w, (double)(b + 1) / DIST_BINS_PER_M);
 			pr_csvw_int(w, hist[b]);
@@ -477,7 +494,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const int
  * sim.max_speed, and the REPS certificates: solves that were unreachable
  * (eta = 0, the eta -> 0 limit) or failed, and the largest relative
  * feature residual. */
-static int write_reps_summary(const int *var, int nvar, const char *dir, char *err)
+static int write_reps_summary(const pr_exp3_labels *lb, const char *dir, char *err)
 {
 	enum { C_POL, C_KL, C_ESS, C_BOUND, C_QESS, C_FEAT, C_REDRAW, C_FLAGS, C_RES, C_RREL, C_ST, NC };
 	static const char *const cname[NC] = {
@@ -487,9 +504,9 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 	char path[PR_PATHLEN];
 	pr_exp_table *t = NULL;
 	pr_csvw *w = NULL;
-	double (*acc)[5] = calloc((size_t)nvar, sizeof *acc);
-	double *maxres = calloc(2 * (size_t)nvar, sizeof *maxres);
-	long (*cnt)[7] = calloc((size_t)nvar, sizeof *cnt), i, x, nr;
+	double (*acc)[5] = calloc((size_t)lb->n, sizeof *acc);
+	double *maxres = calloc(2 * (size_t)lb->n, sizeof *maxres);
+	long (*cnt)[7] = calloc((size_t)lb->n, sizeof *cnt), i, x, nr;
 	int col[NC], c, v, rc;
 
 	if (!acc || !cnt || !maxres) {
@@ -498,7 +515,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		free(maxres);
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	}
-	snprintf(path, sizeof path, "%s/exp3_reps.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_reps.csv", dir, lb->prefix);
 	rc = pr_exp_table_read(path, &t, err);
 	for (c = 0; rc == PR_OK && c < NC; ++c)
 		if ((col[c] = pr_exp_table_col(t, cname[c], err)) < 0)
@@ -507,9 +524,9 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		double kl, ess, qess, nf, res, rrel;
 		const char *st;
 		long bound;
-		if ((v = variant_of(pr_exp_table_str(t, i, col[C_POL]), var, nvar)) < 0) {
-			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in exp3.policies",
-			            path, i + 2, pr_exp_table_str(t, i, col[C_POL]));
+		if ((v = variant_of(pr_exp_table_str(t, i, col[C_POL]), lb)) < 0) {
+			rc = pr_err(err, PR_EIO, "%s: row %ld: policy '%.40s' is not in %s",
+			            path, i + 2, pr_exp_table_str(t, i, col[C_POL]), lb->key);
 			break;
 		}
 		if ((rc = pr_exp_table_num(t, i, col[C_KL], &kl, err)) ||
@@ -534,7 +551,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		cnt[v][6] += strcmp(st, pr_reps_status_name(PR_REPS_FAILED)) == 0;
 		acc[v][0] += kl;
 		maxres[v] = fmax(maxres[v], res);
-		maxres[nvar + v] = fmax(maxres[nvar + v], rrel);
+		maxres[lb->n + v] = fmax(maxres[lb->n + v], rrel);
 		acc[v][1] += ess;
 		acc[v][2] += qess;
 		acc[v][3] += nf;
@@ -545,7 +562,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		cnt[v][4] += nr;
 	}
 	pr_exp_table_free(t);
-	snprintf(path, sizeof path, "%s/exp3_reps_summary.csv", dir);
+	snprintf(path, sizeof path, "%s/%s_reps_summary.csv", dir, lb->prefix);
 	if (rc == PR_OK && !(w = pr_csvw_open(path, err)))
 		rc = PR_EIO;
 	if (rc == PR_OK) {
@@ -553,9 +570,9 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		                    "mean_ess,mean_q_ess,mean_features,floor_iterations,"
 		                    "fallback_iterations,redraws,unreachable,failed,max_residual_rel");
 	}
-	for (v = 0; rc == PR_OK && v < nvar; ++v) {
+	for (v = 0; rc == PR_OK && v < lb->n; ++v) {
 		double n = cnt[v][0] > 0 ? (double)cnt[v][0] : 1.0;
-		pr_csvw_str(w, pr_exp3_variant_name[var[v]]);
+		pr_csvw_str(w, lb->name[v]);
 		pr_csvw_int(w, cnt[v][0]);
 		pr_csvw_int(w, cnt[v][1]);
 		pr_csvw_int(w, cnt[v][0] - cnt[v][1]);
@@ -569,7 +586,7 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 		pr_csvw_int(w, cnt[v][4]);
 		pr_csvw_int(w, cnt[v][5]);
 		pr_csvw_int(w, cnt[v][6]);
-		pr_csvw_num(w, maxres[nvar + v]);
+		pr_csvw_num(w, maxres[lb->n + v]);
 		rc = pr_csvw_endrow(w);
 	}
 	free(acc);
@@ -580,28 +597,41 @@ static int write_reps_summary(const int *var, int nvar, const char *dir, char *e
 	return pr_csvw_finish(w, rc, err);
 }
 
-int pr_exp3_summarize(const pr_config *cfg, const char *dir, char *err)
+int pr_exp3_summaries(const pr_config *cfg, const pr_exp3_labels *lb, const char *dir, char *err)
 {
 	episodes E;
 	char *fin = NULL;
-	int var[PR_EXP3_NVAR], nvar, rc;
+	int rc = read_episodes(cfg, dir, lb, &E, err);
 
-	if ((rc = pr_exp3_selected(cfg, var, &nvar, err)))
-		return rc;
-	rc = read_episodes(cfg, dir, var, nvar, &E, err);
 	if (rc == PR_OK)
-		rc = write_curve(cfg, &E, var, dir, err);
+		rc = write_curve(cfg, &E, lb, dir, err);
 	if (rc == PR_OK && !(fin = malloc((size_t)E.n)))
 		rc = pr_err(err, PR_ENOMEM, "out of memory");
 	if (rc == PR_OK)
 		rc = mark_final(&E, pr_exp3_opts_of(cfg)->final_episodes, fin, err);
 	if (rc == PR_OK)
-		rc = write_final(cfg, &E, var, fin, dir, err);
+		rc = write_final(cfg, &E, lb, fin, dir, err);
 	if (rc == PR_OK)
-		rc = write_pockets_dist(cfg, &E, var, fin, dir, err);
+		rc = write_pockets_dist(cfg, &E, lb, fin, dir, err);
 	if (rc == PR_OK)
-		rc = write_reps_summary(var, nvar, dir, err);
+		rc = write_reps_summary(lb, dir, err);
 	free(fin);
 	episodes_free(&E);
 	return rc;
+}
+
+int pr_exp3_summarize(const pr_config *cfg, const char *dir, char *err)
+{
+	char name[PR_EXP3_NVAR][32];
+	int var[PR_EXP3_NVAR], n0[PR_EXP3_NVAR], nvar, v, rc;
+	pr_exp3_labels lb = {"exp3", "exp3.policies", 0, name, n0};
+
+	if ((rc = pr_exp3_selected(cfg, var, &nvar, err)))
+		return rc;
+	for (v = 0; v < nvar; ++v) {
+		snprintf(name[v], sizeof name[v], "%s", pr_exp3_variant_name[var[v]]);
+		n0[v] = pr_exp3_opts_of(cfg)->init_samples;
+	}
+	lb.n = nvar;
+	return pr_exp3_summaries(cfg, &lb, dir, err);
 }

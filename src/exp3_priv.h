@@ -26,6 +26,7 @@
 #include <gsl/gsl_rng.h>
 
 #include "poolreps/config.h"
+#include "poolreps/csvio.h"
 #include "poolreps/policy.h"
 #include "exp_priv.h"
 
@@ -131,6 +132,12 @@ int pr_exp3_learner_start(pr_exp3_learner *L, char *err);
 /* The next REPS iteration (at most e->iterations after iteration 0). */
 int pr_exp3_learner_iterate(pr_exp3_learner *L, char *err);
 
+/* The next iteration without REPS: `samples` new episodes drawn from pi_0
+ * with `learn` (their iteration number is the iteration's); its row holds
+ * only redraws and flags. A learner either repeats or runs REPS, never
+ * both. Refused for the C-CMA-ES hand-crafted learner. */
+int pr_exp3_learner_repeat(pr_exp3_learner *L, char *err);
+
 /* The learning state: nx coordinates of the full state (indices xdim). */
 int pr_exp3_learner_state_dims(const pr_exp3_learner *L, const int **xdim);
 
@@ -152,5 +159,36 @@ typedef struct {
 /* Raw dir/exp3_episodes.csv and dir/exp3_reps.csv of runs in order. */
 int pr_exp3_write_raw(const pr_config *cfg, const pr_exp3_job *runs, int nruns, const char *dir,
                       char *err);
+
+/* The columns of a raw row after its labels, for experiments that reuse the
+ * learner: episode i (iteration, start state, action, return, final
+ * reward-ball position, pocket, hit; ends the row), or one iteration's
+ * diagnostics (PR_EXP3_ITER_COLUMNS; ends the row). Nonzero: a write failed. */
+int pr_exp3_write_episode(pr_csvw *w, const pr_exp3_episodes *o, int i);
+/* The state column names x0,y0,x1,y1,... of nballs balls (no row end). */
+int pr_exp3_write_state_names(pr_csvw *w, int nballs);
+#define PR_EXP3_ITER_COLUMNS "eta,kl,ess,bound,residual,q_ess,features,dual_evals,redraws," \
+	"policy_flags,kl_gap,residual_rel,status"
+int pr_exp3_write_iter(pr_csvw *w, const pr_exp3_iter *r);
+
+/* The runs of a raw episodes / reps pair written with the columns above:
+ * files dir/<prefix>_episodes.csv and dir/<prefix>_reps.csv, runs labelled
+ * name[0..n) (the policy column, in output order; `key` is the key that
+ * lists them, for errors), n0[v] episodes in iteration 0 of run v. */
+typedef struct {
+	const char *prefix, *key;
+	int n;
+	const char (*name)[32];
+	const int *n0;
+} pr_exp3_labels;
+/* Experiment 3's summaries of such a pair: <prefix>_curve.csv,
+ * _final.csv, _pockets.csv, _dist.csv and _reps_summary.csv. */
+int pr_exp3_summaries(const pr_config *cfg, const pr_exp3_labels *lb, const char *dir, char *err);
+
+/* 1 if pocket is one of reward.targets. */
+int pr_exp3_is_target(const pr_reward_opts *ro, int pocket);
+/* Distance of the final reward-ball position to the nearest target pocket
+ * (0 when it fell into one): the distance term of eq. 7.7. */
+double pr_exp3_target_distance(const pr_config *cfg, int pocket, double rx, double ry);
 
 #endif

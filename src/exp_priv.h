@@ -45,7 +45,8 @@ void pr_exp2_opts_init(pr_exp2_opts *o);
 /* The key blocks (cfg's options: pr_config_opts(cfg, &block)) and the
  * defaults each experiment sets for other sections. Experiment 3's options
  * are in exp3_priv.h. */
-extern const pr_config_block pr_exp1_keys, pr_exp2_keys, pr_exp3_keys, pr_bench_keys;
+extern const pr_config_block pr_exp1_keys, pr_exp2_keys, pr_exp3_keys, pr_exp4_keys,
+	pr_bench_keys;
 extern const pr_config_default pr_exp2_defaults[], pr_exp3_defaults[];
 extern const pr_config_default pr_quadratic_defaults[], pr_sphere_defaults[],
 	pr_rosenbrock_defaults[];
@@ -71,6 +72,14 @@ int pr_exp3_run(const pr_config *cfg, const char *dir, const pr_progress *prog, 
 int pr_exp3_summarize(const pr_config *cfg, const char *dir, char *err);
 /* Variants: the policies of exp3.policies, in its order. */
 int pr_exp3_variants(const pr_config *cfg, pr_variants *out, char *err);
+/* Experiment 4 (beyond the thesis: imitation, then Experiment 3's REPS):
+ * raw exp4_episodes.csv, exp4_reps.csv, exp4_demo.csv, exp4_fit.csv;
+ * derived exp4_curve.csv, exp4_final.csv, exp4_pockets.csv, exp4_dist.csv,
+ * exp4_reps_summary.csv, exp4_verdict.csv. */
+int pr_exp4_run(const pr_config *cfg, const char *dir, const pr_progress *prog, char *err);
+int pr_exp4_summarize(const pr_config *cfg, const char *dir, char *err);
+/* Variants: policy.init.cov labels (exp3.policies x exp4.covs x exp4.inits). */
+int pr_exp4_variants(const pr_config *cfg, pr_variants *out, char *err);
 
 /* ---- repetitions on threads ---- */
 
@@ -120,5 +129,11 @@ int pr_exp_table_int(const pr_exp_table *t, long i, int j, long lo, long hi, lon
 
 /* A list key whose values must be integers >= 1 (counts such as n_min). */
 int pr_exp_int_list(const pr_list *l, const char *key, int *out, char *err);
+
+/* A start state of nballs balls (s, 2 * nballs values) where the ghost-ball
+ * expert (pr_sim_ghost_action) has a shot, and that shot: states where it
+ * has none are drawn again, at most start.max_tries times. */
+int pr_exp_expert_state(const pr_config *cfg, int nballs, gsl_rng *rng, double *s, double a[2],
+                        char *err);
 
 #endif

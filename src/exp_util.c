@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "poolreps/sim.h"
 #include "csvio_priv.h"
 #include "exp_priv.h"
 
@@ -349,4 +350,21 @@ int pr_exp_int_list(const pr_list *l, const char *key, int *out, char *err)
 		out[i] = (int)l->v[i];
 	}
 	return PR_OK;
+}
+
+int pr_exp_expert_state(const pr_config *cfg, int nballs, gsl_rng *rng, double *s, double a[2],
+                        char *err)
+{
+	char why[PR_ERRLEN] = "";
+	int t, rc;
+
+	for (t = 0; t < cfg->start.max_tries; ++t) {
+		if ((rc = pr_sim_sample_start(&cfg->table, &cfg->start, nballs, rng, s, err)))
+			return rc;
+		if (pr_sim_ghost_action(&cfg->table, &cfg->sim, &cfg->reward, &cfg->expert, s, a,
+		                        NULL, why) == PR_OK)
+			return PR_OK;
+	}
+	return pr_err(err, PR_EINVAL, "%s: no start state the ghost-ball expert can play in "
+	              "%d draws (last: %s)", cfg->run.name, cfg->start.max_tries, why);
 }

@@ -33,6 +33,13 @@ enum {
 	PR_STREAM_EXP3_INIT = 0x3e31,      /* pi_0's actions, shared by the variants */
 	PR_STREAM_EXP3_LEARN = 0x3e40,     /* + variant (0..5): forests and later actions */
 
+	/* Experiment 4 (exp4.c); index k: repetition k. Its scratch runs draw
+	 * from Experiment 3's streams; the start states always do. */
+	PR_STREAM_EXP4_DEMO = 0x4e40,      /* the demonstrations */
+	PR_STREAM_EXP4_FIT = 0x4e50,       /* + policy kind (0..3): pi_0's forest */
+	PR_STREAM_EXP4_INIT = 0x4e60,      /* + 3 * kind + cov (0..11): pi_0's iteration 0 */
+	PR_STREAM_EXP4_LEARN = 0x4e80,     /* + variant id (0..71): forests and later actions */
+
 	/* REPS benchmarks (exp_bench.c); index k: repetition k */
 	PR_STREAM_BENCH = 0xbe4c4
 };

@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -159,6 +160,59 @@ static void test_initial_policy(void **state)
 		gsl_rng_free(r[i]);
 }
 
+/* Iterations without REPS (Experiment 4's imitation reference): `samples`
+ * new episodes of pi_0 each, numbered by their iteration; repeats and REPS
+ * iterations are never mixed, and none runs before iteration 0 or past
+ * exp3.iterations. */
+static void test_repeat_draws_from_pi0(void **state)
+{
+	pr_config c;
+	char err[PR_ERRLEN];
+	const pr_exp3_opts *e;
+	const pr_exp3_episodes *o;
+	pr_exp3_learner *A, *B;
+	gsl_rng *r[6];
+	/* pi_0 = N(m, s^2 I) with a small s: every action within 6 s of m */
+	const double m[2] = {0.3, -0.05}, s = 1e-3;
+	double cov[4] = {s * s, 0.0, 0.0, s * s};
+	int i, t;
+
+	(void)state;
+	small_config(&c);
+	e = pr_exp3_opts_of(&c);
+	for (i = 0; i < 6; ++i)
+		r[i] = rng(40 + (unsigned long)i);
+	assert_int_equal(pr_exp3_learner_new(&c, e, PR_EXP3_RVR_A, r[0], r[1], r[2], &A, err), PR_OK);
+	assert_int_equal(pr_exp3_learner_set_policy(A, pr_policy_gaussian_new(2, 2, m, cov, err),
+	                                            err), PR_OK);
+	assert_int_not_equal(pr_exp3_learner_repeat(A, err), PR_OK); /* before iteration 0 */
+	assert_int_equal(pr_exp3_learner_start(A, err), PR_OK);
+	for (t = 0; t < ITERS; ++t)
+		assert_int_equal(pr_exp3_learner_repeat(A, err), PR_OK);
+	assert_int_not_equal(pr_exp3_learner_repeat(A, err), PR_OK);  /* past exp3.iterations */
+	o = pr_exp3_learner_episodes(A);
+	assert_int_equal(o->n, e->init_samples + ITERS * e->samples);
+	assert_int_equal(o->niter, ITERS);
+	for (i = 0; i < o->n; ++i) {
+		assert_int_equal(o->iter[i], i < e->init_samples ? 0 : 1 + (i - e->init_samples) / e->samples);
+		assert_true(fabs(o->A[2 * i] - m[0]) < 6 * s && fabs(o->A[2 * i + 1] - m[1]) < 6 * s);
+	}
+	/* a learner that ran a REPS iteration does not repeat, and vice versa */
+	assert_int_equal(pr_exp3_learner_new(&c, e, PR_EXP3_RVR_A, r[3], r[4], r[5], &B, err), PR_OK);
+	assert_int_equal(pr_exp3_learner_start(B, err), PR_OK);
+	assert_int_equal(pr_exp3_learner_iterate(B, err), PR_OK);
+	assert_int_not_equal(pr_exp3_learner_repeat(B, err), PR_OK);
+	pr_exp3_learner_free(B);
+	assert_int_equal(pr_exp3_learner_new(&c, e, PR_EXP3_RVR_A, r[3], r[4], r[5], &B, err), PR_OK);
+	assert_int_equal(pr_exp3_learner_start(B, err), PR_OK);
+	assert_int_equal(pr_exp3_learner_repeat(B, err), PR_OK);
+	assert_int_not_equal(pr_exp3_learner_iterate(B, err), PR_OK);
+	pr_exp3_learner_free(A);
+	pr_exp3_learner_free(B);
+	for (i = 0; i < 6; ++i)
+		gsl_rng_free(r[i]);
+}
+
 /* Every registered experiment's defaults are valid keys and values, and
  * every block fits into a pr_config. */
 static void test_registry_schema(void **state)
@@ -192,6 +246,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_seeded_learner_continues_the_same),
 		cmocka_unit_test(test_initial_policy),
+		cmocka_unit_test(test_repeat_draws_from_pi0),
 		cmocka_unit_test(test_registry_schema),
 	};
 

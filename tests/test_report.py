@@ -22,7 +22,8 @@ PY = os.environ.get("PYTHON") or "/usr/bin/python3"
 SCRIPTS = ROOT / "scripts"
 STEMS = ["fig7_1_table", "fig7_2_reward", "fig7_3_shots", "fig7_4a_nmin", "fig7_4b_trees",
          "fig7_4c_cuts", "exp1_map", "fig7_5_ghost", "fig7_6", "fig7_7", "fig7_8", "fig7_9",
-         "fig7_10", "bench_quadratic", "bench_sphere", "bench_rosenbrock"]
+         "fig7_10", "exp4_curves_query", "exp4_curves_residual", "exp4_final", "exp4_rates",
+         "bench_quadratic", "bench_sphere", "bench_rosenbrock"]
 VERDICTS = {"agrees", "partly", "does not agree", "not tested"}
 VOID = {"meta", "img", "br", "hr", "link", "input", "source", "wbr"}
 
@@ -69,7 +70,8 @@ def test_quick_reproduction_writes_the_recorded_bytes(out):
     assert not changed, f"outputs differ from the recorded bytes: {changed}"
 
 
-@pytest.mark.parametrize("name", ["exp1", "exp2", "exp3", "quadratic", "sphere", "rosenbrock"])
+@pytest.mark.parametrize("name", ["exp1", "exp2", "exp3", "exp4", "quadratic", "sphere",
+                                  "rosenbrock"])
 def test_quick_settings_are_valid(name, poolreps):
     """data/quick/NAME.ini sets keys poolreps knows, to values it accepts, on
     top of data/NAME.ini."""
@@ -159,7 +161,7 @@ def test_report_html_structure(out):
     assert page.doctype and not page.problems and not page.stack, (page.problems, page.stack)
     assert "script" not in page.tags and "iframe" not in page.tags
     assert page.tags.count("html") == 1 and page.tags.count("style") == 1
-    assert {"claims", "exp3", "figures", "provenance"} <= set(page.ids)
+    assert {"claims", "exp3", "exp4", "figures", "provenance"} <= set(page.ids)
     # every figure once, as its PNG with a link to its SVG, with a caption of some words
     assert [f[0] for f in page.figures] == STEMS
     for stem, caption in page.figures:
@@ -173,14 +175,18 @@ def test_report_html_structure(out):
         assert (out / "figures" / f"{s}.svg").stat().st_size > 1000
     for href in page.links:
         assert href.startswith("#") or (out / href).is_file(), href
-    # the tables: claims (13 rows and a verdict each), Experiment 3, provenance, timings
-    claims, exp3, prov, cmds, timing = page.tables
+    # the tables: claims (13 rows and a verdict each), Experiments 3 and 4, provenance,
+    # timings
+    claims, exp3, exp4, prov, cmds, timing = page.tables
     assert claims[0] == ["thesis", "claim", "this run", "verdict", "rule"] and len(claims) == 14
     assert all(r[3] in VERDICTS for r in claims[1:])
     assert [r[0] for r in exp3[1:]] == ["nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a", "baseline",
                                         "handcrafted"]
-    assert [r[0] for r in prov[1:]] == ["sim", "exp1", "exp2", "exp3", "quadratic", "sphere",
-                                        "rosenbrock"]
+    # Experiment 4: 6 policies x 4 inits x 2 covariances, the hand-crafted one once
+    assert len(exp4) == 1 + 5 * 8 + 4
+    assert exp4[1][0] == "nrvr_rs.scratch.query" and exp4[-1][0] == "handcrafted.policy.none"
+    assert [r[0] for r in prov[1:]] == ["sim", "exp1", "exp2", "exp3", "exp4", "quadratic",
+                                        "sphere", "rosenbrock"]
     assert all("poolreps" in r[1] for r in cmds[1:])
     assert timing[-1][0] == "total" and float(timing[-1][1]) > 0
     assert "smoke run" in (out / "report.html").read_text(encoding="utf-8")
