@@ -104,10 +104,10 @@ static const command commands[] = {
 	 "poolreps sweep CONFIG [--grid SECTION.KEY=V1,V2,...]... [--split repetition|variant|both]\n"
 	 "               -o SWEEP_DIR      |      poolreps sweep --missing SWEEP_DIR\n"
 	 "  Write jobs over every combination of the grid values: one `poolreps run` per\n"
-	 "  grid point and repetition and/or variant (exp1: setting, exp3: policy), listed\n"
-	 "  in SWEEP_DIR/jobs.txt and manifest.csv, with slurm.sbatch and parallel.sh to run\n"
-	 "  them and point-N/config.ini per grid point. --missing prints the jobs that have\n"
-	 "  not finished, to run again."},
+	 "  grid point and repetition and/or variant (exp1: setting, exp3: policy, exp4:\n"
+	 "  policy, start and covariance), listed in SWEEP_DIR/jobs.txt and manifest.csv,\n"
+	 "  with slurm.sbatch and parallel.sh to run them and point-N/config.ini per grid\n"
+	 "  point. --missing prints the jobs that have not finished, to run again."},
 	{"collect", "", pr_cmd_collect,
 	 "poolreps collect SWEEP_DIR\n"
 	 "  Merge every grid point's jobs into point-N/merged (as `merge` does) and write\n"

@@ -475,7 +475,7 @@ def test_sweep_refusals_outside_the_grid(tmp_path):
     out = tmp_path / "s"
     cases = [
         (["sweep", ROOT / "data" / "exp2.ini", "--split", "variant", "-o", out], 1,
-         "--split variant: exp2 has no variants (exp1 and exp3 have)"),
+         "--split variant: exp2 has no variants (exp1, exp3 and exp4 have)"),
         (["sweep", ROOT / "data" / "figures.ini", "-o", out], 1,
          "experiment.name: figures has no summary table to sweep"),
         (["sweep", ROOT / "data" / "exp3.ini"], 1, "sweep: -o SWEEP_DIR is required"),
