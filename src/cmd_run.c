@@ -109,7 +109,52 @@ static int input_config(const pr_cmd_args *a, int k, pr_config *c, char *err)
 	/* a run folder holds a plain file: a FIFO would block the read */
 	if (stat(path, &st) == 0 && !S_ISREG(st.st_mode))
 		return pr_err(err, PR_EIO, "%s: not a regular file", path);
+	/* a run publishes provenance.txt last: without it the folder is no finished run */
+	snprintf(path, sizeof path, "%s/provenance.txt", a->inputs[k]);
+	if (stat(path, &st) != 0)
+		return pr_err(err, PR_EIO, "%s: not a finished run: %s", path, strerror(errno));
+	if (!S_ISREG(st.st_mode))
+		return pr_err(err, PR_EIO, "%s: not a regular file", path);
+	snprintf(path, sizeof path, "%s/config.ini", a->inputs[k]);
 	return pr_config_load(c, path, err);
+}
+
+/* One process writes as many rows of a raw CSV for every repetition: a row
+ * lost or repeated (a truncated or edited file) shows as another count.
+ * rows are sorted by repetition. */
+static int same_rows_each_repetition(const merge_ctx *m, const mrow *rows, long n, const char *name,
+                                     char *err)
+{
+	long i, first = 0, count0 = -1;
+	int src0 = 0;
+
+	for (i = 1; i <= n; ++i) {
+		if (i < n && rows[i].rep == rows[first].rep)
+			continue;
+		if (count0 < 0) {
+			count0 = i - first;
+			src0 = rows[first].src;
+		} else if (i - first != count0) {
+			return pr_err(err, PR_EIO, "%s/%s: %ld rows of repetition %ld, but %s/%s has %ld of "
+			              "repetition %ld (a row lost or repeated?)", m->a->inputs[rows[first].src],
+			              name, i - first, rows[first].rep, m->a->inputs[src0], name, count0,
+			              rows[0].rep);
+		}
+		first = i;
+	}
+	/* a repetition without rows while others have some */
+	if (count0 > 0 && n != count0 * m->nrep) {
+		long r;
+		int k;
+		for (r = 0, i = 0; i < n && rows[i].rep == r; i += count0, ++r)
+			;
+		for (k = 0; k < m->a->ninputs - 1 && m->rep[k] >= 0 && m->rep[k] != r; ++k)
+			;
+		return pr_err(err, PR_EIO, "%s/%s: no rows of repetition %ld, but %s/%s has %ld of "
+		              "repetition %ld", m->a->inputs[k], name, r, m->a->inputs[src0], name,
+		              count0, rows[0].rep);
+	}
+	return PR_OK;
 }
 
 /* Read the raw CSV `name` of every input folder (complete files, one header,
@@ -162,6 +207,8 @@ static int merge_csv(merge_ctx *m, const char *name, const char *outdir, char *e
 			rc = pr_err(err, PR_EINVAL, "%s/%s and %s/%s both hold repetition %ld",
 			            a->inputs[rows[i - 1].src], name, a->inputs[rows[i].src], name,
 			            rows[i].rep);
+	if (rc == PR_OK)
+		rc = same_rows_each_repetition(m, rows, n, name, err);
 	if (rc == PR_OK) {
 		o->name = strdup(name);
 		o->src = malloc((size_t)(n ? n : 1) * sizeof *o->src);

@@ -283,6 +283,23 @@ static int close_text(FILE *fp, const char *path, char *err)
 	return bad ? pr_err(err, PR_EIO, "%s: write error", path) : PR_OK;
 }
 
+/* Slurm's --output: '%' in the folder's own name is written as "%%", a
+ * literal '%' to Slurm, which expands only the %A_%a of the log name. */
+static void slurm_log_path(FILE *fp, const char *root)
+{
+	char path[PR_PATHLEN];
+	size_t n = 0;
+	const char *c;
+
+	for (c = root; *c && n + 3 < sizeof path; ++c) {
+		if (*c == '%')
+			path[n++] = '%';
+		path[n++] = *c;
+	}
+	path[n] = '\0';
+	put_path(fp, path, "logs/%A_%a.out");
+}
+
 /* slurm.sbatch and parallel.sh: the two ways to run jobs.txt. */
 static int write_runners(const char *dir, const char *root, long njobs, int threads, char *err)
 {
@@ -303,7 +320,7 @@ static int write_runners(const char *dir, const char *root, long njobs, int thre
 	      "#SBATCH --job-name=poolreps-sweep\n", fp);
 	fprintf(fp, "#SBATCH --array=0-%ld\n#SBATCH --cpus-per-task=%d\n#SBATCH --output=", njobs - 1,
 	        threads);
-	put_path(fp, root, "logs/%A_%a.out");
+	slurm_log_path(fp, root);
 	fputs("\nset -e\njobs=${1:-", fp);
 	put_path(fp, root, "jobs.txt");
 	fputs("}\n"
@@ -443,6 +460,11 @@ static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 		rc = pr_err(err, PR_EIO, "/proc/self/exe: cannot find this executable: %s", strerror(errno));
 	else if (rc == PR_OK)
 		s.exe[n] = '\0';
+	/* jobs.txt holds one job a line, and slurm.sbatch reads it with sed */
+	if (rc == PR_OK && (strchr(s.root, '\n') || strchr(s.exe, '\n')))
+		rc = pr_err(err, PR_EINVAL, "%s: a line break in the path of the %s: jobs.txt holds one "
+		            "job a line", strchr(s.root, '\n') ? s.root : s.exe,
+		            strchr(s.root, '\n') ? "sweep folder" : "poolreps executable");
 	if (rc == PR_OK && !(s.jobs = open_text(dir, "jobs.txt", path, err)))
 		rc = PR_EIO;
 	if (rc == PR_OK)

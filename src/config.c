@@ -540,9 +540,16 @@ static int set_value_raw(pr_config *c, int ki, const char *value, const char *wh
 		if (n < 1)
 			return pr_err(err, PR_EINVAL, "%s%s.%s: expected a comma list of 1 to %d numbers, "
 			              "got '%.40s'", where, k->section, k->key, PR_LIST_MAX, value);
-		for (i = 0; i < n; ++i)
+		for (i = 0; i < n; ++i) {
+			int j;
 			if (!in_range(k, list[i]) || (k->type == PR_KEY_ILIST && list[i] != floor(list[i])))
 				return range_err(k, where, value, err);
+			/* a repeated setting would run twice under one name */
+			for (j = 0; j < i; ++j)
+				if (list[j] == list[i])
+					return pr_err(err, PR_EINVAL, "%s%s.%s: %.15g listed twice",
+					              where, k->section, k->key, list[i]);
+		}
 		l->n = n;
 		memcpy(l->v, list, (size_t)n * sizeof *list);
 		return PR_OK;

@@ -135,6 +135,17 @@ static const char *command_keys(const command *cmd)
 	return NULL;
 }
 
+/* The key of a "section.key=value" argument (--set, --grid), blanks trimmed. */
+static void arg_key(const char *arg, char *key, size_t size)
+{
+	const char *p = arg + strspn(arg, " \t");
+	size_t n = strcspn(p, "=");
+
+	while (n && (p[n - 1] == ' ' || p[n - 1] == '\t'))
+		--n;
+	snprintf(key, size, "%.*s", (int)n, p);
+}
+
 /* "Accepts: -c, -o, --set" from a command's option list. */
 static void print_options(FILE *fp, const char *options)
 {
@@ -363,7 +374,8 @@ int main(int argc, char **argv)
 	used = calloc((size_t)argc + 1, sizeof *used);
 	if (!orig || !used) {
 		free(orig);
-		return fail("out of memory");
+		fail("out of memory");
+		return pr_exit_code(PR_ENOMEM);
 	}
 	memcpy(orig, argv, (size_t)argc * sizeof *orig);
 	sets = orig + argc + 1;
@@ -503,16 +515,16 @@ int main(int argc, char **argv)
 	/* a key the command never reads would be ignored: refuse it */
 	for (i = 0; command_keys(cmd) && i < nsets; ++i) {
 		char key[64];
-		const char *p = sets[i] + strspn(sets[i], " \t");
-		size_t n = strcspn(p, "=");
-		while (n && (p[n - 1] == ' ' || p[n - 1] == '\t'))
-			--n;
-		snprintf(key, sizeof key, "%.*s", (int)n, p);
+		arg_key(sets[i], key, sizeof key);
 		if (!pr_config_key_listed(command_keys(cmd), key))
 			FAIL("%s: --set %s does not apply (see poolreps %s --help)", cmd->name, key, cmd->name);
 	}
 	if (command_keys(cmd) && seed && !pr_config_key_listed(command_keys(cmd), "experiment.seed"))
 		FAIL("%s: option --seed does not apply (see poolreps %s --help)", cmd->name, cmd->name);
+	/* sweep --missing only reads SWEEP_DIR: every other option would be ignored */
+	if (a.missing && (a.output || a.ngrid || nsets || seed || a.split))
+		FAIL("sweep: --missing takes no other option (%s given)", a.output ? "-o" : a.ngrid ?
+		     "--grid" : nsets ? "--set" : seed ? "--seed" : "--split");
 #undef FAIL
 	free(used);
 	a.command = cmd->name;

@@ -240,6 +240,7 @@ static int publish(const char *staging, const char *dir, char *err)
 	pr_cleanup_hold(&mask);
 	for (i = 0; i < now.n && rc == PR_OK; ++i) {
 		snprintf(to, sizeof to, "%s/%s", dir, now.name[i]);
+		snprintf(from, sizeof from, "%s/%s", staging, now.name[i]);
 		snprintf(bak, sizeof bak, "%s/.old-%d", staging, i);
 		if (lstat(to, &st) != 0)
 			continue;
@@ -248,6 +249,10 @@ static int publish(const char *staging, const char *dir, char *err)
 		/* like any output: a file the (non-root) user may not write stays */
 		else if (S_ISREG(st.st_mode) && faccessat(AT_FDCWD, to, W_OK, AT_EACCESS) != 0)
 			rc = pr_err(err, PR_EIO, "%s: cannot write: %s", to, strerror(errno));
+		/* the new file keeps the permission bits (and for root the owner) of the one it replaces */
+		else if (S_ISREG(st.st_mode) && (chmod(from, st.st_mode & 07777) != 0 ||
+		                                 (geteuid() == 0 && chown(from, st.st_uid, st.st_gid) != 0)))
+			rc = pr_err(err, PR_EIO, "%s: cannot keep its permissions: %s", to, strerror(errno));
 		else if (link(to, bak) != 0)
 			rc = pr_err(err, PR_EIO, "%s: cannot keep the earlier file while replacing it: %s",
 			            to, strerror(errno));
