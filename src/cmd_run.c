@@ -103,20 +103,22 @@ static int input_config(const pr_cmd_args *a, int k, pr_config *c, char *err)
 {
 	char path[PR_PATHLEN + 16];
 	struct stat st;
+	int rc;
 
 	pr_config_init(c, pr_exp_config);
 	snprintf(path, sizeof path, "%s/config.ini", a->inputs[k]);
 	/* a run folder holds a plain file: a FIFO would block the read */
 	if (stat(path, &st) == 0 && !S_ISREG(st.st_mode))
 		return pr_err(err, PR_EIO, "%s: not a regular file", path);
+	if ((rc = pr_config_load(c, path, err)))
+		return rc;
 	/* a run publishes provenance.txt last: without it the folder is no finished run */
 	snprintf(path, sizeof path, "%s/provenance.txt", a->inputs[k]);
 	if (stat(path, &st) != 0)
 		return pr_err(err, PR_EIO, "%s: not a finished run: %s", path, strerror(errno));
 	if (!S_ISREG(st.st_mode))
 		return pr_err(err, PR_EIO, "%s: not a regular file", path);
-	snprintf(path, sizeof path, "%s/config.ini", a->inputs[k]);
-	return pr_config_load(c, path, err);
+	return PR_OK;
 }
 
 /* One process writes as many rows of a raw CSV for every repetition: a row

@@ -804,26 +804,53 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 	return rc;
 }
 
-/* Move every stage/point-P to point-P/merged (an older one goes into the
- * stage, removed with it), then sweep_summary.csv. */
+/* Every stage/point-P into point-P/merged and stage/summary/sweep_summary.csv
+ * into SWEEP_DIR, all or nothing (pr_outdir_publish): a merged folder is a
+ * run folder (files poolreps did not write stay), a file where it must go is
+ * refused before anything moves, and a failure leaves every one as it was. */
 static int publish_collected(const collector *c, char *err)
 {
-	char point[64], from[PR_PATHLEN], to[PR_PATHLEN], old[PR_PATHLEN];
+	const long np = c->m->npoints;
+	pr_outdir_pub *pub = calloc((size_t)np + 1, sizeof *pub);
+	char *made = calloc((size_t)np + 1, 1), point[64], path[PR_PATHLEN];
+	struct stat st;
 	long p;
+	int rc = pub && made ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
 
-	for (p = 0; p < c->m->npoints; ++p) {
-		point_name(point, sizeof point, p, c->m->npoints);
-		fmt(from, sizeof from, "%s/%s", c->stage, point);
-		fmt(to, sizeof to, "%s/%s/merged", c->root, point);
-		fmt(old, sizeof old, "%s/old-%s", c->stage, point);
-		if ((exists(to) && rename(to, old) != 0) || rename(from, to) != 0)
-			return pr_err(err, PR_EIO, "%s: cannot move into place: %s", to, strerror(errno));
+	for (p = 0; rc == PR_OK && p <= np; ++p) {
+		point_name(point, sizeof point, p, np);
+		if (p < np)
+			fmt(path, sizeof path, "%s/%s", c->stage, point);
+		else
+			fmt(path, sizeof path, "%s/summary", c->stage);
+		pub[p].staging = strdup(path);
+		if (p < np)
+			fmt(path, sizeof path, "%s/%s/merged", c->root, point);
+		pub[p].dir = p < np ? strdup(path) : c->root;
+		pub[p].owns = p < np;
+		/* one lock on SWEEP_DIR serialises collects of one sweep */
+		pub[p].lock = p == np;
+		if (!pub[p].staging || !pub[p].dir)
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+		else if (p < np && stat(path, &st) == 0 && !S_ISDIR(st.st_mode))
+			rc = pr_err(err, PR_EIO, "%s: exists and is not a folder", path);
+		else if (p < np && mkdir(path, 0777) == 0)
+			made[p] = 1;
+		else if (p < np && errno != EEXIST)
+			rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", path, strerror(errno));
 	}
-	fmt(from, sizeof from, "%s/sweep_summary.csv", c->stage);
-	fmt(to, sizeof to, "%s/sweep_summary.csv", c->root);
-	if (rename(from, to) != 0)
-		return pr_err(err, PR_EIO, "%s: cannot move into place: %s", to, strerror(errno));
-	return PR_OK;
+	if (rc == PR_OK)
+		rc = pr_outdir_publish(pub, (int)np + 1, err);
+	for (p = 0; pub && p <= np; ++p) {
+		if (rc != PR_OK && made[p])
+			rmdir(pub[p].dir);
+		free((char *)pub[p].staging);
+		if (p < np)
+			free((char *)pub[p].dir);
+	}
+	free(pub);
+	free(made);
+	return rc;
 }
 
 int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
@@ -852,11 +879,16 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	c.a = a;
 	c.root = a->inputs[0];
 	c.m = &m;
-	fmt(c.stage, sizeof c.stage, "%s/.collect-%ld", c.root, (long)getpid());
+	/* staged like a run's folder: a signal removes it, and the next collect
+	 * one left by SIGKILL */
+	fmt(c.stage, sizeof c.stage, "%s/.partial-%ld", c.root, (long)getpid());
+	pr_outdir_sweep_stale(c.root);
 	remove_all(c.stage);
-	if (mkdir(c.stage, 0777) != 0)
+	fmt(path, sizeof path, "%s/summary", c.stage);
+	if (mkdir(c.stage, 0777) != 0 || mkdir(path, 0777) != 0)
 		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", c.stage, strerror(errno));
-	fmt(path, sizeof path, "%s/sweep_summary.csv", c.stage);
+	pr_cleanup_set_dir(c.stage, c.root, strlen(c.root));
+	fmt(path, sizeof path, "%s/summary/sweep_summary.csv", c.stage);
 	if (rc == PR_OK && !(c.w = pr_csvw_open(path, err)))
 		rc = PR_EIO;
 	/* jobs are listed point by point */
@@ -871,11 +903,14 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	}
 	if (c.w)
 		rc = pr_csvw_finish(c.w, rc, err);
+	if (rc == PR_OK && pr_interrupted)
+		rc = PR_EINTR;
 	if (rc == PR_OK)
 		rc = publish_collected(&c, err);
 	else if (pr_interrupted)
 		rc = pr_err(err, PR_EINTR, "interrupted: nothing collected, %s left as it was", c.root);
 	remove_all(c.stage);
+	pr_cleanup_clear_dir();
 	manifest_free(&m);
 	return rc;
 }

@@ -20,9 +20,10 @@
  * of finished files into place); pr_cleanup_release delivers them after. */
 void pr_cleanup_add_file(const char *path);
 void pr_cleanup_remove_file(const char *path);
-/* A staging folder (its files, then itself), then the output folder dir and
- * its parents below its first keep bytes (those the run created), each
- * removed only if empty. */
+/* A staging folder (everything in it, then itself), then the output folder
+ * dir and its parents below its first keep bytes (those the run created),
+ * each removed only if empty. Stagings nest (collect stages the merges it
+ * runs, two deep): pr_cleanup_clear_dir forgets the last one set. */
 void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep);
 void pr_cleanup_clear_dir(void);
 void pr_cleanup_run(void);

@@ -142,3 +142,140 @@ def test_slurm_log_path_keeps_a_percent_sign(tmp_path):
     assert r.returncode == 0, r.stderr
     text = (tmp_path / "p%j" / "slurm.sbatch").read_text()
     assert f"--output={tmp_path}/p%%j/logs/%A_%a.out" in text, text
+
+
+# ---- collect: a sweep folder is published like a run folder ----
+
+@pytest.fixture(scope="module")
+def sweeps(tmp_path_factory):
+    """A sweep of 2 points x 2 repetitions whose jobs ran ("s"), the same
+    collected ("c"), and one of 30 points (a collect long enough to signal)."""
+    base = tmp_path_factory.mktemp("sweeps")
+    for name, values in (("s", "30,40"), ("big", ",".join(str(v) for v in range(20, 50)))):
+        r = run(["sweep", QUAD, "--grid", f"bench.samples={values}", "-o", base / name] + SWEEP_Q, base)
+        assert r.returncode == 0, r.stderr
+        jobs = (base / name / "jobs.txt").read_text()
+        done = subprocess.run(["sh", "-e"], input=jobs.encode(), capture_output=True, timeout=600)
+        assert done.returncode == 0, done.stderr
+    shutil.copytree(base / "s", base / "c", symlinks=True)
+    r = run(["collect", base / "c"], base)
+    assert r.returncode == 0, r.stderr
+    return base
+
+
+def sweep_copy(name, edit=None):
+    def f(tmp, sweeps):
+        shutil.copytree(sweeps / name, tmp / "s", symlinks=True)
+        if edit:
+            edit(tmp / "s")
+    return f
+
+
+MERGED_PROV = ("s/point-0/merged/provenance.txt", "s/point-1/merged/provenance.txt")
+COLLECT = ["collect", "s"]
+
+COLLECT_CASES = [
+    Case("c1_collect_summary_is_a_folder", COLLECT, IO, ("s/sweep_summary.csv", "is a folder"), {},
+         sweep_copy("s", lambda s: (s / "sweep_summary.csv").mkdir())),
+    Case("c1_collect_merged_is_a_file", COLLECT, IO, ("s/point-1/merged", "not a folder"), {},
+         sweep_copy("s", lambda s: (s / "point-1" / "merged").write_bytes(b"mine\n"))),
+    Case("c1_collect_again_merged_file_is_a_folder", COLLECT, IO,
+         ("s/point-1/merged/bench_curve.csv", "is a folder"), {},
+         sweep_copy("c", lambda s: ((s / "point-1" / "merged" / "bench_curve.csv").unlink(),
+                                    (s / "point-1" / "merged" / "bench_curve.csv").mkdir()))),
+    Case("c2_collect_row_repeated", COLLECT, IO, ("s/point-1/runs/rep-1/bench_curve.csv", "4 rows"), {},
+         sweep_copy("c", lines_of("point-1/runs/rep-1/bench_curve.csv", repeat_second))),
+    Case("c2_collect_job_without_provenance", COLLECT, IO, ("job 3", "incomplete"), {},
+         sweep_copy("c", lambda s: (s / "point-1" / "runs" / "rep-1" / "provenance.txt").unlink())),
+    Case("c6_collect_again_keeps_files_it_did_not_write", COLLECT, OK, (), {},
+         sweep_copy("c", lambda s: ((s / "point-0" / "merged" / "fig.png").write_bytes(b"png"),
+                                    (s / "notes.txt").write_bytes(b"mine\n"))),
+         writes=MERGED_PROV, lines=0),
+    Case("c9_collect_again_keeps_modes", COLLECT, OK, (), {},
+         sweep_copy("c", lambda s: (os.chmod(s / "sweep_summary.csv", 0o600),
+                                    os.chmod(s / "point-0" / "merged" / "provenance.txt", 0o640))),
+         writes=MERGED_PROV, lines=0),
+]
+
+
+@pytest.mark.parametrize("case", COLLECT_CASES, ids=[c.id for c in COLLECT_CASES])
+def test_collect_case(case, tmp_path, sweeps):
+    _check_case(case, tmp_path, sweeps)
+
+
+def dead_pid():
+    p = subprocess.Popen(["true"])
+    p.wait()
+    return p.pid
+
+
+def test_collect_removes_what_sigkill_left(tmp_path, sweeps):
+    """A collect killed with SIGKILL leaves its staging folder (with
+    folders in it); the next collect removes it once that PID is gone."""
+    shutil.copytree(sweeps / "s", tmp_path / "s", symlinks=True)
+    stale = tmp_path / "s" / f".partial-{dead_pid()}"
+    (stale / "point-0" / f".partial-{dead_pid()}").mkdir(parents=True)
+    (stale / "point-0" / "bench_curve.csv").write_bytes(b"x\n")
+    (stale / "summary").mkdir()
+    r = run(COLLECT, tmp_path)
+    assert r.returncode == OK, r.stderr
+    assert not leftovers(tmp_path), leftovers(tmp_path)
+
+
+@pytest.mark.parametrize("sigs", [(signal.SIGTERM,), (signal.SIGHUP,), (signal.SIGQUIT,),
+                                  (signal.SIGUSR2,), (signal.SIGTERM, signal.SIGINT)],
+                         ids=["TERM", "HUP", "QUIT", "USR2", "TERM_then_INT"])
+def test_signal_mid_collect(sigs, tmp_path, sweeps):
+    """Mid-collect, one signal (the loops stop) or a second one (the handler
+    removes the nested staging folders at once): the sweep folder is as it was."""
+    shutil.copytree(sweeps / "big", tmp_path / "s", symlinks=True)
+    before = snapshot(tmp_path)
+    p = subprocess.Popen([binary(), "collect", "s"], cwd=tmp_path, env=env(),
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        assert wait_for(lambda: leftovers(tmp_path / "s"), 60), "no staging folder appeared"
+        for s in sigs:
+            p.send_signal(s)
+            time.sleep(0.003)
+        _, err = p.communicate(timeout=60)
+    finally:
+        p.kill()
+        p.wait()
+    if p.returncode == OK:
+        pytest.skip("collect finished before the signal")
+    assert p.returncode == 128 + sigs[-1], err
+    assert err.count(b"\n") == 1, err
+    assert snapshot(tmp_path) == before
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="switching to an unprivileged user needs root")
+@pytest.mark.parametrize("target", ["summary", "merged_file", "point_folder"])
+def test_collect_read_only_for_a_non_root_user(target, sweeps):
+    """A read-only sweep_summary.csv or merged file is refused; a merged
+    folder that cannot take the new files puts back every point already
+    moved: nothing changes."""
+    if shutil.which("setpriv") is None:
+        pytest.skip("setpriv not installed")
+    import tempfile
+    d = tempfile.mkdtemp(prefix="pr_nobody_")
+    try:
+        os.chmod(d, 0o777)
+        s = os.path.join(d, "s")
+        shutil.copytree(sweeps / "c", s, symlinks=True)
+        for root, dirs, files in os.walk(d):
+            for n in dirs + files:
+                os.lchown(os.path.join(root, n), 65534, 65534)
+        if target == "summary":
+            os.chmod(os.path.join(s, "sweep_summary.csv"), 0o444)
+        elif target == "merged_file":
+            os.chmod(os.path.join(s, "point-1", "merged", "bench_summary.csv"), 0o444)
+        else:
+            os.chmod(os.path.join(s, "point-1", "merged"), 0o555)
+        before = snapshot(d)
+        r = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", binary(),
+                            "collect", "s"], cwd=d, env=env(), capture_output=True, timeout=120)
+        assert r.returncode == IO, r.stderr
+        assert b"Permission denied" in one_line(r).encode()
+        assert snapshot(d) == before
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
