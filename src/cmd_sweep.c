@@ -744,6 +744,33 @@ static int check_header(collector *c, const pr_exp_table *t, char *err)
 	return PR_OK;
 }
 
+/* Row i of the manifest names in grid column j the value point config pt
+ * (read from cfg) holds: a wrong one would label the point's rows wrongly. */
+static int check_grid_value(const collector *c, long i, int j, const pr_config *pt, const char *cfg,
+                            char *err)
+{
+	const manifest *m = c->m;
+	const char *name = pr_exp_table_name(m->t, 2 + j), *value = pr_exp_table_str(m->t, i, 2 + j);
+	pr_config *v = malloc(sizeof *v);
+	char set[PR_ERRLEN], key[64], va[160], vb[160];
+	int rc = PR_OK;
+
+	if (!v)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	*v = *pt;
+	snprintf(set, sizeof set, "%s=%s", name, value);
+	if (pr_config_set(v, set, err) != PR_OK) {
+		const char *why = strncmp(err, "--set: ", 7) == 0 ? err + 7 : err;
+		snprintf(set, sizeof set, "%s", why);
+		rc = pr_err(err, PR_EIO, "%s/manifest.csv:%ld: %s", c->root, pr_exp_table_line(m->t, i), set);
+	} else if (pr_config_diff(pt, v, NULL, key, sizeof key, va, vb, sizeof va)) {
+		rc = pr_err(err, PR_EIO, "%s/manifest.csv:%ld: column '%s': '%.60s', but %s ran %s = %s",
+		            c->root, pr_exp_table_line(m->t, i), name, value, cfg, key, va);
+	}
+	free(v);
+	return rc;
+}
+
 /* Merge point p's job folders into stage/point-P, add its summary rows. */
 static int collect_point(collector *c, long p, long first, long last, char *err)
 {
@@ -782,6 +809,9 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 	pr_config_init(&pt, pr_exp_config);
 	if (rc == PR_OK)
 		rc = pr_config_load(&pt, mine, err);
+	for (i = first; rc == PR_OK && i < last; ++i)
+		for (j = 0; rc == PR_OK && j < m->nax; ++j)
+			rc = check_grid_value(c, i, j, &pt, mine, err);
 	if (rc == PR_OK && (!(e = pr_exp_find(pt.run.name)) || !e->summary))
 		rc = pr_err(err, PR_EINVAL, "%s: experiment.name: %s has no summary table", mine, pt.run.name);
 	if (rc == PR_OK) {
