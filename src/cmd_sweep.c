@@ -20,7 +20,7 @@
  * `collect` merges each point's job folders through `poolreps merge` (its
  * checks included) into point-P/merged, and writes sweep_summary.csv: the
  * grid values, then every row of the experiment's summary CSV. All of it is
- * staged in SWEEP_DIR/.collect-PID and moved into place only at the end.
+ * staged in SWEEP_DIR/.partial-PID and moved into place only at the end.
  */
 #define _XOPEN_SOURCE 700 /* nftw */
 #include <dirent.h>
@@ -616,10 +616,9 @@ static int not_done(const char *root, const manifest *m, long nbad, char *err)
 static int print_missing(const char *root, char *err)
 {
 	manifest m;
-	char path[PR_PATHLEN], *line = NULL;
-	size_t cap = 0;
+	char path[PR_PATHLEN], line[3 * PR_PATHLEN]; /* a job: three paths and options */
 	long i = 0;
-	ssize_t len;
+	size_t len;
 	FILE *fp = NULL;
 	pr_csvw *w = NULL;
 	int rc;
@@ -630,11 +629,16 @@ static int print_missing(const char *root, char *err)
 		rc = pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
 	if (rc == PR_OK && !(w = pr_csvw_open(NULL, err)))
 		rc = PR_EIO;
-	while (rc == PR_OK && (len = getline(&line, &cap, fp)) != -1) {
-		if (i >= m.njobs)
+	/* read in a fixed buffer: memory stays bounded whatever jobs.txt holds */
+	while (rc == PR_OK && fgets(line, sizeof line, fp)) {
+		len = strlen(line);
+		if (len == 0 || (line[len - 1] != '\n' && !feof(fp)))
+			rc = pr_err(err, PR_EIO, "%s:%ld: NUL byte or line longer than %zu bytes", path, i + 1,
+			            sizeof line - 2);
+		else if (i >= m.njobs)
 			rc = pr_err(err, PR_EIO, "%s:%ld: more jobs than manifest.csv lists", path, i + 1);
 		else if (m.state[i++] != JOB_DONE)
-			pr_csvw_raw(w, line, (size_t)len);
+			pr_csvw_raw(w, line, len);
 	}
 	if (rc == PR_OK && i < m.njobs)
 		rc = pr_err(err, PR_EIO, "%s: %ld jobs, but manifest.csv lists %ld", path, i, m.njobs);
@@ -642,7 +646,6 @@ static int print_missing(const char *root, char *err)
 		rc = pr_csvw_finish(w, rc, err);
 	if (fp)
 		fclose(fp);
-	free(line);
 	manifest_free(&m);
 	return rc;
 }
@@ -676,35 +679,23 @@ int pr_cmd_sweep(const pr_config *cfg, const pr_cmd_args *a, char *err)
 
 /* ---- collect ---- */
 
-/* PR_EINVAL unless the configuration files p1 (a point's) and p2 (its
- * merged jobs') are alike but for comments (the version line). */
-static int same_config(const char *p1, const char *p2, char *err)
+/* PR_EINVAL unless the point's configuration pt (read from mine) is the one
+ * its jobs ran (the merged folder's config.ini, read like any parameter
+ * file: memory stays bounded whatever the files hold). */
+static int same_config(const pr_config *pt, const char *mine, const char *merged, char *err)
 {
-	FILE *f1 = fopen(p1, "r"), *f2 = fopen(p2, "r");
-	char *l1 = NULL, *l2 = NULL;
-	size_t c1 = 0, c2 = 0;
-	ssize_t n1, n2;
-	int rc = PR_OK;
+	pr_config *ran = malloc(sizeof *ran);
+	char key[64], va[160], vb[160];
+	int rc;
 
-	if (!f1 || !f2)
-		rc = pr_err(err, PR_EIO, "%s: cannot open: %s", f1 ? p2 : p1, strerror(errno));
-	while (rc == PR_OK) {
-		while ((n1 = getline(&l1, &c1, f1)) > 0 && l1[0] == ';')
-			;
-		while ((n2 = getline(&l2, &c2, f2)) > 0 && l2[0] == ';')
-			;
-		if (n1 < 0 && n2 < 0)
-			break;
-		if (n1 < 0 || n2 < 0 || strcmp(l1, l2) != 0)
-			rc = pr_err(err, PR_EINVAL, "%s: differs from the configuration the jobs ran with",
-			            p1);
-	}
-	if (f1)
-		fclose(f1);
-	if (f2)
-		fclose(f2);
-	free(l1);
-	free(l2);
+	if (!ran)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	pr_config_init(ran, pr_exp_config);
+	rc = pr_config_load(ran, merged, err);
+	if (rc == PR_OK && pr_config_diff(pt, ran, NULL, key, sizeof key, va, vb, sizeof va))
+		rc = pr_err(err, PR_EINVAL, "%s: differs from the configuration the jobs ran with (%s = %s, "
+		            "jobs: %s)", mine, key, va, vb);
+	free(ran);
 	return rc;
 }
 
@@ -804,11 +795,11 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 		rc = pr_cmd_merge(c->cfg, &ma, err);
 	fmt(mine, sizeof mine, "%s/%s/config.ini", c->root, point);
 	fmt(path, sizeof path, "%s/config.ini", out);
-	if (rc == PR_OK)
-		rc = same_config(mine, path, err);
 	pr_config_init(&pt, pr_exp_config);
 	if (rc == PR_OK)
 		rc = pr_config_load(&pt, mine, err);
+	if (rc == PR_OK)
+		rc = same_config(&pt, mine, path, err);
 	for (i = first; rc == PR_OK && i < last; ++i)
 		for (j = 0; rc == PR_OK && j < m->nax; ++j)
 			rc = check_grid_value(c, i, j, &pt, mine, err);

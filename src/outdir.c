@@ -318,6 +318,7 @@ int pr_outdir_write_text(const char *path, void (*fn)(FILE *, const void *), con
 	char *buf = NULL;
 	size_t n = 0;
 	FILE *fp = open_memstream(&buf, &n);
+	pr_outset *set;
 	pr_csvw *w;
 	int rc;
 
@@ -328,14 +329,15 @@ int pr_outdir_write_text(const char *path, void (*fn)(FILE *, const void *), con
 		free(buf);
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	}
-	if (!(w = pr_csvw_open(path, err))) {
+	/* a set of one: a refused name keeps its own status (an empty one is 1) */
+	if (!(set = pr_outset_new(err))) {
 		free(buf);
-		return PR_EIO;
+		return PR_ENOMEM;
 	}
-	pr_csvw_raw(w, buf, n);
+	if ((rc = pr_outset_add(set, path, &w, err)) == PR_OK)
+		pr_csvw_raw(w, buf, n);
 	free(buf);
-	rc = pr_csvw_close(w, err);
-	return rc;
+	return pr_outset_commit(set, rc, err);
 }
 
 static void config_file_text(FILE *fp, const void *cfg)
