@@ -109,6 +109,10 @@ CASES = [
     Case("c9_merge_keeps_modes", ["merge", "-q", "-o", "full", "r0", "r1"], OK, (), {},
          None, writes=("full/provenance.txt",), lines=0),
 
+    # 3. an empty output name is a usage error for every command (config -o too)
+    Case("c3_config_empty_output_is_usage", ["config", "-o", ""], USAGE, ("output file name is empty",)),
+    Case("c3_shoot_empty_trace_is_usage", ["shoot", "-i", "s.csv", "--trace", ""], USAGE, ("empty",), IN),
+
     # sweep: a path jobs.txt cannot hold on one line is refused, nothing made
     Case("c1_sweep_folder_with_line_break", ["sweep", QUAD, "--grid", "bench.samples=30,40", "-o",
                                              "a\nb"] + SWEEP_Q, USAGE, ("a\\x0ab", "line break")),
