@@ -933,6 +933,18 @@ int pr_config_write(const pr_config *c, FILE *fp)
 	return ferror(fp) ? PR_EIO : PR_OK;
 }
 
+int pr_config_key_elsewhere(const pr_config *c, const char *key)
+{
+	pr_config_exp e;
+	int i = find_dotted(c, key), b, first = NCORE;
+
+	if (i < NCORE || !find_experiment(c, c->run.name, &e))
+		return 0;
+	for (b = 0; b < c->nblocks && i >= first + c->block[b]->nkeys; ++b)
+		first += c->block[b]->nkeys;
+	return b < c->nblocks && c->block[b] != e.block;
+}
+
 int pr_config_key_listed(const char *list, const char *key)
 {
 	while (*list) {

@@ -555,6 +555,16 @@ int main(int argc, char **argv)
 	}
 	if (rc == PR_OK)
 		rc = pr_config_validate(&cfg, err);
+	/* a run never reads another experiment's keys: a --set or --grid of one
+	 * would change nothing (a parameter file may hold them: one serves several) */
+	for (i = 0; rc == PR_OK && !command_keys(cmd) && cmd->fn != pr_cmd_config &&
+	            i < nsets + a.ngrid; ++i) {
+		char key[64];
+		arg_key(i < nsets ? sets[i] : grids[i - nsets], key, sizeof key);
+		if (pr_config_key_elsewhere(&cfg, key))
+			rc = pr_err(err, PR_EINVAL, "%s: %s %s does not apply: experiment %s never reads it",
+			            cmd->name, i < nsets ? "--set" : "--grid", key, cfg.run.name);
+	}
 	if (rc == PR_OK)
 		rc = cmd->fn(&cfg, &a, err);
 	/* everything is cleaned up or in place: a late signal must not add a

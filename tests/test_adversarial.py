@@ -94,6 +94,20 @@ CASES = [
     Case("c7_sweep_missing_with_split", ["sweep", "--missing", "s", "--split", "variant"], USAGE,
          ("--missing", "--split")),
 
+    # 7. a run never reads another experiment's keys: a --set or --grid of one is refused
+    Case("c7_run_set_key_of_another_experiment", ["run"] + RUN_Q + ["-o", "new", "--set",
+                                                               "exp3.iterations=5"], USAGE,
+         ("--set exp3.iterations does not apply", "quadratic")),
+    Case("c7_figures_run_set_bench_key", ["run", ROOT / "data" / "figures.ini", "-q", "-o", "new",
+                                          "--set", "bench.iterations=3"], USAGE,
+         ("--set bench.iterations does not apply", "figures")),
+    Case("c7_sweep_grid_key_of_another_experiment", ["sweep", QUAD, "--grid", "exp1.train=10,20",
+                                                     "-o", "sw"] + SWEEP_Q, USAGE,
+         ("--grid exp1.train does not apply", "quadratic")),
+    Case("c7_run_keeps_folder_on_key_of_another_experiment",
+         ["run"] + RUN_Q + ["-o", "full", "--set", " exp2.sizes = 10,20"], USAGE,
+         ("exp2.sizes does not apply",), {}, copy_runs("full")),
+
     # 10. a list key refuses a value listed twice (a sweep's variants would
     # share one output folder; a summary would hold one setting twice)
     Case("c10_list_value_twice_set", ["config", "--set", "exp1.trees_list=10,10"], USAGE,

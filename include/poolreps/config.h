@@ -117,5 +117,8 @@ void pr_config_help(pr_config_schema schema, const char *only, FILE *fp);
 /* 1 if key ("section.key") is in list, a comma list of whole names and of
  * sections ending in '.': "forest.,experiment.seed". */
 int pr_config_key_listed(const char *list, const char *key);
+/* 1 if "section.key" is a key of another experiment's block than the one
+ * experiment.name of c names (that experiment never reads it). */
+int pr_config_key_elsewhere(const pr_config *c, const char *key);
 
 #endif
