@@ -123,6 +123,19 @@ CASES = [
     Case("c9_merge_keeps_modes", ["merge", "-q", "-o", "full", "r0", "r1"], OK, (), {},
          None, writes=("full/provenance.txt",), lines=0),
 
+    # 3. weights whose sum overflows would make every share 0: refused as a parameter error
+    Case("c3_policy_weights_sum_overflows", ["policy", "--train", "w.csv", "--state", "s0", "--action",
+                                             "a0", "--weight", "w", "-i", "w.csv", "-q", "-o", "old.csv"],
+         USAGE, ("w.csv", "column 'w'", "sum past the largest number"),
+         dict(IN, **{"w.csv": b"s0,a0,w\n0,1,1e308\n1,2,1e308\n2,1,1e308\n"})),
+    Case("c3_forest_weights_sum_overflows", ["forest", "--train", "w.csv", "--test", "w.csv", "--target",
+                                             "y", "--weight", "w", "-q", "-o", "old.csv"],
+         USAGE, ("w.csv", "column 'w'", "sum past"), dict(IN, **{"w.csv": b"s,y,w\n0,1,1e308\n1,2,1e308\n"})),
+    Case("c3_reps_base_sum_overflows", ["reps", "--return", "R", "--features", "phi0", "--base", "b",
+                                        "-i", "w.csv", "-q", "--summary", "old.csv"],
+         USAGE, ("column 'b'", "base weights sum past"),
+         dict(IN, **{"w.csv": b"R,phi0,b\n1,1,1e308\n2,2,1e308\n"})),
+
     # 3. an empty output name is a usage error for every command (config -o too)
     Case("c3_config_empty_output_is_usage", ["config", "-o", ""], USAGE, ("output file name is empty",)),
     Case("c3_shoot_empty_trace_is_usage", ["shoot", "-i", "s.csv", "--trace", ""], USAGE, ("empty",), IN),
