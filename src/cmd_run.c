@@ -115,7 +115,7 @@ static int input_config(const pr_cmd_args *a, int k, pr_config *c, char *err)
 	/* a run publishes provenance.txt last: without it the folder is no finished run */
 	snprintf(path, sizeof path, "%s/provenance.txt", a->inputs[k]);
 	if (stat(path, &st) != 0)
-		return pr_err(err, PR_EIO, "%s: not a finished run: %s", path, strerror(errno));
+		return pr_err(err, pr_errno_status(), "%s: not a finished run: %s", path, strerror(errno));
 	if (!S_ISREG(st.st_mode))
 		return pr_err(err, PR_EIO, "%s: not a regular file", path);
 	return PR_OK;
@@ -259,24 +259,30 @@ static int is_raw_csv(const char *dir, const char *name)
 	/* a FIFO would block the open */
 	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
 		return 0;
-	fp = fopen(path, "r");
-	if (!fp)
-		return 0;
+	/* unreadable: it may be a raw CSV, so the caller refuses it */
+	if (!(fp = fopen(path, "r")))
+		return -1;
 	if (!fgets(buf, sizeof buf, fp))
 		buf[0] = '\0';
 	fclose(fp);
 	return strncmp(buf, "repetition,", 11) == 0;
 }
 
-/* The raw CSVs (leading repetition column) of folder dir. */
+/* The raw CSVs (leading repetition column) of folder dir; a .csv file it
+ * cannot read is an error. */
 static int raw_csvs(const char *dir, pr_names *out, char *err)
 {
 	pr_names all = {NULL, 0};
 	int i, rc = pr_outdir_list(dir, &all, err);
 
-	for (i = 0; rc == PR_OK && i < all.n; ++i)
-		if (is_raw_csv(dir, all.name[i]) && pr_names_add(out, all.name[i], strlen(all.name[i])))
+	for (i = 0; rc == PR_OK && i < all.n; ++i) {
+		int raw = is_raw_csv(dir, all.name[i]);
+		if (raw < 0)
+			rc = pr_err(err, pr_errno_status(), "%s/%s: cannot open: %s", dir, all.name[i],
+			            strerror(errno));
+		else if (raw && pr_names_add(out, all.name[i], strlen(all.name[i])))
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
+	}
 	pr_names_free(&all);
 	return rc;
 }
@@ -400,7 +406,7 @@ int pr_cmd_merge(const pr_config *cfg0, const pr_cmd_args *a, char *err)
 	pr_variants variants;
 	char key[64], va[160], vb[160];
 	char *out, *in;
-	int rc, k;
+	int rc, k, d;
 
 	(void)cfg0;
 	if (!a->output)
@@ -411,12 +417,17 @@ int pr_cmd_merge(const pr_config *cfg0, const pr_cmd_args *a, char *err)
 	 * must agree in everything but the repetition and the variant */
 	if ((rc = input_config(a, 0, &cfg, err)))
 		return rc;
-	for (k = 1; rc == PR_OK && k < a->ninputs; ++k)
-		if ((rc = input_config(a, k, &other, err)) == PR_OK &&
-		    pr_config_diff(&cfg, &other, may_differ, key, sizeof key, va, vb, sizeof va))
+	for (k = 1; rc == PR_OK && k < a->ninputs; ++k) {
+		if ((rc = input_config(a, k, &other, err)))
+			break;
+		d = pr_config_diff(&cfg, &other, may_differ, key, sizeof key, va, vb, sizeof va);
+		if (d < 0)
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+		else if (d)
 			rc = pr_err(err, PR_EINVAL, "%s/config.ini: %s = %s, but %s/config.ini has %s (merged "
 			            "runs may differ only in experiment.repetition and experiment.variant)",
 			            a->inputs[k], key, vb, a->inputs[0], va);
+	}
 	cfg.run.variant = -1;
 	if (rc == PR_OK)
 		rc = pr_exp_variants(&cfg, &variants, err);

@@ -22,10 +22,9 @@
  * grid values, then every row of the experiment's summary CSV. All of it is
  * staged in SWEEP_DIR/.partial-PID and moved into place only at the end.
  */
-#define _XOPEN_SOURCE 700 /* nftw */
+#define _XOPEN_SOURCE 700 /* realpath */
 #include <dirent.h>
 #include <errno.h>
-#include <ftw.h>
 #include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -88,20 +87,6 @@ static void fmt(char *buf, size_t n, const char *f, ...)
 	va_start(ap, f);
 	vsnprintf(buf, n, f, ap);
 	va_end(ap);
-}
-
-static int rm_entry(const char *path, const struct stat *st, int flag, struct FTW *f)
-{
-	(void)st;
-	(void)flag;
-	(void)f;
-	return remove(path);
-}
-
-/* Remove path and everything below it (symlinks themselves, not their targets). */
-static void remove_all(const char *path)
-{
-	nftw(path, rm_entry, 16, FTW_DEPTH | FTW_PHYS);
 }
 
 static int exists(const char *path)
@@ -271,7 +256,7 @@ static FILE *open_text(const char *dir, const char *name, char *path, char *err)
 
 	fmt(path, PR_PATHLEN, "%s/%s", dir, name);
 	if (!(fp = fopen(path, "w")))
-		pr_err(err, PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+		pr_err(err, pr_errno_status(), "%s: cannot write: %s", path, strerror(errno));
 	return fp;
 }
 
@@ -411,7 +396,7 @@ static int sweep_point(sweep_out *s, long p, char *err)
 		rc = pr_err(err, PR_EINVAL, "sweep: more than %ld jobs", MAX_JOBS);
 	fmt(path, sizeof path, "%s/%s", s->dir, point);
 	if (rc == PR_OK && mkdir(path, 0777) != 0)
-		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", path, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", path, strerror(errno));
 	if (rc == PR_OK)
 		rc = pr_outdir_write_config(&pt, path, err);
 	for (r = 0; rc == PR_OK && r < nr; ++r)
@@ -450,14 +435,14 @@ static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 	s.dir = dir;
 	rc = parse_grid(a, &g, err);
 	if (rc == PR_OK && !realpath(dir, s.root))
-		rc = pr_err(err, PR_EIO, "%s: cannot resolve: %s", dir, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot resolve: %s", dir, strerror(errno));
 	if (rc == PR_OK && (slash = strrchr(s.root, '/')))
 		*slash = '\0';
 	if (rc == PR_OK && strlen(s.root) > ROOTMAX)
 		rc = pr_err(err, PR_EINVAL, "%.100s...: path too long", s.root);
 	/* the jobs run this very binary, by its absolute path */
 	if (rc == PR_OK && (n = readlink("/proc/self/exe", s.exe, sizeof s.exe - 1)) < 0)
-		rc = pr_err(err, PR_EIO, "/proc/self/exe: cannot find this executable: %s", strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "/proc/self/exe: cannot find this executable: %s", strerror(errno));
 	else if (rc == PR_OK)
 		s.exe[n] = '\0';
 	/* jobs.txt holds one job a line, and slurm.sbatch reads it with sed */
@@ -483,7 +468,7 @@ static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 		rc = pr_csvw_finish(s.man, rc, err);
 	fmt(path, sizeof path, "%s/logs", dir);
 	if (rc == PR_OK && mkdir(path, 0777) != 0)
-		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", path, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", path, strerror(errno));
 	if (rc == PR_OK)
 		rc = write_runners(dir, s.root, s.njobs, s.cpus, err);
 	if (rc != PR_OK) {
@@ -491,7 +476,7 @@ static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 			char point[64];
 			point_name(point, sizeof point, p, g.npoints);
 			fmt(path, sizeof path, "%s/%s", dir, point);
-			remove_all(path);
+			pr_remove_tree(path);
 		}
 		fmt(path, sizeof path, "%s/logs", dir);
 		rmdir(path);
@@ -508,7 +493,7 @@ static int check_empty(const char *dir, char *err)
 	int rc = PR_OK;
 
 	if (!d)
-		return errno == ENOENT ? PR_OK : pr_err(err, PR_EIO, "%s: cannot read folder: %s", dir,
+		return errno == ENOENT ? PR_OK : pr_err(err, pr_errno_status(), "%s: cannot read folder: %s", dir,
 		                                        strerror(errno));
 	while (rc == PR_OK && (e = readdir(d)))
 		if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0)
@@ -626,7 +611,7 @@ static int print_missing(const char *root, char *err)
 	rc = manifest_read(root, &m, err);
 	fmt(path, sizeof path, "%s/jobs.txt", root);
 	if (rc == PR_OK && !(fp = fopen(path, "r")))
-		rc = pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot open: %s", path, strerror(errno));
 	if (rc == PR_OK && !(w = pr_csvw_open(NULL, err)))
 		rc = PR_EIO;
 	/* read in a fixed buffer: memory stays bounded whatever jobs.txt holds */
@@ -686,13 +671,16 @@ static int same_config(const pr_config *pt, const char *mine, const char *merged
 {
 	pr_config *ran = malloc(sizeof *ran);
 	char key[64], va[160], vb[160];
-	int rc;
+	int rc, d;
 
 	if (!ran)
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	pr_config_init(ran, pr_exp_config);
 	rc = pr_config_load(ran, merged, err);
-	if (rc == PR_OK && pr_config_diff(pt, ran, NULL, key, sizeof key, va, vb, sizeof va))
+	d = rc == PR_OK ? pr_config_diff(pt, ran, NULL, key, sizeof key, va, vb, sizeof va) : 0;
+	if (d < 0)
+		rc = pr_err(err, PR_ENOMEM, "out of memory");
+	else if (d)
 		rc = pr_err(err, PR_EINVAL, "%s: differs from the configuration the jobs ran with (%s = %s, "
 		            "jobs: %s)", mine, key, va, vb);
 	free(ran);
@@ -744,7 +732,7 @@ static int check_grid_value(const collector *c, long i, int j, const pr_config *
 	const char *name = pr_exp_table_name(m->t, 2 + j), *value = pr_exp_table_str(m->t, i, 2 + j);
 	pr_config *v = malloc(sizeof *v);
 	char set[PR_ERRLEN], key[64], va[160], vb[160];
-	int rc = PR_OK;
+	int rc = PR_OK, d;
 
 	if (!v)
 		return pr_err(err, PR_ENOMEM, "out of memory");
@@ -754,7 +742,9 @@ static int check_grid_value(const collector *c, long i, int j, const pr_config *
 		const char *why = strncmp(err, "--set: ", 7) == 0 ? err + 7 : err;
 		snprintf(set, sizeof set, "%s", why);
 		rc = pr_err(err, PR_EIO, "%s/manifest.csv:%ld: %s", c->root, pr_exp_table_line(m->t, i), set);
-	} else if (pr_config_diff(pt, v, NULL, key, sizeof key, va, vb, sizeof va)) {
+	} else if ((d = pr_config_diff(pt, v, NULL, key, sizeof key, va, vb, sizeof va)) < 0) {
+		rc = pr_err(err, PR_ENOMEM, "out of memory");
+	} else if (d) {
 		rc = pr_err(err, PR_EIO, "%s/manifest.csv:%ld: column '%s': '%.60s', but %s ran %s = %s",
 		            c->root, pr_exp_table_line(m->t, i), name, value, cfg, key, va);
 	}
@@ -858,12 +848,12 @@ static int publish_collected(const collector *c, char *err)
 		else if (p < np && mkdir(path, 0777) == 0)
 			made[p] = 1;
 		else if (p < np && errno != EEXIST)
-			rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", path, strerror(errno));
+			rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", path, strerror(errno));
 	}
 	if (rc == PR_OK)
 		rc = pr_outdir_publish(pub, (int)np + 1, err);
 	for (p = 0; pub && p <= np; ++p) {
-		if (rc != PR_OK && made[p])
+		if (rc != PR_OK && made && made[p])
 			rmdir(pub[p].dir);
 		free((char *)pub[p].staging);
 		if (p < np)
@@ -904,10 +894,10 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	 * one left by SIGKILL */
 	fmt(c.stage, sizeof c.stage, "%s/.partial-%ld", c.root, (long)getpid());
 	pr_outdir_sweep_stale(c.root);
-	remove_all(c.stage);
+	pr_remove_tree(c.stage);
 	fmt(path, sizeof path, "%s/summary", c.stage);
 	if (mkdir(c.stage, 0777) != 0 || mkdir(path, 0777) != 0)
-		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", c.stage, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", c.stage, strerror(errno));
 	pr_cleanup_set_dir(c.stage, c.root, strlen(c.root));
 	fmt(path, sizeof path, "%s/summary/sweep_summary.csv", c.stage);
 	if (rc == PR_OK && !(c.w = pr_csvw_open(path, err)))
@@ -930,7 +920,7 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		rc = publish_collected(&c, err);
 	else if (pr_interrupted)
 		rc = pr_err(err, PR_EINTR, "interrupted: nothing collected, %s left as it was", c.root);
-	remove_all(c.stage);
+	pr_remove_tree(c.stage);
 	pr_cleanup_clear_dir();
 	manifest_free(&m);
 	return rc;

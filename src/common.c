@@ -227,6 +227,11 @@ static void remove_dir_at(int parent, const char *name, int depth)
 	}
 }
 
+void pr_remove_tree(const char *dir)
+{
+	remove_dir_at(AT_FDCWD, dir, 8);
+}
+
 void pr_cleanup_run(void)
 {
 	int i, k, saved = errno;
@@ -240,7 +245,7 @@ void pr_cleanup_run(void)
 	for (k = nstaging - 1; k >= 0; --k) {
 		char *created = created_dir[k];
 		if (staging_dir[k][0])
-			remove_dir_at(AT_FDCWD, staging_dir[k], 3);
+			remove_dir_at(AT_FDCWD, staging_dir[k], 8);
 		/* the folders the run created, deepest first, each if empty */
 		while (created[0] && strlen(created) > created_keep[k] && rmdir(created) == 0) {
 			char *slash = strrchr(created, '/');
@@ -268,6 +273,11 @@ void pr_cleanup_hold(sigset_t *old)
 void pr_cleanup_release(const sigset_t *old)
 {
 	pthread_sigmask(SIG_SETMASK, old, NULL);
+}
+
+int pr_errno_status(void)
+{
+	return errno == ENOMEM ? PR_ENOMEM : PR_EIO;
 }
 
 int pr_pid_gone(long pid)

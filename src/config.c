@@ -19,6 +19,7 @@
 
 #include <ini.h>
 
+#include "common_priv.h"
 #include "config_priv.h"
 #include "csvio_priv.h"
 
@@ -683,7 +684,7 @@ int pr_config_load(pr_config *c, const char *path, char *err)
 	L.err = err;
 	L.fp = fopen(path, "rb");
 	if (!L.fp)
-		return pr_err(err, PR_EIO, "%s: cannot open parameter file: %s", path, strerror(errno));
+		return pr_err(err, pr_errno_status(), "%s: cannot open parameter file: %s", path, strerror(errno));
 	if (fstat(fileno(L.fp), &st) == 0 && S_ISDIR(st.st_mode)) {
 		fclose(L.fp);
 		return pr_err(err, PR_EIO, "%s: is a directory, not a parameter file", path);
@@ -903,7 +904,12 @@ int pr_config_diff(const pr_config *a, const pr_config *b, const char *const *sk
 			continue;
 		x = value_text(a, i);
 		y = value_text(b, i);
-		differ = !x || !y || strcmp(x, y) != 0;
+		if (!x || !y) {
+			free(x);
+			free(y);
+			return -1;
+		}
+		differ = strcmp(x, y) != 0;
 		snprintf(va, n, "%s", x ? x : "?");
 		snprintf(vb, n, "%s", y ? y : "?");
 		free(x);

@@ -59,7 +59,7 @@ static int mkdir_p(const char *dir, size_t *keep, char *err)
 				if (*keep == strlen(dir))
 					*keep = (size_t)(strrchr(buf, '/') ? strrchr(buf, '/') - buf : 0);
 			} else if (errno != EEXIST) {
-				rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", buf, strerror(errno));
+				rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", buf, strerror(errno));
 			}
 			*p = c;
 			if (!c)
@@ -71,24 +71,6 @@ static int mkdir_p(const char *dir, size_t *keep, char *err)
 	if (rc)
 		remove_created(dir, *keep);
 	return rc;
-}
-
-/* dir and everything below it (a collect's staging holds folders). */
-static void remove_tree(const char *dir)
-{
-	DIR *d = opendir(dir);
-	struct dirent *e;
-	char path[PR_PATHLEN];
-
-	if (!d)
-		return;
-	while ((e = readdir(d)))
-		if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..") &&
-		    unlinkat(dirfd(d), e->d_name, 0) != 0 && errno == EISDIR &&
-		    snprintf(path, sizeof path, "%s/%s", dir, e->d_name) < (int)sizeof path)
-			remove_tree(path);
-	closedir(d);
-	rmdir(dir);
 }
 
 /* Leftovers of runs killed with SIGKILL, whose PID no longer exists: their
@@ -118,7 +100,7 @@ void pr_outdir_sweep_stale(const char *dir)
 		if (snprintf(path, sizeof path, "%s/%s", dir, e->d_name) >= (int)sizeof path)
 			continue;
 		if (unlink(path) != 0)
-			remove_tree(path);
+			pr_remove_tree(path);
 	}
 	closedir(d);
 }
@@ -171,7 +153,7 @@ int pr_outdir_list(const char *dir, pr_names *out, char *err)
 	struct dirent *e;
 
 	if (!d)
-		return pr_err(err, PR_EIO, "%s: cannot read folder: %s", dir, strerror(errno));
+		return pr_err(err, pr_errno_status(), "%s: cannot read folder: %s", dir, strerror(errno));
 	while ((e = readdir(d)))
 		if (e->d_name[0] != '.' && pr_names_add(out, e->d_name, strlen(e->d_name))) {
 			closedir(d);
@@ -253,7 +235,7 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 			break;
 		if (p[s].lock && ((p[s].fd = open(p[s].dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC)) < 0 ||
 		                  flock(p[s].fd, LOCK_EX) != 0))
-			rc = pr_err(err, PR_EIO, "%s: cannot lock folder: %s", p[s].dir, strerror(errno));
+			rc = pr_err(err, pr_errno_status(), "%s: cannot lock folder: %s", p[s].dir, strerror(errno));
 		else if ((p[s].owns && earlier_run(p[s].dir, &p[s].old)) ||
 		         !(p[s].had = calloc((size_t)p[s].now.n + 1, 1)))
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
@@ -273,13 +255,13 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 				rc = pr_err(err, PR_EIO, "%s: is a folder: cannot replace it with the run's file", to);
 			/* like any output: a file the (non-root) user may not write stays */
 			else if (S_ISREG(st.st_mode) && faccessat(AT_FDCWD, to, W_OK, AT_EACCESS) != 0)
-				rc = pr_err(err, PR_EIO, "%s: cannot write: %s", to, strerror(errno));
+				rc = pr_err(err, pr_errno_status(), "%s: cannot write: %s", to, strerror(errno));
 			/* the new file keeps the permission bits (and for root the owner) of the one it replaces */
 			else if (S_ISREG(st.st_mode) && (chmod(from, st.st_mode & 07777) != 0 ||
 			                                 (geteuid() == 0 && chown(from, st.st_uid, st.st_gid) != 0)))
-				rc = pr_err(err, PR_EIO, "%s: cannot keep its permissions: %s", to, strerror(errno));
+				rc = pr_err(err, pr_errno_status(), "%s: cannot keep its permissions: %s", to, strerror(errno));
 			else if (link(to, bak) != 0)
-				rc = pr_err(err, PR_EIO, "%s: cannot keep the earlier file while replacing it: %s",
+				rc = pr_err(err, pr_errno_status(), "%s: cannot keep the earlier file while replacing it: %s",
 				            to, strerror(errno));
 			else
 				p[s].had[i] = 1;
@@ -290,7 +272,7 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 			snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].now.name[i]);
 			if (rename(from, to) == 0)
 				continue;
-			rc = pr_err(err, PR_EIO, "%s: cannot move into place: %s", to, strerror(errno));
+			rc = pr_err(err, pr_errno_status(), "%s: cannot move into place: %s", to, strerror(errno));
 			put_back(p, s, i);
 		}
 	for (s = 0; s < n && rc == PR_OK; ++s)
@@ -468,9 +450,9 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	if (snprintf(staging, sizeof staging, "%s/.partial-%ld", dir, (long)getpid()) >= (int)sizeof staging)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
 	pr_outdir_sweep_stale(dir);
-	remove_tree(staging);
+	pr_remove_tree(staging);
 	if (mkdir(staging, 0777) != 0) {
-		rc = pr_err(err, PR_EIO, "%s: cannot write into the folder: %s", dir, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot write into the folder: %s", dir, strerror(errno));
 		remove_created(dir, keep);
 		return rc;
 	}
@@ -484,7 +466,7 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 		pr_outdir_pub pub = {staging, dir, 1, 1, {NULL, 0}, {NULL, 0}, NULL, -1};
 		rc = pr_outdir_publish(&pub, 1, err);
 	}
-	remove_tree(staging);
+	pr_remove_tree(staging);
 	pr_cleanup_clear_dir();
 	if (rc == PR_OK && !pr_interrupted)
 		return PR_OK;

@@ -343,3 +343,100 @@ def test_sweep_missing_memory_stays_bounded(tmp_path, sweeps):
     peak, err = peak_kib(["sweep", "--missing", "s"], cwd=tmp_path)
     assert err.count(b"\n") == 1 and b"NUL byte" in err, err
     assert peak < 64 * 1024, f"peak {peak} KiB"
+
+
+# ---- class 3: an allocation that fails anywhere is exit 4 ----
+
+# Fails every allocation from the FAILAT-th on (malloc, calloc, realloc:
+# also those of the C library, libcsv, GSL and GLPK), as when memory runs out.
+FAILMALLOC_C = r"""
+#include <errno.h>
+#include <stdlib.h>
+extern void *__libc_malloc(size_t);
+extern void *__libc_calloc(size_t, size_t);
+extern void *__libc_realloc(void *, size_t);
+static long count, failat = -2;
+static int fail(void)
+{
+	if (failat == -2) {
+		const char *s = getenv("FAILAT");
+		failat = s ? atol(s) : -1;
+	}
+	if (failat < 0 || __atomic_add_fetch(&count, 1, __ATOMIC_SEQ_CST) < failat)
+		return 0;
+	errno = ENOMEM;
+	return 1;
+}
+void *malloc(size_t n) { return fail() ? NULL : __libc_malloc(n); }
+void *calloc(size_t a, size_t b) { return fail() ? NULL : __libc_calloc(a, b); }
+void *realloc(void *p, size_t n) { return fail() ? NULL : __libc_realloc(p, n); }
+"""
+
+
+@pytest.fixture(scope="module")
+def failmalloc(tmp_path_factory):
+    if SAN:
+        pytest.skip("the sanitizers' allocator must come first: no LD_PRELOAD")
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        pytest.skip("no C compiler for the allocation-failure shim")
+    d = tmp_path_factory.mktemp("failmalloc")
+    (d / "failmalloc.c").write_text(FAILMALLOC_C)
+    r = subprocess.run([cc, "-shared", "-fPIC", "-O2", "-o", d / "failmalloc.so", d / "failmalloc.c"],
+                       capture_output=True)
+    if r.returncode:
+        pytest.skip("cannot build the shim: " + r.stderr.decode()[:200])
+    return d / "failmalloc.so"
+
+
+def _reps_far(tmp):
+    (tmp / "r.csv").write_bytes(REPS_IN)
+
+
+OOM = [
+    ("shoot", ["shoot", "-i", "s.csv", "-o", "old.csv", "--trace", "t.csv"], 1),
+    ("forest", ["forest", "--train", "tr.csv", "--test", "tr.csv", "--target", "y", "-q", "-o", "old.csv",
+                "--leaves", "l.csv"], 1),
+    ("reps_summary", ["reps", "--return", "R", "--features", "phi0", "-i", "r.csv", "-q", "-o", "old.csv",
+                      "--summary", "s2.csv"], 1),
+    # an unreachable bound: the feature-matching LP (GLPK, which aborts on no memory)
+    ("reps_lp", ["reps", "--return", "R", "--features", "phi0", "-i", "r.csv", "-q", "--epsilon", "1e6",
+                 "-o", "old.csv"], 1),
+    ("policy", ["policy", "--train", "p.csv", "--state", "s0", "--action", "a0", "--weight", "w", "-i",
+                "p.csv", "-q", "-o", "old.csv", "--sample", "3"], 13),
+    ("config", ["config", "-o", "old.csv"], 1),
+    ("merge", ["merge", "-q", "-o", "full", "r0", "r1"], 7),
+    ("run", RUN_Q + ["-o", "full", "--seed", "4"], 11),
+    ("sweep", ["sweep", QUAD, "--grid", "bench.samples=30,40", "-q", "-o", "sw"], 3),
+    ("sweep_missing", ["sweep", "--missing", "s"], 1),
+    ("collect", ["collect", "s"], 41),
+]
+
+
+@pytest.mark.parametrize("name,args,step", OOM, ids=[o[0] for o in OOM])
+def test_every_allocation_failure_is_out_of_memory(name, args, step, failmalloc, tmp_path, runs, sweeps):
+    """The n-th allocation and all after it fail, for n = 1, 1 + step, ...
+    until the command no longer needs them: every time exit 4, one line,
+    nothing created, changed or removed (staging folders included)."""
+    for n, data in IN.items():
+        (tmp_path / n).write_bytes(data)
+    for n in ("r0", "r1", "full"):
+        shutil.copytree(runs / n, tmp_path / n, symlinks=True)
+    shutil.copytree(sweeps / "s", tmp_path / "s", symlinks=True)
+    (tmp_path / "s" / "point-1" / "runs" / "rep-1" / "provenance.txt").unlink()  # one job not done
+    if name == "collect":
+        shutil.rmtree(tmp_path / "s")
+        shutil.copytree(sweeps / "c", tmp_path / "s", symlinks=True)
+    before = snapshot(tmp_path)
+    n = 1
+    while True:
+        r = subprocess.run([binary()] + [str(a) for a in args], cwd=tmp_path, capture_output=True,
+                           env=dict(env(), LD_PRELOAD=str(failmalloc), FAILAT=str(n)), timeout=120)
+        if r.returncode == OK:
+            break
+        assert r.returncode == 4, (n, r.stderr)
+        one_line(r)
+        assert r.stdout == b"" or name == "sweep_missing", (n, r.stdout[:200])
+        assert snapshot(tmp_path) == before, n
+        n += step
+    assert n > 1, "the command allocated nothing"

@@ -106,7 +106,7 @@ const char *pr_config_where(const pr_config *c, const char *key, char *buf, size
 /* The first key (in table order, other than those in skip, a NULL-ended
  * list of "section.key" names, or NULL) whose value differs between a and b:
  * its name into key and both values as written by pr_config_write into va
- * and vb (each n bytes, truncated). 0 if none. */
+ * and vb (each n bytes, truncated). 0 if none, -1 if out of memory. */
 int pr_config_diff(const pr_config *a, const pr_config *b, const char *const *skip, char *key,
                    size_t nkey, char *va, char *vb, size_t n);
 /* Write every key as INI (the effective configuration). */
