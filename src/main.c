@@ -555,6 +555,11 @@ int main(int argc, char **argv)
 	}
 	if (rc == PR_OK)
 		rc = pr_config_validate(&cfg, err);
+	/* config refuses what a run would: a variant the experiment does not have */
+	if (rc == PR_OK && cmd->fn == pr_cmd_config) {
+		pr_variants variants;
+		rc = pr_exp_variants(&cfg, &variants, err);
+	}
 	/* a run never reads another experiment's keys: a --set or --grid of one
 	 * would change nothing (a parameter file may hold them: one serves several) */
 	for (i = 0; rc == PR_OK && !command_keys(cmd) && cmd->fn != pr_cmd_config &&

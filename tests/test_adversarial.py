@@ -117,6 +117,15 @@ CASES = [
     Case("c10_list_big_value_twice", ["config", "--set", "exp2.sizes=10000000,10000000"], USAGE,
          ("10000000 listed twice",)),
 
+    # 10. config refuses a variant the experiment does not have, as a run would
+    Case("c10_config_variant_without_variants", ["config", "-c", QUAD, "--set", "experiment.variant=0",
+                                                 "-o", "old.csv"], USAGE,
+         ("experiment.variant", "quadratic has no variants"), IN),
+    Case("c10_config_variant_past_the_last", ["config", "-c", ROOT / "data" / "exp3.ini", "--set",
+                                              "exp3.policies=baseline,handcrafted", "--set",
+                                              "experiment.variant=2"], USAGE,
+         ("experiment.variant: 2", "2 variants (0..1)")),
+
     # 9. a run folder's files keep their permission bits (and owner, for root)
     Case("c9_run_keeps_modes", ["run"] + RUN_Q + ["-o", "full", "--seed", "5"], OK, (), {},
          None, writes=tuple("full/" + f for f in RUN_FILES), lines=0),
