@@ -419,6 +419,12 @@ OOM = [
     ("sweep", ["sweep", QUAD, "--grid", "bench.samples=30,40", "-q", "-o", "sw"], 3),
     ("sweep_missing", ["sweep", "--missing", "s"], 1),
     ("collect", ["collect", "s"], 41),
+    # worker threads, policies, forests and GLPK inside an experiment
+    ("run_exp3", [ROOT / "data" / "exp3.ini", "-q", "-o", "e3"] +
+     [a for kv in ("experiment.repetitions=1", "experiment.threads=2", "exp3.init_samples=40",
+                   "exp3.window=40", "exp3.samples=10", "exp3.iterations=2", "exp3.final_episodes=10",
+                   "policy.n_min=15", "exp3.baseline_n_min=60", "value.n_min=12",
+                   "exp3.policies=nrvr_rs,rvr_a,baseline,handcrafted") for a in ("--set", kv)], 293),
 ]
 
 
