@@ -76,3 +76,16 @@ int pr_cmd_weights(const pr_csv *t, int col, const char *name, const char *what,
 		              "scale them down", pr_csv_path(t), name, what);
 	return PR_OK;
 }
+
+int pr_cmd_disjoint(const pr_csv *t, const int *a, int na, const char *an, const int *b, int nb,
+                    const char *bn, char *err)
+{
+	int i, j;
+
+	for (i = 0; i < na; i++)
+		for (j = 0; j < nb; j++)
+			if (a[i] == b[j])
+				return pr_err(err, PR_EINVAL, "%s: column '%s' is both %s and %s", pr_csv_path(t),
+				              pr_csv_name(t, a[i]), an, bn);
+	return PR_OK;
+}

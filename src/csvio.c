@@ -417,11 +417,28 @@ int pr_csv_read(const char *path, pr_csv **out, char *err)
 	return rc;
 }
 
+/* Append column j to cols[*n]: a column selected twice would give an output
+ * with two columns of one name (or a feature twice). */
+static int select_one(const pr_csv *t, const char *list, int *cols, int *n, int maxcols, int j,
+                      char *err)
+{
+	int i;
+
+	for (i = 0; i < *n; ++i)
+		if (cols[i] == j)
+			return pr_err(err, PR_EINVAL, "%s: column '%s' selected twice by '%s'", pr_csv_path(t),
+			              t->names[j], list);
+	if (*n >= maxcols)
+		return pr_err(err, PR_EINVAL, "%s: more than %d columns selected", pr_csv_path(t), maxcols);
+	cols[(*n)++] = j;
+	return PR_OK;
+}
+
 int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, char *err)
 {
 	char name[256];
 	const char *p = list, *q;
-	int n = 0, j;
+	int n = 0, j, rc;
 	size_t len;
 
 	if (!list || !*list)
@@ -437,10 +454,8 @@ int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, cha
 			int found = 0;
 			for (j = 0; j < t->ncols; ++j) {
 				if (strncmp(t->names[j], name, len - 1) == 0) {
-					if (n >= maxcols)
-						return pr_err(err, PR_EINVAL, "%s: more than %d columns selected",
-						              pr_csv_path(t), maxcols);
-					cols[n++] = j;
+					if ((rc = select_one(t, list, cols, &n, maxcols, j, err)))
+						return rc;
 					found = 1;
 				}
 			}
@@ -450,10 +465,8 @@ int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, cha
 			j = pr_csv_find(t, name);
 			if (j < 0)
 				return pr_err(err, PR_EINVAL, "%s: no column '%s'", pr_csv_path(t), name);
-			if (n >= maxcols)
-				return pr_err(err, PR_EINVAL, "%s: more than %d columns selected",
-				              pr_csv_path(t), maxcols);
-			cols[n++] = j;
+			if ((rc = select_one(t, list, cols, &n, maxcols, j, err)))
+				return rc;
 		}
 		p += len;
 		if (*p == ',')

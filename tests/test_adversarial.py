@@ -47,6 +47,7 @@ def only_repetition_0(lines):
     return [x for x in lines if not x.startswith(b"1,")]
 
 
+POLICY_Q = ["policy", "--train", "p.csv", "--weight", "w", "-i", "p.csv", "-q"]
 RUN_FILES = ("bench_curve.csv", "bench_summary.csv", "config.ini", "provenance.txt")
 
 CASES = [
@@ -116,6 +117,20 @@ CASES = [
          ("l.ini:2", "exp2.sizes", "20 listed twice"), dict(IN, **{"l.ini": b"[exp2]\nsizes = 20, 50,20\n"})),
     Case("c10_list_big_value_twice", ["config", "--set", "exp2.sizes=10000000,10000000"], USAGE,
          ("10000000 listed twice",)),
+
+    # 9. an output poolreps could not read back: two columns of one name
+    Case("c9_policy_state_listed_twice", POLICY_Q + ["--state", "s0,s0", "--action", "a0", "-o", "old.csv"],
+         IO, ("p.csv", "column 's0' selected twice"), IN),
+    Case("c9_policy_action_listed_twice", POLICY_Q + ["--state", "s0", "--action", "a0,a0"], IO,
+         ("column 'a0' selected twice",), IN),
+    Case("c9_reps_feature_by_prefix_and_name", ["reps", "--return", "R", "--features", "phi*,phi0", "-i",
+                                                "r.csv", "-q", "-o", "old.csv"], IO,
+         ("column 'phi0' selected twice by 'phi*,phi0'",), IN),
+    Case("c7_policy_state_is_the_action", POLICY_Q + ["--state", "s0", "--action", "s0"], USAGE,
+         ("column 's0' is both a state and an action",), IN),
+    Case("c7_policy_weight_is_the_action", ["policy", "--train", "p.csv", "--state", "s0", "--action", "a0",
+                                            "--weight", "a0", "-i", "p.csv", "-q"], USAGE,
+         ("column 'a0' is both the weight and an action",), IN),
 
     # 10. config refuses a variant the experiment does not have, as a run would
     Case("c10_config_variant_without_variants", ["config", "-c", QUAD, "--set", "experiment.variant=0",
