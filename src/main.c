@@ -584,6 +584,12 @@ int main(int argc, char **argv)
 		 * whatever status the code above it turned it into */
 		if (pr_out_of_memory && rc != PR_EINTR)
 			rc = PR_ENOMEM;
+		/* so is a signal that asked a run, merge, sweep or collect to stop
+		 * (SIGPIPE: the write to the closed pipe fails next) */
+		if (pr_interrupted && rc != PR_EINTR && rc != PR_ENOMEM) {
+			snprintf(msg, sizeof msg, "%s", err);
+			rc = pr_err(err, PR_EINTR, "interrupted by signal %d: %s", (int)pr_interrupted, msg);
+		}
 		fprintf(stderr, "poolreps: %s\n", err);
 		return pr_exit_code(rc);
 	}

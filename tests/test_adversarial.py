@@ -470,3 +470,20 @@ def test_every_allocation_failure_is_out_of_memory(name, args, step, failmalloc,
         assert snapshot(tmp_path) == before, n
         n += step
     assert n > 1, "the command allocated nothing"
+
+
+def test_sweep_missing_into_a_closed_pipe_is_sigpipe(tmp_path, sweeps):
+    """`sweep --missing DIR | head -0`: the reader is gone before the jobs
+    are written: exit 141 (SIGPIPE), one line, as documented."""
+    shutil.copytree(sweeps / "s", tmp_path / "s", symlinks=True)
+    for prov in (tmp_path / "s").glob("point-*/runs/*/provenance.txt"):
+        prov.unlink()
+    before = snapshot(tmp_path)
+    p = subprocess.Popen([binary(), "sweep", "--missing", "s"], cwd=tmp_path, env=env(),
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdout.close()
+    err = p.stderr.read()
+    p.wait(timeout=60)
+    assert p.returncode == 128 + signal.SIGPIPE, err
+    assert err.count(b"\n") == 1 and b"signal 13" in err, err
+    assert snapshot(tmp_path) == before
