@@ -60,7 +60,7 @@ typedef struct {
 } command;
 
 static const command commands[] = {
-	{"run", "c,o,set,seed", pr_cmd_run,
+	{"run", "c,o,set,seed,progress", pr_cmd_run,
 	 "poolreps [run] CONFIG [-o DIR] [--set section.key=value]... [--seed N] [-q]\n"
 	 "  Run the experiment a parameter file describes; write CSVs, figures' data and\n"
 	 "  provenance into DIR (default: results/<experiment.name>; figures: results/sim)."},
@@ -186,7 +186,7 @@ static void common_options(FILE *fp)
 	        "  --seed N             master seed (experiment.seed)\n"
 	        "  -i FILE, -o FILE     input (default stdin) and output (default stdout)\n"
 	        "  -q                   quiet: no progress, no summary line\n"
-	        "  --progress           progress lines on stderr when it is no terminal\n"
+	        "  --progress           run: progress lines on stderr when it is no terminal\n"
 	        "                       (batch logs; a failure's line then follows them)\n"
 	        "  -h, --help           this help; after a COMMAND, that command's usage\n"
 	        "  --help-keys          every parameter key with default, unit and range\n"
@@ -445,7 +445,7 @@ int main(int argc, char **argv)
 				FAIL("unknown option -%c (see poolreps --help)", optopt);
 			FAIL("unknown option %s (see poolreps --help)", argv[optind - 1]);
 		}
-		if (c != 'q' && c != 'h' && c != O_PROGRESS) {
+		if (c != 'q' && c != 'h') {
 			/* a value given twice would silently drop the first (--set and
 			 * --grid repeat by design) */
 			for (k = 0; c != O_SET && c != O_GRID && k < nused; ++k)
@@ -521,6 +521,9 @@ int main(int argc, char **argv)
 	}
 	if (command_keys(cmd) && seed && !pr_config_key_listed(command_keys(cmd), "experiment.seed"))
 		FAIL("%s: option --seed does not apply (see poolreps %s --help)", cmd->name, cmd->name);
+	/* -q silences the progress --progress asks for */
+	if (progress_lines && a.quiet)
+		FAIL("%s: -q and --progress contradict: give one", cmd->name);
 	/* sweep --missing only reads SWEEP_DIR: every other option would be ignored */
 	if (a.missing && (a.output || a.ngrid || nsets || seed || a.split))
 		FAIL("sweep: --missing takes no other option (%s given)", a.output ? "-o" : a.ngrid ?

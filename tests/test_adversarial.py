@@ -95,6 +95,12 @@ CASES = [
     Case("c7_sweep_missing_with_split", ["sweep", "--missing", "s", "--split", "variant"], USAGE,
          ("--missing", "--split")),
 
+    # 7. --progress: only run reports progress, and -q would silence it
+    Case("c7_progress_on_a_command_without_progress", ["config", "--progress", "-o", "old.csv"], USAGE,
+         ("--progress does not apply",), IN),
+    Case("c7_progress_and_quiet", ["run"] + RUN_Q + ["--progress", "-o", "new"], USAGE,
+         ("-q and --progress contradict",)),
+
     # 7. a run never reads another experiment's keys: a --set or --grid of one is refused
     Case("c7_run_set_key_of_another_experiment", ["run"] + RUN_Q + ["-o", "new", "--set",
                                                                "exp3.iterations=5"], USAGE,
