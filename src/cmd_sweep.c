@@ -657,6 +657,8 @@ int pr_cmd_sweep(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		              pr_config_where(cfg, cfg->run.repetition >= 0 ? "experiment.repetition" :
 		                              "experiment.variant", at, sizeof at),
 		              cfg->run.repetition >= 0 ? "repetition" : "variant");
+	/* what a sweep killed with SIGKILL left is no content */
+	pr_outdir_sweep_stale(a->output);
 	if ((rc = check_empty(a->output, err)))
 		return rc;
 	return pr_outdir_run(cfg, a, a->output, sweep_work, err);

@@ -493,3 +493,20 @@ def test_sweep_missing_into_a_closed_pipe_is_sigpipe(tmp_path, sweeps):
     assert p.returncode == 128 + signal.SIGPIPE, err
     assert err.count(b"\n") == 1 and b"signal 13" in err, err
     assert snapshot(tmp_path) == before
+
+
+def test_sweep_into_a_folder_a_killed_sweep_left(tmp_path):
+    """A sweep killed with SIGKILL leaves SWEEP_DIR/.partial-PID: the next
+    sweep into the folder removes it (its PID is gone) rather than calling
+    the folder not empty; a live sweep's staging still makes it refuse."""
+    stale = tmp_path / "sw" / f".partial-{dead_pid()}"
+    (stale / "point-0").mkdir(parents=True)
+    (stale / "jobs.txt").write_bytes(b"x\n")
+    r = run(["sweep", QUAD, "--grid", "bench.samples=30,40", "-o", "sw"] + SWEEP_Q, tmp_path)
+    assert r.returncode == OK, r.stderr
+    assert not stale.exists() and (tmp_path / "sw" / "jobs.txt").exists()
+    live = tmp_path / "sw2" / f".partial-{os.getpid()}"
+    live.mkdir(parents=True)
+    r = run(["sweep", QUAD, "--grid", "bench.samples=30,40", "-o", "sw2"] + SWEEP_Q, tmp_path)
+    assert r.returncode == IO and b"not empty" in one_line(r).encode()
+    assert live.exists()
