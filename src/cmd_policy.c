@@ -124,6 +124,14 @@ static int read_samples(const pr_cmd_args *a, int reward, int old, samples *m, c
 		              pr_csv_path(m->tr), dm, m->da);
 	if (a->weight && (wcol = pr_cmd_column(m->tr, a->weight, "--weight", err)) < 0)
 		return wcol;
+	/* a column cannot be the state, the action and the weight at once */
+	rc = pr_cmd_disjoint(m->tr, m->sc, m->ds, "a state", m->ac, m->da, "an action", err);
+	if (rc == PR_OK && wcol >= 0)
+		rc = pr_cmd_disjoint(m->tr, &wcol, 1, "the weight", m->sc, m->ds, "a state", err);
+	if (rc == PR_OK && wcol >= 0)
+		rc = pr_cmd_disjoint(m->tr, &wcol, 1, "the weight", m->ac, m->da, "an action", err);
+	if (rc)
+		return rc;
 	if ((rc = pr_cmd_check_rows(m->tr, err)))
 		return rc;
 	if (!(m->qc = malloc((size_t)m->ds * sizeof *m->qc)))

@@ -103,13 +103,60 @@ static int input_config(const pr_cmd_args *a, int k, pr_config *c, char *err)
 {
 	char path[PR_PATHLEN + 16];
 	struct stat st;
+	int rc;
 
 	pr_config_init(c, pr_exp_config);
 	snprintf(path, sizeof path, "%s/config.ini", a->inputs[k]);
 	/* a run folder holds a plain file: a FIFO would block the read */
 	if (stat(path, &st) == 0 && !S_ISREG(st.st_mode))
 		return pr_err(err, PR_EIO, "%s: not a regular file", path);
-	return pr_config_load(c, path, err);
+	if ((rc = pr_config_load(c, path, err)))
+		return rc;
+	/* a run publishes provenance.txt last: without it the folder is no finished run */
+	snprintf(path, sizeof path, "%s/provenance.txt", a->inputs[k]);
+	if (stat(path, &st) != 0)
+		return pr_err(err, pr_errno_status(), "%s: not a finished run: %s", path, strerror(errno));
+	if (!S_ISREG(st.st_mode))
+		return pr_err(err, PR_EIO, "%s: not a regular file", path);
+	return PR_OK;
+}
+
+/* One process writes as many rows of a raw CSV for every repetition: a row
+ * lost or repeated (a truncated or edited file) shows as another count.
+ * rows are sorted by repetition. */
+static int same_rows_each_repetition(const merge_ctx *m, const mrow *rows, long n, const char *name,
+                                     char *err)
+{
+	long i, first = 0, count0 = -1;
+	int src0 = 0;
+
+	for (i = 1; i <= n; ++i) {
+		if (i < n && rows[i].rep == rows[first].rep)
+			continue;
+		if (count0 < 0) {
+			count0 = i - first;
+			src0 = rows[first].src;
+		} else if (i - first != count0) {
+			return pr_err(err, PR_EIO, "%s/%s: %ld rows of repetition %ld, but %s/%s has %ld of "
+			              "repetition %ld (a row lost or repeated?)", m->a->inputs[rows[first].src],
+			              name, i - first, rows[first].rep, m->a->inputs[src0], name, count0,
+			              rows[0].rep);
+		}
+		first = i;
+	}
+	/* a repetition without rows while others have some */
+	if (count0 > 0 && n != count0 * m->nrep) {
+		long r;
+		int k;
+		for (r = 0, i = 0; i < n && rows[i].rep == r; i += count0, ++r)
+			;
+		for (k = 0; k < m->a->ninputs - 1 && m->rep[k] >= 0 && m->rep[k] != r; ++k)
+			;
+		return pr_err(err, PR_EIO, "%s/%s: no rows of repetition %ld, but %s/%s has %ld of "
+		              "repetition %ld", m->a->inputs[k], name, r, m->a->inputs[src0], name,
+		              count0, rows[0].rep);
+	}
+	return PR_OK;
 }
 
 /* Read the raw CSV `name` of every input folder (complete files, one header,
@@ -162,6 +209,8 @@ static int merge_csv(merge_ctx *m, const char *name, const char *outdir, char *e
 			rc = pr_err(err, PR_EINVAL, "%s/%s and %s/%s both hold repetition %ld",
 			            a->inputs[rows[i - 1].src], name, a->inputs[rows[i].src], name,
 			            rows[i].rep);
+	if (rc == PR_OK)
+		rc = same_rows_each_repetition(m, rows, n, name, err);
 	if (rc == PR_OK) {
 		o->name = strdup(name);
 		o->src = malloc((size_t)(n ? n : 1) * sizeof *o->src);
@@ -210,24 +259,30 @@ static int is_raw_csv(const char *dir, const char *name)
 	/* a FIFO would block the open */
 	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
 		return 0;
-	fp = fopen(path, "r");
-	if (!fp)
-		return 0;
+	/* unreadable: it may be a raw CSV, so the caller refuses it */
+	if (!(fp = fopen(path, "r")))
+		return -1;
 	if (!fgets(buf, sizeof buf, fp))
 		buf[0] = '\0';
 	fclose(fp);
 	return strncmp(buf, "repetition,", 11) == 0;
 }
 
-/* The raw CSVs (leading repetition column) of folder dir. */
+/* The raw CSVs (leading repetition column) of folder dir; a .csv file it
+ * cannot read is an error. */
 static int raw_csvs(const char *dir, pr_names *out, char *err)
 {
 	pr_names all = {NULL, 0};
 	int i, rc = pr_outdir_list(dir, &all, err);
 
-	for (i = 0; rc == PR_OK && i < all.n; ++i)
-		if (is_raw_csv(dir, all.name[i]) && pr_names_add(out, all.name[i], strlen(all.name[i])))
+	for (i = 0; rc == PR_OK && i < all.n; ++i) {
+		int raw = is_raw_csv(dir, all.name[i]);
+		if (raw < 0)
+			rc = pr_err(err, pr_errno_status(), "%s/%s: cannot open: %s", dir, all.name[i],
+			            strerror(errno));
+		else if (raw && pr_names_add(out, all.name[i], strlen(all.name[i])))
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
+	}
 	pr_names_free(&all);
 	return rc;
 }
@@ -351,7 +406,7 @@ int pr_cmd_merge(const pr_config *cfg0, const pr_cmd_args *a, char *err)
 	pr_variants variants;
 	char key[64], va[160], vb[160];
 	char *out, *in;
-	int rc, k;
+	int rc, k, d;
 
 	(void)cfg0;
 	if (!a->output)
@@ -362,12 +417,17 @@ int pr_cmd_merge(const pr_config *cfg0, const pr_cmd_args *a, char *err)
 	 * must agree in everything but the repetition and the variant */
 	if ((rc = input_config(a, 0, &cfg, err)))
 		return rc;
-	for (k = 1; rc == PR_OK && k < a->ninputs; ++k)
-		if ((rc = input_config(a, k, &other, err)) == PR_OK &&
-		    pr_config_diff(&cfg, &other, may_differ, key, sizeof key, va, vb, sizeof va))
+	for (k = 1; rc == PR_OK && k < a->ninputs; ++k) {
+		if ((rc = input_config(a, k, &other, err)))
+			break;
+		d = pr_config_diff(&cfg, &other, may_differ, key, sizeof key, va, vb, sizeof va);
+		if (d < 0)
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+		else if (d)
 			rc = pr_err(err, PR_EINVAL, "%s/config.ini: %s = %s, but %s/config.ini has %s (merged "
 			            "runs may differ only in experiment.repetition and experiment.variant)",
 			            a->inputs[k], key, vb, a->inputs[0], va);
+	}
 	cfg.run.variant = -1;
 	if (rc == PR_OK)
 		rc = pr_exp_variants(&cfg, &variants, err);

@@ -20,12 +20,11 @@
  * `collect` merges each point's job folders through `poolreps merge` (its
  * checks included) into point-P/merged, and writes sweep_summary.csv: the
  * grid values, then every row of the experiment's summary CSV. All of it is
- * staged in SWEEP_DIR/.collect-PID and moved into place only at the end.
+ * staged in SWEEP_DIR/.partial-PID and moved into place only at the end.
  */
-#define _XOPEN_SOURCE 700 /* nftw */
+#define _XOPEN_SOURCE 700 /* realpath */
 #include <dirent.h>
 #include <errno.h>
-#include <ftw.h>
 #include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -88,20 +87,6 @@ static void fmt(char *buf, size_t n, const char *f, ...)
 	va_start(ap, f);
 	vsnprintf(buf, n, f, ap);
 	va_end(ap);
-}
-
-static int rm_entry(const char *path, const struct stat *st, int flag, struct FTW *f)
-{
-	(void)st;
-	(void)flag;
-	(void)f;
-	return remove(path);
-}
-
-/* Remove path and everything below it (symlinks themselves, not their targets). */
-static void remove_all(const char *path)
-{
-	nftw(path, rm_entry, 16, FTW_DEPTH | FTW_PHYS);
 }
 
 static int exists(const char *path)
@@ -271,7 +256,7 @@ static FILE *open_text(const char *dir, const char *name, char *path, char *err)
 
 	fmt(path, PR_PATHLEN, "%s/%s", dir, name);
 	if (!(fp = fopen(path, "w")))
-		pr_err(err, PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+		pr_err(err, pr_errno_status(), "%s: cannot write: %s", path, strerror(errno));
 	return fp;
 }
 
@@ -281,6 +266,23 @@ static int close_text(FILE *fp, const char *path, char *err)
 
 	bad |= fclose(fp) != 0;
 	return bad ? pr_err(err, PR_EIO, "%s: write error", path) : PR_OK;
+}
+
+/* Slurm's --output: '%' in the folder's own name is written as "%%", a
+ * literal '%' to Slurm, which expands only the %A_%a of the log name. */
+static void slurm_log_path(FILE *fp, const char *root)
+{
+	char path[PR_PATHLEN];
+	size_t n = 0;
+	const char *c;
+
+	for (c = root; *c && n + 3 < sizeof path; ++c) {
+		if (*c == '%')
+			path[n++] = '%';
+		path[n++] = *c;
+	}
+	path[n] = '\0';
+	put_path(fp, path, "logs/%A_%a.out");
 }
 
 /* slurm.sbatch and parallel.sh: the two ways to run jobs.txt. */
@@ -303,7 +305,7 @@ static int write_runners(const char *dir, const char *root, long njobs, int thre
 	      "#SBATCH --job-name=poolreps-sweep\n", fp);
 	fprintf(fp, "#SBATCH --array=0-%ld\n#SBATCH --cpus-per-task=%d\n#SBATCH --output=", njobs - 1,
 	        threads);
-	put_path(fp, root, "logs/%A_%a.out");
+	slurm_log_path(fp, root);
 	fputs("\nset -e\njobs=${1:-", fp);
 	put_path(fp, root, "jobs.txt");
 	fputs("}\n"
@@ -394,7 +396,7 @@ static int sweep_point(sweep_out *s, long p, char *err)
 		rc = pr_err(err, PR_EINVAL, "sweep: more than %ld jobs", MAX_JOBS);
 	fmt(path, sizeof path, "%s/%s", s->dir, point);
 	if (rc == PR_OK && mkdir(path, 0777) != 0)
-		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", path, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", path, strerror(errno));
 	if (rc == PR_OK)
 		rc = pr_outdir_write_config(&pt, path, err);
 	for (r = 0; rc == PR_OK && r < nr; ++r)
@@ -433,16 +435,21 @@ static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 	s.dir = dir;
 	rc = parse_grid(a, &g, err);
 	if (rc == PR_OK && !realpath(dir, s.root))
-		rc = pr_err(err, PR_EIO, "%s: cannot resolve: %s", dir, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot resolve: %s", dir, strerror(errno));
 	if (rc == PR_OK && (slash = strrchr(s.root, '/')))
 		*slash = '\0';
 	if (rc == PR_OK && strlen(s.root) > ROOTMAX)
 		rc = pr_err(err, PR_EINVAL, "%.100s...: path too long", s.root);
 	/* the jobs run this very binary, by its absolute path */
 	if (rc == PR_OK && (n = readlink("/proc/self/exe", s.exe, sizeof s.exe - 1)) < 0)
-		rc = pr_err(err, PR_EIO, "/proc/self/exe: cannot find this executable: %s", strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "/proc/self/exe: cannot find this executable: %s", strerror(errno));
 	else if (rc == PR_OK)
 		s.exe[n] = '\0';
+	/* jobs.txt holds one job a line, and slurm.sbatch reads it with sed */
+	if (rc == PR_OK && (strchr(s.root, '\n') || strchr(s.exe, '\n')))
+		rc = pr_err(err, PR_EINVAL, "%s: a line break in the path of the %s: jobs.txt holds one "
+		            "job a line", strchr(s.root, '\n') ? s.root : s.exe,
+		            strchr(s.root, '\n') ? "sweep folder" : "poolreps executable");
 	if (rc == PR_OK && !(s.jobs = open_text(dir, "jobs.txt", path, err)))
 		rc = PR_EIO;
 	if (rc == PR_OK)
@@ -461,7 +468,7 @@ static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 		rc = pr_csvw_finish(s.man, rc, err);
 	fmt(path, sizeof path, "%s/logs", dir);
 	if (rc == PR_OK && mkdir(path, 0777) != 0)
-		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", path, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", path, strerror(errno));
 	if (rc == PR_OK)
 		rc = write_runners(dir, s.root, s.njobs, s.cpus, err);
 	if (rc != PR_OK) {
@@ -469,7 +476,7 @@ static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 			char point[64];
 			point_name(point, sizeof point, p, g.npoints);
 			fmt(path, sizeof path, "%s/%s", dir, point);
-			remove_all(path);
+			pr_remove_tree(path);
 		}
 		fmt(path, sizeof path, "%s/logs", dir);
 		rmdir(path);
@@ -486,7 +493,7 @@ static int check_empty(const char *dir, char *err)
 	int rc = PR_OK;
 
 	if (!d)
-		return errno == ENOENT ? PR_OK : pr_err(err, PR_EIO, "%s: cannot read folder: %s", dir,
+		return errno == ENOENT ? PR_OK : pr_err(err, pr_errno_status(), "%s: cannot read folder: %s", dir,
 		                                        strerror(errno));
 	while (rc == PR_OK && (e = readdir(d)))
 		if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0)
@@ -594,10 +601,9 @@ static int not_done(const char *root, const manifest *m, long nbad, char *err)
 static int print_missing(const char *root, char *err)
 {
 	manifest m;
-	char path[PR_PATHLEN], *line = NULL;
-	size_t cap = 0;
+	char path[PR_PATHLEN], line[3 * PR_PATHLEN]; /* a job: three paths and options */
 	long i = 0;
-	ssize_t len;
+	size_t len;
 	FILE *fp = NULL;
 	pr_csvw *w = NULL;
 	int rc;
@@ -605,14 +611,19 @@ static int print_missing(const char *root, char *err)
 	rc = manifest_read(root, &m, err);
 	fmt(path, sizeof path, "%s/jobs.txt", root);
 	if (rc == PR_OK && !(fp = fopen(path, "r")))
-		rc = pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot open: %s", path, strerror(errno));
 	if (rc == PR_OK && !(w = pr_csvw_open(NULL, err)))
 		rc = PR_EIO;
-	while (rc == PR_OK && (len = getline(&line, &cap, fp)) != -1) {
-		if (i >= m.njobs)
+	/* read in a fixed buffer: memory stays bounded whatever jobs.txt holds */
+	while (rc == PR_OK && fgets(line, sizeof line, fp)) {
+		len = strlen(line);
+		if (len == 0 || (line[len - 1] != '\n' && !feof(fp)))
+			rc = pr_err(err, PR_EIO, "%s:%ld: NUL byte or line longer than %zu bytes", path, i + 1,
+			            sizeof line - 2);
+		else if (i >= m.njobs)
 			rc = pr_err(err, PR_EIO, "%s:%ld: more jobs than manifest.csv lists", path, i + 1);
 		else if (m.state[i++] != JOB_DONE)
-			pr_csvw_raw(w, line, (size_t)len);
+			pr_csvw_raw(w, line, len);
 	}
 	if (rc == PR_OK && i < m.njobs)
 		rc = pr_err(err, PR_EIO, "%s: %ld jobs, but manifest.csv lists %ld", path, i, m.njobs);
@@ -620,7 +631,6 @@ static int print_missing(const char *root, char *err)
 		rc = pr_csvw_finish(w, rc, err);
 	if (fp)
 		fclose(fp);
-	free(line);
 	manifest_free(&m);
 	return rc;
 }
@@ -647,6 +657,8 @@ int pr_cmd_sweep(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		              pr_config_where(cfg, cfg->run.repetition >= 0 ? "experiment.repetition" :
 		                              "experiment.variant", at, sizeof at),
 		              cfg->run.repetition >= 0 ? "repetition" : "variant");
+	/* what a sweep killed with SIGKILL left is no content */
+	pr_outdir_sweep_stale(a->output);
 	if ((rc = check_empty(a->output, err)))
 		return rc;
 	return pr_outdir_run(cfg, a, a->output, sweep_work, err);
@@ -654,35 +666,26 @@ int pr_cmd_sweep(const pr_config *cfg, const pr_cmd_args *a, char *err)
 
 /* ---- collect ---- */
 
-/* PR_EINVAL unless the configuration files p1 (a point's) and p2 (its
- * merged jobs') are alike but for comments (the version line). */
-static int same_config(const char *p1, const char *p2, char *err)
+/* PR_EINVAL unless the point's configuration pt (read from mine) is the one
+ * its jobs ran (the merged folder's config.ini, read like any parameter
+ * file: memory stays bounded whatever the files hold). */
+static int same_config(const pr_config *pt, const char *mine, const char *merged, char *err)
 {
-	FILE *f1 = fopen(p1, "r"), *f2 = fopen(p2, "r");
-	char *l1 = NULL, *l2 = NULL;
-	size_t c1 = 0, c2 = 0;
-	ssize_t n1, n2;
-	int rc = PR_OK;
+	pr_config *ran = malloc(sizeof *ran);
+	char key[64], va[160], vb[160];
+	int rc, d;
 
-	if (!f1 || !f2)
-		rc = pr_err(err, PR_EIO, "%s: cannot open: %s", f1 ? p2 : p1, strerror(errno));
-	while (rc == PR_OK) {
-		while ((n1 = getline(&l1, &c1, f1)) > 0 && l1[0] == ';')
-			;
-		while ((n2 = getline(&l2, &c2, f2)) > 0 && l2[0] == ';')
-			;
-		if (n1 < 0 && n2 < 0)
-			break;
-		if (n1 < 0 || n2 < 0 || strcmp(l1, l2) != 0)
-			rc = pr_err(err, PR_EINVAL, "%s: differs from the configuration the jobs ran with",
-			            p1);
-	}
-	if (f1)
-		fclose(f1);
-	if (f2)
-		fclose(f2);
-	free(l1);
-	free(l2);
+	if (!ran)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	pr_config_init(ran, pr_exp_config);
+	rc = pr_config_load(ran, merged, err);
+	d = rc == PR_OK ? pr_config_diff(pt, ran, NULL, key, sizeof key, va, vb, sizeof va) : 0;
+	if (d < 0)
+		rc = pr_err(err, PR_ENOMEM, "out of memory");
+	else if (d)
+		rc = pr_err(err, PR_EINVAL, "%s: differs from the configuration the jobs ran with (%s = %s, "
+		            "jobs: %s)", mine, key, va, vb);
+	free(ran);
 	return rc;
 }
 
@@ -722,6 +725,35 @@ static int check_header(collector *c, const pr_exp_table *t, char *err)
 	return PR_OK;
 }
 
+/* Row i of the manifest names in grid column j the value point config pt
+ * (read from cfg) holds: a wrong one would label the point's rows wrongly. */
+static int check_grid_value(const collector *c, long i, int j, const pr_config *pt, const char *cfg,
+                            char *err)
+{
+	const manifest *m = c->m;
+	const char *name = pr_exp_table_name(m->t, 2 + j), *value = pr_exp_table_str(m->t, i, 2 + j);
+	pr_config *v = malloc(sizeof *v);
+	char set[PR_ERRLEN], key[64], va[160], vb[160];
+	int rc = PR_OK, d;
+
+	if (!v)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	*v = *pt;
+	snprintf(set, sizeof set, "%s=%s", name, value);
+	if (pr_config_set(v, set, err) != PR_OK) {
+		const char *why = strncmp(err, "--set: ", 7) == 0 ? err + 7 : err;
+		snprintf(set, sizeof set, "%s", why);
+		rc = pr_err(err, PR_EIO, "%s/manifest.csv:%ld: %s", c->root, pr_exp_table_line(m->t, i), set);
+	} else if ((d = pr_config_diff(pt, v, NULL, key, sizeof key, va, vb, sizeof va)) < 0) {
+		rc = pr_err(err, PR_ENOMEM, "out of memory");
+	} else if (d) {
+		rc = pr_err(err, PR_EIO, "%s/manifest.csv:%ld: column '%s': '%.60s', but %s ran %s = %s",
+		            c->root, pr_exp_table_line(m->t, i), name, value, cfg, key, va);
+	}
+	free(v);
+	return rc;
+}
+
 /* Merge point p's job folders into stage/point-P, add its summary rows. */
 static int collect_point(collector *c, long p, long first, long last, char *err)
 {
@@ -755,11 +787,14 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 		rc = pr_cmd_merge(c->cfg, &ma, err);
 	fmt(mine, sizeof mine, "%s/%s/config.ini", c->root, point);
 	fmt(path, sizeof path, "%s/config.ini", out);
-	if (rc == PR_OK)
-		rc = same_config(mine, path, err);
 	pr_config_init(&pt, pr_exp_config);
 	if (rc == PR_OK)
 		rc = pr_config_load(&pt, mine, err);
+	if (rc == PR_OK)
+		rc = same_config(&pt, mine, path, err);
+	for (i = first; rc == PR_OK && i < last; ++i)
+		for (j = 0; rc == PR_OK && j < m->nax; ++j)
+			rc = check_grid_value(c, i, j, &pt, mine, err);
 	if (rc == PR_OK && (!(e = pr_exp_find(pt.run.name)) || !e->summary))
 		rc = pr_err(err, PR_EINVAL, "%s: experiment.name: %s has no summary table", mine, pt.run.name);
 	if (rc == PR_OK) {
@@ -782,26 +817,53 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 	return rc;
 }
 
-/* Move every stage/point-P to point-P/merged (an older one goes into the
- * stage, removed with it), then sweep_summary.csv. */
+/* Every stage/point-P into point-P/merged and stage/summary/sweep_summary.csv
+ * into SWEEP_DIR, all or nothing (pr_outdir_publish): a merged folder is a
+ * run folder (files poolreps did not write stay), a file where it must go is
+ * refused before anything moves, and a failure leaves every one as it was. */
 static int publish_collected(const collector *c, char *err)
 {
-	char point[64], from[PR_PATHLEN], to[PR_PATHLEN], old[PR_PATHLEN];
+	const long np = c->m->npoints;
+	pr_outdir_pub *pub = calloc((size_t)np + 1, sizeof *pub);
+	char *made = calloc((size_t)np + 1, 1), point[64], path[PR_PATHLEN];
+	struct stat st;
 	long p;
+	int rc = pub && made ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
 
-	for (p = 0; p < c->m->npoints; ++p) {
-		point_name(point, sizeof point, p, c->m->npoints);
-		fmt(from, sizeof from, "%s/%s", c->stage, point);
-		fmt(to, sizeof to, "%s/%s/merged", c->root, point);
-		fmt(old, sizeof old, "%s/old-%s", c->stage, point);
-		if ((exists(to) && rename(to, old) != 0) || rename(from, to) != 0)
-			return pr_err(err, PR_EIO, "%s: cannot move into place: %s", to, strerror(errno));
+	for (p = 0; rc == PR_OK && p <= np; ++p) {
+		point_name(point, sizeof point, p, np);
+		if (p < np)
+			fmt(path, sizeof path, "%s/%s", c->stage, point);
+		else
+			fmt(path, sizeof path, "%s/summary", c->stage);
+		pub[p].staging = strdup(path);
+		if (p < np)
+			fmt(path, sizeof path, "%s/%s/merged", c->root, point);
+		pub[p].dir = p < np ? strdup(path) : c->root;
+		pub[p].owns = p < np;
+		/* one lock on SWEEP_DIR serialises collects of one sweep */
+		pub[p].lock = p == np;
+		if (!pub[p].staging || !pub[p].dir)
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+		else if (p < np && stat(path, &st) == 0 && !S_ISDIR(st.st_mode))
+			rc = pr_err(err, PR_EIO, "%s: exists and is not a folder", path);
+		else if (p < np && mkdir(path, 0777) == 0)
+			made[p] = 1;
+		else if (p < np && errno != EEXIST)
+			rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", path, strerror(errno));
 	}
-	fmt(from, sizeof from, "%s/sweep_summary.csv", c->stage);
-	fmt(to, sizeof to, "%s/sweep_summary.csv", c->root);
-	if (rename(from, to) != 0)
-		return pr_err(err, PR_EIO, "%s: cannot move into place: %s", to, strerror(errno));
-	return PR_OK;
+	if (rc == PR_OK)
+		rc = pr_outdir_publish(pub, (int)np + 1, err);
+	for (p = 0; pub && p <= np; ++p) {
+		if (rc != PR_OK && made && made[p])
+			rmdir(pub[p].dir);
+		free((char *)pub[p].staging);
+		if (p < np)
+			free((char *)pub[p].dir);
+	}
+	free(pub);
+	free(made);
+	return rc;
 }
 
 int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
@@ -830,11 +892,16 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	c.a = a;
 	c.root = a->inputs[0];
 	c.m = &m;
-	fmt(c.stage, sizeof c.stage, "%s/.collect-%ld", c.root, (long)getpid());
-	remove_all(c.stage);
-	if (mkdir(c.stage, 0777) != 0)
-		rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", c.stage, strerror(errno));
-	fmt(path, sizeof path, "%s/sweep_summary.csv", c.stage);
+	/* staged like a run's folder: a signal removes it, and the next collect
+	 * one left by SIGKILL */
+	fmt(c.stage, sizeof c.stage, "%s/.partial-%ld", c.root, (long)getpid());
+	pr_outdir_sweep_stale(c.root);
+	pr_remove_tree(c.stage);
+	fmt(path, sizeof path, "%s/summary", c.stage);
+	if (mkdir(c.stage, 0777) != 0 || mkdir(path, 0777) != 0)
+		rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", c.stage, strerror(errno));
+	pr_cleanup_set_dir(c.stage, c.root, strlen(c.root));
+	fmt(path, sizeof path, "%s/summary/sweep_summary.csv", c.stage);
 	if (rc == PR_OK && !(c.w = pr_csvw_open(path, err)))
 		rc = PR_EIO;
 	/* jobs are listed point by point */
@@ -849,11 +916,14 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	}
 	if (c.w)
 		rc = pr_csvw_finish(c.w, rc, err);
+	if (rc == PR_OK && pr_interrupted)
+		rc = PR_EINTR;
 	if (rc == PR_OK)
 		rc = publish_collected(&c, err);
 	else if (pr_interrupted)
 		rc = pr_err(err, PR_EINTR, "interrupted: nothing collected, %s left as it was", c.root);
-	remove_all(c.stage);
+	pr_remove_tree(c.stage);
+	pr_cleanup_clear_dir();
 	manifest_free(&m);
 	return rc;
 }

@@ -1,4 +1,5 @@
 /* cmd_util.c — steps the table commands share (cmd_util.h). */
+#include <math.h>
 #include <stdlib.h>
 
 #include "cmd_util.h"
@@ -69,5 +70,22 @@ int pr_cmd_weights(const pr_csv *t, int col, const char *name, const char *what,
 	}
 	if (!(s > 0.0))
 		return pr_err(err, PR_EINVAL, "%s: column '%s': %ss are all zero", pr_csv_path(t), name, what);
+	/* only their ratios matter, but a sum that overflows makes every share 0 */
+	if (!isfinite(s))
+		return pr_err(err, PR_EINVAL, "%s: column '%s': the %ss sum past the largest number: "
+		              "scale them down", pr_csv_path(t), name, what);
+	return PR_OK;
+}
+
+int pr_cmd_disjoint(const pr_csv *t, const int *a, int na, const char *an, const int *b, int nb,
+                    const char *bn, char *err)
+{
+	int i, j;
+
+	for (i = 0; i < na; i++)
+		for (j = 0; j < nb; j++)
+			if (a[i] == b[j])
+				return pr_err(err, PR_EINVAL, "%s: column '%s' is both %s and %s", pr_csv_path(t),
+				              pr_csv_name(t, a[i]), an, bn);
 	return PR_OK;
 }

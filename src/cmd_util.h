@@ -32,4 +32,9 @@ double *pr_cmd_matrix(const pr_csv *t, const int *cols, int k, char *err);
 int pr_cmd_weights(const pr_csv *t, int col, const char *name, const char *what, double **w,
                    char *err);
 
+/* PR_EINVAL if a column is in both lists a (na columns, named an in the
+ * message, e.g. "a state") and b: "file: column 'x' is both a state and an action". */
+int pr_cmd_disjoint(const pr_csv *t, const int *a, int na, const char *an, const int *b, int nb,
+                    const char *bn, char *err);
+
 #endif

@@ -138,8 +138,11 @@ const int pr_fatal_signals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGXF
 
 #define MAX_TRACKED 64
 static char tracked[MAX_TRACKED][PATH_MAX];
-static char staging_dir[PATH_MAX], created_dir[PATH_MAX];
-static size_t created_keep;
+/* staging folders, nested (collect stages the merges it runs): at most 2 */
+#define MAX_STAGING 2
+static char staging_dir[MAX_STAGING][PATH_MAX], created_dir[MAX_STAGING][PATH_MAX];
+static size_t created_keep[MAX_STAGING];
+static volatile sig_atomic_t nstaging;
 static pthread_mutex_t tracked_mu = PTHREAD_MUTEX_INITIALIZER;
 
 void pr_cleanup_add_file(const char *path)
@@ -170,15 +173,22 @@ void pr_cleanup_remove_file(const char *path)
 
 void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep)
 {
-	snprintf(created_dir, sizeof created_dir, "%s", dir);
-	created_keep = keep;
-	snprintf(staging_dir, sizeof staging_dir, "%s", staging);
+	int k = nstaging < MAX_STAGING ? nstaging : MAX_STAGING - 1;
+
+	snprintf(created_dir[k], sizeof created_dir[k], "%s", dir);
+	created_keep[k] = keep;
+	snprintf(staging_dir[k], sizeof staging_dir[k], "%s", staging);
+	nstaging = k + 1;
 }
 
 void pr_cleanup_clear_dir(void)
 {
-	staging_dir[0] = '\0';
-	created_dir[0] = '\0';
+	if (nstaging > 0) {
+		int k = nstaging - 1;
+		nstaging = k;
+		staging_dir[k][0] = '\0';
+		created_dir[k][0] = '\0';
+	}
 }
 
 struct dirent64_raw {
@@ -189,51 +199,63 @@ struct dirent64_raw {
 	char name[];
 };
 
-/* Remove the files of dir, then dir, with async-signal-safe calls only.
- * Another thread may still add a file: list again until rmdir succeeds. */
-static void remove_dir_now(const char *dir)
+/* Remove name (in folder parent) and everything below it, depth folders
+ * deep, with async-signal-safe calls only. Another thread may still add a
+ * file: list again until the folder is gone. */
+static void remove_dir_at(int parent, const char *name, int depth)
 {
-	long buf[1024];
+	long buf[512];
 	int pass, fd;
 
 	for (pass = 0; pass < 8; ++pass) {
 		long n;
-		if ((fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC)) < 0)
+		if ((fd = openat(parent, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC)) < 0)
 			return;
 		while ((n = syscall(SYS_getdents64, fd, buf, sizeof buf)) > 0) {
 			long off = 0;
 			while (off < n) {
 				const struct dirent64_raw *d = (const void *)((const char *)buf + off);
 				off += d->reclen;
-				if (strcmp(d->name, ".") && strcmp(d->name, ".."))
-					unlinkat(fd, d->name, 0);
+				if (strcmp(d->name, ".") && strcmp(d->name, "..") &&
+				    unlinkat(fd, d->name, 0) != 0 && errno == EISDIR && depth > 0)
+					remove_dir_at(fd, d->name, depth - 1);
 			}
 		}
 		close(fd);
-		if (rmdir(dir) == 0 || errno != ENOTEMPTY)
+		if (unlinkat(parent, name, AT_REMOVEDIR) == 0 || errno != ENOTEMPTY)
 			return;
 	}
 }
 
+void pr_remove_tree(const char *dir)
+{
+	remove_dir_at(AT_FDCWD, dir, 8);
+}
+
 void pr_cleanup_run(void)
 {
-	int i, saved = errno;
+	int i, k, saved = errno;
 
 	for (i = 0; i < MAX_TRACKED; ++i)
 		if (tracked[i][0]) {
 			unlink(tracked[i]);
 			tracked[i][0] = '\0';
 		}
-	if (staging_dir[0])
-		remove_dir_now(staging_dir);
-	/* the folders the run created, deepest first, each if empty */
-	while (created_dir[0] && strlen(created_dir) > created_keep && rmdir(created_dir) == 0) {
-		char *slash = strrchr(created_dir, '/');
-		if (!slash)
-			break;
-		*slash = '\0';
+	/* the innermost staging folder first */
+	for (k = nstaging - 1; k >= 0; --k) {
+		char *created = created_dir[k];
+		if (staging_dir[k][0])
+			remove_dir_at(AT_FDCWD, staging_dir[k], 8);
+		/* the folders the run created, deepest first, each if empty */
+		while (created[0] && strlen(created) > created_keep[k] && rmdir(created) == 0) {
+			char *slash = strrchr(created, '/');
+			if (!slash)
+				break;
+			*slash = '\0';
+		}
+		staging_dir[k][0] = created[0] = '\0';
 	}
-	staging_dir[0] = created_dir[0] = '\0';
+	nstaging = 0;
 	errno = saved;
 }
 
@@ -251,6 +273,11 @@ void pr_cleanup_hold(sigset_t *old)
 void pr_cleanup_release(const sigset_t *old)
 {
 	pthread_sigmask(SIG_SETMASK, old, NULL);
+}
+
+int pr_errno_status(void)
+{
+	return errno == ENOMEM ? PR_ENOMEM : PR_EIO;
 }
 
 int pr_pid_gone(long pid)

@@ -20,12 +20,17 @@
  * of finished files into place); pr_cleanup_release delivers them after. */
 void pr_cleanup_add_file(const char *path);
 void pr_cleanup_remove_file(const char *path);
-/* A staging folder (its files, then itself), then the output folder dir and
- * its parents below its first keep bytes (those the run created), each
- * removed only if empty. */
+/* A staging folder (everything in it, then itself), then the output folder
+ * dir and its parents below its first keep bytes (those the run created),
+ * each removed only if empty. Stagings nest (collect stages the merges it
+ * runs, two deep): pr_cleanup_clear_dir forgets the last one set. */
 void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep);
 void pr_cleanup_clear_dir(void);
 void pr_cleanup_run(void);
+/* Remove dir and everything below it (8 folders deep; symlinks themselves,
+ * never their targets) with system calls only: no allocation, so it works
+ * when memory ran out and inside a signal handler. */
+void pr_remove_tree(const char *dir);
 void pr_cleanup_hold(sigset_t *old);
 void pr_cleanup_release(const sigset_t *old);
 /* The fatal signals the CLI handles: SIGINT, SIGTERM, SIGHUP, SIGQUIT,
@@ -33,6 +38,9 @@ void pr_cleanup_release(const sigset_t *old);
  * SIGPWR, SIGSTKFLT (every one whose default ends the process, but the
  * faults of a bug); terminated by 0. */
 extern const int pr_fatal_signals[];
+/* The status of a failed system call by errno: PR_ENOMEM for ENOMEM (the
+ * kernel or the C library ran out of memory: exit 4), else PR_EIO. */
+int pr_errno_status(void);
 /* 1 if process pid no longer exists (a staging folder or temporary file
  * named after it is left over from a killed run). */
 int pr_pid_gone(long pid);

@@ -19,6 +19,7 @@
 
 #include <ini.h>
 
+#include "common_priv.h"
 #include "config_priv.h"
 #include "csvio_priv.h"
 
@@ -540,9 +541,16 @@ static int set_value_raw(pr_config *c, int ki, const char *value, const char *wh
 		if (n < 1)
 			return pr_err(err, PR_EINVAL, "%s%s.%s: expected a comma list of 1 to %d numbers, "
 			              "got '%.40s'", where, k->section, k->key, PR_LIST_MAX, value);
-		for (i = 0; i < n; ++i)
+		for (i = 0; i < n; ++i) {
+			int j;
 			if (!in_range(k, list[i]) || (k->type == PR_KEY_ILIST && list[i] != floor(list[i])))
 				return range_err(k, where, value, err);
+			/* a repeated setting would run twice under one name */
+			for (j = 0; j < i; ++j)
+				if (list[j] == list[i])
+					return pr_err(err, PR_EINVAL, "%s%s.%s: %.15g listed twice",
+					              where, k->section, k->key, list[i]);
+		}
 		l->n = n;
 		memcpy(l->v, list, (size_t)n * sizeof *list);
 		return PR_OK;
@@ -676,7 +684,7 @@ int pr_config_load(pr_config *c, const char *path, char *err)
 	L.err = err;
 	L.fp = fopen(path, "rb");
 	if (!L.fp)
-		return pr_err(err, PR_EIO, "%s: cannot open parameter file: %s", path, strerror(errno));
+		return pr_err(err, pr_errno_status(), "%s: cannot open parameter file: %s", path, strerror(errno));
 	if (fstat(fileno(L.fp), &st) == 0 && S_ISDIR(st.st_mode)) {
 		fclose(L.fp);
 		return pr_err(err, PR_EIO, "%s: is a directory, not a parameter file", path);
@@ -896,7 +904,12 @@ int pr_config_diff(const pr_config *a, const pr_config *b, const char *const *sk
 			continue;
 		x = value_text(a, i);
 		y = value_text(b, i);
-		differ = !x || !y || strcmp(x, y) != 0;
+		if (!x || !y) {
+			free(x);
+			free(y);
+			return -1;
+		}
+		differ = strcmp(x, y) != 0;
 		snprintf(va, n, "%s", x ? x : "?");
 		snprintf(vb, n, "%s", y ? y : "?");
 		free(x);
@@ -924,6 +937,18 @@ int pr_config_write(const pr_config *c, FILE *fp)
 		fputc('\n', fp);
 	}
 	return ferror(fp) ? PR_EIO : PR_OK;
+}
+
+int pr_config_key_elsewhere(const pr_config *c, const char *key)
+{
+	pr_config_exp e;
+	int i = find_dotted(c, key), b, first = NCORE;
+
+	if (i < NCORE || !find_experiment(c, c->run.name, &e))
+		return 0;
+	for (b = 0; b < c->nblocks && i >= first + c->block[b]->nkeys; ++b)
+		first += c->block[b]->nkeys;
+	return b < c->nblocks && c->block[b] != e.block;
 }
 
 int pr_config_key_listed(const char *list, const char *key)

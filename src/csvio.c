@@ -278,8 +278,8 @@ static void feed(scanner *r, struct csv_parser *p, const char *s, size_t n, long
 		return;
 	}
 	if (csv_parse(p, s, n, on_field, on_record, r) != n && !r->status)
-		r->status = pr_err(r->err, PR_EIO, "%s:%ld: malformed CSV: %s", r->path, r->line,
-		                   csv_strerror(csv_error(p)));
+		r->status = pr_err(r->err, csv_error(p) == CSV_ENOMEM ? PR_ENOMEM : PR_EIO,
+		                   "%s:%ld: malformed CSV: %s", r->path, r->line, csv_strerror(csv_error(p)));
 	*pending = r->nfields_seen == before ? *pending + (long)n : 0;
 	if (!r->status && *pending > 2L * PR_CSV_MAX_FIELD + 2)
 		r->status = pr_err(r->err, PR_EIO, "%s:%ld: field %d is longer than %d bytes%s",
@@ -310,7 +310,7 @@ int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,
 	r.line = 1;
 	fp = std ? stdin : fopen(path, "rb");
 	if (!fp)
-		return pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
+		return pr_err(err, pr_errno_status(), "%s: cannot open: %s", path, strerror(errno));
 	if (fstat(fileno(fp), &st) == 0 && S_ISDIR(st.st_mode)) {
 		if (!std)
 			fclose(fp);
@@ -350,12 +350,13 @@ int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,
 		last = (unsigned char)end[-1];
 	}
 	if (!r.status && ferror(fp))
-		r.status = pr_err(err, PR_EIO, "%s: read error: %s", r.path, strerror(errno));
+		r.status = pr_err(err, pr_errno_status(), "%s: read error: %s", r.path, strerror(errno));
 	if (last == '\n')
 		r.line--; /* messages at the end name the last line that has bytes */
 	if (!r.status && csv_fini(&p, on_field, on_record, &r) != 0 && !r.status)
-		r.status = pr_err(err, PR_EIO, "%s:%ld: malformed CSV: unterminated quoted field",
-		                  r.path, r.line);
+		r.status = csv_error(&p) == CSV_ENOMEM ? pr_err(err, PR_ENOMEM, "%s: out of memory", r.path)
+		           : pr_err(err, PR_EIO, "%s:%ld: malformed CSV: unterminated quoted field",
+		                    r.path, r.line);
 	if (!r.status && !r.header_done)
 		r.status = pr_err(err, PR_EIO, "%s: empty file: no header row", r.path);
 	if (!r.status && (flags & PR_CSV_COMPLETE) && last != '\n')
@@ -416,11 +417,28 @@ int pr_csv_read(const char *path, pr_csv **out, char *err)
 	return rc;
 }
 
+/* Append column j to cols[*n]: a column selected twice would give an output
+ * with two columns of one name (or a feature twice). */
+static int select_one(const pr_csv *t, const char *list, int *cols, int *n, int maxcols, int j,
+                      char *err)
+{
+	int i;
+
+	for (i = 0; i < *n; ++i)
+		if (cols[i] == j)
+			return pr_err(err, PR_EINVAL, "%s: column '%s' selected twice by '%s'", pr_csv_path(t),
+			              t->names[j], list);
+	if (*n >= maxcols)
+		return pr_err(err, PR_EINVAL, "%s: more than %d columns selected", pr_csv_path(t), maxcols);
+	cols[(*n)++] = j;
+	return PR_OK;
+}
+
 int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, char *err)
 {
 	char name[256];
 	const char *p = list, *q;
-	int n = 0, j;
+	int n = 0, j, rc;
 	size_t len;
 
 	if (!list || !*list)
@@ -436,10 +454,8 @@ int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, cha
 			int found = 0;
 			for (j = 0; j < t->ncols; ++j) {
 				if (strncmp(t->names[j], name, len - 1) == 0) {
-					if (n >= maxcols)
-						return pr_err(err, PR_EINVAL, "%s: more than %d columns selected",
-						              pr_csv_path(t), maxcols);
-					cols[n++] = j;
+					if ((rc = select_one(t, list, cols, &n, maxcols, j, err)))
+						return rc;
 					found = 1;
 				}
 			}
@@ -449,10 +465,8 @@ int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, cha
 			j = pr_csv_find(t, name);
 			if (j < 0)
 				return pr_err(err, PR_EINVAL, "%s: no column '%s'", pr_csv_path(t), name);
-			if (n >= maxcols)
-				return pr_err(err, PR_EINVAL, "%s: more than %d columns selected",
-				              pr_csv_path(t), maxcols);
-			cols[n++] = j;
+			if ((rc = select_one(t, list, cols, &n, maxcols, j, err)))
+				return rc;
 		}
 		p += len;
 		if (*p == ',')
@@ -619,13 +633,13 @@ static pr_csvw *open_file(pr_csvw *w, const char *path, const struct stat *sb, i
 
 	/* renaming over a symlink would replace the link: write to its target */
 	if (!(w->target = follow_links(path)))
-		FAIL_OPEN(PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+		FAIL_OPEN(pr_errno_status(), "%s: cannot write: %s", path, strerror(errno));
 	if (!(folder = folder_of(w->target)))
 		FAIL_OPEN(PR_ENOMEM, "out of memory");
 	if (w->existed) {
 		/* root may write anything; anyone else keeps a file they may not write */
 		if (faccessat(AT_FDCWD, w->target, W_OK, AT_EACCESS) != 0) {
-			*st = pr_err(err, PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+			*st = pr_err(err, pr_errno_status(), "%s: cannot write: %s", path, strerror(errno));
 			free(folder);
 			return writer_fail(w);
 		}
@@ -640,16 +654,16 @@ static pr_csvw *open_file(pr_csvw *w, const char *path, const struct stat *sb, i
 	fd = make_temp(folder, &w->tmp);
 	free(folder);
 	if (fd < 0)
-		FAIL_OPEN(PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+		FAIL_OPEN(pr_errno_status(), "%s: cannot write: %s", path, strerror(errno));
 	if (w->existed) {
 		/* the file keeps its permission bits, and for root its owner */
 		if (fchmod(fd, sb->st_mode & 07777) != 0) {
-			*st = pr_err(err, PR_EIO, "%s: cannot keep its permissions: %s", path, strerror(errno));
+			*st = pr_err(err, pr_errno_status(), "%s: cannot keep its permissions: %s", path, strerror(errno));
 			close(fd);
 			return writer_fail(w);
 		}
 		if (geteuid() == 0 && fchown(fd, sb->st_uid, sb->st_gid) != 0) {
-			*st = pr_err(err, PR_EIO, "%s: cannot keep its owner: %s", path, strerror(errno));
+			*st = pr_err(err, pr_errno_status(), "%s: cannot keep its owner: %s", path, strerror(errno));
 			close(fd);
 			return writer_fail(w);
 		}
@@ -679,7 +693,7 @@ static pr_csvw *open_any(const char *path, int *st, char *err)
 		FAIL_OPEN(PR_EINVAL, "output file name is empty");
 	if (stat(path, &sb) != 0) {
 		if (errno != ENOENT)
-			FAIL_OPEN(PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+			FAIL_OPEN(pr_errno_status(), "%s: cannot write: %s", path, strerror(errno));
 		return open_file(w, path, &sb, st, err);
 	}
 	w->existed = 1;
@@ -696,7 +710,7 @@ static pr_csvw *open_any(const char *path, int *st, char *err)
 		return open_file(w, path, &sb, st, err);
 	/* a FIFO or device: renaming over it would replace the device itself */
 	if (!(w->fp = fopen(path, "wb")))
-		FAIL_OPEN(PR_EIO, "%s: cannot write: %s", path, strerror(errno));
+		FAIL_OPEN(pr_errno_status(), "%s: cannot write: %s", path, strerror(errno));
 	w->kind = W_DIRECT;
 	return w;
 }
@@ -838,7 +852,8 @@ static int finish(pr_csvw *w, char *err)
 		return pr_err(err, PR_ENUM, "%s:%ld: field %d: refusing to write a non-finite number "
 		              "(numerical failure)", w->shown, w->bad_line, w->bad_field);
 	if (w->status)
-		return pr_err(err, PR_EIO, "%s: write error: %s", w->shown, strerror(w->err_no));
+		return pr_err(err, w->err_no == ENOMEM ? PR_ENOMEM : PR_EIO, "%s: write error: %s", w->shown,
+		              strerror(w->err_no));
 	return PR_OK;
 }
 
@@ -859,7 +874,7 @@ int pr_csvw_close(pr_csvw *w, char *err)
 
 	if (rc == PR_OK && w->kind == W_FILE) {
 		if (rename(w->tmp, w->target) != 0) {
-			rc = pr_err(err, PR_EIO, "%s: cannot rename into place: %s", w->shown, strerror(errno));
+			rc = pr_err(err, pr_errno_status(), "%s: cannot rename into place: %s", w->shown, strerror(errno));
 		} else {
 			pr_cleanup_remove_file(w->tmp);
 			free(w->tmp);
@@ -973,14 +988,14 @@ static int rename_all(pr_outset *s, char *err)
 			unlink(w->backup);
 		}
 		if (fd < 0 || link(w->target, w->backup) != 0)
-			rc = pr_err(err, PR_EIO, "%s: cannot keep the earlier file while replacing it: %s",
+			rc = pr_err(err, pr_errno_status(), "%s: cannot keep the earlier file while replacing it: %s",
 			            w->shown, strerror(errno));
 	}
 	for (w = s->first; w && rc == PR_OK; w = w->next) {
 		if (w->kind != W_FILE)
 			continue;
 		if (rename(w->tmp, w->target) != 0) {
-			rc = pr_err(err, PR_EIO, "%s: cannot rename into place: %s", w->shown, strerror(errno));
+			rc = pr_err(err, pr_errno_status(), "%s: cannot rename into place: %s", w->shown, strerror(errno));
 			for (u = s->first; u != w; u = u->next) {
 				if (u->kind != W_FILE)
 					continue;

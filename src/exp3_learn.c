@@ -517,11 +517,11 @@ void pr_exp3_learner_free(pr_exp3_learner *L)
 
 	if (!L)
 		return;
-	if (L->pol)
-		for (m = 0; m <= L->e->iterations; ++m) {
-			pr_policy_free(L->pol[m]);
-			pr_policy_work_free(L->work[m]);
-		}
+	/* either may be missing when an allocation failed */
+	for (m = 0; L->pol && m <= L->e->iterations; ++m)
+		pr_policy_free(L->pol[m]);
+	for (m = 0; L->work && m <= L->e->iterations; ++m)
+		pr_policy_work_free(L->work[m]);
 	free(L->pol);
 	free(L->work);
 	pr_sim_free(L->sim);

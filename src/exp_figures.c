@@ -267,7 +267,7 @@ int pr_exp_figures(const pr_config *cfg, const char *dir, char *err)
 	int n = cfg->table.balls, rc;
 
 	if (mkdir(dir, 0777) && errno != EEXIST)
-		return pr_err(err, PR_EIO, "%s: cannot create directory: %s", dir, strerror(errno));
+		return pr_err(err, pr_errno_status(), "%s: cannot create directory: %s", dir, strerror(errno));
 	if (n < 2 || n > PR_SIM_MAX_BALLS)
 		return pr_err(err, PR_EINVAL, "table.balls: %d, figures need 2 to %d", n, PR_SIM_MAX_BALLS);
 	rng = gsl_rng_alloc(gsl_rng_mt19937);

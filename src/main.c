@@ -61,7 +61,7 @@ typedef struct {
 } command;
 
 static const command commands[] = {
-	{"run", "c,o,set,seed", pr_cmd_run,
+	{"run", "c,o,set,seed,progress", pr_cmd_run,
 	 "poolreps [run] CONFIG [-o DIR] [--set section.key=value]... [--seed N] [-q]\n"
 	 "  Run the experiment a parameter file describes; write CSVs, figures' data and\n"
 	 "  provenance into DIR (default: results/<experiment.name>; figures: results/sim)."},
@@ -138,6 +138,17 @@ static const char *command_keys(const command *cmd)
 	return NULL;
 }
 
+/* The key of a "section.key=value" argument (--set, --grid), blanks trimmed. */
+static void arg_key(const char *arg, char *key, size_t size)
+{
+	const char *p = arg + strspn(arg, " \t");
+	size_t n = strcspn(p, "=");
+
+	while (n && (p[n - 1] == ' ' || p[n - 1] == '\t'))
+		--n;
+	snprintf(key, size, "%.*s", (int)n, p);
+}
+
 /* "Accepts: -c, -o, --set" from a command's option list. */
 static void print_options(FILE *fp, const char *options)
 {
@@ -178,7 +189,7 @@ static void common_options(FILE *fp)
 	        "  --seed N             master seed (experiment.seed)\n"
 	        "  -i FILE, -o FILE     input (default stdin) and output (default stdout)\n"
 	        "  -q                   quiet: no progress, no summary line\n"
-	        "  --progress           progress lines on stderr when it is no terminal\n"
+	        "  --progress           run: progress lines on stderr when it is no terminal\n"
 	        "                       (batch logs; a failure's line then follows them)\n"
 	        "  -h, --help           this help; after a COMMAND, that command's usage\n"
 	        "  --help-keys          every parameter key with default, unit and range\n"
@@ -366,7 +377,8 @@ int main(int argc, char **argv)
 	used = calloc((size_t)argc + 1, sizeof *used);
 	if (!orig || !used) {
 		free(orig);
-		return fail("out of memory");
+		fail("out of memory");
+		return pr_exit_code(PR_ENOMEM);
 	}
 	memcpy(orig, argv, (size_t)argc * sizeof *orig);
 	sets = orig + argc + 1;
@@ -437,7 +449,7 @@ int main(int argc, char **argv)
 				FAIL("unknown option -%c (see poolreps --help)", optopt);
 			FAIL("unknown option %s (see poolreps --help)", argv[optind - 1]);
 		}
-		if (c != 'q' && c != 'h' && c != O_PROGRESS) {
+		if (c != 'q' && c != 'h') {
 			/* a value given twice would silently drop the first (--set and
 			 * --grid repeat by design) */
 			for (k = 0; c != O_SET && c != O_GRID && k < nused; ++k)
@@ -507,16 +519,19 @@ int main(int argc, char **argv)
 	/* a key the command never reads would be ignored: refuse it */
 	for (i = 0; command_keys(cmd) && i < nsets; ++i) {
 		char key[64];
-		const char *p = sets[i] + strspn(sets[i], " \t");
-		size_t n = strcspn(p, "=");
-		while (n && (p[n - 1] == ' ' || p[n - 1] == '\t'))
-			--n;
-		snprintf(key, sizeof key, "%.*s", (int)n, p);
+		arg_key(sets[i], key, sizeof key);
 		if (!pr_config_key_listed(command_keys(cmd), key))
 			FAIL("%s: --set %s does not apply (see poolreps %s --help)", cmd->name, key, cmd->name);
 	}
 	if (command_keys(cmd) && seed && !pr_config_key_listed(command_keys(cmd), "experiment.seed"))
 		FAIL("%s: option --seed does not apply (see poolreps %s --help)", cmd->name, cmd->name);
+	/* -q silences the progress --progress asks for */
+	if (progress_lines && a.quiet)
+		FAIL("%s: -q and --progress contradict: give one", cmd->name);
+	/* sweep --missing only reads SWEEP_DIR: every other option would be ignored */
+	if (a.missing && (a.output || a.ngrid || nsets || seed || a.split))
+		FAIL("sweep: --missing takes no other option (%s given)", a.output ? "-o" : a.ngrid ?
+		     "--grid" : nsets ? "--set" : seed ? "--seed" : "--split");
 #undef FAIL
 	free(used);
 	a.command = cmd->name;
@@ -547,6 +562,21 @@ int main(int argc, char **argv)
 	}
 	if (rc == PR_OK)
 		rc = pr_config_validate(&cfg, err);
+	/* config refuses what a run would: a variant the experiment does not have */
+	if (rc == PR_OK && cmd->fn == pr_cmd_config) {
+		pr_variants variants;
+		rc = pr_exp_variants(&cfg, &variants, err);
+	}
+	/* a run never reads another experiment's keys: a --set or --grid of one
+	 * would change nothing (a parameter file may hold them: one serves several) */
+	for (i = 0; rc == PR_OK && !command_keys(cmd) && cmd->fn != pr_cmd_config &&
+	            i < nsets + a.ngrid; ++i) {
+		char key[64];
+		arg_key(i < nsets ? sets[i] : grids[i - nsets], key, sizeof key);
+		if (pr_config_key_elsewhere(&cfg, key))
+			rc = pr_err(err, PR_EINVAL, "%s: %s %s does not apply: experiment %s never reads it",
+			            cmd->name, i < nsets ? "--set" : "--grid", key, cfg.run.name);
+	}
 	if (rc == PR_OK)
 		rc = cmd->fn(&cfg, &a, err);
 	/* everything is cleaned up or in place: a late signal must not add a
@@ -561,6 +591,12 @@ int main(int argc, char **argv)
 		 * whatever status the code above it turned it into */
 		if (pr_out_of_memory && rc != PR_EINTR)
 			rc = PR_ENOMEM;
+		/* so is a signal that asked a run, merge, sweep or collect to stop
+		 * (SIGPIPE: the write to the closed pipe fails next) */
+		if (pr_interrupted && rc != PR_EINTR && rc != PR_ENOMEM) {
+			snprintf(msg, sizeof msg, "%s", err);
+			rc = pr_err(err, PR_EINTR, "interrupted by signal %d: %s", (int)pr_interrupted, msg);
+		}
 		fprintf(stderr, "poolreps: %s\n", err);
 		return pr_exit_code(rc);
 	}

@@ -59,7 +59,7 @@ static int mkdir_p(const char *dir, size_t *keep, char *err)
 				if (*keep == strlen(dir))
 					*keep = (size_t)(strrchr(buf, '/') ? strrchr(buf, '/') - buf : 0);
 			} else if (errno != EEXIST) {
-				rc = pr_err(err, PR_EIO, "%s: cannot create folder: %s", buf, strerror(errno));
+				rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", buf, strerror(errno));
 			}
 			*p = c;
 			if (!c)
@@ -73,24 +73,10 @@ static int mkdir_p(const char *dir, size_t *keep, char *err)
 	return rc;
 }
 
-static void remove_tree(const char *dir)
-{
-	DIR *d = opendir(dir);
-	struct dirent *e;
-
-	if (!d)
-		return;
-	while ((e = readdir(d)))
-		if (strcmp(e->d_name, ".") && strcmp(e->d_name, ".."))
-			unlinkat(dirfd(d), e->d_name, 0);
-	closedir(d);
-	rmdir(dir);
-}
-
 /* Leftovers of runs killed with SIGKILL, whose PID no longer exists: their
  * staging folders .partial-PID and temporary files .poolreps-tmp-PID-N. A
  * run still alive (writing into the same folder) keeps its own. */
-static void sweep_stale(const char *dir)
+void pr_outdir_sweep_stale(const char *dir)
 {
 	DIR *d = opendir(dir);
 	struct dirent *e;
@@ -114,7 +100,7 @@ static void sweep_stale(const char *dir)
 		if (snprintf(path, sizeof path, "%s/%s", dir, e->d_name) >= (int)sizeof path)
 			continue;
 		if (unlink(path) != 0)
-			remove_tree(path);
+			pr_remove_tree(path);
 	}
 	closedir(d);
 }
@@ -167,7 +153,7 @@ int pr_outdir_list(const char *dir, pr_names *out, char *err)
 	struct dirent *e;
 
 	if (!d)
-		return pr_err(err, PR_EIO, "%s: cannot read folder: %s", dir, strerror(errno));
+		return pr_err(err, pr_errno_status(), "%s: cannot read folder: %s", dir, strerror(errno));
 	while ((e = readdir(d)))
 		if (e->d_name[0] != '.' && pr_names_add(out, e->d_name, strlen(e->d_name))) {
 			closedir(d);
@@ -213,74 +199,97 @@ static int earlier_run(const char *dir, pr_names *out)
 	return rc;
 }
 
-/* Move every file of staging into dir, all or nothing: each file that will
- * be replaced first gets a second hard link inside staging, so that a
- * failed rename can put every earlier one back. Files of the earlier run in
- * dir that the new run did not write are removed once all are in place.
- * Publishes into one folder are serialised with a lock on the folder. */
-static int publish(const char *staging, const char *dir, char *err)
+/* Put back what the renames of sets [0, s] moved, the files of set s
+ * below i: an earlier file from its second link, a new one removed. */
+static void put_back(pr_outdir_pub *p, int s, int i)
 {
-	pr_names now = {NULL, 0}, old = {NULL, 0};
-	char from[2 * PR_PATHLEN], to[2 * PR_PATHLEN], bak[2 * PR_PATHLEN];
-	char *had = NULL;
-	struct stat st;
-	sigset_t mask;
-	int rc, i, j, lock;
+	char to[2 * PR_PATHLEN], bak[2 * PR_PATHLEN];
+	int k, j;
 
-	if ((rc = pr_outdir_list(staging, &now, err)))
-		return rc;
-	if ((lock = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC)) < 0 || flock(lock, LOCK_EX) != 0) {
-		rc = pr_err(err, PR_EIO, "%s: cannot lock folder: %s", dir, strerror(errno));
-		goto out;
-	}
-	if (earlier_run(dir, &old) || !(had = calloc((size_t)now.n + 1, 1))) {
-		rc = pr_err(err, PR_ENOMEM, "out of memory");
-		goto out;
-	}
-	pr_cleanup_hold(&mask);
-	for (i = 0; i < now.n && rc == PR_OK; ++i) {
-		snprintf(to, sizeof to, "%s/%s", dir, now.name[i]);
-		snprintf(bak, sizeof bak, "%s/.old-%d", staging, i);
-		if (lstat(to, &st) != 0)
-			continue;
-		if (S_ISDIR(st.st_mode))
-			rc = pr_err(err, PR_EIO, "%s: is a folder: cannot replace it with the run's file", to);
-		/* like any output: a file the (non-root) user may not write stays */
-		else if (S_ISREG(st.st_mode) && faccessat(AT_FDCWD, to, W_OK, AT_EACCESS) != 0)
-			rc = pr_err(err, PR_EIO, "%s: cannot write: %s", to, strerror(errno));
-		else if (link(to, bak) != 0)
-			rc = pr_err(err, PR_EIO, "%s: cannot keep the earlier file while replacing it: %s",
-			            to, strerror(errno));
-		else
-			had[i] = 1;
-	}
-	for (i = 0; i < now.n && rc == PR_OK; ++i) {
-		snprintf(from, sizeof from, "%s/%s", staging, now.name[i]);
-		snprintf(to, sizeof to, "%s/%s", dir, now.name[i]);
-		if (rename(from, to) == 0)
-			continue;
-		rc = pr_err(err, PR_EIO, "%s: cannot move into place: %s", to, strerror(errno));
-		for (j = 0; j < i; ++j) {
-			snprintf(to, sizeof to, "%s/%s", dir, now.name[j]);
-			snprintf(bak, sizeof bak, "%s/.old-%d", staging, j);
-			if (had[j])
+	for (k = 0; k <= s; ++k)
+		for (j = 0; j < (k < s ? p[k].now.n : i); ++j) {
+			snprintf(to, sizeof to, "%s/%s", p[k].dir, p[k].now.name[j]);
+			snprintf(bak, sizeof bak, "%s/.old-%d", p[k].staging, j);
+			if (p[k].had[j])
 				rename(bak, to);
 			else
 				unlink(to);
 		}
+}
+
+int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
+{
+	char from[2 * PR_PATHLEN], to[2 * PR_PATHLEN], bak[2 * PR_PATHLEN];
+	struct stat st;
+	sigset_t mask;
+	int rc = PR_OK, s, i, held = 0;
+
+	for (s = 0; s < n; ++s) {
+		memset(&p[s].now, 0, sizeof p[s].now);
+		memset(&p[s].old, 0, sizeof p[s].old);
+		p[s].had = NULL;
+		p[s].fd = -1;
 	}
-	for (i = 0; i < old.n && rc == PR_OK; ++i)
-		if (!pr_names_has(&now, old.name[i]) &&
-		    snprintf(to, sizeof to, "%s/%s", dir, old.name[i]) < (int)sizeof to &&
-		    lstat(to, &st) == 0 && !S_ISDIR(st.st_mode))
-			unlink(to);
-	pr_cleanup_release(&mask);
-out:
-	if (lock >= 0)
-		close(lock);
-	free(had);
-	pr_names_free(&now);
-	pr_names_free(&old);
+	for (s = 0; s < n && rc == PR_OK; ++s) {
+		if ((rc = pr_outdir_list(p[s].staging, &p[s].now, err)))
+			break;
+		if (p[s].lock && ((p[s].fd = open(p[s].dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC)) < 0 ||
+		                  flock(p[s].fd, LOCK_EX) != 0))
+			rc = pr_err(err, pr_errno_status(), "%s: cannot lock folder: %s", p[s].dir, strerror(errno));
+		else if ((p[s].owns && earlier_run(p[s].dir, &p[s].old)) ||
+		         !(p[s].had = calloc((size_t)p[s].now.n + 1, 1)))
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+	}
+	if (rc == PR_OK) {
+		pr_cleanup_hold(&mask);
+		held = 1;
+	}
+	for (s = 0; s < n && rc == PR_OK; ++s)
+		for (i = 0; i < p[s].now.n && rc == PR_OK; ++i) {
+			snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].now.name[i]);
+			snprintf(from, sizeof from, "%s/%s", p[s].staging, p[s].now.name[i]);
+			snprintf(bak, sizeof bak, "%s/.old-%d", p[s].staging, i);
+			if (lstat(to, &st) != 0)
+				continue;
+			if (S_ISDIR(st.st_mode))
+				rc = pr_err(err, PR_EIO, "%s: is a folder: cannot replace it with the run's file", to);
+			/* like any output: a file the (non-root) user may not write stays */
+			else if (S_ISREG(st.st_mode) && faccessat(AT_FDCWD, to, W_OK, AT_EACCESS) != 0)
+				rc = pr_err(err, pr_errno_status(), "%s: cannot write: %s", to, strerror(errno));
+			/* the new file keeps the permission bits (and for root the owner) of the one it replaces */
+			else if (S_ISREG(st.st_mode) && (chmod(from, st.st_mode & 07777) != 0 ||
+			                                 (geteuid() == 0 && chown(from, st.st_uid, st.st_gid) != 0)))
+				rc = pr_err(err, pr_errno_status(), "%s: cannot keep its permissions: %s", to, strerror(errno));
+			else if (link(to, bak) != 0)
+				rc = pr_err(err, pr_errno_status(), "%s: cannot keep the earlier file while replacing it: %s",
+				            to, strerror(errno));
+			else
+				p[s].had[i] = 1;
+		}
+	for (s = 0; s < n && rc == PR_OK; ++s)
+		for (i = 0; i < p[s].now.n && rc == PR_OK; ++i) {
+			snprintf(from, sizeof from, "%s/%s", p[s].staging, p[s].now.name[i]);
+			snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].now.name[i]);
+			if (rename(from, to) == 0)
+				continue;
+			rc = pr_err(err, pr_errno_status(), "%s: cannot move into place: %s", to, strerror(errno));
+			put_back(p, s, i);
+		}
+	for (s = 0; s < n && rc == PR_OK; ++s)
+		for (i = 0; i < p[s].old.n; ++i)
+			if (!pr_names_has(&p[s].now, p[s].old.name[i]) &&
+			    snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].old.name[i]) < (int)sizeof to &&
+			    lstat(to, &st) == 0 && !S_ISDIR(st.st_mode))
+				unlink(to);
+	if (held)
+		pr_cleanup_release(&mask);
+	for (s = 0; s < n; ++s) {
+		if (p[s].fd >= 0)
+			close(p[s].fd);
+		free(p[s].had);
+		pr_names_free(&p[s].now);
+		pr_names_free(&p[s].old);
+	}
 	return rc;
 }
 
@@ -291,6 +300,7 @@ int pr_outdir_write_text(const char *path, void (*fn)(FILE *, const void *), con
 	char *buf = NULL;
 	size_t n = 0;
 	FILE *fp = open_memstream(&buf, &n);
+	pr_outset *set;
 	pr_csvw *w;
 	int rc;
 
@@ -301,14 +311,15 @@ int pr_outdir_write_text(const char *path, void (*fn)(FILE *, const void *), con
 		free(buf);
 		return pr_err(err, PR_ENOMEM, "out of memory");
 	}
-	if (!(w = pr_csvw_open(path, err))) {
+	/* a set of one: a refused name keeps its own status (an empty one is 1) */
+	if (!(set = pr_outset_new(err))) {
 		free(buf);
-		return PR_EIO;
+		return PR_ENOMEM;
 	}
-	pr_csvw_raw(w, buf, n);
+	if ((rc = pr_outset_add(set, path, &w, err)) == PR_OK)
+		pr_csvw_raw(w, buf, n);
 	free(buf);
-	rc = pr_csvw_close(w, err);
-	return rc;
+	return pr_outset_commit(set, rc, err);
 }
 
 static void config_file_text(FILE *fp, const void *cfg)
@@ -438,10 +449,10 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 		return rc;
 	if (snprintf(staging, sizeof staging, "%s/.partial-%ld", dir, (long)getpid()) >= (int)sizeof staging)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
-	sweep_stale(dir);
-	remove_tree(staging);
+	pr_outdir_sweep_stale(dir);
+	pr_remove_tree(staging);
 	if (mkdir(staging, 0777) != 0) {
-		rc = pr_err(err, PR_EIO, "%s: cannot write into the folder: %s", dir, strerror(errno));
+		rc = pr_err(err, pr_errno_status(), "%s: cannot write into the folder: %s", dir, strerror(errno));
 		remove_created(dir, keep);
 		return rc;
 	}
@@ -451,9 +462,11 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 		rc = pr_outdir_write_config(cfg, staging, err);
 	if (rc == PR_OK)
 		rc = write_provenance(cfg, a, staging, seconds_since(&t0), err);
-	if (rc == PR_OK && !pr_interrupted)
-		rc = publish(staging, dir, err);
-	remove_tree(staging);
+	if (rc == PR_OK && !pr_interrupted) {
+		pr_outdir_pub pub = {staging, dir, 1, 1, {NULL, 0}, {NULL, 0}, NULL, -1};
+		rc = pr_outdir_publish(&pub, 1, err);
+	}
+	pr_remove_tree(staging);
 	pr_cleanup_clear_dir();
 	if (rc == PR_OK && !pr_interrupted)
 		return PR_OK;

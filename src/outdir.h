@@ -32,6 +32,26 @@ int pr_outdir_write_config(const pr_config *cfg, const char *dir, char *err);
 /* Write arg so that a POSIX shell reads it back as one word: provenance's
  * command line and a sweep's jobs can be pasted into a shell. */
 void pr_outdir_shell_word(FILE *fp, const char *arg);
+/* Move every file of each staging folder into its folder dir, all or
+ * nothing across all of them: a file it replaces keeps its permission
+ * bits and first gets a second link in staging (.old-N), so that a failed
+ * rename puts every earlier one back; a folder or a file the user may not
+ * write where a file must go is refused before anything moves. When owns,
+ * dir is a run's folder: the files its earlier run listed in provenance.txt
+ * and this one did not write are removed once all are in place. With lock,
+ * the moves into dir are serialised with a lock on it. */
+typedef struct {
+	const char *staging, *dir;
+	int owns;
+	int lock;           /* take the lock on dir (one lock can stand for all) */
+	pr_names now, old;  /* filled and freed by pr_outdir_publish */
+	char *had;
+	int fd;
+} pr_outdir_pub;
+int pr_outdir_publish(pr_outdir_pub *p, int n, char *err);
+/* Remove what runs killed with SIGKILL left in dir: staging folders
+ * .partial-PID and temporary files .poolreps-tmp-PID-N whose PID is gone. */
+void pr_outdir_sweep_stale(const char *dir);
 /* Create dir, run work into a staging folder inside it, add config.ini and
  * provenance.txt (version, command line, seed, host, timings, the files
  * the run owns), and move everything into dir only if all succeeded. */

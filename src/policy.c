@@ -759,7 +759,7 @@ pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double la
 	}
 	st = design_solve(d->n, nf, d->da, X, wn, d->A, lambda, B);
 	if (st < 0) {
-		pr_err(err, PR_ENUM, "policy: weighted regression failed");
+		pr_err(err, st, st == PR_ENOMEM ? "policy: out of memory" : "policy: weighted regression failed");
 		goto fail;
 	}
 	f |= st;

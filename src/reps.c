@@ -28,6 +28,7 @@
 #include <float.h>
 #include <limits.h>
 #include <math.h>
+#include <setjmp.h>
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
@@ -932,6 +933,50 @@ static int lp_solve(glp_prob *lp)
 	return glp_simplex(lp, &parm) == 0 && glp_get_status(lp) == GLP_OPT;
 }
 
+/* GLPK ends the process (abort) when it runs out of memory: its error hook
+ * jumps back to the solver instead (lp_guard before the setjmp, lp_unguard
+ * after), which frees GLPK's memory with its environment and returns
+ * PR_ENOMEM; its terminal output goes nowhere, so no message of its own. */
+static void lp_abort(void *jb)
+{
+	longjmp(*(jmp_buf *)jb, 1);
+}
+
+/* GLPK's terminal output, even its error message: swallowed */
+static int lp_quiet(void *info, const char *s)
+{
+	(void)info;
+	(void)s;
+	return 1;
+}
+
+/* PR_ENOMEM if GLPK's environment cannot be made (any other GLPK call
+ * would abort then) */
+static int lp_guard(jmp_buf *jb)
+{
+	if (glp_init_env() > 1)
+		return PR_ENOMEM;
+	glp_term_hook(lp_quiet, NULL);
+	glp_error_hook(lp_abort, jb);
+	return PR_OK;
+}
+
+/* LP_DONE: unhook; LP_JUMPED: free GLPK's environment after its error;
+ * LP_NONE: GLPK was not reached. Frees the triplets; returns ok, or
+ * PR_ENOMEM after a jump. */
+enum { LP_DONE, LP_JUMPED, LP_NONE };
+static int lp_unguard(int ok, int *ia, int *ja, double *ar, int how)
+{
+	if (how == LP_JUMPED)
+		glp_free_env();
+	else if (how == LP_DONE)
+		glp_error_hook(NULL, NULL);
+	free(ia);
+	free(ja);
+	free(ar);
+	return how == LP_JUMPED ? PR_ENOMEM : ok;
+}
+
 /* Triplet storage for nnz entries (1-based, as GLPK wants). */
 static int triplets(size_t nnz, int **ia, int **ja, double **ar)
 {
@@ -955,13 +1000,12 @@ static int lp_match(const prob *P, double *x, double *y)
 	int *ia, *ja, nnz = 0, i, ok;
 	double *ar;
 	glp_prob *lp;
+	jmp_buf jb;
 
-	if (triplets(lp_nnz(P), &ia, &ja, &ar) != PR_OK) {
-		free(ia);
-		free(ja);
-		free(ar);
-		return PR_ENOMEM;
-	}
+	if (triplets(lp_nnz(P), &ia, &ja, &ar) != PR_OK || lp_guard(&jb) != PR_OK)
+		return lp_unguard(PR_ENOMEM, ia, ja, ar, LP_NONE);
+	if (setjmp(jb))
+		return lp_unguard(0, ia, ja, ar, LP_JUMPED);
 	lp = glp_create_prob();
 	glp_set_obj_dir(lp, GLP_MAX);
 	glp_add_rows(lp, nr);
@@ -983,10 +1027,7 @@ static int lp_match(const prob *P, double *x, double *y)
 	for (i = 0; ok && i < nr; i++)
 		y[i] = glp_get_row_dual(lp, i + 1);
 	glp_delete_prob(lp);
-	free(ia);
-	free(ja);
-	free(ar);
-	return ok;
+	return lp_unguard(ok, ia, ja, ar, LP_DONE);
 }
 
 /* Which columns of Z (nz of them, zero reduced cost) some optimal p uses,
@@ -1004,13 +1045,12 @@ static int lp_support(const prob *P, const int *Z, int nz, char *sup, double *w)
 	int *ia, *ja, nnz = 0, i, k, ok;
 	double *ar;
 	glp_prob *lp;
+	jmp_buf jb;
 
-	if (triplets(lp_nnz(P) + (size_t)nz + (size_t)nr, &ia, &ja, &ar) != PR_OK) {
-		free(ia);
-		free(ja);
-		free(ar);
-		return PR_ENOMEM;
-	}
+	if (triplets(lp_nnz(P) + (size_t)nz + (size_t)nr, &ia, &ja, &ar) != PR_OK || lp_guard(&jb) != PR_OK)
+		return lp_unguard(PR_ENOMEM, ia, ja, ar, LP_NONE);
+	if (setjmp(jb))
+		return lp_unguard(0, ia, ja, ar, LP_JUMPED);
 	/* rows 1..nz: a_i . w - s_k >= 0; row nz + 1: w . b = 0.
 	 * columns 1..nr: w; nr + 1..nr + nz: s. Built as the transpose of
 	 * col_triplets' (row, column) pairs. */
@@ -1059,10 +1099,7 @@ static int lp_support(const prob *P, const int *Z, int nz, char *sup, double *w)
 	for (i = 0; ok && i < nr; i++)
 		w[i] = glp_get_col_prim(lp, i + 1);
 	glp_delete_prob(lp);
-	free(ia);
-	free(ja);
-	free(ar);
-	return ok;
+	return lp_unguard(ok, ia, ja, ar, LP_DONE);
 }
 
 /* Least squares over the rows S: y (nf + 1) += the minimiser of
@@ -1158,7 +1195,7 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 	dy = rhs + nr;
 	acol = dy + nr;
 	ylo = acol + nr;
-	glp_term_out(GLP_OFF);
+	/* GLPK's output is swallowed by lp_guard's hook */
 	if (nf > 0) {
 		rc = lp_match(P, x, y);
 		if (rc < 0) {

@@ -485,6 +485,8 @@ def test_merge_of_header_only_raw_csvs(tmp_path, poolreps):
         (tmp_path / f"r{k}").mkdir()
         (tmp_path / f"r{k}" / "config.ini").write_bytes(cfg.stdout)
         (tmp_path / f"r{k}" / "raw.csv").write_bytes(b"repetition,x\n")
+        # a finished run: merge refuses a folder without it
+        (tmp_path / f"r{k}" / "provenance.txt").write_bytes(b"version: test\n")
     r = poolreps(["merge", "-q", "-o", "merged", "r0", "r1"], cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "merged" / "raw.csv").read_bytes() == b"repetition,x\n"

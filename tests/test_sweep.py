@@ -443,9 +443,9 @@ def test_collect_refuses_jobs_run_with_another_configuration(tmp_path):
     r = run_poolreps(["collect", sweep])
     assert r.returncode == 1
     assert r.stderr.decode() == (f"poolreps: {cfg}: differs from the configuration the jobs "
-                                 f"ran with\n")
+                                 f"ran with (bench.test_contexts = 99, jobs: 100)\n")
     assert not (sweep / "sweep_summary.csv").exists()
-    assert not list(sweep.glob(".collect-*")) and not (sweep / "point-0" / "merged").exists()
+    assert not list(sweep.glob(".partial-*")) and not (sweep / "point-0" / "merged").exists()
 
 
 @pytest.mark.parametrize("args,code,msg", [

@@ -106,7 +106,7 @@ const char *pr_config_where(const pr_config *c, const char *key, char *buf, size
 /* The first key (in table order, other than those in skip, a NULL-ended
  * list of "section.key" names, or NULL) whose value differs between a and b:
  * its name into key and both values as written by pr_config_write into va
- * and vb (each n bytes, truncated). 0 if none. */
+ * and vb (each n bytes, truncated). 0 if none, -1 if out of memory. */
 int pr_config_diff(const pr_config *a, const pr_config *b, const char *const *skip, char *key,
                    size_t nkey, char *va, char *vb, size_t n);
 /* Write every key as INI (the effective configuration). */
@@ -117,5 +117,8 @@ void pr_config_help(pr_config_schema schema, const char *only, FILE *fp);
 /* 1 if key ("section.key") is in list, a comma list of whole names and of
  * sections ending in '.': "forest.,experiment.seed". */
 int pr_config_key_listed(const char *list, const char *key);
+/* 1 if "section.key" is a key of another experiment's block than the one
+ * experiment.name of c names (that experiment never reads it). */
+int pr_config_key_elsewhere(const pr_config *c, const char *key);
 
 #endif
