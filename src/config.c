@@ -948,7 +948,7 @@ int pr_config_key_elsewhere(const pr_config *c, const char *key)
 		return 0;
 	for (b = 0; b < c->nblocks && i >= first + c->block[b]->nkeys; ++b)
 		first += c->block[b]->nkeys;
-	return b < c->nblocks && c->block[b] != e.block;
+	return b < c->nblocks && c->block[b] != e.block && c->block[b] != e.reads;
 }
 
 int pr_config_key_listed(const char *list, const char *key)

@@ -68,6 +68,7 @@ typedef struct pr_config_exp {
 	const char *name;                   /* experiment.name */
 	const pr_config_block *block;       /* or NULL; several may share one */
 	const pr_config_default *defaults;  /* ended by {NULL, NULL}; or NULL */
+	const pr_config_block *reads;       /* another block it reads too, or NULL */
 } pr_config_exp;
 
 #endif

@@ -9,20 +9,22 @@
 #include "exp_priv.h"
 
 static const pr_experiment experiments[] = {
-	{"figures", pr_figures_run, NULL, NULL, NULL, NULL, NULL},
-	{"exp1", pr_exp1_run, pr_exp1_summarize, pr_exp1_variants, "exp1_summary.csv", &pr_exp1_keys, NULL},
-	{"exp2", pr_exp2_run, pr_exp2_summarize, NULL, "exp2_summary.csv", &pr_exp2_keys, pr_exp2_defaults},
+	{"figures", pr_figures_run, NULL, NULL, NULL, NULL, NULL, NULL},
+	{"exp1", pr_exp1_run, pr_exp1_summarize, pr_exp1_variants, "exp1_summary.csv", &pr_exp1_keys, NULL,
+	 NULL},
+	{"exp2", pr_exp2_run, pr_exp2_summarize, NULL, "exp2_summary.csv", &pr_exp2_keys, pr_exp2_defaults,
+	 NULL},
 	{"exp3", pr_exp3_run, pr_exp3_summarize, pr_exp3_variants, "exp3_final.csv", &pr_exp3_keys,
-	 pr_exp3_defaults},
-	/* Experiment 3's task: its defaults */
+	 pr_exp3_defaults, NULL},
+	/* Experiment 3's task and learner: its defaults and its exp3.* keys */
 	{"exp4", pr_exp4_run, pr_exp4_summarize, pr_exp4_variants, "exp4_verdict.csv", &pr_exp4_keys,
-	 pr_exp3_defaults},
+	 pr_exp3_defaults, &pr_exp3_keys},
 	{"quadratic", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv",
-	 &pr_bench_keys, pr_quadratic_defaults},
+	 &pr_bench_keys, pr_quadratic_defaults, NULL},
 	{"sphere", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv",
-	 &pr_bench_keys, pr_sphere_defaults},
+	 &pr_bench_keys, pr_sphere_defaults, NULL},
 	{"rosenbrock", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv",
-	 &pr_bench_keys, pr_rosenbrock_defaults},
+	 &pr_bench_keys, pr_rosenbrock_defaults, NULL},
 };
 #define NEXP ((int)(sizeof experiments / sizeof experiments[0]))
 
@@ -43,6 +45,7 @@ int pr_exp_config(int i, pr_config_exp *out)
 	out->name = experiments[i].name;
 	out->block = experiments[i].keys;
 	out->defaults = experiments[i].defaults;
+	out->reads = experiments[i].reads;
 	return 1;
 }
 

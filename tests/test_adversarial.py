@@ -111,6 +111,10 @@ CASES = [
     Case("c7_sweep_grid_key_of_another_experiment", ["sweep", QUAD, "--grid", "exp1.train=10,20",
                                                      "-o", "sw"] + SWEEP_Q, USAGE,
          ("--grid exp1.train does not apply", "quadratic")),
+    # exp4 reads exp3's keys (its learner), but not exp1's
+    Case("c7_exp4_run_set_exp1_key", ["run", ROOT / "data" / "exp4.ini", "-q", "-o", "new",
+                                      "--set", "exp3.iterations=2", "--set", "exp1.train=10"], USAGE,
+         ("--set exp1.train does not apply", "exp4")),
     Case("c7_run_keeps_folder_on_key_of_another_experiment",
          ["run"] + RUN_Q + ["-o", "full", "--set", " exp2.sizes = 10,20"], USAGE,
          ("exp2.sizes does not apply",), {}, copy_runs("full")),

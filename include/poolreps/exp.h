@@ -42,6 +42,8 @@ typedef struct {
 	const struct pr_config_block *keys;
 	/* its defaults for keys of any section, ended by {NULL, NULL}; or NULL */
 	const struct pr_config_default *defaults;
+	/* another experiment's block whose keys it reads too (exp4: exp3's), or NULL */
+	const struct pr_config_block *reads;
 } pr_experiment;
 
 /* The experiment called `name`, or NULL. */
