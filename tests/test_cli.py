@@ -16,7 +16,7 @@ import pytest
 from conftest import ROOT, poolreps_path, run_cmd
 
 COMMON_LONG = {"set", "seed", "help", "version", "progress"}
-SPEC_COMMANDS = {"run", "shoot", "forest", "reps", "policy"}
+CORE_COMMANDS = {"run", "shoot", "forest", "reps", "policy"}
 # a run of a few milliseconds with 30 progress units (3 repetitions x 10 iterations)
 QUICK_RUN = [ROOT / "data" / "quadratic.ini", "--set", "experiment.repetitions=3",
              "--set", "bench.iterations=10"]
@@ -131,7 +131,7 @@ def test_units_in_help(keys_text, key, unit):
 # ---- (d) commands, options and exit codes ----
 
 def test_help_lists_the_commands(help_text):
-    assert SPEC_COMMANDS <= set(commands(help_text))
+    assert CORE_COMMANDS <= set(commands(help_text))
     assert {"config", "merge"} <= set(commands(help_text))
 
 

@@ -81,7 +81,7 @@ def random_shots(n, seed):
 
 
 def test_shoot_keep_pipes_into_forest(tmp_path):
-    """The example of the issue: shoot --keep | forest --train - --test ..."""
+    """The composition the README promises: shoot --keep | forest --train - --test ..."""
     binary = poolreps_path()
     if binary is None:
         pytest.skip("no poolreps binary (set POOLREPS)")
