@@ -9,7 +9,7 @@
 # log (or exit code 99, which fails the test that saw it) fails this script.
 #
 # Environment: VALGRIND_PYTEST_ARGS, passed to pytest; the default,
-#   -m "not slow" --ignore=tests/test_exp3.py
+#   -m "not slow and not native" --ignore=tests/test_exp3.py
 # skips tests marked slow and Experiment 3's (minutes each under valgrind),
 # which keeps the run near 4 minutes on 2 cores. E.g.
 # VALGRIND_PYTEST_ARGS='-k badinput' runs the bad-input suite alone.
@@ -53,7 +53,7 @@ chmod +x "$wrapper" || exit 1
 if [ -n "${VALGRIND_PYTEST_ARGS+set}" ]; then
 	eval "set -- $VALGRIND_PYTEST_ARGS"
 else
-	set -- -m "not slow" --ignore=tests/test_exp3.py
+	set -- -m "not slow and not native" --ignore=tests/test_exp3.py
 fi
 export LC_ALL=C POOLREPS="$wrapper" POOLREPS_TIMEOUT_SCALE=30 PYTHON="$py"
 start=$(date +%s)

@@ -355,7 +355,7 @@ int main(int argc, char **argv)
 	sigset_t held;
 	const command *cmd = NULL;
 	const char *config_path = NULL, *seed = NULL;
-	char err[PR_ERRLEN], msg[PR_ERRLEN + 64], note[PR_ERRLEN] = "";
+	char err[PR_ERRLEN] = "", msg[PR_ERRLEN + 64], note[PR_ERRLEN] = "";
 	char **orig, **sets, **grids;
 	int *used, nsets = 0, nused = 0, help = 0, progress_lines = 0, c, rc, i, k;
 	struct timespec t0;

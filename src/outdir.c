@@ -472,7 +472,8 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 		return PR_OK;
 	/* a failed run leaves no trace: drop the folders it made (if empty) */
 	remove_created(dir, keep);
-	unstage(err, staging, dir);
+	if (rc != PR_OK)
+		unstage(err, staging, dir);
 	/* after a signal every failure is its echo (a fit cut short may report
 	 * itself as a numerical failure): say what the user is left with */
 	if (pr_interrupted)

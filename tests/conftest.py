@@ -10,7 +10,9 @@ scripts/valgrind.sh sets). The binary itself goes through run_poolreps (the
 (no wrapper: an experiment takes minutes under valgrind).
 Tests that must start a process and act on it while it runs (signals, a
 terminal) use subprocess.Popen with timeout_scale().
-Mark long experiment tests @pytest.mark.slow: scripts/valgrind.sh skips them.
+Mark long experiment tests @pytest.mark.slow, and tests that need the bare
+process (peak memory, an allocation-failure shim, another user) @pytest.mark.native:
+scripts/valgrind.sh skips both.
 """
 import configparser
 import csv
@@ -26,6 +28,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "slow: long-running; skipped by scripts/valgrind.sh")
+    config.addinivalue_line("markers", "native: measures or replaces the process's allocator, "
+                            "or runs it as another user; skipped by scripts/valgrind.sh")
 
 
 def poolreps_path():

@@ -333,6 +333,7 @@ def test_signal_mid_collect(sigs, tmp_path, sweeps):
     assert snapshot(tmp_path) == before
 
 
+@pytest.mark.native
 @pytest.mark.skipif(os.geteuid() != 0, reason="switching to an unprivileged user needs root")
 @pytest.mark.parametrize("target", ["summary", "merged_file", "point_folder"])
 def test_collect_read_only_for_a_non_root_user(target, sweeps):
@@ -366,6 +367,7 @@ def test_collect_read_only_for_a_non_root_user(target, sweeps):
         shutil.rmtree(d, ignore_errors=True)
 
 
+@pytest.mark.native
 def test_sweep_missing_memory_stays_bounded(tmp_path, sweeps):
     """A jobs.txt of one endless line (/dev/zero): the right message, a
     small peak (no line is read whole into memory)."""
@@ -453,6 +455,7 @@ OOM = [
 ]
 
 
+@pytest.mark.native
 @pytest.mark.parametrize("name,args,step", OOM, ids=[o[0] for o in OOM])
 def test_every_allocation_failure_is_out_of_memory(name, args, step, failmalloc, tmp_path, runs, sweeps):
     """The n-th allocation and all after it fail, for n = 1, 1 + step, ...
