@@ -509,6 +509,7 @@ def many_columns():
                                         (endless_line, b"line longer than"),
                                         (many_columns, b"more than 100000 fields")],
                          ids=["endless_quote", "endless_line", "endless_header"])
+@pytest.mark.native
 def test_reading_stays_bounded(gen, needle, tmp_path):
     if SAN:
         pytest.skip("AddressSanitizer's shadow memory and quarantine change the resident size")
@@ -518,6 +519,7 @@ def test_reading_stays_bounded(gen, needle, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.native
 @pytest.mark.parametrize("args", [["config", "-c", "/dev/zero"], ["shoot", "-i", "/dev/zero"]],
                          ids=["config", "shoot"])
 def test_dev_zero_peak_memory(args, tmp_path):
@@ -542,6 +544,7 @@ def leftovers(root):
     return [p for p in Path(root).rglob("*") if p.name.startswith((".partial-", ".poolreps-tmp-"))]
 
 
+@pytest.mark.native
 @pytest.mark.parametrize("what", ["forest", "policy_samples", "run_exp1"])
 def test_ulimit_v_is_out_of_memory(what, tmp_path):
     """More than the address space allows: exit 4, one line, nothing written."""
@@ -568,6 +571,7 @@ def test_ulimit_v_is_out_of_memory(what, tmp_path):
     assert snapshot(tmp_path) == before
 
 
+@pytest.mark.native
 @pytest.mark.parametrize("cmd", ["shoot", "run"])
 def test_ulimit_f_sigxfsz(cmd, tmp_path):
     import resource
@@ -584,6 +588,7 @@ def test_ulimit_f_sigxfsz(cmd, tmp_path):
     assert snapshot(tmp_path) == before
 
 
+@pytest.mark.native
 @pytest.mark.skipif(os.geteuid() != 0, reason="mounting a tmpfs needs root")
 @pytest.mark.parametrize("what", ["shoot", "run_new", "run_existing", "merge"])
 def test_full_tmpfs(what, tmp_path, runs):
@@ -633,6 +638,7 @@ def wait_for(pred, timeout):
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT,
                                  signal.SIGUSR1, signal.SIGALRM],
                          ids=["INT", "TERM", "HUP", "QUIT", "USR1", "ALRM"])
+@pytest.mark.native
 def test_signal_mid_shoot(sig, tmp_path):
     args = long_shoot(tmp_path)
     before = snapshot(tmp_path)
@@ -651,6 +657,7 @@ def test_signal_mid_shoot(sig, tmp_path):
     assert snapshot(tmp_path) == before
 
 
+@pytest.mark.native
 def test_ulimit_t_sigxcpu(tmp_path):
     import resource
     args = long_shoot(tmp_path)
@@ -662,6 +669,7 @@ def test_ulimit_t_sigxcpu(tmp_path):
     assert snapshot(tmp_path) == before
 
 
+@pytest.mark.native
 def test_sigpipe_through_head(tmp_path):
     args = long_shoot(tmp_path)
     args[args.index("-o") + 1] = "-"
@@ -679,6 +687,7 @@ def exp3_run(out):
     return [binary(), ROOT / "data" / "exp3.ini", "-q", "-o", out, "--set", "experiment.threads=1"]
 
 
+@pytest.mark.native
 @pytest.mark.parametrize("sig", [signal.SIGHUP, signal.SIGQUIT], ids=["HUP", "QUIT"])
 def test_signal_mid_run_removes_staging(sig, tmp_path, runs):
     shutil.copytree(runs / "full", tmp_path / "out")
@@ -698,6 +707,7 @@ def test_signal_mid_run_removes_staging(sig, tmp_path, runs):
     assert snapshot(tmp_path) == before
 
 
+@pytest.mark.native
 def test_signal_mid_run_removes_the_folders_it_made(tmp_path):
     before = snapshot(tmp_path)
     p = subprocess.Popen(exp3_run(tmp_path / "a" / "b" / "out"), env=env(), stdout=subprocess.DEVNULL,
@@ -717,6 +727,7 @@ def test_signal_mid_run_removes_the_folders_it_made(tmp_path):
     assert snapshot(tmp_path) == before
 
 
+@pytest.mark.native
 def test_sigkill_leftover_removed_by_next_run(tmp_path):
     out = tmp_path / "out"
     p = subprocess.Popen(exp3_run(out), env=env(), stdout=subprocess.DEVNULL,
@@ -736,6 +747,7 @@ def test_sigkill_leftover_removed_by_next_run(tmp_path):
         "bench_curve.csv", "bench_summary.csv", "config.ini", "provenance.txt"]
 
 
+@pytest.mark.native
 def test_staging_of_a_live_run_is_left_alone(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
@@ -747,6 +759,7 @@ def test_staging_of_a_live_run_is_left_alone(tmp_path):
     assert (live / "x.csv").read_bytes() == b"a\n"
 
 
+@pytest.mark.native
 def test_concurrent_runs_into_one_folder(tmp_path):
     out = tmp_path / "out"
     procs = [subprocess.Popen([binary(), ROOT / "data" / "quadratic.ini", "-o", out,
@@ -787,6 +800,7 @@ def nobody_dir():
     return Path(d)
 
 
+@pytest.mark.native
 @pytest.mark.skipif(os.geteuid() != 0, reason="switching to an unprivileged user needs root")
 @pytest.mark.parametrize("target", ["file", "summary", "run_folder", "run_file"])
 def test_read_only_target_for_a_non_root_user(target):
