@@ -383,6 +383,10 @@ static int sweep_point(sweep_out *s, long p, char *err)
 	if (rc == PR_OK && (g->split & SPLIT_VAR) && vl->n == 0)
 		rc = pr_err(err, PR_EINVAL, "--split %s: %s has no variants (exp1, exp3 and exp4 have)",
 		            s->g->split & SPLIT_REP ? "both" : "variant", pt.run.name);
+	if (rc != PR_OK) {
+		free(vl);
+		return rc;
+	}
 	nr = g->split & SPLIT_REP ? pt.run.repetitions : 1;
 	nv = g->split & SPLIT_VAR ? vl->n : 1;
 	/* a job's threads share its repetitions x variants */
