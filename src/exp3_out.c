@@ -33,11 +33,7 @@ static int write_episodes(const pr_config *cfg, const pr_exp3_job *runs, int nru
 	snprintf(path, sizeof path, "%s/exp3_episodes.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
-	rc |= pr_csvw_str(w, "repetition");
-	rc |= pr_csvw_str(w, "policy");
-	rc |= pr_csvw_str(w, "iteration");
-	rc |= pr_exp3_write_state_names(w, cfg->table.balls);
-	rc |= pr_csvw_header(w, "vx,vy,return,rx,ry,pocket,hit");
+	rc |= pr_exp3_write_episode_header(w, cfg->table.balls);
 	for (j = 0; rc == PR_OK && j < nruns; ++j) {
 		const pr_exp3_episodes *o = &runs[j].ep;
 		for (i = 0; rc == PR_OK && i < o->n; ++i) {
@@ -61,6 +57,16 @@ int pr_exp3_write_state_names(pr_csvw *w, int nballs)
 		rc |= pr_csvw_str(w, name);
 	}
 	return rc;
+}
+
+int pr_exp3_write_episode_header(pr_csvw *w, int nballs)
+{
+	int rc = pr_csvw_str(w, "repetition");
+
+	rc |= pr_csvw_str(w, "policy");
+	rc |= pr_csvw_str(w, "iteration");
+	rc |= pr_exp3_write_state_names(w, nballs);
+	return rc | pr_csvw_header(w, "vx,vy,return,rx,ry,pocket,hit");
 }
 
 int pr_exp3_write_episode(pr_csvw *w, const pr_exp3_episodes *o, int i)

@@ -167,6 +167,9 @@ int pr_exp3_write_raw(const pr_config *cfg, const pr_exp3_job *runs, int nruns, 
 int pr_exp3_write_episode(pr_csvw *w, const pr_exp3_episodes *o, int i);
 /* The state column names x0,y0,x1,y1,... of nballs balls (no row end). */
 int pr_exp3_write_state_names(pr_csvw *w, int nballs);
+/* The header of an episodes file: repetition, policy (the run's label),
+ * then the columns pr_exp3_write_episode writes; ends the row. */
+int pr_exp3_write_episode_header(pr_csvw *w, int nballs);
 #define PR_EXP3_ITER_COLUMNS "eta,kl,ess,bound,residual,q_ess,features,dual_evals,redraws," \
 	"policy_flags,kl_gap,residual_rel,status"
 int pr_exp3_write_iter(pr_csvw *w, const pr_exp3_iter *r);

@@ -38,11 +38,7 @@ static int write_runs(const pr_config *cfg, const pr_exp4_job *runs, int nruns, 
 	snprintf(path, sizeof path, "%s/exp4_episodes.csv", dir);
 	if (!(w = pr_csvw_open(path, err)))
 		return PR_EIO;
-	rc |= pr_csvw_str(w, "repetition");
-	rc |= pr_csvw_str(w, "policy");
-	rc |= pr_csvw_str(w, "iteration");
-	rc |= pr_exp3_write_state_names(w, cfg->table.balls);
-	rc |= pr_csvw_header(w, "vx,vy,return,rx,ry,pocket,hit");
+	rc |= pr_exp3_write_episode_header(w, cfg->table.balls);
 	for (j = 0; rc == PR_OK && j < nruns; ++j) {
 		pr_exp4_variant_label(&runs[j].var, label, sizeof label);
 		for (i = 0; rc == PR_OK && i < runs[j].ep.n; ++i) {
