@@ -219,8 +219,18 @@ $(BENCH_BIN): $(BUILD)/bench_%: tests/bench/bench_%.c $(LIB)
 
 # Before compiling anything, one line naming the missing Debian packages
 # rather than a wall of compiler errors (probed once per build folder; the
-# test packages each time a check target runs).
-ifeq ($(filter clean deps,$(MAKECMDGOALS)),)
+# test packages each time a check target runs). `reproduce` and `deps` install
+# the packages as root, so they are not probed here; without root they stop at
+# once with the one line of scripts/install-deps.sh and exit 2.
+INSTALL_GOALS := deps reproduce
+ifneq ($(filter $(INSTALL_GOALS),$(MAKECMDGOALS)),)
+  ifneq ($(shell id -u),0)
+    DEPS_MISSING := $(shell sh scripts/install-deps.sh --probe $(if $(EXTRAS),--extras) 2>&1)
+    ifneq ($(DEPS_MISSING),)
+      $(error $(DEPS_MISSING))
+    endif
+  endif
+else ifeq ($(filter clean,$(MAKECMDGOALS)),)
   ifeq ($(wildcard $(BUILD)/deps.ok),)
     DEPS_MISSING := $(shell CC='$(CC)' sh scripts/check-deps.sh build)
     ifneq ($(DEPS_MISSING),)

@@ -22,18 +22,19 @@ fi
 has_header csv.h || need libcsv-dev
 has_header ini.h || need libinih-dev
 has_header glpk.h || need libglpk-dev
+has_header nlopt.h || need libnlopt-dev
 if [ "$mode" = check ]; then
 	# cmocka.h needs these headers first
 	[ $cc_ok = 0 ] || printf '#include <stdarg.h>\n#include <stddef.h>\n#include <stdint.h>\n#include <setjmp.h>\n#include <cmocka.h>\n' |
 		$CC -E -x c - >/dev/null 2>&1 || need libcmocka-dev
 	[ -n "$py" ] || py=python3
 	if command -v "$py" >/dev/null 2>&1; then
-		for m in pytest:python3-pytest numpy:python3-numpy scipy:python3-scipy matplotlib:python3-matplotlib; do
+		for m in pytest:python3-pytest numpy:python3-numpy scipy:python3-scipy matplotlib:python3-matplotlib xdist:python3-pytest-xdist; do
 			"$py" -c "import importlib.util as u, sys; sys.exit(u.find_spec('${m%%:*}') is None)" \
 				2>/dev/null || need "${m#*:}"
 		done
 	else
-		need "python3 python3-pytest python3-numpy python3-scipy python3-matplotlib"
+		need "python3 python3-pytest python3-numpy python3-scipy python3-matplotlib python3-pytest-xdist"
 	fi
 fi
 [ -z "$missing" ] && exit 0
