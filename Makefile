@@ -4,6 +4,8 @@ CFLAGS  ?= -O2 -g
 PREFIX  ?= /usr/local
 PYTHON  ?= $(shell for p in /usr/bin/python3 python3; do $$p -c 'import matplotlib' 2>/dev/null && { command -v $$p; break; }; done)
 OUT     ?= results
+# parallel jobs of the build that `make reproduce` starts and of pytest in `make check`
+JOBS    ?= $(shell nproc 2>/dev/null || echo 2)
 
 VERSION := $(shell git describe --always --dirty --tags 2>/dev/null || cat VERSION 2>/dev/null || echo 0.1.0)
 WARN    := -std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes
@@ -68,16 +70,19 @@ poolreps: $(BUILD)/poolreps
 $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)
 	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(LIB) $(LIBS) -lcmocka -o $@
 
-# the packages are probed when make starts (below); nothing is installed here
+# the packages are probed when make starts (below); nothing is installed here.
+# pytest runs on JOBS workers (pytest-xdist) and names the 10 slowest tests;
+# the last line is the wall time of the whole check
 check:
-	$(MAKE) check-c check-py
+	@t0=$$(date +%s); st=0; $(MAKE) check-c check-py || st=$$?; \
+	  echo "make check: $$(( $$(date +%s) - t0 )) s wall"; exit $$st
 
 check-c: $(TEST_BIN)
 	@fail=0; for t in $(TEST_BIN); do echo "== $$t"; $$t || fail=1; done; exit $$fail
 
 # tests/ref_driver exposes library calls to the numpy reference tests
 check-py: $(BUILD)/poolreps $(BUILD)/tests/ref_driver
-	LC_ALL=C SAN=$(SAN) POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q tests
+	LC_ALL=C SAN=$(SAN) POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q -n $(JOBS) --durations=10 tests
 
 # the scripts build their binaries through the rules below (bench-bin, fuzz-bin)
 bench: all
@@ -112,10 +117,10 @@ quick-sums: $(BUILD)/poolreps
 deps:
 	sh scripts/install-deps.sh $(if $(EXTRAS),--extras)
 
-# a sub-make, so that PYTHON and pkg-config are looked up after deps installed them
+# sub-makes, so that PYTHON and pkg-config are looked up after deps installed
+# them; timed from before the build (scripts/reproduce-timed.sh)
 reproduce: deps
-	$(MAKE) all
-	$(MAKE) reproduce-run
+	sh scripts/reproduce-timed.sh "$(MAKE)" "$(JOBS)" "$(OUT)"
 
 reproduce-run:
 	sh scripts/reproduce.sh "$(OUT)" "$(PYTHON)" "$(QUICK)"

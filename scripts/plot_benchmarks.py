@@ -64,11 +64,11 @@ def draw(axes, curves, name, colour):
                     label=f"{name}: policy std (median)")
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("dir")
     ap.add_argument("--title", default=None)
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     fs.setup()
     title = args.title or os.path.basename(os.path.normpath(args.dir))
     fig, axes = fs.figure("full", 0.36, ncols=3)

@@ -127,10 +127,10 @@ def plot_map(d, rows, geo):
     return fs.save(fig, d, "exp1_map")
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dir")
-    d = ap.parse_args().dir
+    d = ap.parse_args(argv).dir
     fs.setup()
     cfg = exp_data.config(d)
     default = exp_data.exp1_default(cfg)

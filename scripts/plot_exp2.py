@@ -28,11 +28,11 @@ NEED = ("size", "policy", "mode", "mean_return", "two_se", "two_se_shots", "repe
         "shots", "pocketed")
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dir")
     ap.add_argument("--error", choices=("reps", "shots"), default=None)
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
     fs.setup()
     rows = exp_data.read_csv(os.path.join(a.dir, "exp2_summary.csv"), need=NEED)
     if not rows:

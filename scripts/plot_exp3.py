@@ -308,10 +308,10 @@ def fig7_10(d, runs, last, geo):
     return fs.save(fig, d, "fig7_10")
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dir")
-    d = ap.parse_args().dir
+    d = ap.parse_args(argv).dir
     fs.setup()
     runs, last = exp3_table.load(d)
     if not runs:

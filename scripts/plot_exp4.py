@@ -255,10 +255,10 @@ def fig_rates(d, final, verdict, covs, last):
     return fs.save(fig, d, "exp4_rates")
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dir")
-    d = ap.parse_args().dir
+    d = ap.parse_args(argv).dir
     fs.setup()
     final = split_label(exp_data.read_csv(os.path.join(d, "exp4_final.csv"), FINAL_NEED))
     verdict = exp_data.read_csv(os.path.join(d, "exp4_verdict.csv"), VERDICT_NEED)

@@ -219,10 +219,10 @@ def fig_ghost(d, table, pockets, aim_mode):
     return fs.save(fig, d, "fig7_5_ghost")
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dir")
-    d = ap.parse_args().dir
+    d = ap.parse_args(argv).dir
     fs.setup()
     table = read(d, "fig7_table.csv")[0]
     pockets = read(d, "fig7_1_pockets.csv")

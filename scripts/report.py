@@ -281,8 +281,9 @@ def provenance_section(out):
     if os.path.exists(tpath):
         t = exp_data.read_csv(tpath, ("step", "seconds"))
         text.append("<p>Wall time of each step of <code>scripts/reproduce.sh</code> (running "
-                    "the experiment, then drawing its figures), measured with the machine as "
-                    "it was, possibly shared:</p>")
+                    "each experiment, then drawing each folder's figures in one process that "
+                    "overlaps the next run), measured with the machine as it was, possibly "
+                    "shared:</p>")
         text.append(table(["step", "wall s"], [[r["step"], r["seconds"]] for r in t], num={1}))
     try:
         import matplotlib

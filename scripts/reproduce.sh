@@ -8,6 +8,10 @@
 # QUICK=1: a smoke run at tiny sizes (CI), same code paths and scripts: the
 # keys of data/quick/<name>.ini on top of data/<name>.ini.
 # POOLREPS=path picks the binary (default ./poolreps).
+# The figures are drawn by ONE Python process (scripts/plot_all.py) that
+# takes each folder as soon as its experiment has finished, so drawing
+# overlaps the next experiment's run; timings.csv lists each run, then each
+# folder's drawing time.
 set -e
 OUT=${1:-results}
 PY=${2:-}
@@ -21,6 +25,11 @@ mkdir -p "$OUT/figures"
 rm -f "$OUT/figures"/*.png "$OUT/figures"/*.svg "$OUT/figures"/*.pdf "$OUT/report.html"
 echo "step,seconds" > "$OUT/timings.csv"
 start=$(date +%s.%N)
+# through `make reproduce` the clock started before the build
+if [ -n "${REPRODUCE_T0:-}" ]; then
+	echo "build,$(echo "$REPRODUCE_T0 $start" | awk '{ printf "%.2f", $2 - $1 }')" >> "$OUT/timings.csv"
+	start=$REPRODUCE_T0
+fi
 
 timed() { # step name, then the command; appends its wall time to timings.csv
 	step=$1; shift
@@ -31,6 +40,23 @@ timed() { # step name, then the command; appends its wall time to timings.csv
 	echo "reproduce: $step took $t s"
 }
 
+# the plotting process reads finished folders from a FIFO in a private
+# folder that is removed however this script ends
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/poolreps-reproduce.XXXXXX")
+plotter=
+cleanup() {
+	exec 3>&-
+	[ -z "$plotter" ] || { kill "$plotter" 2>/dev/null; wait "$plotter" 2>/dev/null; }
+	rm -rf "$tmp"
+}
+trap cleanup EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
+mkfifo "$tmp/queue"
+"$PY" "$(dirname "$0")/plot_all.py" --stdin --timings "$tmp/figure-times" < "$tmp/queue" &
+plotter=$!
+exec 3> "$tmp/queue"
+
 run() { # name: data/NAME.ini; QUICK=1 adds the keys of data/quick/NAME.ini
 	name=$1
 	dir=$name; [ "$name" = figures ] && dir=sim
@@ -40,12 +66,20 @@ run() { # name: data/NAME.ini; QUICK=1 adds the keys of data/quick/NAME.ini
 	fi
 	# shellcheck disable=SC2086 # the quick --set words are meant to split
 	timed "$name: run" "$BIN" "data/$name.ini" -o "$OUT/$dir" $quick
-	timed "$name: figures" sh scripts/plot "$OUT/$dir"
+	kill -0 "$plotter" 2>/dev/null ||
+		{ echo "reproduce: drawing the figures stopped (see its message above)" >&2; exit 1; }
+	echo "$OUT/$dir" >&3
 }
 
-for name in figures exp1 exp2 exp3 exp4 quadratic sphere rosenbrock; do
+# the long Experiment 4 last: the other folders are drawn while it runs
+for name in figures exp1 exp2 exp3 quadratic sphere rosenbrock exp4; do
 	run $name
 done
+exec 3>&-
+st=0; wait "$plotter" || st=$?
+plotter=
+[ $st = 0 ] || { echo "reproduce: drawing the figures failed (exit $st, see its message above)" >&2; exit 1; }
+cat "$tmp/figure-times" >> "$OUT/timings.csv"
 for d in sim exp1 exp2 exp3 exp4; do
 	cp "$OUT/$d"/*.png "$OUT/$d"/*.svg "$OUT/figures/"
 done
