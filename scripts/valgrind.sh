@@ -8,7 +8,7 @@
 # with one log per process; the tests see it as env POOLREPS. Any non-empty
 # log (or exit code 99, which fails the test that saw it) fails this script.
 #
-# Environment: VALGRIND_PYTEST_ARGS, passed to pytest; the default,
+# Environment: JOBS, pytest workers; VALGRIND_PYTEST_ARGS, passed to pytest; the default,
 #   -m "not slow and not native" --ignore=tests/test_exp3.py
 # skips tests marked slow and Experiment 3's (minutes each under valgrind),
 # which keeps the run near 4 minutes on 2 cores. E.g.
@@ -60,7 +60,8 @@ else
 fi
 export LC_ALL=C POOLREPS="$wrapper" POOLREPS_TIMEOUT_SCALE=30 PYTHON="$py"
 start=$(date +%s)
-"$py" -m pytest -q -p no:cacheprovider "$@" tests
+# on JOBS pytest workers (pytest-xdist; default: the machine's cores)
+"$py" -m pytest -q -p no:cacheprovider -n "${JOBS:-$(nproc 2>/dev/null || echo 2)}" "$@" tests
 rc=$?
 runs=$(find "$logs" -name 'vg.*.log' | wc -l)
 reports=$(find "$logs" -name 'vg.*.log' -size +0c)

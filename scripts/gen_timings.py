@@ -1,0 +1,159 @@
+#!/usr/bin/env python3
+"""gen_timings.py — the README's and docs/benchmarks.md's time figures,
+generated from committed measurements (docs/data/timing_*.csv), never typed.
+
+  gen_timings.py --record-reproduce OUT   keep OUT/timings.csv and OUT/load.csv
+                                          of a full `make reproduce` (refused
+                                          for a QUICK=1 run or a busy machine)
+  gen_timings.py --record-check LOG       keep the wall time and the slowest
+                                          tests of a `make check` log
+  gen_timings.py [--check]                write (or compare) the text between
+                                          the <!-- timing:NAME --> markers
+
+A measurement counts as an idle-machine figure only if, while it ran, other
+work took less than IDLE_SHARE of the machine's cores (load.csv's
+others_share; scripts/reproduce-timed.sh measures it from /proc/stat). The
+machine is described from /proc/cpuinfo when a measurement is recorded."""
+import argparse
+import csv
+import os
+import re
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DATA = os.path.join(ROOT, "docs", "data")
+IDLE_SHARE = 0.1
+FILES = [os.path.join(ROOT, "README.md"), os.path.join(ROOT, "docs", "benchmarks.md")]
+
+
+def read_csv(path):
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            return list(csv.DictReader(f))
+    except OSError as e:
+        sys.exit(f"gen_timings.py: {path}: {e.strerror}")
+
+
+def write_csv(path, rows, cols):
+    tmp = path + ".tmp"
+    with open(tmp, "w", newline="", encoding="utf-8") as f:
+        w = csv.DictWriter(f, cols, lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+    os.replace(tmp, path)
+
+
+def machine():
+    model, cores = "unknown CPU", os.cpu_count() or 1
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    model = " ".join(line.split(":", 1)[1].split())
+                    break
+    except OSError:
+        pass
+    mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
+    return f"{cores}-core {model}, {mem:.0f} GiB"
+
+
+def record_reproduce(out):
+    if "smoke run" in open(os.path.join(out, "report.html"), encoding="utf-8").read():
+        sys.exit(f"gen_timings.py: {out}: a QUICK=1 run, not a full reproduction")
+    load = read_csv(os.path.join(out, "load.csv"))[0]
+    if float(load["others_share"]) >= IDLE_SHARE:
+        sys.exit(f"gen_timings.py: {out}/load.csv: others_share {load['others_share']} >= "
+                 f"{IDLE_SHARE}: the machine was busy, not an idle-machine figure")
+    steps = read_csv(os.path.join(out, "timings.csv"))
+    if not steps or steps[0]["step"] != "build":
+        sys.exit(f"gen_timings.py: {out}/timings.csv: no build row (run `make reproduce`)")
+    rows = [dict(s, machine=machine(), others_share=load["others_share"]) for s in steps]
+    write_csv(os.path.join(DATA, "timing_reproduce.csv"), rows,
+              ["step", "seconds", "others_share", "machine"])
+
+
+def record_check(log):
+    text = open(log, encoding="utf-8", errors="replace").read()
+    wall = re.findall(r"^make check: (\d+) s wall$", text, re.M)
+    if not wall:
+        sys.exit(f"gen_timings.py: {log}: no 'make check: N s wall' line")
+    summary = re.findall(r"^=+ (\d+) passed.* in ([\d.]+)s", text, re.M)
+    slow = re.findall(r"^([\d.]+)s (call|setup|teardown) +(\S+)$", text, re.M)[:10]
+    rows = [{"what": "make check", "seconds": wall[-1], "machine": machine()}]
+    rows += [{"what": "pytest", "seconds": summary[-1][1], "machine": f"{summary[-1][0]} passed"}]\
+        if summary else []
+    rows += [{"what": f"{name} ({phase})", "seconds": sec, "machine": ""}
+             for sec, phase, name in slow]
+    write_csv(os.path.join(DATA, "timing_check.csv"), rows, ["what", "seconds", "machine"])
+
+
+def blocks():
+    rep = read_csv(os.path.join(DATA, "timing_reproduce.csv"))
+    chk = read_csv(os.path.join(DATA, "timing_check.csv"))
+    sec = {r["step"]: float(r["seconds"]) for r in rep}
+    total = sec["total"]
+    runs = sum(v for k, v in sec.items() if k.endswith(": run"))
+    figs = sum(v for k, v in sec.items() if k.endswith(": figures"))
+    mach = rep[0]["machine"]
+    check = float(chk[0]["seconds"])
+    out = {
+        "reproduce": f"in {total:.0f} s (measured end to end, build included, on an idle "
+                     f"{mach})",
+        "check": f"{check:.0f} s on the same machine",
+    }
+    lines = [f"`make reproduce` end to end on an idle {mach} (other work "
+             f"< {IDLE_SHARE:.0%} of the cores, measured from /proc/stat): **{total:.1f} s**, "
+             f"of which the build {sec['build']:.1f} s and the experiments {runs:.1f} s; the "
+             f"figures, drawn by one process while the next experiment runs, took "
+             f"{figs:.1f} s of their own.", "", "| step | wall s |", "|---|---:|"]
+    lines += [f"| {r['step']} | {float(r['seconds']):.2f} |" for r in rep]
+    lines += ["", f"`make check` on the same machine: **{check:.0f} s** wall"
+              + (f" (pytest {chk[1]['machine']} in {float(chk[1]['seconds']):.0f} s on "
+                 "2 workers)" if len(chk) > 1 and chk[1]["what"] == "pytest" else "")
+              + "; its 10 slowest tests:", "", "| test | s |", "|---|---:|"]
+    lines += [f"| `{r['what']}` | {float(r['seconds']):.1f} |" for r in chk
+              if r["what"] not in ("make check", "pytest")]
+    out["table"] = "\n".join(lines)
+    return out
+
+
+def render(text, b):
+    def sub(m):
+        name = m.group(1)
+        if name not in b:
+            sys.exit(f"gen_timings.py: unknown marker timing:{name}")
+        body = b[name]
+        sep = "\n" if "\n" in body else ""
+        return f"<!-- timing:{name} -->{sep}{body}{sep}<!-- /timing -->"
+    return re.sub(r"<!-- timing:(\w+) -->.*?<!-- /timing -->", sub, text, flags=re.S)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--record-reproduce", metavar="OUT")
+    ap.add_argument("--record-check", metavar="LOG")
+    ap.add_argument("--check", action="store_true")
+    a = ap.parse_args()
+    if a.record_reproduce:
+        record_reproduce(a.record_reproduce)
+    if a.record_check:
+        record_check(a.record_check)
+    b = blocks()
+    bad = []
+    for path in FILES:
+        old = open(path, encoding="utf-8").read()
+        new = render(old, b)
+        if a.check:
+            if new != old:
+                bad.append(os.path.relpath(path, ROOT))
+        elif new != old:
+            with open(path + ".tmp", "w", encoding="utf-8") as f:
+                f.write(new)
+            os.replace(path + ".tmp", path)
+    if bad:
+        sys.exit(f"gen_timings.py: {', '.join(bad)}: time figures differ from docs/data/"
+                 "timing_*.csv (run scripts/gen_timings.py)")
+
+
+if __name__ == "__main__":
+    main()
