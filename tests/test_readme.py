@@ -57,3 +57,38 @@ def test_pictures_exist_and_no_placeholders():
     for p in pictures:
         assert (ROOT / p).is_file(), p
     assert "BENCH_" not in README
+
+
+# ---- the time figures ----
+
+def test_time_figures_are_the_recorded_measurements():
+    """The README's and docs/benchmarks.md's time figures are what
+    scripts/gen_timings.py makes of docs/data/timing_*.csv."""
+    p = run_cmd(["/usr/bin/env", "python3", str(ROOT / "scripts" / "gen_timings.py"), "--check"],
+                capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+
+
+def readme_reproduce_seconds():
+    m = re.search(r"<!-- timing:reproduce -->in (\d+) s", README)
+    assert m, "README has no generated reproduce time"
+    return float(m.group(1))
+
+
+def test_a_full_reproduction_here_takes_at_most_twice_the_readme_figure():
+    """When results/ holds a full `make reproduce` (timings.csv with a build
+    row and load.csv) that ran on an idle machine (other work under 10 % of
+    the cores, from /proc/stat over the run), its total is at most twice the
+    README's figure. Skipped when there is no such run, or it ran under load."""
+    res = ROOT / "results"
+    if not (res / "load.csv").is_file() or not (res / "timings.csv").is_file():
+        pytest.skip("no full `make reproduce` in results/ to compare")
+    if "smoke run" in (res / "report.html").read_text(encoding="utf-8", errors="replace"):
+        pytest.skip("results/ holds a QUICK=1 run")
+    load = (res / "load.csv").read_text().splitlines()[1].split(",")
+    if float(load[4]) >= 0.1:
+        pytest.skip(f"results/ ran on a busy machine (other work took {float(load[4]):.0%})")
+    steps = dict(line.split(",") for line in (res / "timings.csv").read_text().splitlines()[1:])
+    if "build" not in steps:
+        pytest.skip("results/ was not written by `make reproduce`")
+    assert float(steps["total"]) <= 2 * readme_reproduce_seconds()
