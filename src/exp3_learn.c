@@ -820,10 +820,11 @@ int pr_exp3_learner_mean_eval(pr_exp3_learner *L, int n, gsl_rng *states, double
 			x[j] = s[L->xdim[j]];
 		if ((rc = pr_policy_eval(p, x, a, cov, NULL, ws, err)))
 			break;
-		/* a mean beyond the speed limit is scaled down to it, as in Experiment 2 */
+		/* a mean beyond the speed limit is scaled down to it, as in Experiment
+		 * 2, strictly inside (the rounded product may land just above it) */
 		if ((v = hypot(a[0], a[1])) > vmax) {
-			a[0] *= vmax / v;
-			a[1] *= vmax / v;
+			a[0] *= vmax / v * (1.0 - SPEED_MARGIN);
+			a[1] *= vmax / v * (1.0 - SPEED_MARGIN);
 		}
 		if ((rc = pr_sim_shoot(L->sim, s, L->nballs, a, &shot, NULL, err)))
 			break;
