@@ -418,7 +418,7 @@ def plot(a):
     style = [("imitation", "imitation only", "0.45", "--"),
              ("policy", "imitation + REPS", "C0", "-"),
              ("refit", "refit-only (no REPS)", "C1", "-"),
-             ("matched", "REPS at π₀'s n_min", "C2", "-")]
+             ("matched", "REPS at π₀'s resolution", "C2", "-")]
     handles = {}
     for row, c in enumerate(("query", "residual")):
         for col, p in enumerate(POLICIES):

@@ -80,7 +80,8 @@ static const pr_config_key key_table[] = {
 	 "scratch|imitation|demo|policy|refit|matched",
 	 "how runs start: Exp. 3 from scratch, the fitted policy alone, or it + REPS with the "
 	 "demonstrations or its own episodes as first window; controls of policy: refit (no REPS, "
-	 "refitted with the importance weights), matched (REPS, tree policies at pi_0's n_min)"},
+	 "refitted with the importance weights), matched (REPS, tree policies at n_min = "
+	 "exp4.fit_n_min_frac * exp3.window: pi_0's resolution)"},
 	{"exp4", "covs", PR_KEY_NAMES, F(covs), 0, 0, 0, "query|residual",
 	 "policy.cov of the tree and baseline runs, one run each (policy.cov is not read)"},
 	{"exp4", "fit_n_min_frac", PR_KEY_DOUBLE, F(fit_n_min_frac), 0, 1, PR_KEY_OPEN_LO, "",
@@ -279,12 +280,27 @@ static int kind_of(int policy)
 	}
 }
 
-/* The tree policies' n_min in the fit to the demonstrations. */
+/* The tree policies' n_min in a fit to n samples: fit_n_min_frac x n. */
+static int frac_n_min(const pr_exp4_opts *e4, int n)
+{
+	int m = (int)lround(e4->fit_n_min_frac * n);
+
+	return m < 1 ? 1 : m;
+}
+
+/* ... in the fit to the demonstrations, pi_0. */
 static int demo_n_min(const pr_exp4_opts *e4)
 {
-	int n = (int)lround(e4->fit_n_min_frac * e4->n_demo);
+	return frac_n_min(e4, e4->n_demo);
+}
 
-	return n < 1 ? 1 : n;
+/* ... in the matched control's REPS fits: the same fraction of the window,
+ * so the trees of pi_t split the state box about as finely as pi_0's (pi_0's
+ * n_min itself, 5 episodes a leaf, let a run with eq. 6.8's covariance
+ * draw 100 actions in a row faster than sim.max_speed). */
+static int matched_n_min(const pr_config *cfg, const pr_exp4_opts *e4)
+{
+	return frac_n_min(e4, pr_exp3_opts_of(cfg)->window);
 }
 
 /* pi_0: the policy fitted to the demonstrations d (unit weights) on the
@@ -464,14 +480,14 @@ static int start_imitation(const pr_config *cfg, const pr_exp4_opts *e4, pr_exp4
 }
 
 /* The controls of the policy start (exp4_priv.h): refit without REPS, or
- * REPS with the tree policies at pi_0's n_min. */
-static int set_control(const pr_exp4_opts *e4, const pr_exp4_variant *v, pr_exp3_learner *L,
-                       char *err)
+ * REPS with the tree policies at pi_0's resolution. */
+static int set_control(const pr_config *cfg, const pr_exp4_opts *e4, const pr_exp4_variant *v,
+                       pr_exp3_learner *L, char *err)
 {
 	if (v->init == PR_EXP4_REFIT)
 		return pr_exp3_learner_set_control(L, 1, 0, err);
 	if (v->init == PR_EXP4_MATCHED)
-		return pr_exp3_learner_set_control(L, 0, demo_n_min(e4), err);
+		return pr_exp3_learner_set_control(L, 0, matched_n_min(cfg, e4), err);
 	return PR_OK;
 }
 
@@ -486,8 +502,10 @@ static int forest_n_min(const pr_config *cfg, const pr_exp4_opts *e4, const pr_e
 		return 0;
 	if (v->policy == PR_EXP3_BASELINE)
 		return v->init == PR_EXP4_IMITATION && e4->n_demo > nb ? e4->n_demo : nb;
-	if (v->init == PR_EXP4_IMITATION || v->init == PR_EXP4_MATCHED)
+	if (v->init == PR_EXP4_IMITATION)
 		return demo_n_min(e4);
+	if (v->init == PR_EXP4_MATCHED)
+		return matched_n_min(cfg, e4);
 	return cfg->policy.forest.n_min;
 }
 
@@ -559,7 +577,7 @@ static int run_job(void *ctx, int j, char *err)
 		rc = scratch ? pr_exp3_learner_start(L, msg)
 		             : start_imitation(cfg, su->e4, run, L, start, msg);
 	if (rc == PR_OK)
-		rc = set_control(su->e4, v, L, msg);
+		rc = set_control(cfg, su->e4, v, L, msg);
 	/* one run per repetition keeps its demonstrations for exp4_demo.csv */
 	if (rc == PR_OK && su->first + j % su->nvar != su->writer)
 		pr_exp4_demo_free(&run->demo);
@@ -626,7 +644,7 @@ static int check_controls(const pr_config *cfg, char *err)
 			              reps_keys[j], e4->inits);
 	if (has[PR_EXP4_MATCHED] && !nmin && key_given(cfg, "policy.n_min"))
 		return pr_err(err, PR_EINVAL, "%s: policy.n_min: exp4.inits = %s: matched runs refit at "
-		              "pi_0's n_min (exp4.fit_n_min_frac), so the key has no effect",
+		              "exp4.fit_n_min_frac x exp3.window, so the key has no effect",
 		              pr_config_where(cfg, "policy.n_min", at, sizeof at), e4->inits);
 	return PR_OK;
 }
