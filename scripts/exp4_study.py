@@ -359,7 +359,7 @@ def blocks(d):
     b = {
         "setup": [f"{nrep} paired repetitions, {nruns} runs in six arms; the runs took "
                   f"{cpu:.0f} s of CPU ({wall:.0f} s wall on {t[0]['cores'] if t else '?'} cores, "
-                  f"load {t[0]['load_before'] if t else '?'} at the start; `{d}/timing.csv`). "
+                  f"load {t[0]['load_before'] if t else '?'} at the start; `{os.path.basename(os.path.normpath(d))}/timing.csv`). "
                   f"{nfail} REPS solves in {nfrun} runs could not be certified and were "
                   f"recorded (`reps.allow_failed`)."],
         "controls": table_verdict(ver, "sampled", main_names),
