@@ -357,7 +357,7 @@ def blocks(d):
     eps_names = ["REPS (eps 0.25) vs imitation", "REPS (eps 0.1) vs imitation",
                  "matched REPS (eps 0.25) vs imitation", "matched REPS (eps 0.1) vs imitation"]
     b = {
-        "setup": [f"{nrep} paired repetitions, {nruns} runs in six arms; the runs took "
+        "setup": [f"{nrep} paired repetitions, {nruns} runs in six arms; the runs and their merges took "
                   f"{cpu:.0f} s of CPU ({wall:.0f} s wall on {t[0]['cores'] if t else '?'} cores, "
                   f"load {t[0]['load_before'] if t else '?'} at the start; `{os.path.basename(os.path.normpath(d))}/timing.csv`). "
                   f"{nfail} REPS solves in {nfrun} runs could not be certified and were "
