@@ -179,7 +179,8 @@ def comparisons(runs):
             for arm, _ in FLOOR_ARMS:
                 if arm != "main":
                     cand += [(arm, "policy", arm, "imitation", f"REPS vs imitation, {arm}"),
-                             (arm, "matched", arm, "imitation", f"matched REPS vs imitation, {arm}")]
+                             (arm, "matched", arm, "imitation",
+                              f"matched REPS vs imitation, {arm}")]
             for aa, ia, ab, ib, name in cand:
                 va, vb = f"{p}.{ia}.{c}", f"{p}.{ib}.{c}"
                 if (aa, va) in have and (ab, vb) in have:
@@ -314,7 +315,8 @@ def count(rows, what="policies"):
 def closing(ver, runs):
     nrep = len({r["repetition"] for r in runs})
     tree = lambda r: r["policy"] in TREES  # noqa: E731
-    m05 = sampled(ver, lambda r: tree(r) and r["comparison"] == "matched REPS (eps 0.5) vs imitation")
+    m05 = sampled(ver, lambda r: tree(r) and
+                  r["comparison"] == "matched REPS (eps 0.5) vs imitation")
     msmall = sampled(ver, lambda r: tree(r) and r["comparison"] in (
         "matched REPS (eps 0.25) vs imitation", "matched REPS (eps 0.1) vs imitation"))
     refit = sampled(ver, lambda r: r["comparison"] == "refit-only vs imitation")
@@ -357,9 +359,11 @@ def blocks(d):
     eps_names = ["REPS (eps 0.25) vs imitation", "REPS (eps 0.1) vs imitation",
                  "matched REPS (eps 0.25) vs imitation", "matched REPS (eps 0.1) vs imitation"]
     b = {
-        "setup": [f"{nrep} paired repetitions, {nruns} runs in six arms; the runs and their merges took "
-                  f"{cpu:.0f} s of CPU ({wall:.0f} s wall on {t[0]['cores'] if t else '?'} cores, "
-                  f"load {t[0]['load_before'] if t else '?'} at the start; `{os.path.basename(os.path.normpath(d))}/timing.csv`). "
+        "setup": [f"{nrep} paired repetitions, {nruns} runs in six arms; the runs and their "
+                  f"merges took {cpu:.0f} s of CPU ({wall:.0f} s wall on "
+                  f"{t[0]['cores'] if t else '?'} cores, load "
+                  f"{t[0]['load_before'] if t else '?'} at the start; "
+                  f"`{os.path.basename(os.path.normpath(d))}/timing.csv`). "
                   f"{nfail} REPS solves in {nfrun} runs could not be certified and were "
                   f"recorded (`reps.allow_failed`)."],
         "controls": table_verdict(ver, "sampled", main_names),
