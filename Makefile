@@ -35,7 +35,7 @@ LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
-.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power quick-sums FORCE
+.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power exp4-study quick-sums FORCE
 .PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin
 
 all: poolreps
@@ -136,6 +136,19 @@ else
 endif
 power: all
 	sh scripts/power.sh "$(OUT)/power" "$(POWER_REPS)" "$(POWER_DOCS)" "$(PYTHON)" $(POWER_ARGS)
+
+# Experiment 4 controls study (docs/exp4.md, "Controls"; not part of
+# reproduce): data/exp4_controls.ini in six arms, EXP4_STUDY_REPS paired
+# repetitions. Only the default study writes docs/ and README.md.
+EXP4_STUDY_REPS ?= 20
+EXP4_STUDY_ARGS ?=
+ifeq ($(EXP4_STUDY_REPS)$(EXP4_STUDY_ARGS),20)
+  EXP4_STUDY_DOCS ?= docs
+else
+  EXP4_STUDY_DOCS ?= $(OUT)/exp4_study_docs
+endif
+exp4-study: all
+	sh scripts/exp4_study.sh "$(OUT)/exp4_study" "$(EXP4_STUDY_REPS)" "$(EXP4_STUDY_DOCS)" "$(PYTHON)" $(EXP4_STUDY_ARGS)
 
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/poolreps/data/quick \

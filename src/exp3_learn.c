@@ -50,6 +50,8 @@ struct pr_exp3_learner {
 	int pmin;                 /* oldest live policy */
 	int redraws;              /* actions drawn again in this iteration */
 	int repeats;              /* pr_exp3_learner_repeat ran: pi_0 is never replaced */
+	int refit;                /* control: no REPS, pi_t fitted with the weights q alone */
+	int n_min;                /* control: tree-LWR forest n_min (0: policy.n_min) */
 	/* log pi_m(a_i|s_i) in a ring: episode slot i % SC, policy slot m % PC;
 	 * each cell is tagged with its (i, m) so a stale read is caught. */
 	int SC, PC;
@@ -274,6 +276,8 @@ static pr_policy *fit_policy(pr_exp3_learner *L, const pr_policy_data *d, int *f
 		po.target = PR_TARGET_ACTION;
 		break;
 	}
+	if (L->n_min > 0)
+		po.forest.n_min = L->n_min;
 	return pr_policy_tree_fit(&po, d, L->r_learn, err);
 }
 
@@ -396,7 +400,14 @@ static int iterate(pr_exp3_learner *L, int t, char *err)
 			return rc;
 	}
 	rc = pr_reps_importance(npol, n, L->logpi, L->counts, L->logcur, L->q, NULL, &row->q_ess, err);
-	if (rc || (rc = reps_weights(L, t, a0, n, row, err)))
+	if (rc == PR_OK && L->refit) {
+		/* the refit control: p = q, an estimate of pi_{t-1} itself */
+		memcpy(L->p, L->q, (size_t)n * sizeof *L->p);
+		row->ess = row->q_ess;
+	} else if (rc == PR_OK) {
+		rc = reps_weights(L, t, a0, n, row, err);
+	}
+	if (rc)
 		return rc;
 
 	d.n = n;
@@ -771,6 +782,60 @@ int pr_exp3_learner_repeat(pr_exp3_learner *L, char *err)
 		L->o.iter[i] = t;
 	L->o.niter = t;
 	return PR_OK;
+}
+
+int pr_exp3_learner_set_control(pr_exp3_learner *L, int refit, int n_min, char *err)
+{
+	if (L->o.niter > 0 || L->cm || n_min < 0 || (n_min > 0 && (L->v == PR_EXP3_BASELINE ||
+	                                                          L->v == PR_EXP3_HANDCRAFTED)))
+		return pr_err(err, PR_EINVAL, "internal: a control is set before iteration 1, on a "
+		              "fitted learner, and n_min only for the tree policies");
+	L->refit = refit;
+	L->n_min = n_min;
+	return PR_OK;
+}
+
+const pr_policy *pr_exp3_learner_policy(const pr_exp3_learner *L)
+{
+	return L->pol[L->repeats ? 0 : L->o.niter];
+}
+
+int pr_exp3_learner_mean_eval(pr_exp3_learner *L, int n, gsl_rng *states, double *ret,
+                              int *pocket, int *hit, char *err)
+{
+	const pr_policy *p = pr_exp3_learner_policy(L);
+	const double vmax = L->cfg->sim.max_speed;
+	double *s = malloc((size_t)L->ds * sizeof *s), *x = malloc((size_t)L->nx * sizeof *x);
+	double a[DA], cov[DA * DA], v;
+	pr_policy_work *ws = p ? pr_policy_work_new(p, err) : NULL;
+	pr_shot shot;
+	int i, j, rc = p ? PR_OK : pr_err(err, PR_EINVAL, "internal: no policy to evaluate");
+
+	if (rc == PR_OK && (!s || !x || !ws))
+		rc = pr_err(err, PR_ENOMEM, "out of memory");
+	for (i = 0; rc == PR_OK && i < n; ++i) {
+		if ((rc = pr_sim_sample_start(&L->cfg->table, &L->cfg->start, L->nballs, states, s, err)))
+			break;
+		for (j = 0; j < L->nx; ++j)
+			x[j] = s[L->xdim[j]];
+		if ((rc = pr_policy_eval(p, x, a, cov, NULL, ws, err)))
+			break;
+		/* a mean beyond the speed limit is scaled down to it, as in Experiment
+		 * 2, strictly inside (the rounded product may land just above it) */
+		if ((v = hypot(a[0], a[1])) > vmax) {
+			a[0] *= vmax / v * (1.0 - SPEED_MARGIN);
+			a[1] *= vmax / v * (1.0 - SPEED_MARGIN);
+		}
+		if ((rc = pr_sim_shoot(L->sim, s, L->nballs, a, &shot, NULL, err)))
+			break;
+		ret[i] = pr_sim_reward(&L->cfg->table, &L->cfg->reward, &shot);
+		pocket[i] = shot.pocket[1];
+		hit[i] = shot.hit;
+	}
+	pr_policy_work_free(ws);
+	free(s);
+	free(x);
+	return rc;
 }
 
 int pr_exp3_learner_state_dims(const pr_exp3_learner *L, const int **xdim)

@@ -138,6 +138,23 @@ int pr_exp3_learner_iterate(pr_exp3_learner *L, char *err);
  * both. Refused for the C-CMA-ES hand-crafted learner. */
 int pr_exp3_learner_repeat(pr_exp3_learner *L, char *err);
 
+/* Controls (Experiment 4), before iteration 1, not for C-CMA-ES: refit =
+ * 1 skips REPS, so pi_t is fitted to the window with the importance
+ * weights q alone (a refit of pi_{t-1} on its own samples); n_min > 0 fits
+ * the tree-LWR policies (not the baseline, not hand-crafted) with that
+ * forest n_min instead of policy.n_min. */
+int pr_exp3_learner_set_control(pr_exp3_learner *L, int refit, int n_min, char *err);
+
+/* The policy that drew the latest iteration: pi_t after REPS iteration t,
+ * pi_0 after iteration 0 or repeats. Valid until the next call on L. */
+const pr_policy *pr_exp3_learner_policy(const pr_exp3_learner *L);
+
+/* The latest policy's mean action (scaled down to sim.max_speed, no
+ * sampling) shot from n start states drawn from `states`: returns ret,
+ * reward ball 1's pockets and hits (n each). */
+int pr_exp3_learner_mean_eval(pr_exp3_learner *L, int n, gsl_rng *states, double *ret,
+                              int *pocket, int *hit, char *err);
+
 /* The learning state: nx coordinates of the full state (indices xdim). */
 int pr_exp3_learner_state_dims(const pr_exp3_learner *L, const int **xdim);
 

@@ -42,6 +42,7 @@
 
 #include <gsl/gsl_randist.h>
 
+#include "poolreps/forest.h"
 #include "poolreps/sim.h"
 #include "exp4_priv.h"
 #include "streams.h"
@@ -49,7 +50,8 @@
 #define DA 2            /* action: cue-ball velocity */
 #define MAX_NOISE_DRAWS 100
 
-const char *const pr_exp4_init_name[PR_EXP4_NINIT] = {"scratch", "imitation", "demo", "policy"};
+const char *const pr_exp4_init_name[PR_EXP4_NINIT] = {"scratch", "imitation", "demo", "policy",
+                                                       "refit", "matched"};
 const char *const pr_exp4_cov_name[PR_EXP4_NCOV] = {"query", "residual", "none"};
 
 void pr_exp4_opts_init(pr_exp4_opts *o)
@@ -60,6 +62,7 @@ void pr_exp4_opts_init(pr_exp4_opts *o)
 	snprintf(o->inits, sizeof o->inits, "scratch,imitation,demo,policy");
 	snprintf(o->covs, sizeof o->covs, "query,residual");
 	o->fit_n_min_frac = 0.1;
+	o->mean_eval = 0;
 }
 
 static void init_keys(void *o)
@@ -73,13 +76,19 @@ static const pr_config_key key_table[] = {
 	 "ghost-ball demonstrations per repetition"},
 	{"exp4", "demo_noise", PR_KEY_DOUBLE, F(demo_noise), 0, 100, 0, "m/s",
 	 "std of Gaussian noise added to each component of the expert's action"},
-	{"exp4", "inits", PR_KEY_NAMES, F(inits), 0, 0, 0, "scratch|imitation|demo|policy",
+	{"exp4", "inits", PR_KEY_NAMES, F(inits), 0, 0, 0,
+	 "scratch|imitation|demo|policy|refit|matched",
 	 "how runs start: Exp. 3 from scratch, the fitted policy alone, or it + REPS with the "
-	 "demonstrations or its own episodes as first window"},
+	 "demonstrations or its own episodes as first window; controls of policy: refit (no REPS, "
+	 "refitted with the importance weights), matched (REPS, tree policies at n_min = "
+	 "exp4.fit_n_min_frac * exp3.window: pi_0's resolution)"},
 	{"exp4", "covs", PR_KEY_NAMES, F(covs), 0, 0, 0, "query|residual",
 	 "policy.cov of the tree and baseline runs, one run each (policy.cov is not read)"},
 	{"exp4", "fit_n_min_frac", PR_KEY_DOUBLE, F(fit_n_min_frac), 0, 1, PR_KEY_OPEN_LO, "",
 	 "fit to the demonstrations: tree n_min = frac * exp4.n_demo"},
+	{"exp4", "mean_eval", PR_KEY_INT, F(mean_eval), 0, PR_KEY_COUNT_MAX, 0, "",
+	 "start states each run's last policy is evaluated on by its mean action "
+	 "(exp4_mean.csv; 0: none)"},
 };
 #undef F
 
@@ -138,6 +147,9 @@ int pr_exp4_list(const pr_config *cfg, int selected, pr_exp4_variant *var, int *
 		const int hc = pol[i] == PR_EXP3_HANDCRAFTED;
 		for (c = 0; c < (hc ? 1 : nc); ++c)
 			for (j = 0; j < ni; ++j) {
+				/* the baseline and hand-crafted policies have one resolution */
+				if (init[j] == PR_EXP4_MATCHED && (hc || pol[i] == PR_EXP3_BASELINE))
+					continue;
 				var[*nvar].policy = pol[i];
 				var[*nvar].init = init[j];
 				var[*nvar].cov = hc ? PR_EXP4_COV_NONE : cov[c];
@@ -268,6 +280,29 @@ static int kind_of(int policy)
 	}
 }
 
+/* The tree policies' n_min in a fit to n samples: fit_n_min_frac x n. */
+static int frac_n_min(const pr_exp4_opts *e4, int n)
+{
+	int m = (int)lround(e4->fit_n_min_frac * n);
+
+	return m < 1 ? 1 : m;
+}
+
+/* ... in the fit to the demonstrations, pi_0. */
+static int demo_n_min(const pr_exp4_opts *e4)
+{
+	return frac_n_min(e4, e4->n_demo);
+}
+
+/* ... in the matched control's REPS fits: the same fraction of the window,
+ * so the trees of pi_t split the state box about as finely as pi_0's (pi_0's
+ * n_min itself, 5 episodes a leaf, let a run with eq. 6.8's covariance
+ * draw 100 actions in a row faster than sim.max_speed). */
+static int matched_n_min(const pr_config *cfg, const pr_exp4_opts *e4)
+{
+	return frac_n_min(e4, pr_exp3_opts_of(cfg)->window);
+}
+
 /* pi_0: the policy fitted to the demonstrations d (unit weights) on the
  * learning state (nx coordinates xdim of the full state). */
 static pr_policy *fit_demos(const pr_config *cfg, const pr_exp3_opts *e3, const pr_exp4_opts *e4,
@@ -299,9 +334,7 @@ static pr_policy *fit_demos(const pr_config *cfg, const pr_exp3_opts *e3, const 
 	pd.Y = d->F;
 	/* the distribution that drew a demonstration is centred on the expert */
 	pd.M = d->E;
-	po.forest.n_min = (int)lround(e4->fit_n_min_frac * d->n);
-	if (po.forest.n_min < 1)
-		po.forest.n_min = 1;
+	po.forest.n_min = demo_n_min(e4);
 	switch (policy) {
 	case PR_EXP3_HANDCRAFTED:
 		p = pr_policy_linear_fit(PR_FEATURES_AFFINE, &pd, po.lambda, po.min_std, po.cov_center,
@@ -393,10 +426,14 @@ static int skip_starts(const pr_config *cfg, gsl_rng *start, int n, char *err)
 
 /* ---- the jobs ---- */
 
-/* A variant's own stream offset, fixed whatever the lists hold. */
+/* A variant's own stream offset, fixed whatever the lists hold: 0..71 for
+ * the four inits, 72.. for the controls. */
 static unsigned long variant_id(const pr_exp4_variant *v)
 {
-	return (unsigned long)((v->policy * PR_EXP4_NINIT + v->init) * PR_EXP4_NCOV + v->cov);
+	if (v->init < PR_EXP4_REFIT)
+		return (unsigned long)((v->policy * PR_EXP4_REFIT + v->init) * PR_EXP4_NCOV + v->cov);
+	return (unsigned long)(PR_EXP3_NVAR * PR_EXP4_REFIT * PR_EXP4_NCOV +
+	                       ((v->policy * 2 + v->init - PR_EXP4_REFIT) * PR_EXP4_NCOV + v->cov));
 }
 
 /* Read-only after setup; shared by the threads. */
@@ -442,6 +479,65 @@ static int start_imitation(const pr_config *cfg, const pr_exp4_opts *e4, pr_exp4
 	return pr_exp3_learner_seed(L, d->n, d->S, d->A, d->R, d->F, d->pocket, d->hit, NULL, err);
 }
 
+/* The controls of the policy start (exp4_priv.h): refit without REPS, or
+ * REPS with the tree policies at pi_0's resolution. */
+static int set_control(const pr_config *cfg, const pr_exp4_opts *e4, const pr_exp4_variant *v,
+                       pr_exp3_learner *L, char *err)
+{
+	if (v->init == PR_EXP4_REFIT)
+		return pr_exp3_learner_set_control(L, 1, 0, err);
+	if (v->init == PR_EXP4_MATCHED)
+		return pr_exp3_learner_set_control(L, 0, matched_n_min(cfg, e4), err);
+	return PR_OK;
+}
+
+/* The forest n_min of variant v's last policy (0: no forest): fit_demos's
+ * for pi_0, fit_policy's (exp3_learn.c) after REPS. */
+static int forest_n_min(const pr_config *cfg, const pr_exp4_opts *e4, const pr_exp4_variant *v,
+                        int forest)
+{
+	const int nb = pr_exp3_opts_of(cfg)->baseline_n_min;
+
+	if (!forest)
+		return 0;
+	if (v->policy == PR_EXP3_BASELINE)
+		return v->init == PR_EXP4_IMITATION && e4->n_demo > nb ? e4->n_demo : nb;
+	if (v->init == PR_EXP4_IMITATION)
+		return demo_n_min(e4);
+	if (v->init == PR_EXP4_MATCHED)
+		return matched_n_min(cfg, e4);
+	return cfg->policy.forest.n_min;
+}
+
+/* exp4.mean_eval: the last policy's mean action on the repetition's
+ * evaluation states (the same in every variant), and its forest's size. */
+static int mean_eval(const pr_config *cfg, const pr_exp4_opts *e4, pr_exp3_learner *L,
+                     pr_exp4_job *run, char *err)
+{
+	const int n = e4->mean_eval;
+	const pr_forest *f = pr_policy_forest(pr_exp3_learner_policy(L));
+	gsl_rng *rng = pr_exp_rng(cfg->run.seed, PR_STREAM_EXP4_MEAN, (unsigned long)run->repetition);
+	double *ret = malloc((size_t)n * sizeof *ret);
+	int *pocket = malloc((size_t)n * sizeof *pocket), *hit = malloc((size_t)n * sizeof *hit);
+	int i, rc = rng && ret && pocket && hit ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
+
+	if (rc == PR_OK)
+		rc = pr_exp3_learner_mean_eval(L, n, rng, ret, pocket, hit, err);
+	for (i = 0; rc == PR_OK && i < n; ++i) {
+		run->mean_sum += ret[i];
+		run->mean_pocket += pocket[i] >= 0 && pr_exp3_is_target(&cfg->reward, pocket[i]);
+		run->mean_hit += hit[i];
+	}
+	run->mean_n = n;
+	run->leaves = f ? pr_forest_nleaves(f) : 0;
+	run->n_min = forest_n_min(cfg, e4, &run->var, f != NULL);
+	free(ret);
+	free(pocket);
+	free(hit);
+	gsl_rng_free(rng);
+	return rc;
+}
+
 /* The job behind index j: its learner from iteration 0 to the last. */
 static int run_job(void *ctx, int j, char *err)
 {
@@ -480,6 +576,8 @@ static int run_job(void *ctx, int j, char *err)
 	if (rc == PR_OK)
 		rc = scratch ? pr_exp3_learner_start(L, msg)
 		             : start_imitation(cfg, su->e4, run, L, start, msg);
+	if (rc == PR_OK)
+		rc = set_control(cfg, su->e4, v, L, msg);
 	/* one run per repetition keeps its demonstrations for exp4_demo.csv */
 	if (rc == PR_OK && su->first + j % su->nvar != su->writer)
 		pr_exp4_demo_free(&run->demo);
@@ -495,6 +593,8 @@ static int run_job(void *ctx, int j, char *err)
 		if (rc == PR_OK)
 			pr_exp_ticker_add(&su->tick, e3->samples);
 	}
+	if (rc == PR_OK && su->e4->mean_eval > 0)
+		rc = mean_eval(cfg, su->e4, L, run, msg);
 	if (L)
 		pr_exp3_learner_take(L, &run->ep);
 	pr_exp3_learner_free(L);
@@ -509,13 +609,56 @@ static int run_job(void *ctx, int j, char *err)
 	return PR_OK;
 }
 
-/* What the learner cannot check itself: a fitted pi_0 for every policy. */
+/* 1 if key got its value from the configuration file or --set. */
+static int key_given(const pr_config *cfg, const char *key)
+{
+	char at[PR_WHERE_LEN];
+	const char *c;
+
+	pr_config_where(cfg, key, at, sizeof at);
+	c = strrchr(at, ':');
+	return strcmp(at, "--set") == 0 || (c && c[1] && strspn(c + 1, "0123456789") == strlen(c + 1));
+}
+
+/* A control run with a key none of the runs reads: the REPS keys when
+ * only refit (and imitation) runs, policy.n_min when only matched (and
+ * imitation) runs. */
+static int check_controls(const pr_config *cfg, char *err)
+{
+	static const char *const reps_keys[] = {
+		"reps.epsilon", "reps.ridge", "reps.eta_min", "reps.max_iter", "reps.allow_failed"
+	};
+	const pr_exp4_opts *e4 = pr_exp4_opts_of(cfg);
+	int init[PR_EXP4_NINIT], ni = name_indices(e4->inits, pr_exp4_init_name, PR_EXP4_NINIT, init);
+	int has[PR_EXP4_NINIT] = {0}, j, reps, nmin;
+	char at[PR_WHERE_LEN];
+
+	for (j = 0; j < ni; ++j)
+		has[init[j]] = 1;
+	reps = has[PR_EXP4_SCRATCH] || has[PR_EXP4_DEMO] || has[PR_EXP4_POLICY] || has[PR_EXP4_MATCHED];
+	nmin = has[PR_EXP4_SCRATCH] || has[PR_EXP4_DEMO] || has[PR_EXP4_POLICY] || has[PR_EXP4_REFIT];
+	for (j = 0; has[PR_EXP4_REFIT] && !reps && j < (int)(sizeof reps_keys / sizeof *reps_keys); ++j)
+		if (key_given(cfg, reps_keys[j]))
+			return pr_err(err, PR_EINVAL, "%s: %s: exp4.inits = %s runs no REPS; the key has no "
+			              "effect on refit runs", pr_config_where(cfg, reps_keys[j], at, sizeof at),
+			              reps_keys[j], e4->inits);
+	if (has[PR_EXP4_MATCHED] && !nmin && key_given(cfg, "policy.n_min"))
+		return pr_err(err, PR_EINVAL, "%s: policy.n_min: exp4.inits = %s: matched runs refit at "
+		              "exp4.fit_n_min_frac x exp3.window, so the key has no effect",
+		              pr_config_where(cfg, "policy.n_min", at, sizeof at), e4->inits);
+	return PR_OK;
+}
+
+/* What the learner cannot check itself: a fitted pi_0 for every policy;
+ * controls with keys they do not read. */
 static int check(const pr_config *cfg, char *err)
 {
 	const pr_exp3_opts *e3 = pr_exp3_opts_of(cfg);
 	char at[PR_WHERE_LEN];
 	int rc = pr_exp3_learner_check(cfg, e3, err);
 
+	if (rc == PR_OK)
+		rc = check_controls(cfg, err);
 	if (rc == PR_OK && e3->handcrafted_method == PR_METHOD_CCMAES &&
 	    strstr(e3->policies, pr_exp3_variant_name[PR_EXP3_HANDCRAFTED]))
 		rc = pr_err(err, PR_EINVAL, "%s: exp3.handcrafted_method: exp4 starts the hand-crafted "

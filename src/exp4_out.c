@@ -10,6 +10,9 @@
  *                      pocket,hit: the demonstrations (once per repetition)
  *   exp4_fit.csv       repetition,policy,x0,y0,...,expert_vx,expert_vy,mean_vx,mean_vy,
  *                      sd_major,sd_minor: the fitted pi_0 against the expert
+ *   exp4_mean.csv      repetition,policy,states,mean_return,pocket_rate,hit_rate,n_min,
+ *                      leaves: each run's last policy by its mean action (only with
+ *                      exp4.mean_eval > 0)
  * Derived: Experiment 3's summaries under the prefix exp4 (exp4_curve.csv,
  * exp4_final.csv, exp4_pockets.csv, exp4_dist.csv, exp4_reps_summary.csv)
  * and exp4_verdict.csv.
@@ -142,6 +145,36 @@ static int write_fit(const pr_config *cfg, const pr_exp4_job *runs, int nruns, c
 	return pr_csvw_finish(w, rc, err);
 }
 
+/* exp4_mean.csv (exp4.mean_eval > 0): per run, its last policy's mean
+ * action on the evaluation states, and that policy's forest n_min and
+ * leaves (0 without a forest). */
+static int write_mean(const pr_exp4_job *runs, int nruns, const char *dir, char *err)
+{
+	char path[PR_PATHLEN], label[64];
+	pr_csvw *w;
+	int j, rc;
+
+	snprintf(path, sizeof path, "%s/exp4_mean.csv", dir);
+	if (!(w = pr_csvw_open(path, err)))
+		return PR_EIO;
+	rc = pr_csvw_header(w, "repetition,policy,states,mean_return,pocket_rate,hit_rate,n_min,"
+	                       "leaves");
+	for (j = 0; rc == PR_OK && j < nruns; ++j) {
+		const pr_exp4_job *r = &runs[j];
+		pr_exp4_variant_label(&r->var, label, sizeof label);
+		rc |= pr_csvw_int(w, r->repetition);
+		rc |= pr_csvw_str(w, label);
+		rc |= pr_csvw_int(w, r->mean_n);
+		rc |= pr_csvw_num(w, r->mean_sum / r->mean_n);
+		rc |= pr_csvw_num(w, (double)r->mean_pocket / r->mean_n);
+		rc |= pr_csvw_num(w, (double)r->mean_hit / r->mean_n);
+		rc |= pr_csvw_int(w, r->n_min);
+		rc |= pr_csvw_int(w, r->leaves);
+		rc |= pr_csvw_endrow(w);
+	}
+	return pr_csvw_finish(w, rc, err);
+}
+
 int pr_exp4_write_raw(const pr_config *cfg, const pr_exp4_job *runs, int nruns, const char *dir,
                       char *err)
 {
@@ -151,6 +184,8 @@ int pr_exp4_write_raw(const pr_config *cfg, const pr_exp4_job *runs, int nruns, 
 		rc = write_demo(cfg, runs, nruns, dir, err);
 	if (rc == PR_OK)
 		rc = write_fit(cfg, runs, nruns, dir, err);
+	if (rc == PR_OK && pr_exp4_opts_of(cfg)->mean_eval > 0)
+		rc = write_mean(runs, nruns, dir, err);
 	return rc;
 }
 

@@ -24,11 +24,19 @@ typedef struct {
 	char inits[PR_KEY_NAMES_LEN]; /* comma list of PR_EXP4_INIT_* names */
 	char covs[PR_KEY_NAMES_LEN];  /* comma list of policy.cov names */
 	double fit_n_min_frac; /* tree fits to the demonstrations: n_min = frac * n_demo */
+	int mean_eval;         /* start states each run's last policy is evaluated on (0: none) */
 } pr_exp4_opts;
 void pr_exp4_opts_init(pr_exp4_opts *o);
 const pr_exp4_opts *pr_exp4_opts_of(const pr_config *cfg);
 
-enum { PR_EXP4_SCRATCH, PR_EXP4_IMITATION, PR_EXP4_DEMO, PR_EXP4_POLICY, PR_EXP4_NINIT };
+/* The controls refit (the policy start without REPS: pi_t refitted to the
+ * window with the importance weights alone, at policy.n_min) and matched
+ * (the policy start with REPS, the tree policies refitted at pi_0's
+ * resolution: n_min = fit_n_min_frac x exp3.window, as many leaves per
+ * tree as pi_0 has)
+ * come after the four inits, so the others keep their stream ids. */
+enum { PR_EXP4_SCRATCH, PR_EXP4_IMITATION, PR_EXP4_DEMO, PR_EXP4_POLICY, PR_EXP4_REFIT,
+       PR_EXP4_MATCHED, PR_EXP4_NINIT };
 extern const char *const pr_exp4_init_name[PR_EXP4_NINIT];
 /* Covariances: PR_COV_QUERY, PR_COV_RESIDUAL (policy.h), and none. */
 enum { PR_EXP4_COV_NONE = 2, PR_EXP4_NCOV };
@@ -78,6 +86,10 @@ typedef struct {
 	pr_exp3_episodes ep;
 	pr_exp4_demo demo;
 	pr_exp4_fit fit;
+	/* exp4.mean_eval > 0: the last policy's mean action on those states */
+	int mean_n, mean_pocket, mean_hit; /* states, target pockets, hits */
+	double mean_sum;       /* sum of their returns */
+	int n_min, leaves;     /* the last policy's forest n_min and leaves (0: no forest) */
 } pr_exp4_job;
 
 /* Repetitions a summary tells apart. */

@@ -38,7 +38,8 @@ enum {
 	PR_STREAM_EXP4_DEMO = 0x4e40,      /* the demonstrations */
 	PR_STREAM_EXP4_FIT = 0x4e50,       /* + policy kind (0..3): pi_0's forest */
 	PR_STREAM_EXP4_INIT = 0x4e60,      /* + 3 * kind + cov (0..11): pi_0's iteration 0 */
-	PR_STREAM_EXP4_LEARN = 0x4e80,     /* + variant id (0..71): forests and later actions */
+	PR_STREAM_EXP4_LEARN = 0x4e80,     /* + variant id (0..107): forests and later actions */
+	PR_STREAM_EXP4_MEAN = 0x4ef0,      /* the mean-action evaluation states */
 
 	/* REPS benchmarks (exp_bench.c); index k: repetition k */
 	PR_STREAM_BENCH = 0xbe4c4

@@ -15,6 +15,7 @@
 
 #include "poolreps/config.h"
 #include "poolreps/exp.h"
+#include "poolreps/forest.h"
 #include "exp3_priv.h"
 
 #define ITERS 3
@@ -160,6 +161,118 @@ static void test_initial_policy(void **state)
 		gsl_rng_free(r[i]);
 }
 
+/* The policy fitted directly to the first window of L (iteration 0's
+ * episodes, learning coordinates, equal weights) with forest n_min, from a
+ * fresh copy of the learn stream (seed). */
+static pr_policy *direct_fit(const pr_config *c, const pr_exp3_learner *L, int n_min,
+                             unsigned long seed)
+{
+	const pr_exp3_episodes *o = pr_exp3_learner_episodes(L);
+	const int *xdim;
+	int nx = pr_exp3_learner_state_dims(L, &xdim), n = pr_exp3_opts_of(c)->init_samples, i, j;
+	double *X = malloc((size_t)n * nx * sizeof *X), *w = malloc((size_t)n * sizeof *w);
+	pr_policy_opts po = c->policy;
+	pr_policy_data d;
+	gsl_rng *r = rng(seed);
+	char err[PR_ERRLEN];
+	pr_policy *p;
+
+	assert_non_null(X);
+	assert_non_null(w);
+	for (i = 0; i < n; ++i) {
+		for (j = 0; j < nx; ++j)
+			X[(size_t)i * nx + j] = o->S[(size_t)i * o->ds + xdim[j]];
+		w[i] = 1.0 / n; /* equal weights, normalised as REPS's and q are */
+	}
+	memset(&d, 0, sizeof d);
+	d.n = n;
+	d.ds = nx;
+	d.da = 2;
+	d.dy = 2;
+	d.S = X;
+	d.A = o->A;
+	d.Y = o->F;
+	d.w = w;
+	po.target = PR_TARGET_ACTION;
+	po.forest.n_min = n_min;
+	p = pr_policy_tree_fit(&po, &d, r, err);
+	assert_non_null(p);
+	free(X);
+	free(w);
+	gsl_rng_free(r);
+	return p;
+}
+
+/* a and b give the same mean and covariance, bit for bit, on a grid over
+ * the reward ball's box, and their forests have as many leaves. */
+static void assert_same_policy(const pr_policy *a, const pr_policy *b)
+{
+	double x[2], ma[2], mb[2], ca[4], cb[4];
+	char err[PR_ERRLEN];
+	int i, j;
+
+	assert_int_equal(pr_forest_nleaves(pr_policy_forest(a)), pr_forest_nleaves(pr_policy_forest(b)));
+	for (i = 0; i <= 10; ++i)
+		for (j = 0; j <= 10; ++j) {
+			x[0] = 0.05 + 0.01 * i;
+			x[1] = -0.1 + 0.02 * j;
+			assert_int_equal(pr_policy_eval(a, x, ma, ca, NULL, NULL, err), PR_OK);
+			assert_int_equal(pr_policy_eval(b, x, mb, cb, NULL, NULL, err), PR_OK);
+			assert_memory_equal(ma, mb, sizeof ma);
+			assert_memory_equal(ca, cb, sizeof ca);
+		}
+}
+
+/* Experiment 4's controls: the refit control's pi_1 (no REPS: the weights
+ * q, all 1 when pi_0 drew the whole window) is the direct fit of that window
+ * with equal weights, bit for bit, at policy.n_min or at the n_min the
+ * control sets; the two n_min give different leaf counts. Refused after
+ * iteration 1 and for the baseline. */
+static void test_controls_refit_and_n_min(void **state)
+{
+	static const int n_mins[2] = {0, 4};
+	pr_config c;
+	char err[PR_ERRLEN];
+	const pr_exp3_opts *e;
+	int k, leaves[2];
+
+	(void)state;
+	small_config(&c);
+	e = pr_exp3_opts_of(&c);
+	for (k = 0; k < 2; ++k) {
+		gsl_rng *s = rng(31), *i0 = rng(32), *l = rng(33);
+		pr_exp3_learner *L;
+		pr_policy *p;
+		assert_int_equal(pr_exp3_learner_new(&c, e, PR_EXP3_NRVR_A, s, i0, l, &L, err), PR_OK);
+		assert_int_equal(pr_exp3_learner_start(L, err), PR_OK);
+		assert_int_equal(pr_exp3_learner_set_control(L, 1, n_mins[k], err), PR_OK);
+		assert_int_equal(pr_exp3_learner_iterate(L, err), PR_OK);
+		p = direct_fit(&c, L, n_mins[k] ? n_mins[k] : c.policy.forest.n_min, 33);
+		assert_same_policy(pr_exp3_learner_policy(L), p);
+		leaves[k] = pr_forest_nleaves(pr_policy_forest(p));
+		/* no dual was solved: the row's ess is the importance weights' */
+		assert_true(pr_exp3_learner_episodes(L)->it[0].eta == 0.0);
+		assert_true(pr_exp3_learner_episodes(L)->it[0].ess == pr_exp3_learner_episodes(L)->it[0].q_ess);
+		assert_int_not_equal(pr_exp3_learner_set_control(L, 0, 0, err), PR_OK);
+		pr_policy_free(p);
+		pr_exp3_learner_free(L);
+		gsl_rng_free(s);
+		gsl_rng_free(i0);
+		gsl_rng_free(l);
+	}
+	assert_true(leaves[1] > leaves[0]);
+	{
+		gsl_rng *s = rng(1), *i0 = rng(2), *l = rng(3);
+		pr_exp3_learner *L;
+		assert_int_equal(pr_exp3_learner_new(&c, e, PR_EXP3_BASELINE, s, i0, l, &L, err), PR_OK);
+		assert_int_not_equal(pr_exp3_learner_set_control(L, 0, 4, err), PR_OK);
+		pr_exp3_learner_free(L);
+		gsl_rng_free(s);
+		gsl_rng_free(i0);
+		gsl_rng_free(l);
+	}
+}
+
 /* Iterations without REPS (Experiment 4's imitation reference): `samples`
  * new episodes of pi_0 each, numbered by their iteration; repeats and REPS
  * iterations are never mixed, and none runs before iteration 0 or past
@@ -247,6 +360,7 @@ int main(void)
 		cmocka_unit_test(test_seeded_learner_continues_the_same),
 		cmocka_unit_test(test_initial_policy),
 		cmocka_unit_test(test_repeat_draws_from_pi0),
+		cmocka_unit_test(test_controls_refit_and_n_min),
 		cmocka_unit_test(test_registry_schema),
 	};
 

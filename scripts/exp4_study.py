@@ -1,0 +1,487 @@
+#!/usr/bin/env python3
+"""Experiment 4's controls study (docs/exp4.md, "Controls"): compact CSVs,
+paired verdicts with 95 % intervals and Holm-adjusted p-values, the tables of
+docs/exp4.md and README.md, and the figure exp4_controls.
+
+    exp4_study.py collect OUT --arms "main eps0.1 ..." --out DIR
+        per run (arm, repetition, variant): mean return of its last
+        exp3.final_episodes episodes, target-pocket rate, the mean-action
+        return (exp4_mean.csv), floored iterations (exp4_reps.csv), forest
+        n_min and leaves -> DIR/runs.csv; the main arm's learning curves ->
+        DIR/curves.csv; OUT/timing.csv -> DIR/timing.csv; the verdicts ->
+        DIR/verdicts.csv
+    exp4_study.py plot DIR --out FIGDIR      FIGDIR/exp4_controls.{png,svg}
+    exp4_study.py docs DIR --doc exp4.md [--readme README.md] [--check]
+        rewrite the text between <!-- exp4-study:NAME --> and
+        <!-- /exp4-study:NAME --> from DIR's CSVs; --check only compares and
+        exits 1 naming the first block that differs
+
+Comparisons are paired over the repetitions (common random numbers: the
+same start states, demonstrations and pi_0 in every arm and variant of a
+repetition): the mean difference, its 95 % t interval, the two-sided paired
+t-test's p-value and the Holm-adjusted p-value over the whole family of one
+measure (sampled return, mean-action return). Verdict words: "degrades" or
+"improves" when the Holm-adjusted p < 0.05, "no sig. change" otherwise.
+"""
+import argparse
+import csv
+import math
+import os
+import re
+import sys
+
+import numpy as np
+from scipy import stats
+
+import exp_data
+
+PROG = "exp4_study"
+POLICIES = ["nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a", "baseline", "handcrafted"]
+TREES = POLICIES[:4]
+FLOOR_ARMS = [("floor0", "1e-6 mm/s (off)"), ("main", "1 mm/s"), ("floor3", "3 mm/s"),
+              ("floor10", "10 mm/s")]
+ALPHA = 0.05
+FLOOR_BIT = 16  # PR_POLICY_FLOOR
+
+
+def die(msg):
+    sys.exit(f"{PROG}: {msg}")
+
+
+def split(label):
+    p, i, c = label.split(".")
+    return p, i, c
+
+
+# ---- collect ----
+
+def arm_runs(arm, d):
+    """Per run of arm folder d: the row of runs.csv (without the arm)."""
+    fin = exp_data.read_csv(os.path.join(d, "exp4_final.csv"),
+                            ("policy", "repetition", "episodes", "mean_return", "pocketed_target"))
+    mean = exp_data.read_csv(os.path.join(d, "exp4_mean.csv"),
+                             ("repetition", "policy", "mean_return", "pocket_rate", "n_min",
+                              "leaves"))
+    reps = exp_data.read_csv(os.path.join(d, "exp4_reps.csv"),
+                             ("repetition", "policy", "policy_flags", "status"))
+    floors, iters, failed = {}, {}, {}
+    for r in reps:
+        k = (int(r["repetition"]), r["policy"])
+        floors[k] = floors.get(k, 0) + (int(r["policy_flags"]) & FLOOR_BIT > 0)
+        iters[k] = iters.get(k, 0) + 1
+        failed[k] = failed.get(k, 0) + (r["status"] == "failed")
+    by = {(int(r["repetition"]), r["policy"]): r for r in mean}
+    out = []
+    for r in fin:
+        k = (int(r["repetition"]), r["policy"])
+        if k[0] < 0:
+            continue
+        if k not in by:
+            die(f"{d}/exp4_mean.csv: no row for repetition {k[0]}, {k[1]}")
+        m = by[k]
+        p, i, c = split(k[1])
+        out.append({"arm": arm, "repetition": k[0], "variant": k[1], "policy": p, "init": i,
+                    "cov": c, "final_return": float(r["mean_return"]),
+                    "final_pocket_rate": int(r["pocketed_target"]) / int(r["episodes"]),
+                    "mean_action_return": float(m["mean_return"]),
+                    "mean_action_pocket_rate": float(m["pocket_rate"]),
+                    "floor_iterations": floors.get(k, 0), "iterations": iters.get(k, 0),
+                    "failed_solves": failed.get(k, 0),
+                    "n_min": int(m["n_min"]),
+                    "leaves": int(m["leaves"])})
+    return out
+
+
+RUN_COLS = ["arm", "repetition", "variant", "policy", "init", "cov", "final_return",
+            "final_pocket_rate", "mean_action_return", "mean_action_pocket_rate",
+            "floor_iterations", "iterations", "failed_solves", "n_min", "leaves"]
+
+
+def fmt(x):
+    """Nine significant digits: the tables print three decimals."""
+    return f"{x:.9g}" if isinstance(x, float) else str(x)
+
+
+def write_csv(path, cols, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(cols)
+        for r in rows:
+            w.writerow([fmt(r[c]) for c in cols])
+
+
+def collect(a):
+    os.makedirs(a.out, exist_ok=True)
+    runs = []
+    for arm in a.arms.split():
+        runs += arm_runs(arm, os.path.join(a.dir, arm))
+    write_csv(os.path.join(a.out, "runs.csv"), RUN_COLS, runs)
+    cur = exp_data.read_csv(os.path.join(a.dir, "main", "exp4_curve.csv"),
+                            ("policy", "iteration", "mean_return", "std_return", "repetitions"))
+    write_csv(os.path.join(a.out, "curves.csv"),
+              ["variant", "iteration", "mean_return", "sd_return", "repetitions"],
+              [{"variant": r["policy"], "iteration": int(r["iteration"]),
+                "mean_return": float(r["mean_return"]), "sd_return": float(r["std_return"]),
+                "repetitions": int(r["repetitions"])} for r in cur])
+    tim = os.path.join(a.dir, "timing.csv")
+    if os.path.exists(tim):
+        with open(tim) as f, open(os.path.join(a.out, "timing.csv"), "w") as g:
+            g.write(f.read())
+    write_verdicts(a.out, runs)
+
+
+# ---- statistics ----
+
+def holm(p):
+    """Holm step-down adjusted p-values (monotone, capped at 1)."""
+    p = np.asarray(p, float)
+    order = np.argsort(p, kind="stable")
+    adj = np.empty_like(p)
+    run = 0.0
+    for rank, i in enumerate(order):
+        run = max(run, min(1.0, (len(p) - rank) * p[i]))
+        adj[i] = run
+    return adj
+
+
+def paired(x, y):
+    """Mean of x - y, its 95 % t interval, the paired t-test's p (n >= 2)."""
+    d = np.asarray(x, float) - np.asarray(y, float)
+    n = len(d)
+    m = float(d.mean())
+    if n < 2:
+        die(f"a paired comparison needs >= 2 repetitions (got {n})")
+    se = float(d.std(ddof=1) / math.sqrt(n))
+    if se == 0.0:
+        # identical differences: the interval is the point, p 0 unless it is 0
+        return m, m, m, 0.0 if m != 0.0 else 1.0, n
+    h = float(stats.t.ppf(0.975, n - 1)) * se
+    p = float(2 * stats.t.sf(abs(m) / se, n - 1))
+    return m, m - h, m + h, p, n
+
+
+def comparisons(runs):
+    """(family measure, arm_a, variant_a, arm_b, variant_b, name) of the study."""
+    have = {(r["arm"], r["variant"]) for r in runs}
+    out = []
+    for p in POLICIES:
+        for c in (["none"] if p == "handcrafted" else ["query", "residual"]):
+            cand = [("main", "policy", "main", "imitation", "REPS (eps 0.5) vs imitation"),
+                    ("main", "refit", "main", "imitation", "refit-only vs imitation"),
+                    ("main", "policy", "main", "refit", "REPS vs refit-only"),
+                    ("main", "matched", "main", "imitation", "matched REPS (eps 0.5) vs imitation"),
+                    ("main", "matched", "main", "policy", "matched REPS vs REPS")]
+            for eps in ("0.25", "0.1"):
+                cand += [(f"eps{eps}", "policy", "main", "imitation",
+                          f"REPS (eps {eps}) vs imitation"),
+                         (f"eps{eps}", "matched", "main", "imitation",
+                          f"matched REPS (eps {eps}) vs imitation")]
+            for arm, _ in FLOOR_ARMS:
+                if arm != "main":
+                    cand += [(arm, "policy", arm, "imitation", f"REPS vs imitation, {arm}"),
+                             (arm, "matched", arm, "imitation",
+                              f"matched REPS vs imitation, {arm}")]
+            for aa, ia, ab, ib, name in cand:
+                va, vb = f"{p}.{ia}.{c}", f"{p}.{ib}.{c}"
+                if (aa, va) in have and (ab, vb) in have:
+                    out.append((aa, va, ab, vb, name, p, c))
+    return out
+
+
+VERDICT_COLS = ["measure", "comparison", "policy", "cov", "arm_a", "variant_a", "arm_b",
+                "variant_b", "n", "mean_a", "mean_b", "diff", "ci_lo", "ci_hi", "p", "p_holm",
+                "verdict"]
+
+
+def write_verdicts(out, runs):
+    idx = {(r["arm"], r["variant"], r["repetition"]): r for r in runs}
+    rows = []
+    for measure, col in (("sampled", "final_return"), ("mean_action", "mean_action_return")):
+        fam = []
+        for aa, va, ab, vb, name, p, c in comparisons(runs):
+            ks = sorted(k for (a, v, k) in idx if (a, v) == (aa, va) and (ab, vb, k) in idx)
+            x = [idx[(aa, va, k)][col] for k in ks]
+            y = [idx[(ab, vb, k)][col] for k in ks]
+            m, lo, hi, pv, n = paired(x, y)
+            fam.append({"measure": measure, "comparison": name, "policy": p, "cov": c,
+                        "arm_a": aa, "variant_a": va, "arm_b": ab, "variant_b": vb, "n": n,
+                        "mean_a": float(np.mean(x)), "mean_b": float(np.mean(y)), "diff": m,
+                        "ci_lo": lo, "ci_hi": hi, "p": pv})
+        for r, ph in zip(fam, holm([r["p"] for r in fam])):
+            r["p_holm"] = float(ph)
+            r["verdict"] = ("no sig. change" if ph >= ALPHA else
+                            "improves" if r["diff"] > 0 else "degrades")
+        rows += fam
+    write_csv(os.path.join(out, "verdicts.csv"), VERDICT_COLS, rows)
+
+
+# ---- tables ----
+
+def read_dir(d):
+    runs = exp_data.read_csv(os.path.join(d, "runs.csv"), RUN_COLS)
+    ver = exp_data.read_csv(os.path.join(d, "verdicts.csv"), VERDICT_COLS)
+    return runs, ver
+
+
+def cell(r):
+    return (f"{float(r['diff']):+.3f} [{float(r['ci_lo']):+.3f}, {float(r['ci_hi']):+.3f}] "
+            f"p<sub>H</sub> {float(r['p_holm']):.2g}")
+
+
+def pv(r):
+    return f"{float(r['p_holm']):.2g}"
+
+
+def label_pc(p, c):
+    return p if c == "none" else f"{p}, {c}"
+
+
+def pcs():
+    return [(p, c) for p in POLICIES for c in (["none"] if p == "handcrafted"
+                                                else ["query", "residual"])]
+
+
+def table_verdict(ver, measure, names):
+    by = {(r["measure"], r["comparison"], r["policy"], r["cov"]): r for r in ver}
+    head = "| policy, covariance | " + " | ".join(names) + " |"
+    lines = [head, "|---|" + "---:|" * len(names)]
+    for p, c in pcs():
+        cells = []
+        for n in names:
+            r = by.get((measure, n, p, c))
+            cells.append(f"{cell(r)} **{r['verdict']}**" if r else "–")
+        lines.append(f"| {label_pc(p, c)} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def table_means(runs, arm, inits, col):
+    """Mean over the repetitions of col per (policy, cov) and init."""
+    acc = {}
+    for r in runs:
+        if r["arm"] == arm:
+            acc.setdefault((r["policy"], r["cov"], r["init"]), []).append(float(r[col]))
+    lines = ["| policy, covariance | " + " | ".join(inits) + " |",
+             "|---|" + "---:|" * len(inits)]
+    for p, c in pcs():
+        cells = [f"{np.mean(acc[(p, c, i)]):.3f}" if (p, c, i) in acc else "–" for i in inits]
+        lines.append(f"| {label_pc(p, c)} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def table_floor(runs, ver):
+    by = {(r["measure"], r["comparison"], r["policy"], r["cov"]): r for r in ver}
+    acc = {}
+    for r in runs:
+        acc.setdefault((r["arm"], r["policy"], r["cov"], r["init"]), []).append(r)
+    lines = ["| policy (residual) | policy.min_std | imitation [m] | REPS [m] | matched REPS [m] "
+             "| REPS vs imitation [m] | floored iterations, REPS [%] |",
+             "|---|---|---:|---:|---:|---:|---:|"]
+    for p in POLICIES:
+        c = "none" if p == "handcrafted" else "residual"
+        for arm, name in FLOOR_ARMS:
+            rs = {i: acc.get((arm, p, c, i), []) for i in ("imitation", "policy", "matched")}
+            if not rs["imitation"]:
+                continue
+            m = {i: (f"{np.mean([float(x['final_return']) for x in v]):.3f}" if v else "–")
+                 for i, v in rs.items()}
+            comp = "REPS (eps 0.5) vs imitation" if arm == "main" else f"REPS vs imitation, {arm}"
+            r = by.get(("sampled", comp, p, c))
+            fl = rs["policy"]
+            nit = sum(int(x["iterations"]) for x in fl)
+            fpct = (f"{100 * sum(int(x['floor_iterations']) for x in fl) / nit:.0f}"
+                    if nit else "–")
+            lines.append(f"| {p} | {name} | {m['imitation']} | {m['policy']} | {m['matched']} | "
+                         f"{cell(r) if r else '–'} | {fpct} |")
+    return lines
+
+
+
+def sampled(ver, pred):
+    return [r for r in ver if r["measure"] == "sampled" and pred(r)]
+
+
+def words(rows):
+    """How many rows, degraded, improved, and the range of their differences."""
+    d = [float(r["diff"]) for r in rows]
+    return (len(rows), sum(r["verdict"] == "degrades" for r in rows),
+            sum(r["verdict"] == "improves" for r in rows), min(d), max(d))
+
+
+def count(rows, what="policies"):
+    n, deg, imp, lo, hi = words(rows)
+    return f"degrades {deg} and improves {imp} of {n} {what} ({lo:+.3f} to {hi:+.3f} m)"
+
+
+def closing(ver, runs):
+    nrep = len({r["repetition"] for r in runs})
+    tree = lambda r: r["policy"] in TREES  # noqa: E731
+    m05 = sampled(ver, lambda r: tree(r) and
+                  r["comparison"] == "matched REPS (eps 0.5) vs imitation")
+    msmall = sampled(ver, lambda r: tree(r) and r["comparison"] in (
+        "matched REPS (eps 0.25) vs imitation", "matched REPS (eps 0.1) vs imitation"))
+    refit = sampled(ver, lambda r: r["comparison"] == "refit-only vs imitation")
+    vs_refit = sampled(ver, lambda r: r["comparison"] == "REPS vs refit-only")
+    fl_hi = sampled(ver, lambda r: tree(r) and r["comparison"] in (
+        "REPS vs imitation, floor3", "REPS vs imitation, floor10"))
+    fl_off = sampled(ver, lambda r: tree(r) and r["comparison"] == "REPS vs imitation, floor0")
+    mvp = sampled(ver, lambda r: r["comparison"] == "matched REPS vs REPS")
+    q = [r for r in m05 if r["cov"] == "query"]
+    res = [r for r in m05 if r["cov"] == "residual"]
+    nm, dm, im, lom, him = words(m05)
+    head = (f"degrades {dm} of the {nm} imitated tree policies and improves none" if im == 0
+            else f"improves {im} and degrades {dm} of the {nm} imitated tree policies")
+    return [
+        f"**Once resolution, floor and step size are controlled, REPS {head}** ({nrep} paired "
+        f"repetitions, 95 % intervals, Holm; REPS at π₀'s resolution, ε 0.5, against "
+        f"imitation alone): with `query` it {count(q, 'tree policies')}, with `residual` it "
+        f"{count(res, 'tree policies')}. Smaller steps make it worse (ε 0.25 and 0.1: "
+        f"{count(msmall, 'cells')}); with the floor practically off REPS "
+        f"{count(fl_off, 'tree policies')}, and it gains only against the poorer imitated "
+        f"start of a 3 or 10 mm/s floor ({count(fl_hi, 'cells')}). Keeping π₀'s resolution "
+        f"matters with `query`: against REPS at `policy.n_min` it {count(mvp, 'tree runs')}. "
+        f"What loses most is refitting itself: refitted to its own samples at `policy.n_min` "
+        f"without REPS, the policy {count(refit)}, and REPS against that refit-only control "
+        f"{count(vs_refit)}."]
+
+
+def blocks(d):
+    runs, ver = read_dir(d)
+    nrep = len({r["repetition"] for r in runs})
+    t = exp_data.read_csv(os.path.join(d, "timing.csv")) if os.path.exists(
+        os.path.join(d, "timing.csv")) else []
+    cpu = sum(float(r["cpu_seconds"]) for r in t)
+    wall = sum(float(r["wall_seconds"]) for r in t)
+    nruns = len(runs)
+    nfail = sum(int(r["failed_solves"]) for r in runs)
+    nfrun = sum(int(r["failed_solves"]) > 0 for r in runs)
+    main_names = ["REPS (eps 0.5) vs imitation", "refit-only vs imitation", "REPS vs refit-only",
+                  "matched REPS (eps 0.5) vs imitation", "matched REPS vs REPS"]
+    eps_names = ["REPS (eps 0.25) vs imitation", "REPS (eps 0.1) vs imitation",
+                 "matched REPS (eps 0.25) vs imitation", "matched REPS (eps 0.1) vs imitation"]
+    b = {
+        "setup": [f"{nrep} paired repetitions, {nruns} runs in six arms; the runs and their "
+                  f"merges took {cpu:.0f} s of CPU ({wall:.0f} s wall on "
+                  f"{t[0]['cores'] if t else '?'} cores, load "
+                  f"{t[0]['load_before'] if t else '?'} at the start; "
+                  f"`{os.path.basename(os.path.normpath(d))}/timing.csv`). "
+                  f"{nfail} REPS solves in {nfrun} runs could not be certified and were "
+                  f"recorded (`reps.allow_failed`)."],
+        "controls": table_verdict(ver, "sampled", main_names),
+        "eps": table_verdict(ver, "sampled", eps_names),
+        "means": table_means(runs, "main", ["imitation", "policy", "refit", "matched"],
+                             "final_return"),
+        "mean_action": table_means(runs, "main", ["imitation", "policy", "refit", "matched"],
+                                   "mean_action_return"),
+        "mean_action_verdict": table_verdict(ver, "mean_action", main_names),
+        "floor": table_floor(runs, ver),
+        "closing": closing(ver, runs),
+    }
+    b["readme"] = b["closing"]
+    return b
+
+
+MARK = re.compile(r"(<!-- exp4-study:(\w+) -->\n)(.*?)(<!-- /exp4-study:\2 -->)", re.S)
+
+
+def rewrite(path, b, check):
+    text = open(path).read()
+    seen = []
+
+    def repl(m):
+        name = m.group(2)
+        if name not in b:
+            die(f"{path}: unknown block {name!r}")
+        seen.append(name)
+        return m.group(1) + "\n".join(b[name]) + "\n" + m.group(4)
+    new = MARK.sub(repl, text)
+    if not seen:
+        die(f"{path}: no <!-- exp4-study:NAME --> block")
+    if check:
+        if new != text:
+            for m in MARK.finditer(text):
+                if m.group(3) != "\n".join(b[m.group(2)]) + "\n":
+                    print(f"{PROG}: {path}: block {m.group(2)} differs from the CSVs; run "
+                          f"scripts/exp4_study.py docs", file=sys.stderr)
+                    sys.exit(1)
+        return
+    if new != text:
+        with open(path, "w") as f:
+            f.write(new)
+
+
+def docs(a):
+    b = blocks(a.dir)
+    rewrite(a.doc, b, a.check)
+    if a.readme:
+        rewrite(a.readme, b, a.check)
+
+
+# ---- figure ----
+
+def plot(a):
+    import figstyle
+    plt = figstyle.setup()
+    rows = exp_data.read_csv(os.path.join(a.dir, "curves.csv"),
+                             ("variant", "iteration", "mean_return", "sd_return", "repetitions"))
+    cur = {}
+    for r in rows:
+        cur.setdefault(r["variant"], []).append(
+            (int(r["iteration"]), float(r["mean_return"]), float(r["sd_return"]),
+             int(r["repetitions"])))
+    nrep = max(int(r["repetitions"]) for r in rows)
+    fig, axes = figstyle.figure("full", aspect=0.55, nrows=2, ncols=6, sharex=True, sharey="row")
+    style = [("imitation", "imitation only", "0.45", "--"),
+             ("policy", "imitation + REPS", "C0", "-"),
+             ("refit", "refit-only (no REPS)", "C1", "-"),
+             ("matched", "REPS at π₀'s resolution", "C2", "-")]
+    handles = {}
+    for row, c in enumerate(("query", "residual")):
+        for col, p in enumerate(POLICIES):
+            ax = axes[row][col]
+            cc = "none" if p == "handcrafted" else c
+            if p == "handcrafted" and row == 1:
+                ax.set_visible(False)
+                continue
+            for init, lab, colour, ls in style:
+                v = cur.get(f"{p}.{init}.{cc}")
+                if not v:
+                    continue
+                v.sort()
+                it = np.array([x[0] for x in v])
+                m = np.array([x[1] for x in v])
+                s = np.array([x[2] for x in v])
+                ax.fill_between(it, m - s, m + s, color=colour, alpha=0.18, lw=0)
+                handles[lab], = ax.plot(it, m, color=colour, ls=ls, lw=1.0)
+            ax.set_title(p if cc == "none" else f"{p}, {cc}", fontsize=7)
+            if col == 0 or (p == "handcrafted"):
+                ax.set_ylabel(figstyle.label("return", "m"))
+            if row == 1 or p == "handcrafted":
+                ax.set_xlabel("iteration")
+                ax.tick_params(labelbottom=True)
+    figstyle.legend_below(fig, list(handles.values()), list(handles.keys()), ncol=4)
+    fig.suptitle(f"mean ± 1 SD across {nrep} repetitions", fontsize=7)
+    os.makedirs(a.out, exist_ok=True)
+    figstyle.save(fig, a.out, "exp4_controls")
+
+
+def main():
+    ap = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    c = sub.add_parser("collect")
+    c.add_argument("dir")
+    c.add_argument("--arms", required=True)
+    c.add_argument("--out", required=True)
+    p = sub.add_parser("plot")
+    p.add_argument("dir")
+    p.add_argument("--out", required=True)
+    d = sub.add_parser("docs")
+    d.add_argument("dir")
+    d.add_argument("--doc", required=True)
+    d.add_argument("--readme")
+    d.add_argument("--check", action="store_true")
+    a = ap.parse_args()
+    {"collect": collect, "plot": plot, "docs": docs}[a.cmd](a)
+
+
+if __name__ == "__main__":
+    main()
