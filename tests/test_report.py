@@ -225,8 +225,8 @@ def test_report_tables_come_from_the_csvs(out, tmp_path):
     p = run_cmd([PY, str(SCRIPTS / "report.py"), str(o)], capture_output=True, text=True,
                        timeout=300)
     assert p.returncode == 0, p.stderr
-    before = dict((r[0], r) for r in parse(out / "report.html").tables[1][1:])
-    after = dict((r[0], r) for r in parse(o / "report.html").tables[1][1:])
+    before = dict((r[0], r) for r in parse(out / "report.html").tables[2][1:])
+    after = dict((r[0], r) for r in parse(o / "report.html").tables[2][1:])
     assert after["baseline"][1] == "-0.125" and before["baseline"][1] != "-0.125"
     assert after["baseline"][2] == "0.000"
     assert after["nrvr_rs"][1] == before["nrvr_rs"][1]
@@ -245,13 +245,13 @@ def test_report_renders_in_chromium(out, tmp_path):
     p = run_cmd([chromium(), "--headless", "--no-sandbox", "--disable-gpu",
                         "--disable-background-networking", "--disable-component-update",
                         "--disable-sync", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}",
-                        "--hide-scrollbars", "--window-size=1200,5200", f"--screenshot={shot}",
+                        "--hide-scrollbars", "--window-size=1200,9000", f"--screenshot={shot}",
                         (out / "report.html").as_uri()],
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 0 and shot.is_file(), p.stderr[-2000:]
     image = pytest.importorskip("matplotlib.image")
     px = (image.imread(str(shot))[:, :, :3] * 255).round().astype(int)
-    assert px.shape[:2] == (5200, 1200)
+    assert px.shape[:2] == (9000, 1200)
     colours = {tuple(c) for c in px[::7, ::5].reshape(-1, 3)}
     assert len(colours) > 500, "the page looks blank"
     # the table felt of Fig. 7.1 (#2f7d4f) shows that the figures were loaded
