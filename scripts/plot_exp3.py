@@ -243,9 +243,10 @@ def fig7_9(d, runs, last):
             pooled, per_run = sh.get(g, (0.0, []))
             x = i + (j - (len(POCKET_GROUPS) - 1) / 2) * w
             b = ax.bar([x], [100 * pooled], w, color=col, label=lab if i == 0 else None)
-            ax.bar_label(b, [f"{round(pooled * n_eps[p])}"], fontsize=6.5, padding=1)
-            ax.plot([x] * len(per_run), [100 * v for v in per_run], "o", mfc="white",
-                    mec="black", mew=0.6, ms=2.8, label="one run" if i == 0 and j == 0 else None)
+            ax.bar_label(b, [f"{round(pooled * n_eps[p])}"], fontsize=6, padding=1)
+            # the runs' dots beside the bar's right edge, clear of its count
+            ax.plot([x + 0.3 * w] * len(per_run), [100 * v for v in per_run], "o", mfc="white",
+                    mec="black", mew=0.5, ms=2.2, label="one run" if i == 0 and j == 0 else None)
             top = max(top, 100 * pooled, *(100 * v for v in per_run))
     ax.set_xticks(range(len(pols)), [label_of(p) for p in pols])
     ax.set_ylabel(fs.label("reward balls pocketed", "% of N"))

@@ -384,3 +384,54 @@ def test_check_sees_a_difference(study):
     (docs / "verdicts.md").write_text((docs / "verdicts.md").read_text() + " ")
     p = generate(data, docs, readme, "--check")
     assert p.returncode == 1 and "verdicts.md" in p.stderr
+
+
+# ---------------------------------------------------------------- the study target
+
+def tiny(*sets):
+    return " ".join(f"--set {s}" for s in sets)
+
+
+@pytest.mark.slow
+def test_tiny_study_end_to_end(tmp_path):
+    """scripts/study.sh on tiny settings (real binary, sweep, GNU Parallel,
+    collect), then the generator with rules whose convergence point fits."""
+    binary = os.environ.get("POOLREPS")
+    if not binary or shutil.which("parallel") is None:
+        pytest.skip("needs POOLREPS and GNU parallel")
+    env = dict(os.environ, POOLREPS=binary, POWER_JOBS="2", LC_ALL="C",
+               STUDY_EXP3=tiny("exp3.iterations=6", "exp3.init_samples=40", "exp3.window=40",
+                               "exp3.samples=10", "exp3.final_episodes=20",
+                               "exp3.baseline_n_min=60", "policy.n_min=15", "value.n_min=12",
+                               "value.trees=3", "policy.trees=3"),
+               STUDY_EXP1=tiny("exp1.train=200", "exp1.test=200", "exp1.subset=100",
+                               "exp1.test_subset=100", "exp1.n_min_list=5,20,100",
+                               "exp1.trees_list=1,10,20", "exp1.cuts_list=1,10,20",
+                               "exp1.map_grid=11", "experiment.repetitions=2"),
+               STUDY_EXP2=tiny("exp2.sizes=10,50", "exp2.test=100", "experiment.repetitions=2"))
+    data, docs = tmp_path / "data", tmp_path / "docs"
+    docs.mkdir()
+    p = subprocess.run(["sh", ROOT / "scripts" / "study.sh", tmp_path / "out", "3", "3", data,
+                        docs, PY], capture_output=True, text=True, env=env, cwd=tmp_path,
+                       timeout=600)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert sorted(x.name for x in data.iterdir()) == sorted(
+        ["manifest.csv", "exp3_runs.csv", "exp3_curves.csv", "exp1_mse.csv", "exp1_map.csv",
+         "exp2_returns.csv", "timing.csv"])
+    assert len(list(csv.DictReader(open(data / "exp3_runs.csv")))) == 3 * 6 * 3
+    assert (docs / "power.md").is_file()
+    rules_text = (DATA / "rules.ini").read_text(encoding="utf-8")
+    (data / "rules.ini").write_text(rules_text.replace("converged_at = 60", "converged_at = 3")
+                                    .replace("settle_block = 5", "settle_block = 2"))
+    readme = tmp_path / "README.md"
+    readme.write_text("<!-- verdicts:begin -->\n<!-- verdicts:end -->\n")
+    p = generate(data, docs, readme)
+    assert p.returncode == 0, p.stderr
+    md = (docs / "verdicts.md").read_text(encoding="utf-8")
+    assert "3 repetitions per mode" in md and "3 seeds" in md and "nan" not in md.lower()
+    # the repository's rules do not fit 6 iterations: refused, nothing written
+    (data / "rules.ini").write_text(rules_text)
+    before = snapshot(docs) | {str(readme): readme.read_text()}
+    p = generate(data, docs, readme)
+    assert p.returncode == 3 and "converged_at" in p.stderr and p.stderr.count("\n") == 1
+    assert snapshot(docs) | {str(readme): readme.read_text()} == before
