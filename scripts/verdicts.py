@@ -5,8 +5,9 @@ Usage: verdicts.py DATA [--check] [--docs DIR] [--readme FILE]
 
 DATA holds rules.ini (the rules, stated before the numbers) and the compact
 results scripts/study_extract.py wrote (`make study`). Writes DIR/verdicts.md
-(default docs/), DIR/verdicts_report.html (the report page's claims section)
-and the README's table between <!-- verdicts:begin --> and <!-- verdicts:end -->;
+(default docs/), DIR/verdicts_report.html (the report page's claims section),
+DIR/figures/study_seeds.png and .svg (scripts/plot_study.py) and the README's
+table between <!-- verdicts:begin --> and <!-- verdicts:end -->;
 all or nothing, only once every input has been read and checked. With
 --check nothing is written: exit 1 when a file differs from what DATA gives.
 Exit codes: 1 usage or a difference (--check), 2 missing or malformed input,
@@ -19,10 +20,12 @@ import html
 import math
 import os
 import sys
+import tempfile
 from collections import defaultdict
 
 import numpy as np
 
+import plot_study
 import verdict_stats as vs
 
 MODES = ("event", "stepped", "stepped05")
@@ -631,6 +634,15 @@ def render_md(d, parts, per, comb, sens):
                "differ.\n")
     out.append(md_table(["claim"] + [MODE_LABEL[m] for m in MODES] + ["verdict"], srows))
     out.append("\n" + "\n\n".join(not_reproduced(d, per, comb)))
+    out.append(f"\n![seed spread](figures/{plot_study.STEM}.png)\n\n*Figure: the seed spread "
+               "behind the Experiment 1 and 2 verdicts. Top: the test MSE of each setting "
+               "relative to its reference, one grey dot per seed (the mean of its run's "
+               "forests), the mean over the seeds with its 95 % t interval, one y-scale for "
+               "the three sweeps; the thesis's Fig. 7.4 shows one run's forests instead "
+               "(our Fig. 7.4a–c do too). Below: Experiment 2's mean return at the largest "
+               "training set per seed (the mean of its repetitions), with mean and sampled "
+               "actions on one y-scale; the thesis's Fig. 7.6 shows one run over the "
+               "training-set sizes.*")
     out.append("\n## The claims one by one\n\nColumns: the part; its alternative hypothesis "
                "(what the claim says); the mode; the estimate with its 95 % t interval; the "
                "support's p-value raw and Holm-adjusted; the refutation's (the complement: "
@@ -798,7 +810,12 @@ def outputs(data, docs, readme):
         sens = sensitivity(d, rules, (per, comb))
     except ValueError as e:
         raise Fail(f"{data}: the results allow no test: {e}", 3) from e
-    return {
+    figs = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for path in plot_study.study_seeds(data, tmp):
+            with open(path, "rb") as f:
+                figs[os.path.join(docs, "figures", os.path.basename(path))] = f.read()
+    return figs | {
         os.path.join(docs, "verdicts.md"): render_md(d, parts, per, comb, sens),
         os.path.join(docs, "verdicts_report.html"): report_html(d, parts, per, comb),
         readme: splice_readme(readme, readme_block(d, parts, per, comb)),
@@ -821,8 +838,8 @@ def main():
     if args.check:
         for path, text in out.items():
             try:
-                with open(path, encoding="utf-8") as f:
-                    same = f.read() == text
+                with open(path, "rb") as f:
+                    same = f.read() == (text if isinstance(text, bytes) else text.encode())
             except OSError:
                 same = False
             if not same:
@@ -834,8 +851,9 @@ def main():
     try:
         for path, text in out.items():
             tmp = f"{path}.tmp.{os.getpid()}"
-            with open(tmp, "w", encoding="utf-8") as f:
-                f.write(text)
+            os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+            with open(tmp, "wb") as f:
+                f.write(text if isinstance(text, bytes) else text.encode())
             staged.append((tmp, path))
     except OSError as e:
         for tmp, _ in staged:
