@@ -35,7 +35,7 @@ LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
-.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power exp4-study quick-sums FORCE
+.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power exp4-study study verdicts quick-sums FORCE
 .PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin
 
 all: poolreps
@@ -75,6 +75,7 @@ $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)
 # the last line is the wall time of the whole check
 check:
 	@t0=$$(date +%s); st=0; $(MAKE) check-c check-py || st=$$?; \
+	  $(MAKE) verdicts CHECK=1 || st=$$?; \
 	  echo "make check: $$(( $$(date +%s) - t0 )) s wall"; exit $$st
 
 check-c: $(TEST_BIN)
@@ -150,6 +151,19 @@ endif
 exp4-study: all
 	sh scripts/exp4_study.sh "$(OUT)/exp4_study" "$(EXP4_STUDY_REPS)" "$(EXP4_STUDY_DOCS)" "$(PYTHON)" $(EXP4_STUDY_ARGS)
 
+# The study behind every verdict (docs/verdicts.md; not part of reproduce):
+# Experiment 3 as `make power`, Experiments 1 and 2 at STUDY_SEEDS seeds; its
+# compact results go to data/study/ (committed), then `make verdicts`.
+STUDY_SEEDS ?= 20
+study: all
+	sh scripts/study.sh "$(OUT)/study" "$(POWER_REPS)" "$(STUDY_SEEDS)" data/study docs "$(PYTHON)"
+	$(MAKE) verdicts
+
+# docs/verdicts.md, docs/verdicts_report.html and the README's verdict table
+# from data/study/; CHECK=1 writes nothing and fails on a difference
+verdicts:
+	$(PYTHON) scripts/verdicts.py data/study $(if $(CHECK),--check)
+
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/poolreps/data/quick \
 	  $(DESTDIR)$(PREFIX)/share/poolreps/scripts $(DESTDIR)$(PREFIX)/share/man/man1
@@ -158,6 +172,8 @@ install: all
 	install -m 644 data/quick/*.ini $(DESTDIR)$(PREFIX)/share/poolreps/data/quick
 	install -m 755 scripts/*.py scripts/*.sh scripts/plot $(DESTDIR)$(PREFIX)/share/poolreps/scripts
 	install -m 644 scripts/power_template.md $(DESTDIR)$(PREFIX)/share/poolreps/scripts
+	install -d $(DESTDIR)$(PREFIX)/share/poolreps/docs
+	install -m 644 docs/verdicts_report.html $(DESTDIR)$(PREFIX)/share/poolreps/docs
 	install -m 644 docs/poolreps.1 $(DESTDIR)$(PREFIX)/share/man/man1
 
 clean:
