@@ -68,8 +68,18 @@ const char *pr_reps_status_name(int status)
  * Cholesky factorisation: it bounds steps along exactly dependent feature
  * directions, which leave p unchanged. */
 #define SHIFT 1e-10
+/* Steps a solve took (pr_reps_result.path). */
+enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCED = 16 };
+/* Rank tolerance of the reduced basis: singular values of the
+ * sqrt(q)-weighted solver features below RANK_TOL of the largest are the
+ * round-off of an exact dependence (1e-16 ... 1e-14 of it, whatever the
+ * offsets: the features are centred first); above it a direction is a
+ * constraint of its own and is kept. */
+#define RANK_TOL 1e-12
 /* Largest move of log eta per search step before the root is bracketed. */
 #define MAX_DY 5.0
+/* Moves of MAX_DY up in log eta while no eta has given a theta solution. */
+#define MAX_UPS 8
 
 /* ---- the problem in solver coordinates ---- */
 
@@ -121,6 +131,7 @@ typedef struct {
 /* Scratch of one solver (sized for the main problem; sub-problems are smaller). */
 typedef struct {
 	int evals, max_evals;
+	int path;            /* PATH_* steps the solve took */
 	point pt[2];         /* current and trial */
 	gsl_matrix *H;       /* nf x nf */
 	double *dsc;         /* nf: Jacobi scaling 1/sqrt(H_jj), 0 = frozen */
@@ -1451,7 +1462,7 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 	const int nf = P->nf;
 	double y = 0.0, ylo = -HUGE_VAL, yhi = HUGE_VAL, ygood = 0.0, etagood = 1.0, dyold = HUGE_VAL;
 	double *thg = malloc(2 * (size_t)(nf > 0 ? nf : 1) * sizeof *thg), *bg;
-	int it, j, limited = 0, good = 0, retries = 0, st = V_FAILED;
+	int it, j, limited = 0, good = 0, retries = 0, ups = 0, st = V_FAILED;
 
 	if (!thg)
 		return PR_ENOMEM;
@@ -1460,8 +1471,10 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 	st = joint_newton(P, w, o->eta_min, eta_out);
 	if (st != 0) {
 		free(thg);
+		w->path |= PATH_JOINT;
 		return st < 0 ? st : V_ACTIVE;
 	}
+	w->path |= PATH_SEARCH;
 	/* take over where the fast path stopped, if that is usable */
 	st = V_FAILED;
 	if (*eta_out >= o->eta_min && *eta_out < 1e300)
@@ -1504,6 +1517,15 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 			*eta_out = eta;
 			break;
 		}
+		if (conv == 0 && !good && ++ups <= MAX_UPS) {
+			/* no eta has worked yet (one extreme return makes p at eta = 1
+			 * a point mass): a larger eta brings p towards q, where the
+			 * theta problem is well conditioned; bracket from there */
+			y += MAX_DY;
+			w->path |= PATH_UP;
+			memset(w->pt[0].th, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *thg);
+			continue;
+		}
 		if (conv == 0) {
 			/* theta did not converge from this start: retreat towards the
 			 * last eta that did, and come back in smaller steps */
@@ -1534,6 +1556,7 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 				*eta_out = eta;
 				break;
 			}
+			w->path |= PATH_LIMIT;
 			if ((st = limit_solve(P, w->max_evals, L, reason, rlen)) != PR_OK)
 				break;
 			st = V_FAILED;
@@ -1610,10 +1633,11 @@ void pr_reps_result_free(pr_reps_result *r)
 /* The certificate's feature part, in feature units, from r->p and r->theta:
  * residual = |sum p (phi - phi_hat)|_2, residual_rel = the largest
  * |sum p (phi_j - phi_hat_j) - ridge theta'_j| / fs_j, and the ESS.
- * tmp: d scratch. */
+ * corr (d, or NULL): subtracted from sum p (phi - phat) per feature (see
+ * certify). tmp: d scratch. */
 static void certify_features(const pr_reps_problem *pb, const int *rows, int m,
-                             const double *phat, const double *fs, double ridge_over_s,
-                             pr_reps_result *r, double *tmp)
+                             const double *phat, const double *fs, const double *corr,
+                             double ridge_over_s, pr_reps_result *r, double *tmp)
 {
 	const int d = pb->d;
 	double s2 = 0.0, sp = 0.0;
@@ -1638,6 +1662,9 @@ static void certify_features(const pr_reps_problem *pb, const int *rows, int m,
 	r->residual = r->residual_rel = 0.0;
 	for (j = 0; j < d; j++) {
 		double v = !pb->phi && !pb->val ? tmp[j] - phat[j] * sp : tmp[j];
+
+		if (corr)
+			v -= sp * corr[j];
 
 		r->residual += v * v;
 		if (fs[j] > 0.0)
@@ -1852,27 +1879,301 @@ int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
 	return st;
 }
 
+/* What the attempts of one solve share: the problem, its rows with q > 0,
+ * the feature summaries and the return standardisation. */
+typedef struct {
+	const pr_reps_opts *o;
+	const pr_reps_problem *pb;
+	const int *rows;
+	int m;
+	const double *qn, *phat, *fs;
+	double rmax, scale;
+	double *tmp;         /* d + nf scratch */
+} ctx_t;
+
+/* A well-conditioned basis of P's dense features: the left singular vectors
+ * of W = diag(sqrt q) (psi - sum q psi) (Golub-Reinsch SVD, GSL), scaled
+ * to zeta = diag(1/sqrt q) U_r, so that sum q zeta zeta^T = I. Directions
+ * with singular value below RANK_TOL of the largest are dropped. Q gets
+ * zeta (target sum q zeta, which p = q meets), T (P->nf x r) maps theta
+ * back: psi T = zeta - const, so P's theta is T theta_zeta. *cond = s_1/s_r. */
+static int prob_reduce(prob *Q, const prob *P, double **T, double *cond)
+{
+	const int m = P->m, nf = P->nf, tall = m >= nf, mn = tall ? nf : m;
+	gsl_matrix *A = gsl_matrix_alloc((size_t)(tall ? m : nf), (size_t)mn);
+	gsl_matrix *B = gsl_matrix_alloc((size_t)mn, (size_t)mn);
+	gsl_vector *S = gsl_vector_alloc((size_t)mn), *wk = gsl_vector_alloc((size_t)mn);
+	double *c = calloc((size_t)nf, sizeof *c), smax = 0.0, smin = HUGE_VAL;
+	int i, j, k, r = 0, st = PR_ENOMEM;
+
+	*T = NULL;
+	if (!A || !B || !S || !wk || !c)
+		goto done;
+	for (i = 0; i < m; i++)
+		for (j = 0; j < nf; j++)
+			c[j] += P->q[i] * P->psi[(size_t)i * nf + j];
+	for (i = 0; i < m; i++)
+		for (j = 0; j < nf; j++) {
+			double v = sqrt(P->q[i]) * (P->psi[(size_t)i * nf + j] - c[j]);
+
+			gsl_matrix_set(A, (size_t)(tall ? i : j), (size_t)(tall ? j : i), v);
+		}
+	if (gsl_linalg_SV_decomp(A, B, S, wk) != GSL_SUCCESS) {
+		st = PR_ENUM;
+		goto done;
+	}
+	for (k = 0; k < mn; k++)
+		smax = fmax(smax, gsl_vector_get(S, (size_t)k));
+	for (k = 0; k < mn; k++)
+		r += gsl_vector_get(S, (size_t)k) > RANK_TOL * smax;
+
+	if ((st = prob_alloc(Q, m, r, 0, 0, 0)) != PR_OK || !(*T = calloc((size_t)nf * (r > 0 ? r : 1), sizeof **T)))
+		goto done;
+	Q->eps = P->eps;
+	memcpy(Q->R, P->R, (size_t)m * sizeof *Q->R);
+	memcpy(Q->q, P->q, (size_t)m * sizeof *Q->q);
+	memcpy(Q->rowid, P->rowid, (size_t)m * sizeof *Q->rowid);
+	/* W = A S B^T (tall) or W^T = A S B^T: U and V are A, B or B, A */
+	for (k = 0, r = 0; k < mn; k++) {
+		const double sk = gsl_vector_get(S, (size_t)k);
+
+		if (!(sk > RANK_TOL * smax))
+			continue;
+		smin = fmin(smin, sk);
+		Q->fr[r] = r;
+		Q->gs[r] = 1.0;
+		Q->blk[r] = -1;
+		for (i = 0; i < m; i++) {
+			double u = tall ? gsl_matrix_get(A, (size_t)i, (size_t)k) : gsl_matrix_get(B, (size_t)i, (size_t)k);
+
+			Q->psi[(size_t)i * Q->nf + r] = u / sqrt(P->q[i]);
+			Q->tg[r] += P->q[i] * Q->psi[(size_t)i * Q->nf + r];
+		}
+		for (j = 0; j < nf; j++)
+			(*T)[(size_t)j * Q->nf + r] = (tall ? gsl_matrix_get(B, (size_t)j, (size_t)k) :
+			                              gsl_matrix_get(A, (size_t)j, (size_t)k)) / sk;
+		r++;
+	}
+	*cond = r > 0 ? smax / smin : 1.0;
+	st = PR_OK;
+done:
+	gsl_matrix_free(A);
+	gsl_matrix_free(B);
+	gsl_vector_free(S);
+	gsl_vector_free(wk);
+	free(c);
+	return st;
+}
+
+/* (max L_jj / min L_jj)^2 over the rows psd_factor did not freeze. */
+static double hess_cond(const work *w, int nf)
+{
+	double lo = HUGE_VAL, hi = 0.0;
+	int j;
+
+	for (j = 0; j < nf; j++)
+		if (w->dsc[j] > 0.0) {
+			double l = gsl_matrix_get(w->H, (size_t)j, (size_t)j);
+
+			lo = fmin(lo, l);
+			hi = fmax(hi, l);
+		}
+	return hi > 0.0 && lo > 0.0 ? (hi / lo) * (hi / lo) : 1.0;
+}
+
+static void path_name(int path, char *buf, size_t len)
+{
+	static const char *const word[] = {"joint", "search", "up", "limit", "reduced"};
+	size_t k, at = 0;
+
+	buf[0] = '\0';
+	for (k = 0; k < sizeof word / sizeof *word; k++)
+		if (path & (1 << k) && at < len)
+			at += (size_t)snprintf(buf + at, len - at, "%s%s", at ? "+" : "", word[k]);
+}
+
+/* The certificate of r (reps.h) for the solver's verdict. corr (d, or NULL):
+ * sum q (phi - phat) per feature, the part of the exact target sum q phi
+ * that phat, a double, does not hold; the residual is then measured
+ * against the exact target. */
+static void certify(const ctx_t *c, const limit_t *L, int verdict, const double *corr,
+                    pr_reps_result *r)
+{
+	const pr_reps_opts *o = c->o;
+
+	r->status = verdict;
+	if (!weights_ok(r->p, c->pb->n)) {
+		/* nothing usable came out: the base weights stand in for p */
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "the weights do not sum to 1 (p = q returned)");
+		memcpy(r->p, c->qn, (size_t)c->pb->n * sizeof *r->p);
+		r->kl = 0.0;
+	}
+	r->kl_gap = fabs(r->kl - o->epsilon);
+	certify_features(c->pb, c->rows, c->m, c->phat, c->fs, corr, o->ridge / c->scale, r, c->tmp);
+	if (r->status == PR_REPS_FAILED) {
+		/* said above or by the search */
+	} else if (verdict == V_ACTIVE && !(r->kl_gap <= PR_REPS_TOL && r->residual_rel <= PR_REPS_TOL)) {
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "|KL - epsilon| = %.3g, feature residual %.3g "
+		         "(tolerance %g)", r->kl_gap, r->residual_rel, PR_REPS_TOL);
+	} else if (verdict == V_UNREACHABLE &&
+	           !(r->residual_rel <= PR_REPS_TOL && L->gap <= PR_REPS_TOL &&
+	             L->outside <= PR_REPS_TOL)) {
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "eta -> 0 limit not certified: feature residual "
+		         "%.3g, LP gap %.3g, mass outside the face up to %.3g (tolerance %g)",
+		         r->residual_rel, L->gap, L->outside, PR_REPS_TOL);
+	}
+	if (r->status == PR_REPS_ACTIVE)
+		r->reason[0] = '\0';
+	r->bound = r->status == PR_REPS_ACTIVE;
+}
+
+/* One attempt: the search on P, the answer mapped back into r and
+ * certified. P's features are those of P0 times T (P0->nf x P->nf) when T
+ * is given (the reduced basis), else P0 = P. Returns PR_OK or an error. */
+static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T,
+                   const double *corr, pr_reps_result *r)
+{
+	work w;
+	limit_t L;
+	double eta = 0.0, *th, *th0 = c->tmp + (c->pb->d > 0 ? c->pb->d : 0), dual, kl;
+	const double *p;
+	int verdict, j, k, st = PR_ENOMEM;
+
+	memset(&L, 0, sizeof L);
+	if (work_alloc(&w, P->m, P->nf, c->o->max_iter) != PR_OK)
+		goto done;
+	L.p = malloc((size_t)P->m * sizeof *L.p);
+	L.th = calloc((size_t)(P->nf > 0 ? P->nf : 1), sizeof *L.th);
+	L.lam = calloc((size_t)(P->nf > 0 ? P->nf : 1), sizeof *L.lam);
+	L.rr = malloc((size_t)P->m * sizeof *L.rr);
+	if (!L.p || !L.th || !L.lam || !L.rr)
+		goto done;
+	verdict = search(P, &w, c->o, &L, &eta, r->reason, sizeof r->reason);
+	if ((st = verdict) < 0)
+		goto done;
+	st = PR_OK;
+	if (verdict == V_UNREACHABLE) {
+		p = L.p;
+		th = L.th;
+		dual = L.value;
+		kl = L.kl;
+		eta = 0.0;
+	} else {
+		point *x = &w.pt[0];
+		double rterm = 0.0;
+
+		for (j = 0; j < P->nf && P->rw; j++)
+			rterm += 0.5 * P->rw[j] * x->th[j] * x->th[j];
+		if (L.shifted) {
+			/* back from theta - th on R = rr: g gains the limit's value */
+			for (j = 0; j < P->nf; j++)
+				x->th[j] += L.th[j];
+			rterm -= L.value;
+		}
+		p = x->p;
+		th = x->th;
+		dual = x->F - rterm;
+		kl = x->kl;
+	}
+	if (T) {
+		for (j = 0; j < P0->nf; j++)
+			for (th0[j] = 0.0, k = 0; k < P->nf; k++)
+				th0[j] += T[(size_t)j * P->nf + k] * th[k];
+		th = th0;
+	}
+	map_back(c->pb, P0, p, th, c->fs, c->rmax, c->scale, eta, dual, kl, r);
+	r->iterations += w.evals;
+	r->rank = P->nf;
+	r->cond = hess_cond(&w, P->nf);
+	path_name(w.path | (T ? PATH_REDUCED : 0), r->path, sizeof r->path);
+	certify(c, &L, verdict, corr, r);
+done:
+	work_free(&w);
+	free(L.p);
+	free(L.th);
+	free(L.lam);
+	free(L.rr);
+	return st;
+}
+
+/* The second attempt, after the first failed on dense features: the same
+ * problem on the reduced basis (prob_reduce), measured against the exact
+ * target. Replaces *r when it certifies. */
+static int retry_reduced(const ctx_t *c, const prob *P, pr_reps_result **r)
+{
+	const pr_reps_problem *pb = c->pb;
+	pr_reps_result *r2 = result_new(pb->n, pb->d);
+	double *T = NULL, *corr = calloc((size_t)pb->d, sizeof *corr), cond = 1.0;
+	prob Q;
+	int i, j, st;
+
+	memset(&Q, 0, sizeof Q);
+	st = r2 && corr ? prob_reduce(&Q, P, &T, &cond) : PR_ENOMEM;
+	if (st == PR_OK) {
+		for (i = 0; i < c->m; i++)
+			for (j = 0; j < pb->d; j++)
+				corr[j] += c->qn[c->rows[i]] * (feat(pb, c->rows[i], j) - c->phat[j]);
+		r2->iterations = (*r)->iterations;
+		st = attempt(c, &Q, P, T, corr, r2);
+	}
+	if (st == PR_OK && r2->status != PR_REPS_FAILED) {
+		pr_reps_result_free(*r);
+		*r = r2;
+		r2 = NULL;
+	} else if (st == PR_OK) {
+		size_t l = strlen((*r)->reason);
+
+		snprintf((*r)->reason + l, sizeof (*r)->reason - l, "; on a reduced basis (rank %d, "
+		         "condition %.3g): %s", Q.nf, cond, r2->reason);
+		(*r)->iterations = r2->iterations;
+	}
+	pr_reps_result_free(r2);
+	prob_free(&Q);
+	free(T);
+	free(corr);
+	return st;
+}
+
+/* p = q for returns that are all equal (on q > 0): every p with matched
+ * features earns the same, and q is the closest to q. */
+static void solve_constant(const ctx_t *c, pr_reps_result *r)
+{
+	memcpy(r->p, c->qn, (size_t)c->pb->n * sizeof *r->p);
+	r->dual = c->rmax;
+	r->constant = 1;
+	r->status = PR_REPS_UNREACHABLE;
+	r->kl_gap = c->o->epsilon;
+	r->cond = 1.0;
+	snprintf(r->path, sizeof r->path, "constant");
+	certify_features(c->pb, c->rows, c->m, c->phat, c->fs, NULL, 0.0, r, c->tmp);
+	if (!(r->residual_rel <= PR_REPS_TOL)) {
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "feature residual %.3g > %g", r->residual_rel,
+		         PR_REPS_TOL);
+	}
+}
+
 static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_result **out,
                  char *err)
 {
 	pr_reps_result *r = NULL;
 	prob P;
-	work w;
-	limit_t L;
-	double *qn = NULL, *Rs, *qs, *phat, *fs, *tmp, rmax, scale = 1.0, eta = 0.0;
-	int *rows = NULL, *fx, m = 0, i, j, st, verdict;
+	ctx_t c;
+	double *qn = NULL, *Rs, *qs, *phat, *fs;
+	int *rows = NULL, *fx, m = 0, i, j, st;
 	size_t n, d;
 
 	memset(&P, 0, sizeof P);
-	memset(&w, 0, sizeof w);
-	memset(&L, 0, sizeof L);
 	if ((st = check_opts(o, err)) != PR_OK)
 		return st;
 	if (pb->n < 1)
 		return pr_err(err, PR_EINVAL, "reps: no samples");
 	n = (size_t)pb->n;
 	d = (size_t)(pb->d > 0 ? pb->d : 0);
-	qn = malloc((3 * n + 3 * d + 2) * sizeof *qn);
+	qn = malloc((3 * n + 4 * d + 2) * sizeof *qn);
 	rows = malloc((n + d + 1) * sizeof *rows);
 	r = result_new(pb->n, pb->d);
 	if (!qn || !rows || !r) {
@@ -1883,7 +2184,6 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 	qs = Rs + n;
 	phat = qs + n;
 	fs = phat + d;
-	tmp = fs + d;
 	fx = rows + n;
 	if ((st = check_problem(pb, qn, err)) != PR_OK)
 		goto done;
@@ -1894,87 +2194,29 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		}
 	if (d > 0)
 		feature_stats(pb, rows, qs, m, phat, fs);
-	if (!standardise(pb->R, rows, qs, m, Rs, &rmax, &scale)) {
-		/* every p with matched features earns the same: p_0 = q */
-		memcpy(r->p, qn, n * sizeof *qn);
-		r->dual = rmax;
-		r->constant = 1;
-		r->status = PR_REPS_UNREACHABLE;
-		r->kl_gap = o->epsilon;
-		certify_features(pb, rows, m, phat, fs, 0.0, r, tmp);
-		if (!(r->residual_rel <= PR_REPS_TOL)) {
-			r->status = PR_REPS_FAILED;
-			snprintf(r->reason, sizeof r->reason, "feature residual %.3g > %g", r->residual_rel,
-			         PR_REPS_TOL);
-		}
+	c = (ctx_t){o, pb, rows, m, qn, phat, fs, 0.0, 1.0, fs + d};
+	if (!standardise(pb->R, rows, qs, m, Rs, &c.rmax, &c.scale)) {
+		solve_constant(&c, r);
 		*out = r;
 		r = NULL;
 		goto done;
 	}
-	if ((st = prob_main(&P, pb, rows, qs, Rs, m, phat, fs, o->epsilon, o->ridge, fx)) != PR_OK ||
-	    (st = work_alloc(&w, m, P.nf, o->max_iter)) != PR_OK) {
+	if ((st = prob_main(&P, pb, rows, qs, Rs, m, phat, fs, o->epsilon, o->ridge, fx)) != PR_OK) {
 		st = pr_err(err, PR_ENOMEM, "reps: out of memory");
 		goto done;
 	}
-	L.p = malloc((size_t)m * sizeof *L.p);
-	L.th = calloc((size_t)(P.nf > 0 ? P.nf : 1), sizeof *L.th);
-	L.lam = calloc((size_t)(P.nf > 0 ? P.nf : 1), sizeof *L.lam);
-	L.rr = malloc((size_t)m * sizeof *L.rr);
-	if (!L.p || !L.th || !L.lam || !L.rr) {
-		st = pr_err(err, PR_ENOMEM, "reps: out of memory");
-		goto done;
+	st = attempt(&c, &P, &P, NULL, NULL, r);
+	if (st == PR_OK && r->status == PR_REPS_FAILED && !P.bin && P.nf > 0 && !P.rw) {
+		/* standardise again: the search shifted P's returns */
+		standardise(pb->R, rows, qs, m, P.R, &c.rmax, &c.scale);
+		st = retry_reduced(&c, &P, &r);
 	}
-	verdict = search(&P, &w, o, &L, &eta, r->reason, sizeof r->reason);
-	if (verdict < 0) {
-		st = pr_err(err, verdict, verdict == PR_EINTR ? "reps: interrupted" :
-		            verdict == PR_ENOMEM ? "reps: out of memory" :
+	if (st < 0) {
+		st = pr_err(err, st, st == PR_EINTR ? "reps: interrupted" :
+		            st == PR_ENOMEM ? "reps: out of memory" :
 		            "reps: the Hessian of the dual could not be factorised");
 		goto done;
 	}
-	if (verdict == V_UNREACHABLE) {
-		map_back(pb, &P, L.p, L.th, fs, rmax, scale, 0.0, L.value, L.kl, r);
-	} else {
-		point *x = &w.pt[0];
-		double rterm = 0.0;
-
-		for (j = 0; j < P.nf && P.rw; j++)
-			rterm += 0.5 * P.rw[j] * x->th[j] * x->th[j];
-		if (L.shifted) {
-			/* back from theta - th on R = rr: g gains the limit's value */
-			for (j = 0; j < P.nf; j++)
-				x->th[j] += L.th[j];
-			rterm -= L.value;
-		}
-		map_back(pb, &P, x->p, x->th, fs, rmax, scale, eta, x->F - rterm, x->kl, r);
-	}
-	r->iterations = w.evals;
-	r->status = verdict;
-	if (!weights_ok(r->p, pb->n)) {
-		/* nothing usable came out: the base weights stand in for p */
-		r->status = PR_REPS_FAILED;
-		snprintf(r->reason, sizeof r->reason, "the weights do not sum to 1 (p = q returned)");
-		memcpy(r->p, qn, n * sizeof *qn);
-		r->kl = 0.0;
-	}
-	r->kl_gap = fabs(r->kl - o->epsilon);
-	certify_features(pb, rows, m, phat, fs, o->ridge / scale, r, tmp);
-	if (r->status == PR_REPS_FAILED) {
-		/* said above or by the search */
-	} else if (verdict == V_ACTIVE && !(r->kl_gap <= PR_REPS_TOL && r->residual_rel <= PR_REPS_TOL)) {
-		r->status = PR_REPS_FAILED;
-		snprintf(r->reason, sizeof r->reason, "|KL - epsilon| = %.3g, feature residual %.3g "
-		         "(tolerance %g)", r->kl_gap, r->residual_rel, PR_REPS_TOL);
-	} else if (verdict == V_UNREACHABLE &&
-	           !(r->residual_rel <= PR_REPS_TOL && L.gap <= PR_REPS_TOL &&
-	             L.outside <= PR_REPS_TOL)) {
-		r->status = PR_REPS_FAILED;
-		snprintf(r->reason, sizeof r->reason, "eta -> 0 limit not certified: feature residual "
-		         "%.3g, LP gap %.3g, mass outside the face up to %.3g (tolerance %g)",
-		         r->residual_rel, L.gap, L.outside, PR_REPS_TOL);
-	}
-	if (r->status == PR_REPS_ACTIVE)
-		r->reason[0] = '\0';
-	r->bound = r->status == PR_REPS_ACTIVE;
 	if (!isfinite(r->dual) || !isfinite(r->eta))
 		st = pr_err(err, PR_ENUM, "reps: returns too far apart: eta or the dual overflows");
 	for (j = 0; st == PR_OK && j < pb->d; j++)
@@ -1987,11 +2229,6 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 done:
 	pr_reps_result_free(r);
 	prob_free(&P);
-	work_free(&w);
-	free(L.p);
-	free(L.th);
-	free(L.lam);
-	free(L.rr);
 	free(qn);
 	free(rows);
 	return st;

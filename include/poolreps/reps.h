@@ -90,6 +90,18 @@ typedef struct {
 	int constant;        /* 1: all returns with q_i > 0 are equal; p = q, eta = 0 */
 	int iterations;      /* dual evaluations (Newton steps and line-search trials) */
 	char reason[160];    /* status failed: what could not be certified */
+	/* The solver path, for diagnostics (reps --summary): */
+	int rank;            /* feature directions the solver used (after dropping
+	                        constant features, reference leaves and, on the
+	                        reduced basis, numerically dependent directions) */
+	double cond;         /* (max L_jj / min L_jj)^2 of the Cholesky factor L of
+	                        the last Jacobi-scaled theta Hessian: a lower
+	                        estimate of its condition number (1 without features) */
+	char path[48];       /* steps taken, joined by '+': joint (the joint Newton
+	                        fast path), search (the root search on log eta), up
+	                        (eta raised before any theta solve worked), limit
+	                        (the eta -> 0 limit), reduced (a second attempt on a
+	                        well-conditioned basis after the first failed) */
 } pr_reps_result;
 
 /* Solve the dual and certify the result (see the file comment): Newton's
