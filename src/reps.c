@@ -76,6 +76,11 @@ enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCE
  * offsets: the features are centred first); above it a direction is a
  * constraint of its own and is kept. */
 #define RANK_TOL 1e-12
+/* A first answer whose last theta Hessian has a condition estimate above
+ * this is solved again on the reduced basis: its features were too close
+ * to dependent for the digits of psi (the pivots below 1e-8 of the largest
+ * come from directions that only the last digits of the data hold). */
+#define COND_RETRY 1e8
 /* Largest move of log eta per search step before the root is bracketed. */
 #define MAX_DY 5.0
 /* Moves of MAX_DY up in log eta while no eta has given a theta solution. */
@@ -1693,8 +1698,8 @@ static int check_problem(const pr_reps_problem *pb, double *qn, char *err)
 	double sq = 0.0;
 	int i, j;
 
-	if (pb->n < 1)
-		return pr_err(err, PR_EINVAL, "reps: no samples");
+	if (pb->n < 2)
+		return pr_err(err, PR_EINVAL, "reps: need at least 2 samples (got %d)", pb->n);
 	if (pb->d < 0)
 		return pr_err(err, PR_EINVAL, "reps: negative feature count %d", pb->d);
 	if (!pb->R)
@@ -1889,32 +1894,78 @@ typedef struct {
 	const double *qn, *phat, *fs;
 	double rmax, scale;
 	double *tmp;         /* d + nf scratch */
+	double *corr;        /* dense features: d, sum q (phi - phat) (certify); else NULL */
 } ctx_t;
 
-/* A well-conditioned basis of P's dense features: the left singular vectors
- * of W = diag(sqrt q) (psi - sum q psi) (Golub-Reinsch SVD, GSL), scaled
- * to zeta = diag(1/sqrt q) U_r, so that sum q zeta zeta^T = I. Directions
- * with singular value below RANK_TOL of the largest are dropped. Q gets
- * zeta (target sum q zeta, which p = q meets), T (P->nf x r) maps theta
- * back: psi T = zeta - const, so P's theta is T theta_zeta. *cond = s_1/s_r. */
-static int prob_reduce(prob *Q, const prob *P, double **T, double *cond)
+/* Column r of Q: z_i = sum_j (phi_ij - phat_j) t_j, centred on its q-mean,
+ * which is its target. phi - phat is exact as xh + xl, and the sum is
+ * Dot2 (error-free products by fma, sums by TwoSum): a direction in which
+ * two columns differ by 1e-10 of their spread keeps its digits, where a
+ * product of the rounded psi would keep 1e-16 / 1e-10 of them. */
+static void reduced_column(const prob *P, const double *xh, const double *xl, const double *t,
+                           prob *Q, int r)
+{
+	const int m = P->m, nf = P->nf;
+	double mean = 0.0;
+	int i, j, h;
+
+	for (i = 0; i < m; i++) {
+		double s = 0.0, e = 0.0;
+
+		for (j = 0; j < nf; j++)
+			for (h = 0; h < 2; h++) {
+				const double x = (h ? xl : xh)[(size_t)i * nf + j];
+				const double pr = x * t[j], pe = fma(x, t[j], -pr), sn = s + pr, z = sn - s;
+
+				e += (s - (sn - z)) + (pr - z) + pe;
+				s = sn;
+			}
+		Q->psi[(size_t)i * Q->nf + r] = s + e;
+		mean += P->q[i] * (s + e);
+	}
+	for (i = 0; i < m; i++) {
+		Q->psi[(size_t)i * Q->nf + r] -= mean;
+		Q->tg[r] += P->q[i] * Q->psi[(size_t)i * Q->nf + r];
+	}
+}
+
+/* A well-conditioned basis of P's dense features: W = diag(sqrt q) (psi -
+ * sum q psi) = U S V^T (Golub-Reinsch SVD, GSL); directions with singular
+ * value below RANK_TOL of the largest are dropped, and Q's features are
+ * zeta = (psi - sum q psi) V_r S_r^-1 = diag(1/sqrt q) U_r (so sum q zeta
+ * zeta^T = I), computed from the original features (reduced_column), with
+ * target sum q zeta, which p = q meets. Errors of V only mix the kept
+ * directions, which leaves the constraints' span as it is. T (P->nf x r)
+ * maps theta back: psi T = zeta + const, so P's theta is T theta_zeta.
+ * *cond = s_1 / s_r. */
+static int prob_reduce(prob *Q, const prob *P, const ctx_t *c, double **T, double *cond)
 {
 	const int m = P->m, nf = P->nf, tall = m >= nf, mn = tall ? nf : m;
+	double *xh = malloc((size_t)m * nf * sizeof *xh), *xl = malloc((size_t)m * nf * sizeof *xl);
+	double *t = malloc((size_t)nf * sizeof *t);
 	gsl_matrix *A = gsl_matrix_alloc((size_t)(tall ? m : nf), (size_t)mn);
 	gsl_matrix *B = gsl_matrix_alloc((size_t)mn, (size_t)mn);
 	gsl_vector *S = gsl_vector_alloc((size_t)mn), *wk = gsl_vector_alloc((size_t)mn);
-	double *c = calloc((size_t)nf, sizeof *c), smax = 0.0, smin = HUGE_VAL;
+	double *mu = calloc((size_t)nf, sizeof *mu), smax = 0.0, smin = HUGE_VAL;
 	int i, j, k, r = 0, st = PR_ENOMEM;
 
 	*T = NULL;
-	if (!A || !B || !S || !wk || !c)
+	if (!A || !B || !S || !wk || !mu || !xh || !xl || !t)
 		goto done;
 	for (i = 0; i < m; i++)
-		for (j = 0; j < nf; j++)
-			c[j] += P->q[i] * P->psi[(size_t)i * nf + j];
+		for (j = 0; j < nf; j++) {
+			const int f = P->fr[j];
+			const double a = feat(c->pb, P->rowid[i], f), b = -c->phat[f];
+			double h = a + b, z = h - a;
+
+			/* TwoSum: phi - phat exactly as h + l */
+			xh[(size_t)i * nf + j] = h;
+			xl[(size_t)i * nf + j] = (a - (h - z)) + (b - z);
+			mu[j] += P->q[i] * P->psi[(size_t)i * nf + j];
+		}
 	for (i = 0; i < m; i++)
 		for (j = 0; j < nf; j++) {
-			double v = sqrt(P->q[i]) * (P->psi[(size_t)i * nf + j] - c[j]);
+			double v = sqrt(P->q[i]) * (P->psi[(size_t)i * nf + j] - mu[j]);
 
 			gsl_matrix_set(A, (size_t)(tall ? i : j), (size_t)(tall ? j : i), v);
 		}
@@ -1943,15 +1994,12 @@ static int prob_reduce(prob *Q, const prob *P, double **T, double *cond)
 		Q->fr[r] = r;
 		Q->gs[r] = 1.0;
 		Q->blk[r] = -1;
-		for (i = 0; i < m; i++) {
-			double u = tall ? gsl_matrix_get(A, (size_t)i, (size_t)k) : gsl_matrix_get(B, (size_t)i, (size_t)k);
-
-			Q->psi[(size_t)i * Q->nf + r] = u / sqrt(P->q[i]);
-			Q->tg[r] += P->q[i] * Q->psi[(size_t)i * Q->nf + r];
-		}
-		for (j = 0; j < nf; j++)
+		for (j = 0; j < nf; j++) {
 			(*T)[(size_t)j * Q->nf + r] = (tall ? gsl_matrix_get(B, (size_t)j, (size_t)k) :
 			                              gsl_matrix_get(A, (size_t)j, (size_t)k)) / sk;
+			t[j] = (*T)[(size_t)j * Q->nf + r] / c->fs[P->fr[j]];
+		}
+		reduced_column(P, xh, xl, t, Q, r);
 		r++;
 	}
 	*cond = r > 0 ? smax / smin : 1.0;
@@ -1961,7 +2009,10 @@ done:
 	gsl_matrix_free(B);
 	gsl_vector_free(S);
 	gsl_vector_free(wk);
-	free(c);
+	free(mu);
+	free(xh);
+	free(xl);
+	free(t);
 	return st;
 }
 
@@ -1992,14 +2043,16 @@ static void path_name(int path, char *buf, size_t len)
 			at += (size_t)snprintf(buf + at, len - at, "%s%s", at ? "+" : "", word[k]);
 }
 
-/* The certificate of r (reps.h) for the solver's verdict. corr (d, or NULL):
- * sum q (phi - phat) per feature, the part of the exact target sum q phi
- * that phat, a double, does not hold; the residual is then measured
- * against the exact target. */
-static void certify(const ctx_t *c, const limit_t *L, int verdict, const double *corr,
-                    pr_reps_result *r)
+/* The certificate of r (reps.h) for the solver's verdict. c->corr (dense
+ * features): sum q (phi - phat) per feature, the part of the exact target
+ * sum q phi that phat, a double, does not hold. The reported residual is
+ * measured against the exact target when exact is set (the reduced
+ * attempt, which solves for it), else against phat; either way the
+ * residual against the exact target must be within PR_REPS_TOL too. */
+static void certify(const ctx_t *c, const limit_t *L, int verdict, int exact, pr_reps_result *r)
 {
 	const pr_reps_opts *o = c->o;
+	double res_exact = 0.0;
 
 	r->status = verdict;
 	if (!weights_ok(r->p, c->pb->n)) {
@@ -2010,8 +2063,21 @@ static void certify(const ctx_t *c, const limit_t *L, int verdict, const double 
 		r->kl = 0.0;
 	}
 	r->kl_gap = fabs(r->kl - o->epsilon);
-	certify_features(c->pb, c->rows, c->m, c->phat, c->fs, corr, o->ridge / c->scale, r, c->tmp);
+	if (c->corr) {
+		certify_features(c->pb, c->rows, c->m, c->phat, c->fs, c->corr, o->ridge / c->scale, r,
+		                 c->tmp);
+		res_exact = r->residual_rel;
+	}
+	if (!exact)
+		certify_features(c->pb, c->rows, c->m, c->phat, c->fs, NULL, o->ridge / c->scale, r,
+		                 c->tmp);
 	if (r->status == PR_REPS_FAILED) {
+		/* said above or by the search */
+	} else if (!(res_exact <= PR_REPS_TOL)) {
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "feature residual %.3g against the exact sum q phi "
+		         "(tolerance %g)", res_exact, PR_REPS_TOL);
+	} else if (r->status == PR_REPS_FAILED) {
 		/* said above or by the search */
 	} else if (verdict == V_ACTIVE && !(r->kl_gap <= PR_REPS_TOL && r->residual_rel <= PR_REPS_TOL)) {
 		r->status = PR_REPS_FAILED;
@@ -2033,8 +2099,7 @@ static void certify(const ctx_t *c, const limit_t *L, int verdict, const double 
 /* One attempt: the search on P, the answer mapped back into r and
  * certified. P's features are those of P0 times T (P0->nf x P->nf) when T
  * is given (the reduced basis), else P0 = P. Returns PR_OK or an error. */
-static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T,
-                   const double *corr, pr_reps_result *r)
+static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, pr_reps_result *r)
 {
 	work w;
 	limit_t L;
@@ -2089,7 +2154,7 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T,
 	r->rank = P->nf;
 	r->cond = hess_cond(&w, P->nf);
 	path_name(w.path | (T ? PATH_REDUCED : 0), r->path, sizeof r->path);
-	certify(c, &L, verdict, corr, r);
+	certify(c, &L, verdict, T != NULL, r);
 done:
 	work_free(&w);
 	free(L.p);
@@ -2099,31 +2164,29 @@ done:
 	return st;
 }
 
-/* The second attempt, after the first failed on dense features: the same
- * problem on the reduced basis (prob_reduce), measured against the exact
- * target. Replaces *r when it certifies. */
+/* The second attempt, after the first failed on dense features or left a
+ * Hessian too ill-conditioned to trust its digits (cond > COND_RETRY): the
+ * same problem on the reduced basis (prob_reduce), measured against the
+ * exact target. Replaces *r when it certifies. */
 static int retry_reduced(const ctx_t *c, const prob *P, pr_reps_result **r)
 {
 	const pr_reps_problem *pb = c->pb;
 	pr_reps_result *r2 = result_new(pb->n, pb->d);
-	double *T = NULL, *corr = calloc((size_t)pb->d, sizeof *corr), cond = 1.0;
+	double *T = NULL, cond = 1.0;
 	prob Q;
-	int i, j, st;
+	int st;
 
 	memset(&Q, 0, sizeof Q);
-	st = r2 && corr ? prob_reduce(&Q, P, &T, &cond) : PR_ENOMEM;
+	st = r2 ? prob_reduce(&Q, P, c, &T, &cond) : PR_ENOMEM;
 	if (st == PR_OK) {
-		for (i = 0; i < c->m; i++)
-			for (j = 0; j < pb->d; j++)
-				corr[j] += c->qn[c->rows[i]] * (feat(pb, c->rows[i], j) - c->phat[j]);
 		r2->iterations = (*r)->iterations;
-		st = attempt(c, &Q, P, T, corr, r2);
+		st = attempt(c, &Q, P, T, r2);
 	}
 	if (st == PR_OK && r2->status != PR_REPS_FAILED) {
 		pr_reps_result_free(*r);
 		*r = r2;
 		r2 = NULL;
-	} else if (st == PR_OK) {
+	} else if (st == PR_OK && (*r)->status == PR_REPS_FAILED) {
 		size_t l = strlen((*r)->reason);
 
 		snprintf((*r)->reason + l, sizeof (*r)->reason - l, "; on a reduced basis (rank %d, "
@@ -2133,7 +2196,6 @@ static int retry_reduced(const ctx_t *c, const prob *P, pr_reps_result **r)
 	pr_reps_result_free(r2);
 	prob_free(&Q);
 	free(T);
-	free(corr);
 	return st;
 }
 
@@ -2169,11 +2231,11 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 	memset(&P, 0, sizeof P);
 	if ((st = check_opts(o, err)) != PR_OK)
 		return st;
-	if (pb->n < 1)
-		return pr_err(err, PR_EINVAL, "reps: no samples");
+	if (pb->n < 2)
+		return pr_err(err, PR_EINVAL, "reps: need at least 2 samples (got %d)", pb->n);
 	n = (size_t)pb->n;
 	d = (size_t)(pb->d > 0 ? pb->d : 0);
-	qn = malloc((3 * n + 4 * d + 2) * sizeof *qn);
+	qn = malloc((3 * n + 5 * d + 2) * sizeof *qn);
 	rows = malloc((n + d + 1) * sizeof *rows);
 	r = result_new(pb->n, pb->d);
 	if (!qn || !rows || !r) {
@@ -2194,7 +2256,14 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		}
 	if (d > 0)
 		feature_stats(pb, rows, qs, m, phat, fs);
-	c = (ctx_t){o, pb, rows, m, qn, phat, fs, 0.0, 1.0, fs + d};
+	c = (ctx_t){o, pb, rows, m, qn, phat, fs, 0.0, 1.0, fs + d, NULL};
+	if (d > 0 && (pb->phi || pb->val)) {
+		/* dense features: what phat, a double, leaves of sum q phi */
+		c.corr = fs + 3 * d + 2;
+		for (j = 0; j < pb->d; j++)
+			for (c.corr[j] = 0.0, i = 0; i < m; i++)
+				c.corr[j] += qs[i] * (feat(pb, rows[i], j) - phat[j]);
+	}
 	if (!standardise(pb->R, rows, qs, m, Rs, &c.rmax, &c.scale)) {
 		solve_constant(&c, r);
 		*out = r;
@@ -2205,8 +2274,9 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		st = pr_err(err, PR_ENOMEM, "reps: out of memory");
 		goto done;
 	}
-	st = attempt(&c, &P, &P, NULL, NULL, r);
-	if (st == PR_OK && r->status == PR_REPS_FAILED && !P.bin && P.nf > 0 && !P.rw) {
+	st = attempt(&c, &P, &P, NULL, r);
+	if (st == PR_OK && (r->status == PR_REPS_FAILED || r->cond > COND_RETRY) && !P.bin &&
+	    P.nf > 0 && !P.rw) {
 		/* standardise again: the search shifted P's returns */
 		standardise(pb->R, rows, qs, m, P.R, &c.rmax, &c.scale);
 		st = retry_reduced(&c, &P, &r);

@@ -114,7 +114,7 @@ typedef struct {
  * so the answer is invariant to affine changes of the returns.
  * A result that cannot be certified is returned with status
  * PR_REPS_FAILED and PR_OK: the caller decides (the CLI exits 3).
- * Errors: PR_EINVAL (bad options, non-finite data, negative or all-zero q,
+ * Errors: PR_EINVAL (fewer than 2 samples, bad options, non-finite data, negative or all-zero q,
  * naming the sample), PR_ENOMEM, PR_ENUM (returns so far apart that the
  * back-mapped eta or theta overflows), PR_EINTR. *out is set only on
  * success. */
