@@ -33,7 +33,11 @@
 #include <stdio.h>
 #include <string.h>
 
+#include <dlfcn.h>
 #include <glpk.h>
+#include <nlopt.h>
+#include <pthread.h>
+#include <gsl/gsl_blas.h>
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_linalg.h>
 #include <gsl/gsl_matrix.h>
@@ -47,6 +51,7 @@ void pr_reps_opts_init(pr_reps_opts *o)
 	o->max_iter = 2000;
 	o->eta_min = 1e-2;
 	o->allow_failed = 0;
+	o->solver = PR_REPS_SOLVER_NEWTON;
 }
 
 const char *pr_reps_status_name(int status)
@@ -69,7 +74,8 @@ const char *pr_reps_status_name(int status)
  * directions, which leave p unchanged. */
 #define SHIFT 1e-10
 /* Steps a solve took (pr_reps_result.path). */
-enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCED = 16 };
+enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCED = 16,
+       PATH_NLOPT = 32 };
 /* Rank tolerance of the reduced basis: singular values of the
  * sqrt(q)-weighted solver features below RANK_TOL of the largest are the
  * round-off of an exact dependence (1e-16 ... 1e-14 of it, whatever the
@@ -81,6 +87,11 @@ enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCE
  * to dependent for the digits of psi (the pivots below 1e-8 of the largest
  * come from directions that only the last digits of the data hold). */
 #define COND_RETRY 1e8
+/* Dense problems with at least this many free features form Cov_p(psi) by
+ * one BLAS-3 call (dsyrk on the sqrt(p)-weighted rows) instead of row by
+ * row: the same sums in another order, so only problems this wide (none of
+ * the thesis experiments') see other round-off. */
+#define BLAS_MIN_NF 32
 /* Largest move of log eta per search step before the root is bracketed. */
 #define MAX_DY 5.0
 /* Moves of MAX_DY up in log eta while no eta has given a theta solution. */
@@ -144,6 +155,7 @@ typedef struct {
 	int *iscr;           /* 3 nf */
 	double *u;           /* m */
 	double varu, resvar; /* Var_p(u), ResVar_p(u | psi) at the last factorisation */
+	gsl_matrix *Y;       /* dense, nf >= BLAS_MIN_NF: m x nf, sqrt(p) (psi - psi_c) */
 } work;
 
 static void work_free(work *w)
@@ -157,6 +169,7 @@ static void work_free(work *w)
 		free(w->pt[k].g);
 	}
 	gsl_matrix_free(w->H);
+	gsl_matrix_free(w->Y);
 	free(w->dsc);
 	free(w->v1);
 	free(w->v2);
@@ -263,6 +276,79 @@ static int plain_ok(const prob *P, const point *x)
 	return 1;
 }
 
+/* OpenBLAS's Fortran dsyrk, loaded privately (RTLD_LOCAL): only this call
+ * goes to OpenBLAS, and GSL keeps its own CBLAS, so nothing else changes
+ * its round-off (OpenBLAS as GSL's CBLAS moves the bits of every
+ * experiment). Without OpenBLAS, GSL's dsyrk. */
+typedef void (*dsyrk_fn)(const char *uplo, const char *trans, const int *n, const int *k,
+                         const double *alpha, const double *a, const int *lda,
+                         const double *beta, double *c, const int *ldc);
+static dsyrk_fn fast_dsyrk;
+static pthread_once_t fast_once = PTHREAD_ONCE_INIT;
+
+static void fast_load(void)
+{
+	void *h = dlopen("libopenblas.so.0", RTLD_NOW | RTLD_LOCAL);
+	void *f = h ? dlsym(h, "dsyrk_") : NULL, *t = h ? dlsym(h, "openblas_set_num_threads") : NULL;
+	void (*threads)(int);
+
+	/* one thread: OpenBLAS's split of the sums depends on its thread
+	 * count, and the bits must not (without the setter, no OpenBLAS) */
+	if (!t)
+		return;
+	/* data pointers to function pointers, as POSIX dlsym requires */
+	memcpy(&threads, &t, sizeof threads);
+	threads(1);
+	memcpy(&fast_dsyrk, &f, sizeof fast_dsyrk);
+}
+
+/* covariances() for wide dense problems: the moments about row c from
+ * Y = diag(sqrt p) (psi - psi_c) by dsyrk (upper triangle of w->H). w->u
+ * and mu are set, H's upper triangle and w->c, w->v1 zeroed by the caller.
+ * PR_ENOMEM if Y cannot be allocated (the caller then sums row by row). */
+static int covariances_blas(const prob *P, work *w, const point *x, int c, double mu)
+{
+	const int m = P->m, nf = P->nf;
+	const double *rc = P->psi + (size_t)c * nf;
+	double *H = w->H->data, *mc = w->v1, vu = 0.0, one = 1.0, zero = 0.0;
+	const size_t td = w->H->tda;
+	const int ldc = (int)td;
+	int i, j, k, lda;
+
+	if (!w->Y && !(w->Y = gsl_matrix_alloc((size_t)m, (size_t)nf)))
+		return PR_ENOMEM;
+	lda = (int)w->Y->tda;
+	for (i = 0; i < m; i++) {
+		const double pi = x->p[i], du = w->u[i] - mu, sp = sqrt(pi);
+		const double *r = P->psi + (size_t)i * nf;
+		double *y = w->Y->data + (size_t)i * w->Y->tda;
+
+		vu += pi * du * du;
+		for (j = 0; j < nf; j++) {
+			const double dv = r[j] - rc[j];
+
+			y[j] = sp * dv;
+			mc[j] += pi * dv;
+			w->c[j] += pi * dv * du;
+		}
+	}
+	pthread_once(&fast_once, fast_load);
+	if (fast_dsyrk) {
+		/* column-major, Y^T is nf x m and the row-major upper triangle of
+		 * H is the column-major lower one */
+		fast_dsyrk("L", "N", &nf, &m, &one, w->Y->data, &lda, &zero, H, &ldc);
+	} else {
+		gsl_matrix_view hv = gsl_matrix_submatrix(w->H, 0, 0, (size_t)nf, (size_t)nf);
+
+		gsl_blas_dsyrk(CblasUpper, CblasTrans, 1.0, w->Y, 0.0, &hv.matrix);
+	}
+	for (j = 0; j < nf; j++)
+		for (k = j; k < nf; k++)
+			H[(size_t)j * td + k] -= mc[j] * mc[k];
+	w->varu = vu;
+	return PR_OK;
+}
+
 /* Cov_p(psi) (free features) into the upper triangle of w->H, Cov_p(psi, u)
  * into w->c and Var_p(u) into w->varu, at the weights of x. The moments are
  * taken about the row c with the largest weight,
@@ -317,6 +403,8 @@ static void covariances(const prob *P, work *w, double eta, const point *x)
 		w->varu = vu;
 		return;
 	}
+	if (!P->bin && nf >= BLAS_MIN_NF && covariances_blas(P, w, x, c, mu) == PR_OK)
+		return;
 	if (P->bin)
 		for (k = P->rfp[c]; k < P->rfp[c + 1]; k++)
 			inc[P->rfi[k]] = 1;
@@ -1884,6 +1972,74 @@ int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
 	return st;
 }
 
+/* ---- the second solver: NLopt on the same dual ---- */
+
+typedef struct {
+	const prob *P;
+	work *w;
+} nl_data;
+
+/* F and its gradient at x = (log eta, theta) (solver coordinates). */
+static double nl_dual(unsigned n, const double *x, double *grad, void *data)
+{
+	nl_data *d = data;
+	point *pt = &d->w->pt[0];
+	const double eta = exp(x[0]);
+
+	if (pr_interrupted)
+		return HUGE_VAL;
+	memcpy(pt->th, x + 1, (size_t)(n - 1) * sizeof *x);
+	eval(d->P, d->w, eta, pt);
+	if (grad) {
+		grad[0] = eta * (d->P->eps - pt->kl);
+		memcpy(grad + 1, pt->g, (size_t)(n - 1) * sizeof *x);
+	}
+	return pt->F;
+}
+
+/* Minimises the dual with NLopt's L-BFGS from (log eta, theta) = (0, 0),
+ * at most w->max_evals evaluations, until the relative change of x falls
+ * to round-off. Leaves pt[0] at the best point and claims V_ACTIVE: the
+ * certificate decides. Returns a negative error on interrupt or memory. */
+static int nlopt_dual(const prob *P, work *w, double *eta, char *reason, size_t rlen)
+{
+	const unsigned n = (unsigned)P->nf + 1;
+	double *x = calloc(n, sizeof *x), *lo = malloc(n * sizeof *lo), f = 0.0;
+	nlopt_opt opt = nlopt_create(NLOPT_LD_LBFGS, n);
+	nl_data d = {P, w};
+	nlopt_result rc;
+	unsigned j;
+
+	w->path |= PATH_NLOPT;
+	if (!x || !lo || !opt) {
+		free(x);
+		free(lo);
+		nlopt_destroy(opt);
+		return PR_ENOMEM;
+	}
+	/* eta within the range where exp and the weights stay finite */
+	lo[0] = log(DBL_MIN) + 50.0;
+	for (j = 1; j < n; j++)
+		lo[j] = -HUGE_VAL;
+	nlopt_set_lower_bounds(opt, lo);
+	nlopt_set_min_objective(opt, nl_dual, &d);
+	nlopt_set_xtol_rel(opt, 1e-15);
+	nlopt_set_maxeval(opt, w->max_evals);
+	rc = nlopt_optimize(opt, x, &f);
+	nlopt_destroy(opt);
+	if (pr_interrupted) {
+		free(x);
+		free(lo);
+		return PR_EINTR;
+	}
+	*eta = exp(x[0]);
+	nl_dual(n, x, NULL, &d);
+	snprintf(reason, rlen, "NLopt L-BFGS stopped with code %d", (int)rc);
+	free(x);
+	free(lo);
+	return V_ACTIVE;
+}
+
 /* What the attempts of one solve share: the problem, its rows with q > 0,
  * the feature summaries and the return standardisation. */
 typedef struct {
@@ -2034,7 +2190,7 @@ static double hess_cond(const work *w, int nf)
 
 static void path_name(int path, char *buf, size_t len)
 {
-	static const char *const word[] = {"joint", "search", "up", "limit", "reduced"};
+	static const char *const word[] = {"joint", "search", "up", "limit", "reduced", "nlopt"};
 	size_t k, at = 0;
 
 	buf[0] = '\0';
@@ -2116,7 +2272,10 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, pr_
 	L.rr = malloc((size_t)P->m * sizeof *L.rr);
 	if (!L.p || !L.th || !L.lam || !L.rr)
 		goto done;
-	verdict = search(P, &w, c->o, &L, &eta, r->reason, sizeof r->reason);
+	if (c->o->solver == PR_REPS_SOLVER_NLOPT)
+		verdict = nlopt_dual(P, &w, &eta, r->reason, sizeof r->reason);
+	else
+		verdict = search(P, &w, c->o, &L, &eta, r->reason, sizeof r->reason);
 	if ((st = verdict) < 0)
 		goto done;
 	st = PR_OK;

@@ -35,7 +35,13 @@ typedef struct {
 	                     programme) to decide whether the bound is reachable */
 	int allow_failed; /* experiments: 1 = record a failed certificate and go
 	                     on; 0 (default) = a failed solve fails the run */
+	int solver;       /* PR_REPS_SOLVER_NEWTON (default) or PR_REPS_SOLVER_NLOPT */
 } pr_reps_opts;
+/* reps.solver: newton = the Newton path and eta -> 0 limit described at
+ * pr_reps_solve; nlopt = NLopt's L-BFGS on the dual over (log eta, theta),
+ * its answer certified the same way (it has no eta -> 0 limit, so an
+ * unreachable bound is a failed certificate). */
+enum { PR_REPS_SOLVER_NEWTON = 0, PR_REPS_SOLVER_NLOPT = 1 };
 void pr_reps_opts_init(pr_reps_opts *o);
 
 /* Certificate tolerance: |KL - eps|, the relative feature residual, and the
