@@ -1535,6 +1535,56 @@ static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
 	return 0;
 }
 
+/* The search's next y from the Newton target yt: bisection once the root
+ * is bracketed in (ylo, yhi) unless yt lies inside and halves the last
+ * step; before, steps of at most MAX_DY (and at least 1) towards it. */
+static double next_y(double y, double yt, double ylo, double yhi, double dyold)
+{
+	if (ylo > -HUGE_VAL && yhi < HUGE_VAL) {
+		if (!(yt > ylo && yt < yhi) || fabs(yt - y) > 0.5 * dyold)
+			yt = 0.5 * (ylo + yhi);
+	} else if (ylo == -HUGE_VAL) {
+		yt = yt >= y - MAX_DY ? yt : y - MAX_DY;
+		if (!(yt < y))
+			yt = y - 1.0;
+	} else {
+		yt = yt <= y + MAX_DY ? yt : y + MAX_DY;
+		if (!(yt > y))
+			yt = y + 1.0;
+	}
+	return yt;
+}
+
+/* The eta -> 0 limit, consulted once by search when KL < eps near eta_min:
+ * V_UNREACHABLE when KL(p_0||q) < eps, V_FAILED (reason said) when the
+ * limit cannot be had or certified, a negative error, or V_ACTIVE when the
+ * root lies below: the search then goes on relative to the limit's dual
+ * (P's returns become its exact reduced costs, the saved theta thg is
+ * shifted by its dual solution, L->shifted). */
+static int consult_limit(prob *P, work *w, limit_t *L, double kl, double *thg, char *reason,
+                         size_t rlen)
+{
+	int j, st;
+
+	if (P->rw) {
+		snprintf(reason, rlen, "KL = %.6g < epsilon at eta near reps.eta_min, and with "
+		         "reps.ridge > 0 there is no eta -> 0 limit to certify", kl);
+		return V_FAILED;
+	}
+	w->path |= PATH_LIMIT;
+	if ((st = limit_solve(P, w->max_evals, L, reason, rlen)) != PR_OK)
+		return st;
+	if (!L->ok)
+		return V_FAILED;
+	if (L->kl < P->eps)
+		return V_UNREACHABLE;
+	L->shifted = 1;
+	memcpy(P->R, L->rr, (size_t)P->m * sizeof *P->R);
+	for (j = 0; j < P->nf; j++)
+		thg[j] -= L->th[j];
+	return V_ACTIVE;
+}
+
 /* The root of KL(p_eta||q) = eps in y = log eta (eta in solver units), from
  * y = 0 and theta = 0: Newton on log KL, whose slope is
  * dKL/dy / KL = -ResVar_p(u|psi) / KL, safeguarded by bisection once the
@@ -1643,46 +1693,22 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 			yhi = y;
 		yt = kl > 0.0 && w->resvar > 0.0 ? y + (log(kl) - log(eps)) * kl / w->resvar : NAN;
 		if (f < 0.0 && ylo == -HUGE_VAL && !limited && !(yt >= ymin)) {
-			if (P->rw) {
-				snprintf(reason, rlen, "KL = %.6g < epsilon at eta near reps.eta_min, and with "
-				         "reps.ridge > 0 there is no eta -> 0 limit to certify", kl);
-				*eta_out = eta;
+			if ((st = consult_limit(P, w, L, kl, thg, reason, rlen)) != V_ACTIVE) {
+				if (P->rw)
+					*eta_out = eta;
 				break;
 			}
-			w->path |= PATH_LIMIT;
-			if ((st = limit_solve(P, w->max_evals, L, reason, rlen)) != PR_OK)
-				break;
 			st = V_FAILED;
-			if (!L->ok)
-				break;
-			if (L->kl < eps) {
-				st = V_UNREACHABLE;
-				break;
-			}
 			limited = 1;
-			L->shifted = 1;
-			memcpy(P->R, L->rr, (size_t)P->m * sizeof *P->R);
-			for (j = 0; j < nf; j++)
-				thg[j] -= L->th[j];
 		}
-		if (ylo > -HUGE_VAL && yhi < HUGE_VAL) {
-			if (yhi - ylo <= 4.0 * DBL_EPSILON * fmax(1.0, fabs(y))) {
-				/* eta is pinned to round-off: the certificate judges */
-				*eta_out = eta;
-				st = V_ACTIVE;
-				break;
-			}
-			if (!(yt > ylo && yt < yhi) || fabs(yt - y) > 0.5 * dyold)
-				yt = 0.5 * (ylo + yhi);
-		} else if (ylo == -HUGE_VAL) {
-			yt = yt >= y - MAX_DY ? yt : y - MAX_DY;
-			if (!(yt < y))
-				yt = y - 1.0;
-		} else {
-			yt = yt <= y + MAX_DY ? yt : y + MAX_DY;
-			if (!(yt > y))
-				yt = y + 1.0;
+		if (ylo > -HUGE_VAL && yhi < HUGE_VAL &&
+		    yhi - ylo <= 4.0 * DBL_EPSILON * fmax(1.0, fabs(y))) {
+			/* eta is pinned to round-off: the certificate judges */
+			*eta_out = eta;
+			st = V_ACTIVE;
+			break;
 		}
+		yt = next_y(y, yt, ylo, yhi, dyold);
 		dyold = fabs(yt - y);
 		y = yt;
 		if (y < log(DBL_MIN) + 50.0 || y > 700.0) {
