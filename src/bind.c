@@ -212,6 +212,9 @@ static const struct {
 	{"kl_gap", 'd', offsetof(pr_reps_result, kl_gap)},
 	{"residual_rel", 'd', offsetof(pr_reps_result, residual_rel)},
 	{"status", 's', offsetof(pr_reps_result, status)},
+	{"rank", 'i', offsetof(pr_reps_result, rank)},
+	{"cond", 'd', offsetof(pr_reps_result, cond)},
+	{"path", 's', offsetof(pr_reps_result, path)},
 	{"constant", 'i', offsetof(pr_reps_result, constant)},
 	{"reason", 's', offsetof(pr_reps_result, reason)},
 };
@@ -229,7 +232,8 @@ double pr_bind_reps_value(const pr_reps_result *r, int i)
 {
 	const char *at = (const char *)r + reps_fields[i].off;
 
-	if (reps_fields[i].off == offsetof(pr_reps_result, reason))
+	if (reps_fields[i].off == offsetof(pr_reps_result, reason) ||
+	    reps_fields[i].off == offsetof(pr_reps_result, path))
 		return 0.0;
 	return reps_fields[i].kind == 'd' ? *(const double *)at : (double)*(const int *)at;
 }

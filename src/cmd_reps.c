@@ -6,7 +6,8 @@
  * omitted = no features) and optionally base weights (--base). Output:
  * one column p, one row per input row, in input order. --summary FILE
  * writes one row eta,dual,kl,ess,bound,residual,iterations,kl_gap,
- * residual_rel,status (the certificate, reps.h). A solve that cannot be
+ * residual_rel,status (the certificate, reps.h), then rank,cond,path (the
+ * solver path). A solve that cannot be
  * certified exits 3 with one line naming what failed (e.g. the feature
  * residual). Features that are all 0 or 1 take the solver's one-hot path
  * (reps.h). Every input check runs before anything is written;
@@ -39,7 +40,7 @@ static int write_weights(pr_csvw *w, const pr_reps_result *r)
 static int write_summary(pr_csvw *w, const pr_reps_result *r)
 {
 	int rc = pr_csvw_header(w, "eta,dual,kl,ess,bound,residual,iterations,kl_gap,residual_rel,"
-	                           "status");
+	                           "status,rank,cond,path");
 
 	rc |= pr_csvw_num(w, r->eta);
 	rc |= pr_csvw_num(w, r->dual);
@@ -51,6 +52,9 @@ static int write_summary(pr_csvw *w, const pr_reps_result *r)
 	rc |= pr_csvw_num(w, r->kl_gap);
 	rc |= pr_csvw_num(w, r->residual_rel);
 	rc |= pr_csvw_str(w, pr_reps_status_name(r->status));
+	rc |= pr_csvw_int(w, r->rank);
+	rc |= pr_csvw_num(w, r->cond);
+	rc |= pr_csvw_str(w, r->path);
 	return rc ? rc : pr_csvw_endrow(w);
 }
 

@@ -82,9 +82,11 @@ static const command commands[] = {
 	 "              [--summary FILE] [-i IN.csv] [-o OUT.csv]\n"
 	 "  REPS weights p for every input row; LIST is a comma list of columns or a\n"
 	 "  prefix ending in '*'. --summary writes one row eta,dual,kl,ess,bound,residual,\n"
-	 "  iterations,kl_gap,residual_rel,status: the certificate; status is active\n"
-	 "  (|KL - epsilon| and the relative feature residual <= 1e-9), unreachable (eta = 0:\n"
-	 "  p is the eta -> 0 limit, KL < epsilon) or failed, which exits 3."},
+	 "  iterations,kl_gap,residual_rel,status,rank,cond,path: the certificate; status is\n"
+	 "  active (|KL - epsilon| and the relative feature residual <= 1e-9), unreachable\n"
+	 "  (eta = 0: p is the eta -> 0 limit, KL < epsilon) or failed, which exits 3; rank,\n"
+	 "  cond and path say what the solver did (feature directions used, condition\n"
+	 "  estimate of its last Hessian, steps taken)."},
 	{"policy", "c,i,o,set,seed,train,state,action,weight,sample,target,old-mean", pr_cmd_policy,
 	 "poolreps policy --train FILE --state COLS --action COLS --weight COL [--sample N]\n"
 	 "                [--target COLS] [--old-mean COLS] [-i STATES.csv] [-o OUT.csv]\n"

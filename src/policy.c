@@ -542,10 +542,21 @@ int pr_policy_linear_params(const pr_policy *p, double *W, double *cov, char *er
 	return PR_OK;
 }
 
-/* Shared checks of fitting data; returns the sum of the weights via *sw. */
-static int check_data(const pr_policy_data *d, int need_y, double *sw, char *err)
+/* Weights whose largest lies outside [2^-100, 2^100] are multiplied by
+ * *unit, a power of two with an even exponent that brings it into
+ * [2^-2, 2), before anything squares them (sums of w^2 would under- or
+ * overflow at 1e-170 or 1e160). Powers of two scale exactly and square
+ * roots of even powers are exact, so a fit on the scaled weights is the
+ * fit on the raw ones; weights inside the range are used as they are. */
+#define WEIGHT_RANGE 100
+
+/* Shared checks of fitting data; returns the sum of the weights times
+ * *unit via *sw (see WEIGHT_RANGE). */
+static int check_data(const pr_policy_data *d, int need_y, double *sw, double *unit, char *err)
 {
+	double wmax = 0.0;
 	size_t i;
+	int e;
 
 	if (d->n < 1 || d->ds < 1 || d->da < 1)
 		return pr_err(err, PR_EINVAL, "policy: need n, ds, da >= 1 (got %d, %d, %d)",
@@ -575,8 +586,14 @@ static int check_data(const pr_policy_data *d, int need_y, double *sw, char *err
 		if (!isfinite(wi) || wi < 0.0)
 			return pr_err(err, PR_EINVAL, "policy: sample %zu: weight must be finite and >= 0 (got %g)",
 			              i, wi);
-		*sw += wi;
+		wmax = fmax(wmax, wi);
 	}
+	*unit = 1.0;
+	frexp(wmax, &e);
+	if (wmax > 0.0 && (e > WEIGHT_RANGE || e < -WEIGHT_RANGE))
+		*unit = ldexp(1.0, -2 * (e / 2));
+	for (i = 0; i < (size_t)d->n; i++)
+		*sw += (d->w ? d->w[i] : 1.0) * *unit;
 	if (!(*sw > 0.0) || !isfinite(*sw))
 		return pr_err(err, PR_EINVAL, "policy: the weights sum to 0");
 	return PR_OK;
@@ -714,7 +731,7 @@ pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double la
                                 double min_std, int cov_center, int *flags, char *err)
 {
 	pr_policy *p = NULL;
-	double *X = NULL, *wn = NULL, *rhs = NULL, *B = NULL, *u = NULL, sw, *r;
+	double *X = NULL, *wn = NULL, *rhs = NULL, *B = NULL, *u = NULL, sw, unit, *r;
 	eig ea = { 0 };
 	int nf, i, j, l, f = 0, st;
 
@@ -729,7 +746,7 @@ pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double la
 		pr_err(err, PR_EINVAL, "policy: lambda and min_std must be finite and >= 0");
 		return NULL;
 	}
-	if (check_data(d, 0, &sw, err) != PR_OK || check_centres(d, cov_center, err) != PR_OK)
+	if (check_data(d, 0, &sw, &unit, err) != PR_OK || check_centres(d, cov_center, err) != PR_OK)
 		return NULL;
 	p = policy_alloc(PR_POLICY_LINEAR, d->ds, d->da);
 	X = malloc((size_t)d->n * nf * sizeof *X);
@@ -746,7 +763,7 @@ pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double la
 	p->features = features;
 	p->nf = nf;
 	for (i = 0; i < d->n; i++)
-		wn[i] = (d->w ? d->w[i] : 1.0) / sw;
+		wn[i] = (d->w ? d->w[i] : 1.0) * unit / sw;
 	for (i = 0; i < d->n; i++)
 		for (j = 0; j < d->ds; j++)
 			p->xc[j] += wn[i] * d->S[(size_t)i * d->ds + j];
@@ -893,10 +910,10 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 	const int reward = o->target == PR_TARGET_REWARD_STATE, ds = d->ds, da = d->da;
 	const size_t LM = mom_size(ds, da), LD = mom_size(da, 0);
 	const int old = o->cov_center == PR_COV_CENTER_OLD;
-	double sw;
+	double sw, unit;
 	int *all = NULL, i, j, l;
 
-	if (pr_policy_opts_check(o, err) != PR_OK || check_data(d, reward, &sw, err) != PR_OK ||
+	if (pr_policy_opts_check(o, err) != PR_OK || check_data(d, reward, &sw, &unit, err) != PR_OK ||
 	    check_centres(d, o->cov_center, err) != PR_OK)
 		return NULL;
 	p = policy_alloc(PR_POLICY_TREE, ds, da);
@@ -905,7 +922,9 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 		return NULL;
 	}
 	p->n = d->n;
-	p->lambda = o->lambda;
+	/* lambda acts on the raw weights (eq. 6.6): lambda / sum w-hat is
+	 * lambda unit / (unit sum w-hat), exactly */
+	p->lambda = o->lambda * unit;
 	p->min_std = o->min_std;
 	p->covmode = o->cov;
 	p->center = o->cov_center;
@@ -923,7 +942,7 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 		return NULL;
 	}
 	for (i = 0; i < d->n; i++) {
-		p->w[i] = d->w ? d->w[i] : 1.0;
+		p->w[i] = (d->w ? d->w[i] : 1.0) * unit;
 		all[i] = i;
 	}
 	/* states and actions relative to their weighted means: what the

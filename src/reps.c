@@ -33,7 +33,11 @@
 #include <stdio.h>
 #include <string.h>
 
+#include <dlfcn.h>
 #include <glpk.h>
+#include <nlopt.h>
+#include <pthread.h>
+#include <gsl/gsl_blas.h>
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_linalg.h>
 #include <gsl/gsl_matrix.h>
@@ -47,6 +51,7 @@ void pr_reps_opts_init(pr_reps_opts *o)
 	o->max_iter = 2000;
 	o->eta_min = 1e-2;
 	o->allow_failed = 0;
+	o->solver = PR_REPS_SOLVER_NEWTON;
 }
 
 const char *pr_reps_status_name(int status)
@@ -68,8 +73,29 @@ const char *pr_reps_status_name(int status)
  * Cholesky factorisation: it bounds steps along exactly dependent feature
  * directions, which leave p unchanged. */
 #define SHIFT 1e-10
+/* Steps a solve took (pr_reps_result.path). */
+enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCED = 16,
+       PATH_NLOPT = 32 };
+/* Rank tolerance of the reduced basis: singular values of the
+ * sqrt(q)-weighted solver features below RANK_TOL of the largest are the
+ * round-off of an exact dependence (1e-16 ... 1e-14 of it, whatever the
+ * offsets: the features are centred first); above it a direction is a
+ * constraint of its own and is kept. */
+#define RANK_TOL 1e-12
+/* A first answer whose last theta Hessian has a condition estimate above
+ * this is solved again on the reduced basis: its features were too close
+ * to dependent for the digits of psi (the pivots below 1e-8 of the largest
+ * come from directions that only the last digits of the data hold). */
+#define COND_RETRY 1e8
+/* Dense problems with at least this many free features form Cov_p(psi) by
+ * one BLAS-3 call (dsyrk on the sqrt(p)-weighted rows) instead of row by
+ * row: the same sums in another order, so only problems this wide (none of
+ * the thesis experiments') see other round-off. */
+#define BLAS_MIN_NF 32
 /* Largest move of log eta per search step before the root is bracketed. */
 #define MAX_DY 5.0
+/* Moves of MAX_DY up in log eta while no eta has given a theta solution. */
+#define MAX_UPS 8
 
 /* ---- the problem in solver coordinates ---- */
 
@@ -121,6 +147,7 @@ typedef struct {
 /* Scratch of one solver (sized for the main problem; sub-problems are smaller). */
 typedef struct {
 	int evals, max_evals;
+	int path;            /* PATH_* steps the solve took */
 	point pt[2];         /* current and trial */
 	gsl_matrix *H;       /* nf x nf */
 	double *dsc;         /* nf: Jacobi scaling 1/sqrt(H_jj), 0 = frozen */
@@ -128,6 +155,7 @@ typedef struct {
 	int *iscr;           /* 3 nf */
 	double *u;           /* m */
 	double varu, resvar; /* Var_p(u), ResVar_p(u | psi) at the last factorisation */
+	gsl_matrix *Y;       /* dense, nf >= BLAS_MIN_NF: m x nf, sqrt(p) (psi - psi_c) */
 } work;
 
 static void work_free(work *w)
@@ -141,6 +169,7 @@ static void work_free(work *w)
 		free(w->pt[k].g);
 	}
 	gsl_matrix_free(w->H);
+	gsl_matrix_free(w->Y);
 	free(w->dsc);
 	free(w->v1);
 	free(w->v2);
@@ -247,6 +276,79 @@ static int plain_ok(const prob *P, const point *x)
 	return 1;
 }
 
+/* OpenBLAS's Fortran dsyrk, loaded privately (RTLD_LOCAL): only this call
+ * goes to OpenBLAS, and GSL keeps its own CBLAS, so nothing else changes
+ * its round-off (OpenBLAS as GSL's CBLAS moves the bits of every
+ * experiment). Without OpenBLAS, GSL's dsyrk. */
+typedef void (*dsyrk_fn)(const char *uplo, const char *trans, const int *n, const int *k,
+                         const double *alpha, const double *a, const int *lda,
+                         const double *beta, double *c, const int *ldc);
+static dsyrk_fn fast_dsyrk;
+static pthread_once_t fast_once = PTHREAD_ONCE_INIT;
+
+static void fast_load(void)
+{
+	void *h = dlopen("libopenblas.so.0", RTLD_NOW | RTLD_LOCAL);
+	void *f = h ? dlsym(h, "dsyrk_") : NULL, *t = h ? dlsym(h, "openblas_set_num_threads") : NULL;
+	void (*threads)(int);
+
+	/* one thread: OpenBLAS's split of the sums depends on its thread
+	 * count, and the bits must not (without the setter, no OpenBLAS) */
+	if (!t)
+		return;
+	/* data pointers to function pointers, as POSIX dlsym requires */
+	memcpy(&threads, &t, sizeof threads);
+	threads(1);
+	memcpy(&fast_dsyrk, &f, sizeof fast_dsyrk);
+}
+
+/* covariances() for wide dense problems: the moments about row c from
+ * Y = diag(sqrt p) (psi - psi_c) by dsyrk (upper triangle of w->H). w->u
+ * and mu are set, H's upper triangle and w->c, w->v1 zeroed by the caller.
+ * PR_ENOMEM if Y cannot be allocated (the caller then sums row by row). */
+static int covariances_blas(const prob *P, work *w, const point *x, int c, double mu)
+{
+	const int m = P->m, nf = P->nf;
+	const double *rc = P->psi + (size_t)c * nf;
+	double *H = w->H->data, *mc = w->v1, vu = 0.0, one = 1.0, zero = 0.0;
+	const size_t td = w->H->tda;
+	const int ldc = (int)td;
+	int i, j, k, lda;
+
+	if (!w->Y && !(w->Y = gsl_matrix_alloc((size_t)m, (size_t)nf)))
+		return PR_ENOMEM;
+	lda = (int)w->Y->tda;
+	for (i = 0; i < m; i++) {
+		const double pi = x->p[i], du = w->u[i] - mu, sp = sqrt(pi);
+		const double *r = P->psi + (size_t)i * nf;
+		double *y = w->Y->data + (size_t)i * w->Y->tda;
+
+		vu += pi * du * du;
+		for (j = 0; j < nf; j++) {
+			const double dv = r[j] - rc[j];
+
+			y[j] = sp * dv;
+			mc[j] += pi * dv;
+			w->c[j] += pi * dv * du;
+		}
+	}
+	pthread_once(&fast_once, fast_load);
+	if (fast_dsyrk) {
+		/* column-major, Y^T is nf x m and the row-major upper triangle of
+		 * H is the column-major lower one */
+		fast_dsyrk("L", "N", &nf, &m, &one, w->Y->data, &lda, &zero, H, &ldc);
+	} else {
+		gsl_matrix_view hv = gsl_matrix_submatrix(w->H, 0, 0, (size_t)nf, (size_t)nf);
+
+		gsl_blas_dsyrk(CblasUpper, CblasTrans, 1.0, w->Y, 0.0, &hv.matrix);
+	}
+	for (j = 0; j < nf; j++)
+		for (k = j; k < nf; k++)
+			H[(size_t)j * td + k] -= mc[j] * mc[k];
+	w->varu = vu;
+	return PR_OK;
+}
+
 /* Cov_p(psi) (free features) into the upper triangle of w->H, Cov_p(psi, u)
  * into w->c and Var_p(u) into w->varu, at the weights of x. The moments are
  * taken about the row c with the largest weight,
@@ -301,6 +403,8 @@ static void covariances(const prob *P, work *w, double eta, const point *x)
 		w->varu = vu;
 		return;
 	}
+	if (!P->bin && nf >= BLAS_MIN_NF && covariances_blas(P, w, x, c, mu) == PR_OK)
+		return;
 	if (P->bin)
 		for (k = P->rfp[c]; k < P->rfp[c + 1]; k++)
 			inc[P->rfi[k]] = 1;
@@ -1431,6 +1535,56 @@ static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
 	return 0;
 }
 
+/* The search's next y from the Newton target yt: bisection once the root
+ * is bracketed in (ylo, yhi) unless yt lies inside and halves the last
+ * step; before, steps of at most MAX_DY (and at least 1) towards it. */
+static double next_y(double y, double yt, double ylo, double yhi, double dyold)
+{
+	if (ylo > -HUGE_VAL && yhi < HUGE_VAL) {
+		if (!(yt > ylo && yt < yhi) || fabs(yt - y) > 0.5 * dyold)
+			yt = 0.5 * (ylo + yhi);
+	} else if (ylo == -HUGE_VAL) {
+		yt = yt >= y - MAX_DY ? yt : y - MAX_DY;
+		if (!(yt < y))
+			yt = y - 1.0;
+	} else {
+		yt = yt <= y + MAX_DY ? yt : y + MAX_DY;
+		if (!(yt > y))
+			yt = y + 1.0;
+	}
+	return yt;
+}
+
+/* The eta -> 0 limit, consulted once by search when KL < eps near eta_min:
+ * V_UNREACHABLE when KL(p_0||q) < eps, V_FAILED (reason said) when the
+ * limit cannot be had or certified, a negative error, or V_ACTIVE when the
+ * root lies below: the search then goes on relative to the limit's dual
+ * (P's returns become its exact reduced costs, the saved theta thg is
+ * shifted by its dual solution, L->shifted). */
+static int consult_limit(prob *P, work *w, limit_t *L, double kl, double *thg, char *reason,
+                         size_t rlen)
+{
+	int j, st;
+
+	if (P->rw) {
+		snprintf(reason, rlen, "KL = %.6g < epsilon at eta near reps.eta_min, and with "
+		         "reps.ridge > 0 there is no eta -> 0 limit to certify", kl);
+		return V_FAILED;
+	}
+	w->path |= PATH_LIMIT;
+	if ((st = limit_solve(P, w->max_evals, L, reason, rlen)) != PR_OK)
+		return st;
+	if (!L->ok)
+		return V_FAILED;
+	if (L->kl < P->eps)
+		return V_UNREACHABLE;
+	L->shifted = 1;
+	memcpy(P->R, L->rr, (size_t)P->m * sizeof *P->R);
+	for (j = 0; j < P->nf; j++)
+		thg[j] -= L->th[j];
+	return V_ACTIVE;
+}
+
 /* The root of KL(p_eta||q) = eps in y = log eta (eta in solver units), from
  * y = 0 and theta = 0: Newton on log KL, whose slope is
  * dKL/dy / KL = -ResVar_p(u|psi) / KL, safeguarded by bisection once the
@@ -1451,7 +1605,7 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 	const int nf = P->nf;
 	double y = 0.0, ylo = -HUGE_VAL, yhi = HUGE_VAL, ygood = 0.0, etagood = 1.0, dyold = HUGE_VAL;
 	double *thg = malloc(2 * (size_t)(nf > 0 ? nf : 1) * sizeof *thg), *bg;
-	int it, j, limited = 0, good = 0, retries = 0, st = V_FAILED;
+	int it, j, limited = 0, good = 0, retries = 0, ups = 0, st = V_FAILED;
 
 	if (!thg)
 		return PR_ENOMEM;
@@ -1460,8 +1614,10 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 	st = joint_newton(P, w, o->eta_min, eta_out);
 	if (st != 0) {
 		free(thg);
+		w->path |= PATH_JOINT;
 		return st < 0 ? st : V_ACTIVE;
 	}
+	w->path |= PATH_SEARCH;
 	/* take over where the fast path stopped, if that is usable */
 	st = V_FAILED;
 	if (*eta_out >= o->eta_min && *eta_out < 1e300)
@@ -1504,6 +1660,15 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 			*eta_out = eta;
 			break;
 		}
+		if (conv == 0 && !good && ++ups <= MAX_UPS) {
+			/* no eta has worked yet (one extreme return makes p at eta = 1
+			 * a point mass): a larger eta brings p towards q, where the
+			 * theta problem is well conditioned; bracket from there */
+			y += MAX_DY;
+			w->path |= PATH_UP;
+			memset(w->pt[0].th, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *thg);
+			continue;
+		}
 		if (conv == 0) {
 			/* theta did not converge from this start: retreat towards the
 			 * last eta that did, and come back in smaller steps */
@@ -1528,45 +1693,22 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 			yhi = y;
 		yt = kl > 0.0 && w->resvar > 0.0 ? y + (log(kl) - log(eps)) * kl / w->resvar : NAN;
 		if (f < 0.0 && ylo == -HUGE_VAL && !limited && !(yt >= ymin)) {
-			if (P->rw) {
-				snprintf(reason, rlen, "KL = %.6g < epsilon at eta near reps.eta_min, and with "
-				         "reps.ridge > 0 there is no eta -> 0 limit to certify", kl);
-				*eta_out = eta;
+			if ((st = consult_limit(P, w, L, kl, thg, reason, rlen)) != V_ACTIVE) {
+				if (P->rw)
+					*eta_out = eta;
 				break;
 			}
-			if ((st = limit_solve(P, w->max_evals, L, reason, rlen)) != PR_OK)
-				break;
 			st = V_FAILED;
-			if (!L->ok)
-				break;
-			if (L->kl < eps) {
-				st = V_UNREACHABLE;
-				break;
-			}
 			limited = 1;
-			L->shifted = 1;
-			memcpy(P->R, L->rr, (size_t)P->m * sizeof *P->R);
-			for (j = 0; j < nf; j++)
-				thg[j] -= L->th[j];
 		}
-		if (ylo > -HUGE_VAL && yhi < HUGE_VAL) {
-			if (yhi - ylo <= 4.0 * DBL_EPSILON * fmax(1.0, fabs(y))) {
-				/* eta is pinned to round-off: the certificate judges */
-				*eta_out = eta;
-				st = V_ACTIVE;
-				break;
-			}
-			if (!(yt > ylo && yt < yhi) || fabs(yt - y) > 0.5 * dyold)
-				yt = 0.5 * (ylo + yhi);
-		} else if (ylo == -HUGE_VAL) {
-			yt = yt >= y - MAX_DY ? yt : y - MAX_DY;
-			if (!(yt < y))
-				yt = y - 1.0;
-		} else {
-			yt = yt <= y + MAX_DY ? yt : y + MAX_DY;
-			if (!(yt > y))
-				yt = y + 1.0;
+		if (ylo > -HUGE_VAL && yhi < HUGE_VAL &&
+		    yhi - ylo <= 4.0 * DBL_EPSILON * fmax(1.0, fabs(y))) {
+			/* eta is pinned to round-off: the certificate judges */
+			*eta_out = eta;
+			st = V_ACTIVE;
+			break;
 		}
+		yt = next_y(y, yt, ylo, yhi, dyold);
 		dyold = fabs(yt - y);
 		y = yt;
 		if (y < log(DBL_MIN) + 50.0 || y > 700.0) {
@@ -1610,10 +1752,11 @@ void pr_reps_result_free(pr_reps_result *r)
 /* The certificate's feature part, in feature units, from r->p and r->theta:
  * residual = |sum p (phi - phi_hat)|_2, residual_rel = the largest
  * |sum p (phi_j - phi_hat_j) - ridge theta'_j| / fs_j, and the ESS.
- * tmp: d scratch. */
+ * corr (d, or NULL): subtracted from sum p (phi - phat) per feature (see
+ * certify). tmp: d scratch. */
 static void certify_features(const pr_reps_problem *pb, const int *rows, int m,
-                             const double *phat, const double *fs, double ridge_over_s,
-                             pr_reps_result *r, double *tmp)
+                             const double *phat, const double *fs, const double *corr,
+                             double ridge_over_s, pr_reps_result *r, double *tmp)
 {
 	const int d = pb->d;
 	double s2 = 0.0, sp = 0.0;
@@ -1638,6 +1781,9 @@ static void certify_features(const pr_reps_problem *pb, const int *rows, int m,
 	r->residual = r->residual_rel = 0.0;
 	for (j = 0; j < d; j++) {
 		double v = !pb->phi && !pb->val ? tmp[j] - phat[j] * sp : tmp[j];
+
+		if (corr)
+			v -= sp * corr[j];
 
 		r->residual += v * v;
 		if (fs[j] > 0.0)
@@ -1666,8 +1812,8 @@ static int check_problem(const pr_reps_problem *pb, double *qn, char *err)
 	double sq = 0.0;
 	int i, j;
 
-	if (pb->n < 1)
-		return pr_err(err, PR_EINVAL, "reps: no samples");
+	if (pb->n < 2)
+		return pr_err(err, PR_EINVAL, "reps: need at least 2 samples (got %d)", pb->n);
 	if (pb->d < 0)
 		return pr_err(err, PR_EINVAL, "reps: negative feature count %d", pb->d);
 	if (!pb->R)
@@ -1852,27 +1998,429 @@ int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
 	return st;
 }
 
+/* ---- the second solver: NLopt on the same dual ---- */
+
+typedef struct {
+	const prob *P;
+	work *w;
+} nl_data;
+
+/* F and its gradient at x = (log eta, theta) (solver coordinates). */
+static double nl_dual(unsigned n, const double *x, double *grad, void *data)
+{
+	nl_data *d = data;
+	point *pt = &d->w->pt[0];
+	const double eta = exp(x[0]);
+
+	if (pr_interrupted)
+		return HUGE_VAL;
+	memcpy(pt->th, x + 1, (size_t)(n - 1) * sizeof *x);
+	eval(d->P, d->w, eta, pt);
+	if (grad) {
+		grad[0] = eta * (d->P->eps - pt->kl);
+		memcpy(grad + 1, pt->g, (size_t)(n - 1) * sizeof *x);
+	}
+	return pt->F;
+}
+
+/* Minimises the dual with NLopt's L-BFGS from (log eta, theta) = (0, 0),
+ * at most w->max_evals evaluations, until the relative change of x falls
+ * to round-off. Leaves pt[0] at the best point and claims V_ACTIVE: the
+ * certificate decides. Returns a negative error on interrupt or memory. */
+static int nlopt_dual(const prob *P, work *w, double *eta, char *reason, size_t rlen)
+{
+	const unsigned n = (unsigned)P->nf + 1;
+	double *x = calloc(n, sizeof *x), *lo = malloc(n * sizeof *lo), f = 0.0;
+	nlopt_opt opt = nlopt_create(NLOPT_LD_LBFGS, n);
+	nl_data d = {P, w};
+	nlopt_result rc;
+	unsigned j;
+
+	w->path |= PATH_NLOPT;
+	if (!x || !lo || !opt) {
+		free(x);
+		free(lo);
+		nlopt_destroy(opt);
+		return PR_ENOMEM;
+	}
+	/* eta within the range where exp and the weights stay finite */
+	lo[0] = log(DBL_MIN) + 50.0;
+	for (j = 1; j < n; j++)
+		lo[j] = -HUGE_VAL;
+	nlopt_set_lower_bounds(opt, lo);
+	nlopt_set_min_objective(opt, nl_dual, &d);
+	nlopt_set_xtol_rel(opt, 1e-15);
+	nlopt_set_maxeval(opt, w->max_evals);
+	rc = nlopt_optimize(opt, x, &f);
+	nlopt_destroy(opt);
+	if (pr_interrupted) {
+		free(x);
+		free(lo);
+		return PR_EINTR;
+	}
+	*eta = exp(x[0]);
+	nl_dual(n, x, NULL, &d);
+	snprintf(reason, rlen, "NLopt L-BFGS stopped with code %d", (int)rc);
+	free(x);
+	free(lo);
+	return V_ACTIVE;
+}
+
+/* What the attempts of one solve share: the problem, its rows with q > 0,
+ * the feature summaries and the return standardisation. */
+typedef struct {
+	const pr_reps_opts *o;
+	const pr_reps_problem *pb;
+	const int *rows;
+	int m;
+	const double *qn, *phat, *fs;
+	double rmax, scale;
+	double *tmp;         /* d + nf scratch */
+	double *corr;        /* dense features: d, sum q (phi - phat) (certify); else NULL */
+} ctx_t;
+
+/* Column r of Q: z_i = sum_j (phi_ij - phat_j) t_j, centred on its q-mean,
+ * which is its target. phi - phat is exact as xh + xl, and the sum is
+ * Dot2 (error-free products by fma, sums by TwoSum): a direction in which
+ * two columns differ by 1e-10 of their spread keeps its digits, where a
+ * product of the rounded psi would keep 1e-16 / 1e-10 of them. */
+static void reduced_column(const prob *P, const double *xh, const double *xl, const double *t,
+                           prob *Q, int r)
+{
+	const int m = P->m, nf = P->nf;
+	double mean = 0.0;
+	int i, j, h;
+
+	for (i = 0; i < m; i++) {
+		double s = 0.0, e = 0.0;
+
+		for (j = 0; j < nf; j++)
+			for (h = 0; h < 2; h++) {
+				const double x = (h ? xl : xh)[(size_t)i * nf + j];
+				const double pr = x * t[j], pe = fma(x, t[j], -pr), sn = s + pr, z = sn - s;
+
+				e += (s - (sn - z)) + (pr - z) + pe;
+				s = sn;
+			}
+		Q->psi[(size_t)i * Q->nf + r] = s + e;
+		mean += P->q[i] * (s + e);
+	}
+	for (i = 0; i < m; i++) {
+		Q->psi[(size_t)i * Q->nf + r] -= mean;
+		Q->tg[r] += P->q[i] * Q->psi[(size_t)i * Q->nf + r];
+	}
+}
+
+/* A well-conditioned basis of P's dense features: W = diag(sqrt q) (psi -
+ * sum q psi) = U S V^T (Golub-Reinsch SVD, GSL); directions with singular
+ * value below RANK_TOL of the largest are dropped, and Q's features are
+ * zeta = (psi - sum q psi) V_r S_r^-1 = diag(1/sqrt q) U_r (so sum q zeta
+ * zeta^T = I), computed from the original features (reduced_column), with
+ * target sum q zeta, which p = q meets. Errors of V only mix the kept
+ * directions, which leaves the constraints' span as it is. T (P->nf x r)
+ * maps theta back: psi T = zeta + const, so P's theta is T theta_zeta.
+ * *cond = s_1 / s_r. */
+static int prob_reduce(prob *Q, const prob *P, const ctx_t *c, double **T, double *cond)
+{
+	const int m = P->m, nf = P->nf, tall = m >= nf, mn = tall ? nf : m;
+	double *xh = malloc((size_t)m * nf * sizeof *xh), *xl = malloc((size_t)m * nf * sizeof *xl);
+	double *t = malloc((size_t)nf * sizeof *t);
+	gsl_matrix *A = gsl_matrix_alloc((size_t)(tall ? m : nf), (size_t)mn);
+	gsl_matrix *B = gsl_matrix_alloc((size_t)mn, (size_t)mn);
+	gsl_vector *S = gsl_vector_alloc((size_t)mn), *wk = gsl_vector_alloc((size_t)mn);
+	double *mu = calloc((size_t)nf, sizeof *mu), smax = 0.0, smin = HUGE_VAL;
+	int i, j, k, r = 0, st = PR_ENOMEM;
+
+	*T = NULL;
+	if (!A || !B || !S || !wk || !mu || !xh || !xl || !t)
+		goto done;
+	for (i = 0; i < m; i++)
+		for (j = 0; j < nf; j++) {
+			const int f = P->fr[j];
+			const double a = feat(c->pb, P->rowid[i], f), b = -c->phat[f];
+			double h = a + b, z = h - a;
+
+			/* TwoSum: phi - phat exactly as h + l */
+			xh[(size_t)i * nf + j] = h;
+			xl[(size_t)i * nf + j] = (a - (h - z)) + (b - z);
+			mu[j] += P->q[i] * P->psi[(size_t)i * nf + j];
+		}
+	for (i = 0; i < m; i++)
+		for (j = 0; j < nf; j++) {
+			double v = sqrt(P->q[i]) * (P->psi[(size_t)i * nf + j] - mu[j]);
+
+			gsl_matrix_set(A, (size_t)(tall ? i : j), (size_t)(tall ? j : i), v);
+		}
+	if (gsl_linalg_SV_decomp(A, B, S, wk) != GSL_SUCCESS) {
+		st = PR_ENUM;
+		goto done;
+	}
+	for (k = 0; k < mn; k++)
+		smax = fmax(smax, gsl_vector_get(S, (size_t)k));
+	for (k = 0; k < mn; k++)
+		r += gsl_vector_get(S, (size_t)k) > RANK_TOL * smax;
+
+	if ((st = prob_alloc(Q, m, r, 0, 0, 0)) != PR_OK || !(*T = calloc((size_t)nf * (r > 0 ? r : 1), sizeof **T)))
+		goto done;
+	Q->eps = P->eps;
+	memcpy(Q->R, P->R, (size_t)m * sizeof *Q->R);
+	memcpy(Q->q, P->q, (size_t)m * sizeof *Q->q);
+	memcpy(Q->rowid, P->rowid, (size_t)m * sizeof *Q->rowid);
+	/* W = A S B^T (tall) or W^T = A S B^T: U and V are A, B or B, A */
+	for (k = 0, r = 0; k < mn; k++) {
+		const double sk = gsl_vector_get(S, (size_t)k);
+
+		if (!(sk > RANK_TOL * smax))
+			continue;
+		smin = fmin(smin, sk);
+		Q->fr[r] = r;
+		Q->gs[r] = 1.0;
+		Q->blk[r] = -1;
+		for (j = 0; j < nf; j++) {
+			(*T)[(size_t)j * Q->nf + r] = (tall ? gsl_matrix_get(B, (size_t)j, (size_t)k) :
+			                              gsl_matrix_get(A, (size_t)j, (size_t)k)) / sk;
+			t[j] = (*T)[(size_t)j * Q->nf + r] / c->fs[P->fr[j]];
+		}
+		reduced_column(P, xh, xl, t, Q, r);
+		r++;
+	}
+	*cond = r > 0 ? smax / smin : 1.0;
+	st = PR_OK;
+done:
+	gsl_matrix_free(A);
+	gsl_matrix_free(B);
+	gsl_vector_free(S);
+	gsl_vector_free(wk);
+	free(mu);
+	free(xh);
+	free(xl);
+	free(t);
+	return st;
+}
+
+/* (max L_jj / min L_jj)^2 over the rows psd_factor did not freeze. */
+static double hess_cond(const work *w, int nf)
+{
+	double lo = HUGE_VAL, hi = 0.0;
+	int j;
+
+	for (j = 0; j < nf; j++)
+		if (w->dsc[j] > 0.0) {
+			double l = gsl_matrix_get(w->H, (size_t)j, (size_t)j);
+
+			lo = fmin(lo, l);
+			hi = fmax(hi, l);
+		}
+	return hi > 0.0 && lo > 0.0 ? (hi / lo) * (hi / lo) : 1.0;
+}
+
+static void path_name(int path, char *buf, size_t len)
+{
+	static const char *const word[] = {"joint", "search", "up", "limit", "reduced", "nlopt"};
+	size_t k, at = 0;
+
+	buf[0] = '\0';
+	for (k = 0; k < sizeof word / sizeof *word; k++)
+		if (path & (1 << k) && at < len)
+			at += (size_t)snprintf(buf + at, len - at, "%s%s", at ? "+" : "", word[k]);
+}
+
+/* The certificate of r (reps.h) for the solver's verdict. c->corr (dense
+ * features): sum q (phi - phat) per feature, the part of the exact target
+ * sum q phi that phat, a double, does not hold. The reported residual is
+ * measured against the exact target when exact is set (the reduced
+ * attempt, which solves for it), else against phat; either way the
+ * residual against the exact target must be within PR_REPS_TOL too. */
+static void certify(const ctx_t *c, const limit_t *L, int verdict, int exact, pr_reps_result *r)
+{
+	const pr_reps_opts *o = c->o;
+	double res_exact = 0.0;
+
+	r->status = verdict;
+	if (!weights_ok(r->p, c->pb->n)) {
+		/* nothing usable came out: the base weights stand in for p */
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "the weights do not sum to 1 (p = q returned)");
+		memcpy(r->p, c->qn, (size_t)c->pb->n * sizeof *r->p);
+		r->kl = 0.0;
+	}
+	r->kl_gap = fabs(r->kl - o->epsilon);
+	if (c->corr) {
+		certify_features(c->pb, c->rows, c->m, c->phat, c->fs, c->corr, o->ridge / c->scale, r,
+		                 c->tmp);
+		res_exact = r->residual_rel;
+	}
+	if (!exact)
+		certify_features(c->pb, c->rows, c->m, c->phat, c->fs, NULL, o->ridge / c->scale, r,
+		                 c->tmp);
+	if (r->status == PR_REPS_FAILED) {
+		/* said above or by the search */
+	} else if (!(res_exact <= PR_REPS_TOL)) {
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "feature residual %.3g against the exact sum q phi "
+		         "(tolerance %g)", res_exact, PR_REPS_TOL);
+	} else if (r->status == PR_REPS_FAILED) {
+		/* said above or by the search */
+	} else if (verdict == V_ACTIVE && !(r->kl_gap <= PR_REPS_TOL && r->residual_rel <= PR_REPS_TOL)) {
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "|KL - epsilon| = %.3g, feature residual %.3g "
+		         "(tolerance %g)", r->kl_gap, r->residual_rel, PR_REPS_TOL);
+	} else if (verdict == V_UNREACHABLE &&
+	           !(r->residual_rel <= PR_REPS_TOL && L->gap <= PR_REPS_TOL &&
+	             L->outside <= PR_REPS_TOL)) {
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "eta -> 0 limit not certified: feature residual "
+		         "%.3g, LP gap %.3g, mass outside the face up to %.3g (tolerance %g)",
+		         r->residual_rel, L->gap, L->outside, PR_REPS_TOL);
+	}
+	if (r->status == PR_REPS_ACTIVE)
+		r->reason[0] = '\0';
+	r->bound = r->status == PR_REPS_ACTIVE;
+}
+
+/* One attempt: the search on P, the answer mapped back into r and
+ * certified. P's features are those of P0 times T (P0->nf x P->nf) when T
+ * is given (the reduced basis), else P0 = P. Returns PR_OK or an error. */
+static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, pr_reps_result *r)
+{
+	work w;
+	limit_t L;
+	double eta = 0.0, *th, *th0 = c->tmp + (c->pb->d > 0 ? c->pb->d : 0), dual, kl;
+	const double *p;
+	int verdict, j, k, st = PR_ENOMEM;
+
+	memset(&L, 0, sizeof L);
+	if (work_alloc(&w, P->m, P->nf, c->o->max_iter) != PR_OK)
+		goto done;
+	L.p = malloc((size_t)P->m * sizeof *L.p);
+	L.th = calloc((size_t)(P->nf > 0 ? P->nf : 1), sizeof *L.th);
+	L.lam = calloc((size_t)(P->nf > 0 ? P->nf : 1), sizeof *L.lam);
+	L.rr = malloc((size_t)P->m * sizeof *L.rr);
+	if (!L.p || !L.th || !L.lam || !L.rr)
+		goto done;
+	if (c->o->solver == PR_REPS_SOLVER_NLOPT)
+		verdict = nlopt_dual(P, &w, &eta, r->reason, sizeof r->reason);
+	else
+		verdict = search(P, &w, c->o, &L, &eta, r->reason, sizeof r->reason);
+	if ((st = verdict) < 0)
+		goto done;
+	st = PR_OK;
+	if (verdict == V_UNREACHABLE) {
+		p = L.p;
+		th = L.th;
+		dual = L.value;
+		kl = L.kl;
+		eta = 0.0;
+	} else {
+		point *x = &w.pt[0];
+		double rterm = 0.0;
+
+		for (j = 0; j < P->nf && P->rw; j++)
+			rterm += 0.5 * P->rw[j] * x->th[j] * x->th[j];
+		if (L.shifted) {
+			/* back from theta - th on R = rr: g gains the limit's value */
+			for (j = 0; j < P->nf; j++)
+				x->th[j] += L.th[j];
+			rterm -= L.value;
+		}
+		p = x->p;
+		th = x->th;
+		dual = x->F - rterm;
+		kl = x->kl;
+	}
+	if (T) {
+		for (j = 0; j < P0->nf; j++)
+			for (th0[j] = 0.0, k = 0; k < P->nf; k++)
+				th0[j] += T[(size_t)j * P->nf + k] * th[k];
+		th = th0;
+	}
+	map_back(c->pb, P0, p, th, c->fs, c->rmax, c->scale, eta, dual, kl, r);
+	r->iterations += w.evals;
+	r->rank = P->nf;
+	r->cond = hess_cond(&w, P->nf);
+	path_name(w.path | (T ? PATH_REDUCED : 0), r->path, sizeof r->path);
+	certify(c, &L, verdict, T != NULL, r);
+done:
+	work_free(&w);
+	free(L.p);
+	free(L.th);
+	free(L.lam);
+	free(L.rr);
+	return st;
+}
+
+/* The second attempt, after the first failed on dense features or left a
+ * Hessian too ill-conditioned to trust its digits (cond > COND_RETRY): the
+ * same problem on the reduced basis (prob_reduce), measured against the
+ * exact target. Replaces *r when it certifies. */
+static int retry_reduced(const ctx_t *c, const prob *P, pr_reps_result **r)
+{
+	const pr_reps_problem *pb = c->pb;
+	pr_reps_result *r2 = result_new(pb->n, pb->d);
+	double *T = NULL, cond = 1.0;
+	prob Q;
+	int st;
+
+	memset(&Q, 0, sizeof Q);
+	st = r2 ? prob_reduce(&Q, P, c, &T, &cond) : PR_ENOMEM;
+	if (st == PR_OK) {
+		r2->iterations = (*r)->iterations;
+		st = attempt(c, &Q, P, T, r2);
+	}
+	if (st == PR_OK && r2->status != PR_REPS_FAILED) {
+		pr_reps_result_free(*r);
+		*r = r2;
+		r2 = NULL;
+	} else if (st == PR_OK && (*r)->status == PR_REPS_FAILED) {
+		size_t l = strlen((*r)->reason);
+
+		snprintf((*r)->reason + l, sizeof (*r)->reason - l, "; on a reduced basis (rank %d, "
+		         "condition %.3g): %s", Q.nf, cond, r2->reason);
+		(*r)->iterations = r2->iterations;
+	}
+	pr_reps_result_free(r2);
+	prob_free(&Q);
+	free(T);
+	return st;
+}
+
+/* p = q for returns that are all equal (on q > 0): every p with matched
+ * features earns the same, and q is the closest to q. */
+static void solve_constant(const ctx_t *c, pr_reps_result *r)
+{
+	memcpy(r->p, c->qn, (size_t)c->pb->n * sizeof *r->p);
+	r->dual = c->rmax;
+	r->constant = 1;
+	r->status = PR_REPS_UNREACHABLE;
+	r->kl_gap = c->o->epsilon;
+	r->cond = 1.0;
+	snprintf(r->path, sizeof r->path, "constant");
+	certify_features(c->pb, c->rows, c->m, c->phat, c->fs, NULL, 0.0, r, c->tmp);
+	if (!(r->residual_rel <= PR_REPS_TOL)) {
+		r->status = PR_REPS_FAILED;
+		snprintf(r->reason, sizeof r->reason, "feature residual %.3g > %g", r->residual_rel,
+		         PR_REPS_TOL);
+	}
+}
+
 static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_result **out,
                  char *err)
 {
 	pr_reps_result *r = NULL;
 	prob P;
-	work w;
-	limit_t L;
-	double *qn = NULL, *Rs, *qs, *phat, *fs, *tmp, rmax, scale = 1.0, eta = 0.0;
-	int *rows = NULL, *fx, m = 0, i, j, st, verdict;
+	ctx_t c;
+	double *qn = NULL, *Rs, *qs, *phat, *fs;
+	int *rows = NULL, *fx, m = 0, i, j, st;
 	size_t n, d;
 
 	memset(&P, 0, sizeof P);
-	memset(&w, 0, sizeof w);
-	memset(&L, 0, sizeof L);
 	if ((st = check_opts(o, err)) != PR_OK)
 		return st;
-	if (pb->n < 1)
-		return pr_err(err, PR_EINVAL, "reps: no samples");
+	if (pb->n < 2)
+		return pr_err(err, PR_EINVAL, "reps: need at least 2 samples (got %d)", pb->n);
 	n = (size_t)pb->n;
 	d = (size_t)(pb->d > 0 ? pb->d : 0);
-	qn = malloc((3 * n + 3 * d + 2) * sizeof *qn);
+	qn = malloc((3 * n + 5 * d + 2) * sizeof *qn);
 	rows = malloc((n + d + 1) * sizeof *rows);
 	r = result_new(pb->n, pb->d);
 	if (!qn || !rows || !r) {
@@ -1883,7 +2431,6 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 	qs = Rs + n;
 	phat = qs + n;
 	fs = phat + d;
-	tmp = fs + d;
 	fx = rows + n;
 	if ((st = check_problem(pb, qn, err)) != PR_OK)
 		goto done;
@@ -1894,87 +2441,37 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		}
 	if (d > 0)
 		feature_stats(pb, rows, qs, m, phat, fs);
-	if (!standardise(pb->R, rows, qs, m, Rs, &rmax, &scale)) {
-		/* every p with matched features earns the same: p_0 = q */
-		memcpy(r->p, qn, n * sizeof *qn);
-		r->dual = rmax;
-		r->constant = 1;
-		r->status = PR_REPS_UNREACHABLE;
-		r->kl_gap = o->epsilon;
-		certify_features(pb, rows, m, phat, fs, 0.0, r, tmp);
-		if (!(r->residual_rel <= PR_REPS_TOL)) {
-			r->status = PR_REPS_FAILED;
-			snprintf(r->reason, sizeof r->reason, "feature residual %.3g > %g", r->residual_rel,
-			         PR_REPS_TOL);
-		}
+	c = (ctx_t){o, pb, rows, m, qn, phat, fs, 0.0, 1.0, fs + d, NULL};
+	if (d > 0 && (pb->phi || pb->val)) {
+		/* dense features: what phat, a double, leaves of sum q phi */
+		c.corr = fs + 3 * d + 2;
+		for (j = 0; j < pb->d; j++)
+			for (c.corr[j] = 0.0, i = 0; i < m; i++)
+				c.corr[j] += qs[i] * (feat(pb, rows[i], j) - phat[j]);
+	}
+	if (!standardise(pb->R, rows, qs, m, Rs, &c.rmax, &c.scale)) {
+		solve_constant(&c, r);
 		*out = r;
 		r = NULL;
 		goto done;
 	}
-	if ((st = prob_main(&P, pb, rows, qs, Rs, m, phat, fs, o->epsilon, o->ridge, fx)) != PR_OK ||
-	    (st = work_alloc(&w, m, P.nf, o->max_iter)) != PR_OK) {
+	if ((st = prob_main(&P, pb, rows, qs, Rs, m, phat, fs, o->epsilon, o->ridge, fx)) != PR_OK) {
 		st = pr_err(err, PR_ENOMEM, "reps: out of memory");
 		goto done;
 	}
-	L.p = malloc((size_t)m * sizeof *L.p);
-	L.th = calloc((size_t)(P.nf > 0 ? P.nf : 1), sizeof *L.th);
-	L.lam = calloc((size_t)(P.nf > 0 ? P.nf : 1), sizeof *L.lam);
-	L.rr = malloc((size_t)m * sizeof *L.rr);
-	if (!L.p || !L.th || !L.lam || !L.rr) {
-		st = pr_err(err, PR_ENOMEM, "reps: out of memory");
-		goto done;
+	st = attempt(&c, &P, &P, NULL, r);
+	if (st == PR_OK && (r->status == PR_REPS_FAILED || r->cond > COND_RETRY) && !P.bin &&
+	    P.nf > 0 && !P.rw) {
+		/* standardise again: the search shifted P's returns */
+		standardise(pb->R, rows, qs, m, P.R, &c.rmax, &c.scale);
+		st = retry_reduced(&c, &P, &r);
 	}
-	verdict = search(&P, &w, o, &L, &eta, r->reason, sizeof r->reason);
-	if (verdict < 0) {
-		st = pr_err(err, verdict, verdict == PR_EINTR ? "reps: interrupted" :
-		            verdict == PR_ENOMEM ? "reps: out of memory" :
+	if (st < 0) {
+		st = pr_err(err, st, st == PR_EINTR ? "reps: interrupted" :
+		            st == PR_ENOMEM ? "reps: out of memory" :
 		            "reps: the Hessian of the dual could not be factorised");
 		goto done;
 	}
-	if (verdict == V_UNREACHABLE) {
-		map_back(pb, &P, L.p, L.th, fs, rmax, scale, 0.0, L.value, L.kl, r);
-	} else {
-		point *x = &w.pt[0];
-		double rterm = 0.0;
-
-		for (j = 0; j < P.nf && P.rw; j++)
-			rterm += 0.5 * P.rw[j] * x->th[j] * x->th[j];
-		if (L.shifted) {
-			/* back from theta - th on R = rr: g gains the limit's value */
-			for (j = 0; j < P.nf; j++)
-				x->th[j] += L.th[j];
-			rterm -= L.value;
-		}
-		map_back(pb, &P, x->p, x->th, fs, rmax, scale, eta, x->F - rterm, x->kl, r);
-	}
-	r->iterations = w.evals;
-	r->status = verdict;
-	if (!weights_ok(r->p, pb->n)) {
-		/* nothing usable came out: the base weights stand in for p */
-		r->status = PR_REPS_FAILED;
-		snprintf(r->reason, sizeof r->reason, "the weights do not sum to 1 (p = q returned)");
-		memcpy(r->p, qn, n * sizeof *qn);
-		r->kl = 0.0;
-	}
-	r->kl_gap = fabs(r->kl - o->epsilon);
-	certify_features(pb, rows, m, phat, fs, o->ridge / scale, r, tmp);
-	if (r->status == PR_REPS_FAILED) {
-		/* said above or by the search */
-	} else if (verdict == V_ACTIVE && !(r->kl_gap <= PR_REPS_TOL && r->residual_rel <= PR_REPS_TOL)) {
-		r->status = PR_REPS_FAILED;
-		snprintf(r->reason, sizeof r->reason, "|KL - epsilon| = %.3g, feature residual %.3g "
-		         "(tolerance %g)", r->kl_gap, r->residual_rel, PR_REPS_TOL);
-	} else if (verdict == V_UNREACHABLE &&
-	           !(r->residual_rel <= PR_REPS_TOL && L.gap <= PR_REPS_TOL &&
-	             L.outside <= PR_REPS_TOL)) {
-		r->status = PR_REPS_FAILED;
-		snprintf(r->reason, sizeof r->reason, "eta -> 0 limit not certified: feature residual "
-		         "%.3g, LP gap %.3g, mass outside the face up to %.3g (tolerance %g)",
-		         r->residual_rel, L.gap, L.outside, PR_REPS_TOL);
-	}
-	if (r->status == PR_REPS_ACTIVE)
-		r->reason[0] = '\0';
-	r->bound = r->status == PR_REPS_ACTIVE;
 	if (!isfinite(r->dual) || !isfinite(r->eta))
 		st = pr_err(err, PR_ENUM, "reps: returns too far apart: eta or the dual overflows");
 	for (j = 0; st == PR_OK && j < pb->d; j++)
@@ -1987,11 +2484,6 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 done:
 	pr_reps_result_free(r);
 	prob_free(&P);
-	work_free(&w);
-	free(L.p);
-	free(L.th);
-	free(L.lam);
-	free(L.rr);
 	free(qn);
 	free(rows);
 	return st;

@@ -46,19 +46,74 @@ def prepare(R, q, phi):
     on = q > 0
     Rs = standardise(R, q)
     phi = np.asarray(phi, float).reshape(len(q), -1)
-    psi = basis(phi - q @ phi)
+    if phi.size and np.isin(phi, (0.0, 1.0)).all():
+        psi = basis(phi - q @ phi)
+    else:
+        psi = basis_exact(phi, q)
     return q, on, Rs, psi
+
+
+def basis_exact(phi, q, digits=40):
+    """An orthonormal basis of the column space of phi - sum q phi, with the
+    weighted mean taken in exact rational arithmetic (offsets of 1e8 times
+    the spread leave a double mean off by 1e-7 of it) and modified
+    Gram-Schmidt with column pivoting at `digits` significant digits
+    (mpmath): two columns that differ by 1e-10 of their spread span a
+    direction that a double-precision factorisation holds to only 1e-6.
+    Columns are scaled to unit largest magnitude; a direction is kept when
+    its remaining norm exceeds 1e-12 of the largest column norm (exact
+    dependence leaves about 1e-40)."""
+    import mpmath
+    n, d = phi.shape
+    if d == 0:
+        return phi
+    qf = [Fraction(float(x)) for x in q]
+    tot = sum(qf)
+    with mpmath.workdps(digits):
+        cols = []
+        for j in range(d):
+            col = [Fraction(float(x)) for x in phi[:, j]]
+            mean = sum(a * b for a, b in zip(qf, col)) / tot
+            c = [mpmath.mpf((x - mean).numerator) / (x - mean).denominator for x in col]
+            mag = max(abs(x) for x in c)
+            if mag > 0:
+                cols.append([x / mag for x in c])
+        if not cols:
+            return phi[:, :0]
+        norms = [mpmath.sqrt(mpmath.fsum(x * x for x in c)) for c in cols]
+        tol = mpmath.mpf("1e-12") * max(norms)
+        out = []
+        while cols:
+            k = max(range(len(cols)), key=lambda i: norms[i])
+            if norms[k] <= tol:
+                break
+            u = [x / norms[k] for x in cols.pop(k)]
+            norms.pop(k)
+            out.append(u)
+            for i, c in enumerate(cols):
+                dot = mpmath.fsum(a * b for a, b in zip(u, c))
+                cols[i] = [a - dot * b for a, b in zip(c, u)]
+                norms[i] = mpmath.sqrt(mpmath.fsum(x * x for x in cols[i]))
+        return np.array([[float(x) for x in u] for u in out]).T.reshape(n, len(out))
 
 
 def basis(psi):
     """An orthonormal basis of the column space of psi (the constraints
     sum p psi = 0 only depend on it): dependent features, such as the leaves
     of one tree, which always sum to 1, would make the dual's Hessian
-    singular."""
+    singular. Columns are scaled to unit largest magnitude first, so that
+    the rank decision does not depend on the features' units; a direction
+    is kept above 1e-12 of the largest singular value (exact dependence
+    leaves round-off near 1e-16; nearly collinear columns that differ by
+    1e-10 of their spread are genuine constraints)."""
+    if psi.shape[1] == 0:
+        return psi
+    mag = np.abs(psi).max(axis=0)
+    psi = psi[:, mag > 0] / mag[mag > 0]
     if psi.shape[1] == 0:
         return psi
     U, sv, _ = np.linalg.svd(psi, full_matrices=False)
-    return U[:, sv > 1e-10 * sv.max()] if sv.max() > 0 else psi[:, :0]
+    return U[:, sv > 1e-12 * sv.max()]
 
 
 def dual_terms(y, th, R, lq, psi, eps):

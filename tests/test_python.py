@@ -259,7 +259,7 @@ def test_forest_bad_inputs():
 # ---- reps ----------------------------------------------------------------------
 
 REPS_SUMMARY = ("eta", "dual", "kl", "ess", "bound", "residual", "iterations", "kl_gap",
-                "residual_rel", "status")
+                "residual_rel", "status", "rank", "cond", "path")
 
 
 @pytest.mark.parametrize("seed", range(8))
@@ -295,7 +295,7 @@ def test_reps_equals_the_cli(tmp_path, seed):
     head, summary = rows[0], rows[1]
     assert np.array_equal(r["p"], pc[:, 0])
     for h, v in zip(head, summary):
-        assert r[h] == (v if h == "status" else float(v)), h
+        assert r[h] == (v if h in ("status", "path") else float(v)), h
     assert tuple(head) == REPS_SUMMARY
     assert r["constant"] == (seed == 6)
     assert r["status"] in ("active", "unreachable") and r["bound"] == (r["status"] == "active")

@@ -83,8 +83,9 @@ def test_reps_weights_and_summary(tmp_path):
         assert col in s[0]
     s = s[0]
     assert list(s.keys()) == ["eta", "dual", "kl", "ess", "bound", "residual", "iterations",
-                              "kl_gap", "residual_rel", "status"]
+                              "kl_gap", "residual_rel", "status", "rank", "cond", "path"]
     assert int(s["bound"]) == 1 and s["status"] == "active"
+    assert int(s["rank"]) >= 1 and float(s["cond"]) >= 1.0 and s["path"] in ("joint", "search")
     assert float(s["kl_gap"]) <= 1e-9 and float(s["residual_rel"]) <= 1e-9
     assert abs(float(s["kl"]) - 0.7) <= 1e-6
     assert abs(float(s["ess"]) - 1 / sum(x * x for x in p)) < 1e-6

@@ -35,7 +35,13 @@ typedef struct {
 	                     programme) to decide whether the bound is reachable */
 	int allow_failed; /* experiments: 1 = record a failed certificate and go
 	                     on; 0 (default) = a failed solve fails the run */
+	int solver;       /* PR_REPS_SOLVER_NEWTON (default) or PR_REPS_SOLVER_NLOPT */
 } pr_reps_opts;
+/* reps.solver: newton = the Newton path and eta -> 0 limit described at
+ * pr_reps_solve; nlopt = NLopt's L-BFGS on the dual over (log eta, theta),
+ * its answer certified the same way (it has no eta -> 0 limit, so an
+ * unreachable bound is a failed certificate). */
+enum { PR_REPS_SOLVER_NEWTON = 0, PR_REPS_SOLVER_NLOPT = 1 };
 void pr_reps_opts_init(pr_reps_opts *o);
 
 /* Certificate tolerance: |KL - eps|, the relative feature residual, and the
@@ -90,6 +96,18 @@ typedef struct {
 	int constant;        /* 1: all returns with q_i > 0 are equal; p = q, eta = 0 */
 	int iterations;      /* dual evaluations (Newton steps and line-search trials) */
 	char reason[160];    /* status failed: what could not be certified */
+	/* The solver path, for diagnostics (reps --summary): */
+	int rank;            /* feature directions the solver used (after dropping
+	                        constant features, reference leaves and, on the
+	                        reduced basis, numerically dependent directions) */
+	double cond;         /* (max L_jj / min L_jj)^2 of the Cholesky factor L of
+	                        the last Jacobi-scaled theta Hessian: a lower
+	                        estimate of its condition number (1 without features) */
+	char path[48];       /* steps taken, joined by '+': joint (the joint Newton
+	                        fast path), search (the root search on log eta), up
+	                        (eta raised before any theta solve worked), limit
+	                        (the eta -> 0 limit), reduced (a second attempt on a
+	                        well-conditioned basis after the first failed) */
 } pr_reps_result;
 
 /* Solve the dual and certify the result (see the file comment): Newton's
@@ -102,7 +120,7 @@ typedef struct {
  * so the answer is invariant to affine changes of the returns.
  * A result that cannot be certified is returned with status
  * PR_REPS_FAILED and PR_OK: the caller decides (the CLI exits 3).
- * Errors: PR_EINVAL (bad options, non-finite data, negative or all-zero q,
+ * Errors: PR_EINVAL (fewer than 2 samples, bad options, non-finite data, negative or all-zero q,
  * naming the sample), PR_ENOMEM, PR_ENUM (returns so far apart that the
  * back-mapped eta or theta overflows), PR_EINTR. *out is set only on
  * success. */

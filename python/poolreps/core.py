@@ -90,13 +90,14 @@ def _features(features, n):
     return count("features columns", f.shape[1]), (f if f.shape[1] else None), None
 
 
-def reps(returns, features=None, epsilon=None, base=None, set=None):
+def reps(returns, features=None, epsilon=None, base=None, set=None, solver=None):
     """REPS weights for n samples, as `poolreps reps` (thesis ch. 3, eq. 3.7-3.8).
 
     returns: (n,) returns R_i; features: (n, d) state features phi_i (or
     (n,) for one, or a scipy.sparse matrix; None for none); epsilon: the KL
     bound (default: reps.epsilon, 0.5); base: (n,) base weights q_i >= 0
-    (default: all 1); set: other reps.* keys.
+    (default: all 1); solver: "newton" (default) or "nlopt" (reps.solver);
+    set: other reps.* keys.
 
     Returns a dict: p (n,) weights summing to 1 (they include q), theta (d,),
     and the solver's scalars eta, dual, kl, ess, bound, residual, iterations,
@@ -107,6 +108,8 @@ def reps(returns, features=None, epsilon=None, base=None, set=None):
     keys = dict(set or {})
     if epsilon is not None:
         keys["reps.epsilon"] = epsilon
+    if solver is not None:
+        keys["reps.solver"] = solver
     cfg = config(_lib.assignments(keys, "reps"))
     R = array("returns", returns, 1)
     n = count("returns", R.shape[0])
