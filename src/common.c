@@ -21,6 +21,7 @@
 
 volatile sig_atomic_t pr_interrupted = 0;
 volatile sig_atomic_t pr_out_of_memory = 0;
+volatile sig_atomic_t pr_committed = 0;
 
 /* Length of the UTF-8 sequence at s (1..4) if it is valid and not a control
  * character, else 0. */
@@ -273,6 +274,26 @@ void pr_cleanup_hold(sigset_t *old)
 void pr_cleanup_release(const sigset_t *old)
 {
 	pthread_sigmask(SIG_SETMASK, old, NULL);
+}
+
+int pr_cleanup_staged(const char *path)
+{
+	int k;
+
+	for (k = 0; k < nstaging; ++k) {
+		size_t n = strlen(staging_dir[k]);
+		if (n && strncmp(path, staging_dir[k], n) == 0 && (path[n] == '/' || path[n] == '\0'))
+			return 1;
+	}
+	return 0;
+}
+
+void pr_commit_end(const sigset_t *old, int rc, const char *target)
+{
+	/* set while the signals are still blocked: the handler sees it first */
+	if (rc == PR_OK && !pr_cleanup_staged(target))
+		pr_committed = 1;
+	pr_cleanup_release(old);
 }
 
 int pr_errno_status(void)

@@ -871,8 +871,10 @@ void pr_csvw_abort(pr_csvw *w)
 int pr_csvw_close(pr_csvw *w, char *err)
 {
 	int rc = finish(w, err);
+	sigset_t old;
 
 	if (rc == PR_OK && w->kind == W_FILE) {
+		pr_cleanup_hold(&old);
 		if (rename(w->tmp, w->target) != 0) {
 			rc = pr_err(err, pr_errno_status(), "%s: cannot rename into place: %s", w->shown, strerror(errno));
 		} else {
@@ -880,6 +882,7 @@ int pr_csvw_close(pr_csvw *w, char *err)
 			free(w->tmp);
 			w->tmp = NULL;
 		}
+		pr_commit_end(&old, rc, w->target);
 	}
 	writer_fail(w);
 	return rc;
@@ -995,7 +998,8 @@ static int rename_all(pr_outset *s, char *err)
 		if (w->kind != W_FILE)
 			continue;
 		if (rename(w->tmp, w->target) != 0) {
-			rc = pr_err(err, pr_errno_status(), "%s: cannot rename into place: %s", w->shown, strerror(errno));
+			rc = pr_err(err, pr_errno_status(), "%s: cannot rename into place: %s; every output left as it was",
+			            w->shown, strerror(errno));
 			for (u = s->first; u != w; u = u->next) {
 				if (u->kind != W_FILE)
 					continue;
@@ -1036,9 +1040,15 @@ int pr_outset_commit(pr_outset *s, int rc, char *err)
 			rc = r;
 	}
 	if (rc == PR_OK) {
+		const char *target = "";
+		for (w = s->first; w; w = w->next)
+			if (w->kind == W_FILE) {
+				target = w->target;
+				break;
+			}
 		pr_cleanup_hold(&old);
 		rc = rename_all(s, err);
-		pr_cleanup_release(&old);
+		pr_commit_end(&old, rc, target);
 	}
 	free_set(s, rc != PR_OK);
 	return rc;

@@ -236,28 +236,34 @@ static void say_now(const char *s)
 	(void)rc;
 }
 
-static void on_signal(int sig)
+static const char *signal_name(int sig)
 {
 	static const struct { int sig; const char *name; } names[] = {
 		{SIGINT, "SIGINT"}, {SIGTERM, "SIGTERM"}, {SIGHUP, "SIGHUP"}, {SIGQUIT, "SIGQUIT"},
 		{SIGPIPE, "SIGPIPE"}, {SIGXFSZ, "SIGXFSZ"}, {SIGXCPU, "SIGXCPU"}, {SIGUSR1, "SIGUSR1"},
 		{SIGUSR2, "SIGUSR2"}, {SIGALRM, "SIGALRM"}, {SIGVTALRM, "SIGVTALRM"}};
 	size_t i;
-	int named = 0;
 
-	if (graceful && !pr_interrupted) {
+	for (i = 0; i < sizeof names / sizeof names[0]; ++i)
+		if (names[i].sig == sig)
+			return names[i].name;
+	return "a signal";
+}
+
+static void on_signal(int sig)
+{
+	/* the outputs are in place: the command ends as it is, successfully,
+	 * rather than claiming that it left everything as it was */
+	if ((graceful || pr_committed) && !pr_interrupted) {
 		pr_interrupted = sig;
 		return;
 	}
 	pr_cleanup_run();
 	say_now("poolreps: interrupted by ");
-	for (i = 0; i < sizeof names / sizeof names[0]; ++i)
-		if (names[i].sig == sig)
-			say_now(names[i].name), named = 1;
-	if (!named)
-		say_now("a signal");
-	say_now(": partial output files removed, existing files left as they were\n");
-	_exit(128 + sig);
+	say_now(signal_name(sig));
+	say_now(pr_committed ? ": the outputs were already complete and are kept\n"
+	                     : ": partial output files removed, existing files left as they were\n");
+	_exit(pr_committed ? 0 : 128 + sig);
 }
 
 /* Progress on stderr: a bar with ETA on a terminal, else (--progress) a plain
@@ -600,9 +606,13 @@ int main(int argc, char **argv)
 		fprintf(stderr, "poolreps: %s\n", err);
 		return pr_exit_code(rc);
 	}
-	if (!a.quiet && note[0])
+	/* a signal after the commit point: the outputs are complete (exit 0) */
+	if (pr_interrupted && pr_committed)
+		fprintf(stderr, "poolreps: %s arrived after the outputs were complete: they are kept\n",
+		        signal_name((int)pr_interrupted));
+	else if (!a.quiet && note[0])
 		fprintf(stderr, "poolreps: %s\n", note);
-	if (cmd->fn == pr_cmd_run && !a.quiet)
+	if (cmd->fn == pr_cmd_run && !a.quiet && !pr_interrupted)
 		print_done(&t0, c0);
 	return 0;
 }

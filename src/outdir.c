@@ -243,6 +243,10 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 	if (rc == PR_OK) {
 		pr_cleanup_hold(&mask);
 		held = 1;
+		/* a signal while waiting for the lock: nothing has moved yet */
+		if (pr_interrupted)
+			rc = pr_err(err, PR_EINTR, "interrupted (signal %d) before publishing: %s left as it was",
+			            (int)pr_interrupted, p[0].dir);
 	}
 	for (s = 0; s < n && rc == PR_OK; ++s)
 		for (i = 0; i < p[s].now.n && rc == PR_OK; ++i) {
@@ -272,7 +276,8 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 			snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].now.name[i]);
 			if (rename(from, to) == 0)
 				continue;
-			rc = pr_err(err, pr_errno_status(), "%s: cannot move into place: %s", to, strerror(errno));
+			rc = pr_err(err, pr_errno_status(), "%s: cannot move into place: %s; every file left as it was",
+			            to, strerror(errno));
 			put_back(p, s, i);
 		}
 	for (s = 0; s < n && rc == PR_OK; ++s)
@@ -282,7 +287,7 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 			    lstat(to, &st) == 0 && !S_ISDIR(st.st_mode))
 				unlink(to);
 	if (held)
-		pr_cleanup_release(&mask);
+		pr_commit_end(&mask, rc, p[0].dir);
 	for (s = 0; s < n; ++s) {
 		if (p[s].fd >= 0)
 			close(p[s].fd);
@@ -442,7 +447,7 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	char staging[PR_PATHLEN];
 	struct timespec t0;
 	size_t keep;
-	int rc;
+	int rc, published = 0;
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
 	if ((rc = mkdir_p(dir, &keep, err)))
@@ -465,11 +470,13 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	if (rc == PR_OK && !pr_interrupted) {
 		pr_outdir_pub pub = {staging, dir, 1, 1, {NULL, 0}, {NULL, 0}, NULL, -1};
 		rc = pr_outdir_publish(&pub, 1, err);
+		published = rc == PR_OK;
 	}
 	pr_remove_tree(staging);
 	pr_cleanup_clear_dir();
-	if (rc == PR_OK && !pr_interrupted)
-		return PR_OK;
+	/* published: the run is complete, whatever signal came during the moves */
+	if (published || (rc == PR_OK && !pr_interrupted))
+		return rc;
 	/* a failed run leaves no trace: drop the folders it made (if empty) */
 	remove_created(dir, keep);
 	if (rc != PR_OK)
