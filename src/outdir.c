@@ -165,38 +165,122 @@ int pr_outdir_list(const char *dir, pr_names *out, char *err)
 	return PR_OK;
 }
 
-/* The files an earlier run in dir wrote: the "files:" line of its
- * provenance.txt. Nothing when dir holds no poolreps run. */
-static int earlier_run(const char *dir, pr_names *out)
+/* The keys of provenance.txt, in the order provenance_text writes them. */
+static const char *const prov_keys[] = {"version", "command", "experiment", "seed", "repetition",
+                                        "parameter_file", "host", "finished", "wall_seconds",
+                                        "cpu_seconds", "peak_memory_mib", "files", NULL};
+
+/* The names of the experiments' CSVs (src/exp*.c) start with one of these. */
+static const char *const csv_prefixes[] = {"exp1_", "exp2_", "exp3_", "exp4_", "bench_", "fig7_", NULL};
+static const char *const fixed_names[] = {"config.ini", "provenance.txt", "jobs.txt", "slurm.sbatch",
+                                          "parallel.sh", "sweep_summary.csv", NULL};
+
+/* 1 if poolreps could have written name into a run or sweep folder: a plain
+ * name (letters, digits, '_', '-', '.'; no '/', not starting with '.'),
+ * one of the fixed names or an experiment's CSV. */
+int pr_outdir_own_name(const char *name, size_t k)
 {
+	int i;
+
+	if (!k || name[0] == '.' || strspn(name, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+	                                        "0123456789_-.") < k)
+		return 0;
+	for (i = 0; fixed_names[i]; ++i)
+		if (strlen(fixed_names[i]) == k && memcmp(name, fixed_names[i], k) == 0)
+			return 1;
+	for (i = 0; csv_prefixes[i]; ++i) {
+		size_t n = strlen(csv_prefixes[i]);
+		if (k > n + 4 && memcmp(name, csv_prefixes[i], n) == 0 && memcmp(name + k - 4, ".csv", 4) == 0)
+			return 1;
+	}
+	return 0;
+}
+
+/* One line of fp into line (at most n - 1 bytes kept, the rest read and
+ * checked): 0 at the end of the file, -1 for a control character or a
+ * missing line end, else 1. */
+static int prov_line(FILE *fp, char *line, size_t n)
+{
+	size_t k = 0;
+	int c;
+
+	while ((c = getc(fp)) != EOF && c != '\n') {
+		if ((unsigned char)c < 0x20 || c == 0x7f)
+			return -1;
+		if (k + 1 < n)
+			line[k++] = (char)c;
+	}
+	line[k] = '\0';
+	if (c == EOF)
+		return k ? -1 : 0;
+	return 1;
+}
+
+/* The files of the "files:" line of a provenance record, every name one
+ * poolreps could have written. */
+static int prov_files(const char *p, pr_names *out)
+{
+	while (*p) {
+		size_t k;
+		p += strspn(p, " ");
+		k = strcspn(p, " ");
+		if (k && !pr_outdir_own_name(p, k))
+			return PR_EINVAL;
+		if (k && pr_names_add(out, p, k))
+			return PR_ENOMEM;
+		p += k;
+	}
+	return PR_OK;
+}
+
+/* See outdir.h. */
+int pr_outdir_earlier_run(const char *dir, pr_names *out, char *err)
+{
+	enum { FILES = 11 };
 	char path[PR_PATHLEN + 16], line[1 << 16];
+	const char *why = NULL;
 	struct stat st;
 	FILE *fp;
-	int rc = PR_OK, n = 0;
+	int rc = PR_OK, n = 1, key = 0, r;
 
 	snprintf(path, sizeof path, "%s/provenance.txt", dir);
 	/* a fixed buffer, and only a regular file: never a FIFO or /dev/zero */
 	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode) || !(fp = fopen(path, "r")))
 		return PR_OK;
-	while (rc == PR_OK && n++ < 64 && fgets(line, sizeof line, fp)) {
-		const char *p;
-		if (n == 1 && strncmp(line, "version: ", 9) != 0)
+	if (prov_line(fp, line, sizeof line) <= 0 || strncmp(line, "version: ", 9) != 0) {
+		fclose(fp);
+		return PR_OK;
+	}
+	while (!why && key != FILES) {
+		const char *colon;
+		int i;
+		++n;
+		if ((r = prov_line(fp, line, sizeof line)) <= 0) {
+			why = r < 0 ? "a control character or an unfinished line" : "no files: line";
 			break;
-		if (strncmp(line, "files:", 6) != 0)
-			continue;
-		for (p = line + 6; *p && rc == PR_OK;) {
-			size_t k;
-			p += strspn(p, " \n");
-			k = strcspn(p, " \n");
-			/* only plain pr_names in dir itself */
-			if (k && *p != '.' && !memchr(p, '/', k))
-				rc = pr_names_add(out, p, k);
-			p += k;
 		}
-		break;
+		colon = strchr(line, ':');
+		for (i = key + 1; colon && prov_keys[i]; ++i)
+			if ((size_t)(colon - line) == strlen(prov_keys[i]) && !strncmp(line, prov_keys[i], strlen(prov_keys[i])))
+				break;
+		if (!colon || !prov_keys[i])
+			why = "an unknown, repeated or misplaced key";
+		else if ((key = i) == FILES && (rc = prov_files(colon + 1, out)) != PR_OK)
+			why = "a file name poolreps does not write";
+	}
+	if (!why && prov_line(fp, line, sizeof line) != 0) {
+		why = "more after the files: line";
+		++n;
 	}
 	fclose(fp);
-	return rc;
+	if (rc == PR_ENOMEM)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	if (why) {
+		pr_names_free(out);
+		return pr_err(err, PR_EIO, "%s:%d: not a provenance record poolreps writes (%s): "
+		              "move it away to run into %s", path, n, why, dir);
+	}
+	return PR_OK;
 }
 
 /* Put back what the renames of sets [0, s] moved, the files of set s
@@ -236,8 +320,9 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 		if (p[s].lock && ((p[s].fd = open(p[s].dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC)) < 0 ||
 		                  flock(p[s].fd, LOCK_EX) != 0))
 			rc = pr_err(err, pr_errno_status(), "%s: cannot lock folder: %s", p[s].dir, strerror(errno));
-		else if ((p[s].owns && earlier_run(p[s].dir, &p[s].old)) ||
-		         !(p[s].had = calloc((size_t)p[s].now.n + 1, 1)))
+		else if (p[s].owns && (rc = pr_outdir_earlier_run(p[s].dir, &p[s].old, err)))
+			break;
+		else if (!(p[s].had = calloc((size_t)p[s].now.n + 1, 1)))
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
 	}
 	if (rc == PR_OK) {
@@ -341,7 +426,16 @@ int pr_outdir_write_config(const pr_config *cfg, const char *dir, char *err)
 	return pr_outdir_write_text(path, config_file_text, cfg, err);
 }
 
-void pr_outdir_shell_word(FILE *fp, const char *arg)
+/* A control character as \xHH: a record keeps one line per key. */
+static void put_escaped(FILE *fp, int c, int escape)
+{
+	if (escape && ((unsigned char)c < 0x20 || c == 0x7f))
+		fprintf(fp, "\\x%02x", (unsigned char)c);
+	else
+		fputc(c, fp);
+}
+
+static void shell_word(FILE *fp, const char *arg, int escape)
 {
 	const char *c;
 
@@ -355,9 +449,20 @@ void pr_outdir_shell_word(FILE *fp, const char *arg)
 		if (*c == '\'')
 			fputs("'\\''", fp);
 		else
-			fputc(*c, fp);
+			put_escaped(fp, *c, escape);
 	}
 	fputc('\'', fp);
+}
+
+void pr_outdir_shell_word(FILE *fp, const char *arg)
+{
+	shell_word(fp, arg, 0);
+}
+
+static void put_record(FILE *fp, const char *s)
+{
+	for (; *s; ++s)
+		put_escaped(fp, *s, 1);
 }
 
 typedef struct {
@@ -381,17 +486,19 @@ static void provenance_text(FILE *fp, const void *arg)
 	getrusage(RUSAGE_SELF, &ru);
 	fprintf(fp, "version: %s\n", pr_version());
 	fprintf(fp, "command:");
+	/* control characters escaped: an argument never starts a line of its own */
 	for (i = 0; i < p->a->argc; ++i) {
 		fputc(' ', fp);
-		pr_outdir_shell_word(fp, p->a->argv[i]);
+		shell_word(fp, p->a->argv[i], 1);
 	}
-	fprintf(fp, "\nexperiment: %s\nseed: %lu\nrepetition: %d\nparameter_file: %s\n",
-	        p->cfg->run.name, p->cfg->run.seed, p->cfg->run.repetition,
-	        p->cfg->source[0] ? p->cfg->source : "(none)");
+	fprintf(fp, "\nexperiment: %s\nseed: %lu\nrepetition: %d\nparameter_file: ",
+	        p->cfg->run.name, p->cfg->run.seed, p->cfg->run.repetition);
+	put_record(fp, p->cfg->source[0] ? p->cfg->source : "(none)");
+	fputs("\nhost: ", fp);
+	put_record(fp, host);
 	if (uname(&un) == 0)
-		fprintf(fp, "host: %s (%s %s %s)\n", host, un.sysname, un.release, un.machine);
-	else
-		fprintf(fp, "host: %s\n", host);
+		fprintf(fp, " (%s %s %s)", un.sysname, un.release, un.machine);
+	fputc('\n', fp);
 	fprintf(fp, "finished: %s\nwall_seconds: %.3f\ncpu_seconds: %.3f\npeak_memory_mib: %.1f\n",
 	        when, p->wall,
 	        (double)ru.ru_utime.tv_sec + 1e-6 * (double)ru.ru_utime.tv_usec +
@@ -446,6 +553,7 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 {
 	char staging[PR_PATHLEN];
 	struct timespec t0;
+	pr_names old = {NULL, 0};
 	size_t keep;
 	int rc, published = 0;
 
@@ -456,6 +564,12 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
 	pr_outdir_sweep_stale(dir);
 	pr_remove_tree(staging);
+	/* a record poolreps did not write is refused before any work */
+	if ((rc = pr_outdir_earlier_run(dir, &old, err)) != PR_OK) {
+		remove_created(dir, keep);
+		return rc;
+	}
+	pr_names_free(&old);
 	if (mkdir(staging, 0777) != 0) {
 		rc = pr_err(err, pr_errno_status(), "%s: cannot write into the folder: %s", dir, strerror(errno));
 		remove_created(dir, keep);
