@@ -37,6 +37,7 @@
 #include "poolreps/config.h"
 #include "poolreps/csvio.h"
 #include "poolreps/exp.h"
+#include "csvio_priv.h"
 #include "exp_priv.h"
 #include "outdir.h"
 
@@ -121,6 +122,56 @@ static int parse_split(const char *s, int *split, char *err)
 	return PR_OK;
 }
 
+/* Blanks (spaces, tabs) at both ends of s[0..n) cut: *s and n updated. */
+static void cut_blanks(const char **s, size_t *n)
+{
+	while (*n && (**s == ' ' || **s == '\t'))
+		++*s, --*n;
+	while (*n && ((*s)[*n - 1] == ' ' || (*s)[*n - 1] == '\t'))
+		--*n;
+}
+
+/* The key of "KEY=..." as pr_config_set reads it, blanks around the section
+ * and the name dropped: "forest . trees " is forest.trees. */
+static int axis_key(const char *arg, const char *eq, char *key, size_t size)
+{
+	const char *dot = memchr(arg, '.', (size_t)(eq - arg)), *sec = arg, *name;
+	size_t ns, nn;
+
+	if (!dot)
+		return -1;
+	ns = (size_t)(dot - arg);
+	name = dot + 1;
+	nn = (size_t)(eq - name);
+	cut_blanks(&sec, &ns);
+	cut_blanks(&name, &nn);
+	if (!ns || !nn || ns + nn + 1 >= size)
+		return -1;
+	snprintf(key, size, "%.*s.%.*s", (int)ns, sec, (int)nn, name);
+	return 0;
+}
+
+/* Two grid values that set the key alike: the same text once blanks are
+ * cut, or the same number (10 and 010, 1e1). */
+static int same_value(const char *a, const char *b)
+{
+	size_t na = strlen(a), nb = strlen(b);
+	double x, y;
+	char buf[64];
+
+	cut_blanks(&a, &na);
+	cut_blanks(&b, &nb);
+	if (na == nb && memcmp(a, b, na) == 0)
+		return 1;
+	if (na >= sizeof buf || nb >= sizeof buf)
+		return 0;
+	snprintf(buf, sizeof buf, "%.*s", (int)na, a);
+	if (pr_csv_parse_double(buf, &x) != 0)
+		return 0;
+	snprintf(buf, sizeof buf, "%.*s", (int)nb, b);
+	return pr_csv_parse_double(buf, &y) == 0 && x == y;
+}
+
 /* Split "KEY=V1,V2,..." into ax; the values are checked per point. */
 static int parse_axis(const char *arg, axis *ax, const grid *g, char *err)
 {
@@ -129,9 +180,8 @@ static int parse_axis(const char *arg, axis *ax, const grid *g, char *err)
 	int i, j;
 
 	memset(ax, 0, sizeof *ax);
-	if (!eq || eq == arg || (size_t)(eq - arg) >= sizeof ax->key)
+	if (!eq || eq == arg || axis_key(arg, eq, ax->key, sizeof ax->key) != 0)
 		return pr_err(err, PR_EINVAL, "--grid %.80s: expected section.key=value1,value2,...", arg);
-	snprintf(ax->key, sizeof ax->key, "%.*s", (int)(eq - arg), arg);
 	if (strcmp(ax->key, "experiment.name") == 0 || strcmp(ax->key, "experiment.repetition") == 0 ||
 	    strcmp(ax->key, "experiment.variant") == 0)
 		return pr_err(err, PR_EINVAL, "--grid %s: a sweep keeps one experiment and chooses "
@@ -154,9 +204,9 @@ static int parse_axis(const char *arg, axis *ax, const grid *g, char *err)
 		if (!*ax->value[i])
 			return pr_err(err, PR_EINVAL, "--grid %.80s: empty value", arg);
 		for (j = 0; j < i; ++j)
-			if (strcmp(ax->value[i], ax->value[j]) == 0)
-				return pr_err(err, PR_EINVAL, "--grid %s: value '%.40s' listed twice",
-				              ax->key, ax->value[i]);
+			if (same_value(ax->value[i], ax->value[j]))
+				return pr_err(err, PR_EINVAL, "--grid %s: value '%.40s' listed twice (as '%.40s')",
+				              ax->key, ax->value[i], ax->value[j]);
 	}
 	return PR_OK;
 }
