@@ -948,7 +948,7 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	c.m = &m;
 	/* staged like a run's folder: a signal removes it, and the next collect
 	 * one left by SIGKILL */
-	fmt(c.stage, sizeof c.stage, "%s/.partial-%ld", c.root, (long)getpid());
+	fmt(c.stage, sizeof c.stage, "%s/.partial-%s", c.root, pr_owner_tag());
 	pr_outdir_sweep_stale(c.root);
 	pr_remove_tree(c.stage);
 	fmt(path, sizeof path, "%s/summary", c.stage);

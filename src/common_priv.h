@@ -53,5 +53,15 @@ int pr_errno_status(void);
 /* 1 if process pid no longer exists (a staging folder or temporary file
  * named after it is left over from a killed run). */
 int pr_pid_gone(long pid);
+/* The owner tag that names this process's staging folders and temporary
+ * files: "PID-START-NS-BOOT", its PID, start time (clock ticks since boot),
+ * PID namespace inode and the first 12 hex digits of the machine's boot id. */
+const char *pr_owner_tag(void);
+/* 1 only if the process an owner tag (at the start of tag) names is provably
+ * gone: same boot of this machine, same PID namespace, and its PID no longer
+ * exists or now belongs to a process that started at another time. A tag of
+ * another node sharing the file system, another namespace or an older
+ * format is never dead: what it names is left alone. */
+int pr_owner_dead(const char *tag);
 
 #endif

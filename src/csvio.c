@@ -610,8 +610,8 @@ static char *folder_of(const char *path)
 	return strndup(path, (size_t)(slash - path));
 }
 
-/* Remove temporary files in folder left by processes that no longer exist
- * (killed with SIGKILL): their names hold the PID. */
+/* Remove temporary files in folder left by processes provably gone (killed
+ * with SIGKILL): their names hold the owner tag (pr_owner_dead). */
 static void sweep_stale(const char *folder)
 {
 	DIR *d = opendir(folder);
@@ -619,19 +619,14 @@ static void sweep_stale(const char *folder)
 
 	if (!d)
 		return;
-	while ((e = readdir(d))) {
-		char *end;
-		long pid;
-		if (strncmp(e->d_name, TMP_PREFIX, strlen(TMP_PREFIX)) != 0)
-			continue;
-		pid = strtol(e->d_name + strlen(TMP_PREFIX), &end, 10);
-		if (*end == '-' && pr_pid_gone(pid))
+	while ((e = readdir(d)))
+		if (strncmp(e->d_name, TMP_PREFIX, strlen(TMP_PREFIX)) == 0 &&
+		    pr_owner_dead(e->d_name + strlen(TMP_PREFIX)))
 			unlinkat(dirfd(d), e->d_name, 0);
-	}
 	closedir(d);
 }
 
-/* A new, registered file in folder named TMP_PREFIX<pid>-<n>, opened for
+/* A new, registered file in folder named TMP_PREFIX<owner tag>-<n>, opened for
  * writing with mode 0666 less the umask; fd, or -1 with errno set. */
 static int make_temp(const char *folder, char **name)
 {
@@ -640,12 +635,12 @@ static int make_temp(const char *folder, char **name)
 
 	for (;;) {
 		long k = atomic_fetch_add(&seq, 1);
-		*name = malloc(strlen(folder) + 64);
+		*name = malloc(strlen(folder) + 160);
 		if (!*name) {
 			errno = ENOMEM;
 			return -1;
 		}
-		sprintf(*name, "%s/%s%ld-%ld", folder, TMP_PREFIX, (long)getpid(), k);
+		sprintf(*name, "%s/%s%s-%ld", folder, TMP_PREFIX, pr_owner_tag(), k);
 		pr_cleanup_add_file(*name);
 		fd = open(*name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
 		if (fd >= 0)

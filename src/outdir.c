@@ -73,9 +73,10 @@ static int mkdir_p(const char *dir, size_t *keep, char *err)
 	return rc;
 }
 
-/* Leftovers of runs killed with SIGKILL, whose PID no longer exists: their
- * staging folders .partial-PID and temporary files .poolreps-tmp-PID-N. A
- * run still alive (writing into the same folder) keeps its own. */
+/* Leftovers of runs killed with SIGKILL, provably gone (pr_owner_dead):
+ * their staging folders .partial-TAG and temporary files
+ * .poolreps-tmp-TAG-N. A run still alive (writing into the same folder, on
+ * this node or another) keeps its own. */
 void pr_outdir_sweep_stale(const char *dir)
 {
 	DIR *d = opendir(dir);
@@ -86,16 +87,11 @@ void pr_outdir_sweep_stale(const char *dir)
 		return;
 	while ((e = readdir(d))) {
 		const char *p = NULL;
-		char *end;
-		long pid;
 		if (strncmp(e->d_name, ".partial-", 9) == 0)
 			p = e->d_name + 9;
 		else if (strncmp(e->d_name, ".poolreps-tmp-", 14) == 0)
 			p = e->d_name + 14;
-		if (!p)
-			continue;
-		pid = strtol(p, &end, 10);
-		if (end == p || (*end && *end != '-') || !pr_pid_gone(pid))
+		if (!p || !pr_owner_dead(p))
 			continue;
 		if (snprintf(path, sizeof path, "%s/%s", dir, e->d_name) >= (int)sizeof path)
 			continue;
@@ -283,6 +279,41 @@ int pr_outdir_earlier_run(const char *dir, pr_names *out, char *err)
 	return PR_OK;
 }
 
+/* An exclusive lock on folder dir, waited for: flock on the folder itself;
+ * where folders cannot be locked (NFS emulates flock with byte-range locks,
+ * which need a file open for writing), an fcntl lock on DIR/.poolreps.lock,
+ * created once and kept (removing it would let two processes lock two
+ * files). The descriptor to close, or -1 with errno set. */
+static int lock_dir(const char *dir)
+{
+	char path[PR_PATHLEN + 32];
+	struct flock fl;
+	int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC), e;
+
+	if (fd < 0)
+		return -1;
+	if (flock(fd, LOCK_EX) == 0)
+		return fd;
+	e = errno;
+	close(fd);
+	if (e != EBADF && e != ENOLCK && e != EOPNOTSUPP && e != EINVAL) {
+		errno = e;
+		return -1;
+	}
+	snprintf(path, sizeof path, "%s/.poolreps.lock", dir);
+	if ((fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0666)) < 0)
+		return -1;
+	memset(&fl, 0, sizeof fl);
+	fl.l_type = F_WRLCK;
+	fl.l_whence = SEEK_SET;
+	if (fcntl(fd, F_SETLKW, &fl) == 0)
+		return fd;
+	e = errno;
+	close(fd);
+	errno = e;
+	return -1;
+}
+
 /* Put back what the renames of sets [0, s] moved, the files of set s
  * below i: an earlier file from its second link, a new one removed. */
 static void put_back(pr_outdir_pub *p, int s, int i)
@@ -317,8 +348,7 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 	for (s = 0; s < n && rc == PR_OK; ++s) {
 		if ((rc = pr_outdir_list(p[s].staging, &p[s].now, err)))
 			break;
-		if (p[s].lock && ((p[s].fd = open(p[s].dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC)) < 0 ||
-		                  flock(p[s].fd, LOCK_EX) != 0))
+		if (p[s].lock && (p[s].fd = lock_dir(p[s].dir)) < 0)
 			rc = pr_err(err, pr_errno_status(), "%s: cannot lock folder: %s", p[s].dir, strerror(errno));
 		else if (p[s].owns && (rc = pr_outdir_earlier_run(p[s].dir, &p[s].old, err)))
 			break;
@@ -560,7 +590,7 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	clock_gettime(CLOCK_MONOTONIC, &t0);
 	if ((rc = mkdir_p(dir, &keep, err)))
 		return rc;
-	if (snprintf(staging, sizeof staging, "%s/.partial-%ld", dir, (long)getpid()) >= (int)sizeof staging)
+	if (snprintf(staging, sizeof staging, "%s/.partial-%s", dir, pr_owner_tag()) >= (int)sizeof staging)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
 	pr_outdir_sweep_stale(dir);
 	pr_remove_tree(staging);

@@ -28,7 +28,7 @@ from typing import Callable, Optional
 
 import pytest
 
-from conftest import ROOT, poolreps_path, run_cmd
+from conftest import ROOT, owner_tag, poolreps_path, run_cmd
 
 OK, USAGE, IO, NUM, NOMEM = 0, 1, 2, 3, 4
 SAN = os.environ.get("SAN") == "1"
@@ -751,7 +751,7 @@ def test_sigkill_leftover_removed_by_next_run(tmp_path):
 def test_staging_of_a_live_run_is_left_alone(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
-    live = out / f".partial-{os.getpid()}"   # this test process is alive
+    live = out / f".partial-{owner_tag(os.getpid())}"   # this test process is alive
     live.mkdir()
     (live / "x.csv").write_bytes(b"a\n")
     r = run(RUN_Q + ["-o", out], tmp_path)

@@ -1,4 +1,4 @@
-/* slowrename.c — an LD_PRELOAD shim over rename(2) that opens the commit
+/* slowrename.c — an LD_PRELOAD shim over rename(2) and flock(2) that opens the commit
  * window of a command for the tests (tests/test_commit.py):
  *   RENAME_LOG=FILE       append "old new" of every rename to FILE
  *   RENAME_DELAY_MS=N     sleep N ms before every rename
@@ -8,6 +8,9 @@
  *   RENAME_KILL_AT=K      before the K-th such rename (1-based) send
  *   RENAME_KILL_SIG=S     signal S (default SIGTERM) to this process
  *   RENAME_FAIL_AT=K      make the K-th such rename fail with EIO
+ *   FLOCK_DIR_EBADF=1     flock(2) on a folder fails with EBADF, as on NFS,
+ *                         where flock is emulated by byte-range locks that
+ *                         need a file open for writing
  * Only the test builds it; it is not part of the library. */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -17,6 +20,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -61,4 +66,18 @@ int rename(const char *from, const char *to)
 		nanosleep(&ts, NULL);
 	}
 	return real(from, to);
+}
+
+int flock(int fd, int op)
+{
+	static int (*real)(int, int);
+	struct stat st;
+
+	if (!real)
+		real = (int (*)(int, int))dlsym(RTLD_NEXT, "flock");
+	if (getenv("FLOCK_DIR_EBADF") && fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) {
+		errno = EBADF;
+		return -1;
+	}
+	return real(fd, op);
 }
