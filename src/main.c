@@ -250,12 +250,34 @@ static const char *signal_name(int sig)
 	return "a signal";
 }
 
+/* The grace the loops of a run, merge, sweep or collect get to stop after
+ * the first signal: they check pr_interrupted between steps, but one step
+ * (a large factorisation inside GSL) can take minutes, and a batch system
+ * kills 30 s after SIGTERM. When it runs out, the handler cleans up and
+ * exits itself: the signal is honoured within a second. */
+#define STOP_GRACE_NS 400000000L
+static timer_t stop_timer;
+static volatile sig_atomic_t have_timer, deadline_armed;
+
+static void arm_deadline(void)
+{
+	struct itimerspec its = {{0, 0}, {0, STOP_GRACE_NS}};
+
+	if (have_timer && timer_settime(stop_timer, 0, &its, NULL) == 0)
+		deadline_armed = 1;
+}
+
 static void on_signal(int sig)
 {
-	/* the outputs are in place: the command ends as it is, successfully,
-	 * rather than claiming that it left everything as it was */
-	if ((graceful || pr_committed) && !pr_interrupted) {
+	/* the grace of the first signal ran out: act on it now */
+	if (sig == SIGALRM && deadline_armed && pr_interrupted) {
+		sig = (int)pr_interrupted;
+	} else if ((graceful || pr_committed) && !pr_interrupted) {
+		/* the outputs are in place: the command ends as it is, successfully,
+		 * rather than claiming that it left everything as it was */
 		pr_interrupted = sig;
+		if (!pr_committed)
+			arm_deadline();
 		return;
 	}
 	pr_cleanup_run();
@@ -543,6 +565,13 @@ int main(int argc, char **argv)
 	a.command = cmd->name;
 	graceful = cmd->fn == pr_cmd_run || cmd->fn == pr_cmd_merge || cmd->fn == pr_cmd_sweep ||
 	           cmd->fn == pr_cmd_collect;
+	if (graceful) {
+		struct sigevent sev;
+		memset(&sev, 0, sizeof sev);
+		sev.sigev_notify = SIGEV_SIGNAL;
+		sev.sigev_signo = SIGALRM;
+		have_timer = timer_create(CLOCK_MONOTONIC, &sev, &stop_timer) == 0;
+	}
 	memset(&prog, 0, sizeof prog);
 	prog.tty = isatty(STDERR_FILENO);
 	/* plain lines only when asked: a failure must stay one stderr line */
