@@ -38,13 +38,13 @@ def earlier_run(base):
     assert r.returncode == 0, r.stderr
 
 
-@pytest.mark.native
-@pytest.mark.slow
 CASES = ([(w, signal.SIGTERM, e) for w in RUNS for e in (False, True)] +
          [("rosenbrock_100_contexts", s, False) for s in (signal.SIGINT, signal.SIGHUP)] +
          [("exp3_forest_policy_reps", signal.SIGINT, True)])
 
 
+@pytest.mark.native
+@pytest.mark.slow
 @pytest.mark.parametrize("what,sig,existing", CASES,
                          ids=[f"{w}-{signal.Signals(s).name}-{'existing' if e else 'new'}" for w, s, e in CASES])
 def test_signal_is_honoured_within_a_second(what, sig, existing, tmp_path):
