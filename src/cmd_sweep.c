@@ -310,12 +310,23 @@ static FILE *open_text(const char *dir, const char *name, char *path, char *err)
 	return fp;
 }
 
+/* The reason of a failed write: the flush of what is left fails again
+ * (ENOSPC) and sets errno; a stream whose error has no errno left says EIO. */
 static int close_text(FILE *fp, const char *path, char *err)
 {
-	int bad = ferror(fp);
+	int bad, e;
 
-	bad |= fclose(fp) != 0;
-	return bad ? pr_err(err, PR_EIO, "%s: write error", path) : PR_OK;
+	errno = 0;
+	bad = fflush(fp) != 0 || ferror(fp);
+	e = errno;
+	if (fclose(fp) != 0 && !bad) {
+		bad = 1;
+		e = errno;
+	}
+	if (!bad)
+		return PR_OK;
+	errno = e ? e : EIO;
+	return pr_err(err, pr_errno_status(), "%s: write error: %s", path, strerror(errno));
 }
 
 /* Slurm's --output: '%' in the folder's own name is written as "%%", a
@@ -920,6 +931,28 @@ static int publish_collected(const collector *c, char *err)
 	return rc;
 }
 
+/* A failed collect's message names where the file was going (point-P/merged/
+ * or SWEEP_DIR itself), not the staging folder it has removed. Point names
+ * have one width: none is a prefix of another. */
+static void unstage_collect(const collector *c, char *err)
+{
+	char from[PR_PATHLEN], to[PR_PATHLEN], point[64];
+	long p;
+
+	for (p = 0; p < c->m->npoints; ++p) {
+		point_name(point, sizeof point, p, c->m->npoints);
+		fmt(from, sizeof from, "%s/%s/", c->stage, point);
+		fmt(to, sizeof to, "%s/%s/merged/", c->root, point);
+		pr_outdir_unstage(err, from, to);
+		fmt(from, sizeof from, "%s/%s", c->stage, point);
+		fmt(to, sizeof to, "%s/%s/merged", c->root, point);
+		pr_outdir_unstage(err, from, to);
+	}
+	fmt(from, sizeof from, "%s/summary", c->stage);
+	pr_outdir_unstage(err, from, c->root);
+	pr_outdir_unstage(err, c->stage, c->root);
+}
+
 int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	collector c;
@@ -978,6 +1011,8 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		rc = pr_err(err, PR_EINTR, "interrupted: nothing collected, %s left as it was", c.root);
 	pr_remove_tree(c.stage);
 	pr_cleanup_clear_dir();
+	if (rc != PR_OK)
+		unstage_collect(&c, err);
 	manifest_free(&m);
 	return rc;
 }

@@ -565,8 +565,7 @@ static double seconds_since(const struct timespec *t0)
 	return (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec);
 }
 
-/* Messages name the file where it was going to be, not the staging folder. */
-static void unstage(char *err, const char *staging, const char *dir)
+void pr_outdir_unstage(char *err, const char *staging, const char *dir)
 {
 	char out[PR_ERRLEN], *p;
 	size_t n = strlen(staging);
@@ -624,7 +623,7 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	/* a failed run leaves no trace: drop the folders it made (if empty) */
 	remove_created(dir, keep);
 	if (rc != PR_OK)
-		unstage(err, staging, dir);
+		pr_outdir_unstage(err, staging, dir);
 	/* after a signal every failure is its echo (a fit cut short may report
 	 * itself as a numerical failure): say what the user is left with */
 	if (pr_interrupted)

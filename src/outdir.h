@@ -60,6 +60,9 @@ typedef struct {
 	int fd;
 } pr_outdir_pub;
 int pr_outdir_publish(pr_outdir_pub *p, int n, char *err);
+/* Messages name the file where it was going to be, not a staging folder
+ * gone once the command failed: every staging in err becomes dir. */
+void pr_outdir_unstage(char *err, const char *staging, const char *dir);
 /* Remove what runs killed with SIGKILL left in dir: staging folders
  * .partial-PID and temporary files .poolreps-tmp-PID-N whose PID is gone. */
 void pr_outdir_sweep_stale(const char *dir);
