@@ -279,6 +279,16 @@ int pr_outdir_earlier_run(const char *dir, pr_names *out, char *err)
 	return PR_OK;
 }
 
+/* A run folder is published by renames inside it: a file there that is a
+ * symbolic link would be replaced by a regular file (the link broken, its
+ * target left stale), and a target in another folder or on another file
+ * system escapes the all-or-nothing moves and their put-back. */
+static int refuse_link(const char *path, char *err)
+{
+	return pr_err(err, PR_EIO, "%s: is a symbolic link: a run folder's files are not written through "
+	              "links (remove the link, or write the run elsewhere and link to it)", path);
+}
+
 /* An exclusive lock on folder dir, waited for: flock on the folder itself;
  * where folders cannot be locked (NFS emulates flock with byte-range locks,
  * which need a file open for writing), an fcntl lock on DIR/.poolreps.lock,
@@ -372,6 +382,8 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 				continue;
 			if (S_ISDIR(st.st_mode))
 				rc = pr_err(err, PR_EIO, "%s: is a folder: cannot replace it with the run's file", to);
+			else if (S_ISLNK(st.st_mode))
+				rc = refuse_link(to, err);
 			/* like any output: a file the (non-root) user may not write stays */
 			else if (S_ISREG(st.st_mode) && faccessat(AT_FDCWD, to, W_OK, AT_EACCESS) != 0)
 				rc = pr_err(err, pr_errno_status(), "%s: cannot write: %s", to, strerror(errno));
@@ -399,7 +411,7 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 		for (i = 0; i < p[s].old.n; ++i)
 			if (!pr_names_has(&p[s].now, p[s].old.name[i]) &&
 			    snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].old.name[i]) < (int)sizeof to &&
-			    lstat(to, &st) == 0 && !S_ISDIR(st.st_mode))
+			    lstat(to, &st) == 0 && S_ISREG(st.st_mode))
 				unlink(to);
 	if (held)
 		pr_commit_end(&mask, rc, p[0].dir);
@@ -584,7 +596,7 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	struct timespec t0;
 	pr_names old = {NULL, 0};
 	size_t keep;
-	int rc, published = 0;
+	int rc, i, published = 0;
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
 	if ((rc = mkdir_p(dir, &keep, err)))
@@ -594,11 +606,19 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	pr_outdir_sweep_stale(dir);
 	pr_remove_tree(staging);
 	/* a record poolreps did not write is refused before any work */
-	if ((rc = pr_outdir_earlier_run(dir, &old, err)) != PR_OK) {
+	rc = pr_outdir_earlier_run(dir, &old, err);
+	for (i = 0; rc == PR_OK && i < old.n; ++i) {
+		struct stat st;
+		char path[2 * PR_PATHLEN];
+		snprintf(path, sizeof path, "%s/%s", dir, old.name[i]);
+		if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode))
+			rc = refuse_link(path, err);
+	}
+	pr_names_free(&old);
+	if (rc != PR_OK) {
 		remove_created(dir, keep);
 		return rc;
 	}
-	pr_names_free(&old);
 	if (mkdir(staging, 0777) != 0) {
 		rc = pr_err(err, pr_errno_status(), "%s: cannot write into the folder: %s", dir, strerror(errno));
 		remove_created(dir, keep);
