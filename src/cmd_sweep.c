@@ -20,7 +20,7 @@
  * `collect` merges each point's job folders through `poolreps merge` (its
  * checks included) into point-P/merged, and writes sweep_summary.csv: the
  * grid values, then every row of the experiment's summary CSV. All of it is
- * staged in SWEEP_DIR/.partial-PID and moved into place only at the end.
+ * staged in SWEEP_DIR/.partial-TAG and moved into place only at the end.
  */
 #define _XOPEN_SOURCE 700 /* realpath */
 #include <dirent.h>
@@ -483,7 +483,7 @@ static int sweep_point(sweep_out *s, long p, char *err)
 	return rc;
 }
 
-/* pr_outdir_run's work: dir is SWEEP_DIR/.partial-PID. A failure removes
+/* pr_outdir_run's work: dir is SWEEP_DIR/.partial-TAG. A failure removes
  * what this wrote below dir; pr_outdir_run removes dir itself. */
 static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a, char *err)
 {

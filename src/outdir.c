@@ -1,5 +1,5 @@
 /* outdir.c — an output folder written all or nothing: everything a run,
- * merge or sweep writes goes first into a staging folder DIR/.partial-PID
+ * merge or sweep writes goes first into a staging folder DIR/.partial-TAG
  * and is moved into DIR only when the whole command succeeded (publish), so
  * a failed or interrupted command leaves no partial CSV behind and the
  * previous run in DIR untouched. provenance.txt lists the files a run owns;

@@ -64,7 +64,8 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err);
  * gone once the command failed: every staging in err becomes dir. */
 void pr_outdir_unstage(char *err, const char *staging, const char *dir);
 /* Remove what runs killed with SIGKILL left in dir: staging folders
- * .partial-PID and temporary files .poolreps-tmp-PID-N whose PID is gone. */
+ * .partial-TAG and temporary files .poolreps-tmp-TAG-N whose owner is provably
+ * gone (pr_owner_dead). */
 void pr_outdir_sweep_stale(const char *dir);
 /* Create dir, run work into a staging folder inside it, add config.ini and
  * provenance.txt (version, command line, seed, host, timings, the files
