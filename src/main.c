@@ -267,6 +267,17 @@ static void arm_deadline(void)
 		deadline_armed = 1;
 }
 
+/* The timer of the grace period, made before any signal can need it. */
+static void make_stop_timer(void)
+{
+	struct sigevent sev;
+
+	memset(&sev, 0, sizeof sev);
+	sev.sigev_notify = SIGEV_SIGNAL;
+	sev.sigev_signo = SIGALRM;
+	have_timer = timer_create(CLOCK_MONOTONIC, &sev, &stop_timer) == 0;
+}
+
 static void on_signal(int sig)
 {
 	/* the grace of the first signal ran out: act on it now */
@@ -565,13 +576,8 @@ int main(int argc, char **argv)
 	a.command = cmd->name;
 	graceful = cmd->fn == pr_cmd_run || cmd->fn == pr_cmd_merge || cmd->fn == pr_cmd_sweep ||
 	           cmd->fn == pr_cmd_collect;
-	if (graceful) {
-		struct sigevent sev;
-		memset(&sev, 0, sizeof sev);
-		sev.sigev_notify = SIGEV_SIGNAL;
-		sev.sigev_signo = SIGALRM;
-		have_timer = timer_create(CLOCK_MONOTONIC, &sev, &stop_timer) == 0;
-	}
+	if (graceful)
+		make_stop_timer();
 	memset(&prog, 0, sizeof prog);
 	prog.tty = isatty(STDERR_FILENO);
 	/* plain lines only when asked: a failure must stay one stderr line */
