@@ -14,7 +14,7 @@
 #   build/fuzz/<name>.log           the libFuzzer log
 #
 # Environment: FUZZ_CC (default clang), FUZZ_TIMEOUT (s per input, default 10),
-# FUZZ_HARNESSES (default "config csv shoot"), TMPDIR for the harnesses'
+# FUZZ_HARNESSES (default "config csv shoot provenance"), TMPDIR for the harnesses'
 # scratch files (default /dev/shm when writable: on a disk, creating a file per
 # input can cut the speed tenfold).
 set -u
@@ -25,7 +25,7 @@ esac
 cd "$(dirname "$0")/.." || exit 1
 cc=${FUZZ_CC:-clang}
 timeout=${FUZZ_TIMEOUT:-10}
-harnesses=${FUZZ_HARNESSES:-config csv shoot}
+harnesses=${FUZZ_HARNESSES:-config csv shoot provenance}
 out=build/fuzz
 
 if ! command -v "$cc" >/dev/null 2>&1; then

@@ -20,7 +20,7 @@
  * `collect` merges each point's job folders through `poolreps merge` (its
  * checks included) into point-P/merged, and writes sweep_summary.csv: the
  * grid values, then every row of the experiment's summary CSV. All of it is
- * staged in SWEEP_DIR/.partial-PID and moved into place only at the end.
+ * staged in SWEEP_DIR/.partial-TAG and moved into place only at the end.
  */
 #define _XOPEN_SOURCE 700 /* realpath */
 #include <dirent.h>
@@ -37,6 +37,7 @@
 #include "poolreps/config.h"
 #include "poolreps/csvio.h"
 #include "poolreps/exp.h"
+#include "csvio_priv.h"
 #include "exp_priv.h"
 #include "outdir.h"
 
@@ -121,6 +122,56 @@ static int parse_split(const char *s, int *split, char *err)
 	return PR_OK;
 }
 
+/* Blanks (spaces, tabs) at both ends of s[0..n) cut: *s and n updated. */
+static void cut_blanks(const char **s, size_t *n)
+{
+	while (*n && (**s == ' ' || **s == '\t'))
+		++*s, --*n;
+	while (*n && ((*s)[*n - 1] == ' ' || (*s)[*n - 1] == '\t'))
+		--*n;
+}
+
+/* The key of "KEY=..." as pr_config_set reads it, blanks around the section
+ * and the name dropped: "forest . trees " is forest.trees. */
+static int axis_key(const char *arg, const char *eq, char *key, size_t size)
+{
+	const char *dot = memchr(arg, '.', (size_t)(eq - arg)), *sec = arg, *name;
+	size_t ns, nn;
+
+	if (!dot)
+		return -1;
+	ns = (size_t)(dot - arg);
+	name = dot + 1;
+	nn = (size_t)(eq - name);
+	cut_blanks(&sec, &ns);
+	cut_blanks(&name, &nn);
+	if (!ns || !nn || ns + nn + 1 >= size)
+		return -1;
+	snprintf(key, size, "%.*s.%.*s", (int)ns, sec, (int)nn, name);
+	return 0;
+}
+
+/* Two grid values that set the key alike: the same text once blanks are
+ * cut, or the same number (10 and 010, 1e1). */
+static int same_value(const char *a, const char *b)
+{
+	size_t na = strlen(a), nb = strlen(b);
+	double x, y;
+	char buf[64];
+
+	cut_blanks(&a, &na);
+	cut_blanks(&b, &nb);
+	if (na == nb && memcmp(a, b, na) == 0)
+		return 1;
+	if (na >= sizeof buf || nb >= sizeof buf)
+		return 0;
+	snprintf(buf, sizeof buf, "%.*s", (int)na, a);
+	if (pr_csv_parse_double(buf, &x) != 0)
+		return 0;
+	snprintf(buf, sizeof buf, "%.*s", (int)nb, b);
+	return pr_csv_parse_double(buf, &y) == 0 && x == y;
+}
+
 /* Split "KEY=V1,V2,..." into ax; the values are checked per point. */
 static int parse_axis(const char *arg, axis *ax, const grid *g, char *err)
 {
@@ -129,9 +180,8 @@ static int parse_axis(const char *arg, axis *ax, const grid *g, char *err)
 	int i, j;
 
 	memset(ax, 0, sizeof *ax);
-	if (!eq || eq == arg || (size_t)(eq - arg) >= sizeof ax->key)
+	if (!eq || eq == arg || axis_key(arg, eq, ax->key, sizeof ax->key) != 0)
 		return pr_err(err, PR_EINVAL, "--grid %.80s: expected section.key=value1,value2,...", arg);
-	snprintf(ax->key, sizeof ax->key, "%.*s", (int)(eq - arg), arg);
 	if (strcmp(ax->key, "experiment.name") == 0 || strcmp(ax->key, "experiment.repetition") == 0 ||
 	    strcmp(ax->key, "experiment.variant") == 0)
 		return pr_err(err, PR_EINVAL, "--grid %s: a sweep keeps one experiment and chooses "
@@ -154,9 +204,9 @@ static int parse_axis(const char *arg, axis *ax, const grid *g, char *err)
 		if (!*ax->value[i])
 			return pr_err(err, PR_EINVAL, "--grid %.80s: empty value", arg);
 		for (j = 0; j < i; ++j)
-			if (strcmp(ax->value[i], ax->value[j]) == 0)
-				return pr_err(err, PR_EINVAL, "--grid %s: value '%.40s' listed twice",
-				              ax->key, ax->value[i]);
+			if (same_value(ax->value[i], ax->value[j]))
+				return pr_err(err, PR_EINVAL, "--grid %s: value '%.40s' listed twice (as '%.40s')",
+				              ax->key, ax->value[i], ax->value[j]);
 	}
 	return PR_OK;
 }
@@ -260,12 +310,23 @@ static FILE *open_text(const char *dir, const char *name, char *path, char *err)
 	return fp;
 }
 
+/* The reason of a failed write: the flush of what is left fails again
+ * (ENOSPC) and sets errno; a stream whose error has no errno left says EIO. */
 static int close_text(FILE *fp, const char *path, char *err)
 {
-	int bad = ferror(fp);
+	int bad, e;
 
-	bad |= fclose(fp) != 0;
-	return bad ? pr_err(err, PR_EIO, "%s: write error", path) : PR_OK;
+	errno = 0;
+	bad = fflush(fp) != 0 || ferror(fp);
+	e = errno;
+	if (fclose(fp) != 0 && !bad) {
+		bad = 1;
+		e = errno;
+	}
+	if (!bad)
+		return PR_OK;
+	errno = e ? e : EIO;
+	return pr_err(err, pr_errno_status(), "%s: write error: %s", path, strerror(errno));
 }
 
 /* Slurm's --output: '%' in the folder's own name is written as "%%", a
@@ -422,7 +483,7 @@ static int sweep_point(sweep_out *s, long p, char *err)
 	return rc;
 }
 
-/* pr_outdir_run's work: dir is SWEEP_DIR/.partial-PID. A failure removes
+/* pr_outdir_run's work: dir is SWEEP_DIR/.partial-TAG. A failure removes
  * what this wrote below dir; pr_outdir_run removes dir itself. */
 static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a, char *err)
 {
@@ -870,6 +931,28 @@ static int publish_collected(const collector *c, char *err)
 	return rc;
 }
 
+/* A failed collect's message names where the file was going (point-P/merged/
+ * or SWEEP_DIR itself), not the staging folder it has removed. Point names
+ * have one width: none is a prefix of another. */
+static void unstage_collect(const collector *c, char *err)
+{
+	char from[PR_PATHLEN], to[PR_PATHLEN], point[64];
+	long p;
+
+	for (p = 0; p < c->m->npoints; ++p) {
+		point_name(point, sizeof point, p, c->m->npoints);
+		fmt(from, sizeof from, "%s/%s/", c->stage, point);
+		fmt(to, sizeof to, "%s/%s/merged/", c->root, point);
+		pr_outdir_unstage(err, from, to);
+		fmt(from, sizeof from, "%s/%s", c->stage, point);
+		fmt(to, sizeof to, "%s/%s/merged", c->root, point);
+		pr_outdir_unstage(err, from, to);
+	}
+	fmt(from, sizeof from, "%s/summary", c->stage);
+	pr_outdir_unstage(err, from, c->root);
+	pr_outdir_unstage(err, c->stage, c->root);
+}
+
 int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	collector c;
@@ -898,7 +981,7 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	c.m = &m;
 	/* staged like a run's folder: a signal removes it, and the next collect
 	 * one left by SIGKILL */
-	fmt(c.stage, sizeof c.stage, "%s/.partial-%ld", c.root, (long)getpid());
+	fmt(c.stage, sizeof c.stage, "%s/.partial-%s", c.root, pr_owner_tag());
 	pr_outdir_sweep_stale(c.root);
 	pr_remove_tree(c.stage);
 	fmt(path, sizeof path, "%s/summary", c.stage);
@@ -928,6 +1011,8 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		rc = pr_err(err, PR_EINTR, "interrupted: nothing collected, %s left as it was", c.root);
 	pr_remove_tree(c.stage);
 	pr_cleanup_clear_dir();
+	if (rc != PR_OK)
+		unstage_collect(&c, err);
 	manifest_free(&m);
 	return rc;
 }

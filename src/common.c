@@ -1,6 +1,7 @@
 /* common.c — status helpers shared by every module, one-line messages, and
  * the registry of temporary paths that a fatal signal removes. */
 #define _GNU_SOURCE /* syscall(SYS_getdents64): listing a folder inside a signal handler */
+#include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -8,7 +9,9 @@
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
@@ -21,6 +24,7 @@
 
 volatile sig_atomic_t pr_interrupted = 0;
 volatile sig_atomic_t pr_out_of_memory = 0;
+volatile sig_atomic_t pr_committed = 0;
 
 /* Length of the UTF-8 sequence at s (1..4) if it is valid and not a control
  * character, else 0. */
@@ -275,6 +279,26 @@ void pr_cleanup_release(const sigset_t *old)
 	pthread_sigmask(SIG_SETMASK, old, NULL);
 }
 
+int pr_cleanup_staged(const char *path)
+{
+	int k;
+
+	for (k = 0; k < nstaging; ++k) {
+		size_t n = strlen(staging_dir[k]);
+		if (n && strncmp(path, staging_dir[k], n) == 0 && (path[n] == '/' || path[n] == '\0'))
+			return 1;
+	}
+	return 0;
+}
+
+void pr_commit_end(const sigset_t *old, int rc, const char *target)
+{
+	/* set while the signals are still blocked: the handler sees it first */
+	if (rc == PR_OK && !pr_cleanup_staged(target))
+		pr_committed = 1;
+	pr_cleanup_release(old);
+}
+
 int pr_errno_status(void)
 {
 	return errno == ENOMEM ? PR_ENOMEM : PR_EIO;
@@ -283,4 +307,115 @@ int pr_errno_status(void)
 int pr_pid_gone(long pid)
 {
 	return pid > 0 && pid != (long)getpid() && kill((pid_t)pid, 0) != 0 && errno == ESRCH;
+}
+
+/* ---- who owns a staging folder or temporary file ---- */
+
+/* The PID /proc/self names: getpid() only when /proc is this namespace's. */
+static long proc_self_pid(void)
+{
+	char buf[32];
+	ssize_t n = readlink("/proc/self", buf, sizeof buf - 1);
+
+	if (n <= 0)
+		return -1;
+	buf[n] = '\0';
+	return strtol(buf, NULL, 10);
+}
+
+/* Field 22 of /proc/PID/stat (PID 0: self): the start time in clock ticks
+ * since boot; 0 when unknown. */
+static unsigned long long start_time(long pid)
+{
+	char path[64], buf[1024], *p;
+	unsigned long long t = 0;
+	ssize_t n;
+	int fd, i;
+
+	snprintf(path, sizeof path, pid ? "/proc/%ld/stat" : "/proc/self/stat", pid);
+	if ((fd = open(path, O_RDONLY | O_CLOEXEC)) < 0)
+		return 0;
+	n = read(fd, buf, sizeof buf - 1);
+	close(fd);
+	if (n <= 0)
+		return 0;
+	buf[n] = '\0';
+	/* the command name in parentheses may hold blanks: count from its end */
+	if (!(p = strrchr(buf, ')')))
+		return 0;
+	for (i = 2; i < 22 && p; ++i)
+		p = strchr(p + 1, ' ');
+	if (p)
+		t = strtoull(p + 1, NULL, 10);
+	return t;
+}
+
+/* This process's place: the first 12 hex digits of the boot id (one per
+ * boot of one machine) and the inode of its PID namespace. */
+static void where_am_i(char boot[13], unsigned long long *ns)
+{
+	char buf[64];
+	struct stat st;
+	ssize_t n;
+	int fd, i, k = 0;
+
+	memset(boot, '0', 12);
+	boot[12] = '\0';
+	if ((fd = open("/proc/sys/kernel/random/boot_id", O_RDONLY | O_CLOEXEC)) >= 0) {
+		n = read(fd, buf, sizeof buf - 1);
+		close(fd);
+		for (i = 0; i < n && k < 12; ++i)
+			if (isxdigit((unsigned char)buf[i]))
+				boot[k++] = (char)tolower((unsigned char)buf[i]);
+	}
+	*ns = stat("/proc/self/ns/pid", &st) == 0 ? (unsigned long long)st.st_ino : 0;
+}
+
+static char owner[96];
+static pthread_once_t owner_once = PTHREAD_ONCE_INIT;
+
+static void make_owner(void)
+{
+	char boot[13];
+	unsigned long long ns;
+
+	where_am_i(boot, &ns);
+	snprintf(owner, sizeof owner, "%ld-%llu-%llu-%s", (long)getpid(), start_time(0), ns, boot);
+}
+
+const char *pr_owner_tag(void)
+{
+	pthread_once(&owner_once, make_owner);
+	return owner;
+}
+
+int pr_owner_dead(const char *tag)
+{
+	char boot[13], *end;
+	unsigned long long ns, start, their_ns, now;
+	long pid;
+	size_t k;
+
+	where_am_i(boot, &ns);
+	errno = 0;
+	pid = strtol(tag, &end, 10);
+	if (end == tag || *end != '-' || pid <= 0 || errno)
+		return 0;
+	start = strtoull(end + 1, &end, 10);
+	if (*end != '-')
+		return 0;
+	their_ns = strtoull(end + 1, &end, 10);
+	if (*end != '-')
+		return 0;
+	++end;
+	k = strspn(end, "0123456789abcdef");
+	/* another machine, another boot or another PID namespace: its PID says nothing here */
+	if (k != 12 || (end[12] && end[12] != '-') || memcmp(end, boot, 12) != 0 ||
+	    strcmp(boot, "000000000000") == 0 || !ns || their_ns != ns)
+		return 0;
+	if (pr_pid_gone(pid))
+		return 1;
+	/* the PID lives again in another process (our /proc shows our namespace) */
+	now = pid == (long)getpid() ? 0 : start_time(pid);
+	return start && now && now != start && start_time(0) && (long)getpid() == proc_self_pid();
 }

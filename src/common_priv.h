@@ -33,6 +33,15 @@ void pr_cleanup_run(void);
 void pr_remove_tree(const char *dir);
 void pr_cleanup_hold(sigset_t *old);
 void pr_cleanup_release(const sigset_t *old);
+/* 1 if path lies inside a registered staging folder (not yet the user's). */
+int pr_cleanup_staged(const char *path);
+/* The commit point: the renames that put a command's outputs where the user
+ * asked (target: one of them) ran with the signals held; when they all
+ * succeeded and target is not inside a staging folder, pr_committed is set
+ * before the signals are released, so that a signal that arrived meanwhile
+ * no longer claims that nothing was written: the outputs are complete. */
+void pr_commit_end(const sigset_t *old, int rc, const char *target);
+extern volatile sig_atomic_t pr_committed;
 /* The fatal signals the CLI handles: SIGINT, SIGTERM, SIGHUP, SIGQUIT,
  * SIGPIPE, SIGXFSZ, SIGXCPU, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPOLL,
  * SIGPWR, SIGSTKFLT (every one whose default ends the process, but the
@@ -44,5 +53,15 @@ int pr_errno_status(void);
 /* 1 if process pid no longer exists (a staging folder or temporary file
  * named after it is left over from a killed run). */
 int pr_pid_gone(long pid);
+/* The owner tag that names this process's staging folders and temporary
+ * files: "PID-START-NS-BOOT", its PID, start time (clock ticks since boot),
+ * PID namespace inode and the first 12 hex digits of the machine's boot id. */
+const char *pr_owner_tag(void);
+/* 1 only if the process an owner tag (at the start of tag) names is provably
+ * gone: same boot of this machine, same PID namespace, and its PID no longer
+ * exists or now belongs to a process that started at another time. A tag of
+ * another node sharing the file system, another namespace or an older
+ * format is never dead: what it names is left alone. */
+int pr_owner_dead(const char *tag);
 
 #endif

@@ -603,13 +603,18 @@ static char *read_line(char *str, int num, void *stream)
 	if (len == 0)
 		return NULL;
 	L->line++;
-	if (len >= (size_t)num - 1 || (ch != '\n' && ch != EOF)) {
+	/* the limit counts the bytes before the line end ("\n" or "\r\n") */
+	if (len && L->buf[len - 1] == '\n')
+		L->buf[--len] = '\0';
+	if (len && L->buf[len - 1] == '\r')
+		L->buf[--len] = '\0';
+	if (len > (size_t)num - 2 || (ch != '\n' && ch != EOF)) {
 		L->status = pr_err(L->err, PR_EINVAL, "%s:%ld: line longer than %d bytes",
 		                   L->path, L->line, num - 2);
 		return NULL;
 	}
 	/* binary junk, and a control character would break the one-line message */
-	for (s = L->buf; *s && strcmp(s, "\n") != 0 && strcmp(s, "\r\n") != 0 && strcmp(s, "\r") != 0; ++s) {
+	for (s = L->buf; *s; ++s) {
 		if (((unsigned char)*s < 0x20 && *s != '\t') || *s == 0x7f) {
 			L->status = pr_err(L->err, PR_EINVAL, "%s:%ld: control character 0x%02x in parameter file",
 			                   L->path, L->line, (unsigned)(unsigned char)*s);
@@ -629,6 +634,13 @@ static char *read_line(char *str, int num, void *stream)
 			}
 			memcpy(name, s + 1, n);
 			name[n] = '\0';
+			/* after the ']' only blanks and a ';' comment: junk is not dropped silently */
+			e = trim(e + 1);
+			if (*e && *e != ';') {
+				L->status = pr_err(L->err, PR_EINVAL, "%s:%ld: [%s]: unexpected text after the ']'",
+				                   L->path, L->line, trim(name));
+				return NULL;
+			}
 			if (!known_section(L->c, trim(name))) {
 				L->status = pr_err(L->err, PR_EINVAL, "%s:%ld: [%s]: unknown section",
 				                   L->path, L->line, trim(name));
@@ -637,6 +649,8 @@ static char *read_line(char *str, int num, void *stream)
 		}
 	}
 	memcpy(str, L->buf, len + 1);
+	str[len] = '\n';
+	str[len + 1] = '\0';
 	return str;
 }
 

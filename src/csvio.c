@@ -210,31 +210,58 @@ static void on_field(void *s, size_t len, void *data)
 	r->text[r->len++] = '\0';
 }
 
+/* FNV-1a: the hash of the duplicate-name set. */
+static size_t name_hash(const char *s)
+{
+	size_t h = 2166136261u;
+
+	for (; *s; ++s)
+		h = (h ^ (unsigned char)*s) * 16777619u;
+	return h;
+}
+
+/* Insert index j (name names[j]) into the open-addressing set slot[mask + 1]
+ * (-1: empty); the index of an equal name already there, else -1. */
+static int name_set_add(int *slot, size_t mask, char *const *names, int j)
+{
+	size_t h = name_hash(names[j]) & mask;
+
+	for (; slot[h] >= 0; h = (h + 1) & mask)
+		if (strcmp(names[slot[h]], names[j]) == 0)
+			return slot[h];
+	slot[h] = j;
+	return -1;
+}
+
 /* Header names: trailing blanks trimmed, non-empty, no control character,
- * no name twice. */
+ * no name twice (a hash set: linear in the number of columns). */
 static int check_header(scanner *r)
 {
-	int j, k;
+	size_t cap = 16;
+	int *slot, j, k, rc = PR_OK;
 
-	for (j = 0; j < r->nfield; ++j) {
+	while (cap < 2 * (size_t)r->nfield)
+		cap *= 2;
+	if (!(slot = malloc(cap * sizeof *slot)))
+		return pr_err(r->err, PR_ENOMEM, "out of memory");
+	memset(slot, 0xff, cap * sizeof *slot);
+	for (j = 0; j < r->nfield && rc == PR_OK; ++j) {
 		char *h = r->ptr[j];
 		size_t n = strlen(h);
 
 		while (n && (h[n - 1] == ' ' || h[n - 1] == '\t' || h[n - 1] == '\r'))
 			h[--n] = '\0';
 		if (!n)
-			return pr_err(r->err, PR_EIO, "%s:%ld: header column %d is empty",
-			              r->path, r->line, j + 1);
-		for (k = 0; h[k]; ++k)
+			rc = pr_err(r->err, PR_EIO, "%s:%ld: header column %d is empty", r->path, r->line, j + 1);
+		for (k = 0; rc == PR_OK && h[k]; ++k)
 			if ((unsigned char)h[k] < 0x20 || h[k] == 0x7f)
-				return pr_err(r->err, PR_EIO, "%s:%ld: header column %d contains a control character",
-				              r->path, r->line, j + 1);
-		for (k = 0; k < j; ++k)
-			if (strcmp(r->ptr[k], h) == 0)
-				return pr_err(r->err, PR_EIO, "%s:%ld: header column '%s' appears twice",
-				              r->path, r->line, h);
+				rc = pr_err(r->err, PR_EIO, "%s:%ld: header column %d contains a control character",
+				            r->path, r->line, j + 1);
+		if (rc == PR_OK && name_set_add(slot, cap - 1, r->ptr, j) >= 0)
+			rc = pr_err(r->err, PR_EIO, "%s:%ld: header column '%s' appears twice", r->path, r->line, h);
 	}
-	return PR_OK;
+	free(slot);
+	return rc;
 }
 
 static void on_record(int c, void *data)
@@ -418,61 +445,67 @@ int pr_csv_read(const char *path, pr_csv **out, char *err)
 }
 
 /* Append column j to cols[*n]: a column selected twice would give an output
- * with two columns of one name (or a feature twice). */
+ * with two columns of one name (or a feature twice). taken[j]: selected. */
 static int select_one(const pr_csv *t, const char *list, int *cols, int *n, int maxcols, int j,
-                      char *err)
+                      char *taken, char *err)
 {
-	int i;
-
-	for (i = 0; i < *n; ++i)
-		if (cols[i] == j)
-			return pr_err(err, PR_EINVAL, "%s: column '%s' selected twice by '%s'", pr_csv_path(t),
-			              t->names[j], list);
+	if (taken[j])
+		return pr_err(err, PR_EINVAL, "%s: column '%s' selected twice by '%s'", pr_csv_path(t),
+		              t->names[j], list);
 	if (*n >= maxcols)
 		return pr_err(err, PR_EINVAL, "%s: more than %d columns selected", pr_csv_path(t), maxcols);
+	taken[j] = 1;
 	cols[(*n)++] = j;
 	return PR_OK;
 }
 
+/* One name or prefix* of a column list into cols. */
+static int select_name(const pr_csv *t, const char *list, const char *name, size_t len, int *cols,
+                       int *n, int maxcols, char *taken, char *err)
+{
+	int j, rc, found = 0;
+
+	if (name[len - 1] != '*') {
+		if ((j = pr_csv_find(t, name)) < 0)
+			return pr_err(err, PR_EINVAL, "%s: no column '%s'", pr_csv_path(t), name);
+		return select_one(t, list, cols, n, maxcols, j, taken, err);
+	}
+	for (j = 0; j < t->ncols; ++j)
+		if (strncmp(t->names[j], name, len - 1) == 0) {
+			if ((rc = select_one(t, list, cols, n, maxcols, j, taken, err)))
+				return rc;
+			found = 1;
+		}
+	return found ? PR_OK : pr_err(err, PR_EINVAL, "%s: no column matches '%s'", pr_csv_path(t), name);
+}
+
 int pr_csv_select(const pr_csv *t, const char *list, int *cols, int maxcols, char *err)
 {
-	char name[256];
+	char name[256], *taken;
 	const char *p = list, *q;
-	int n = 0, j, rc;
+	int n = 0, rc = PR_OK;
 	size_t len;
 
 	if (!list || !*list)
 		return pr_err(err, PR_EINVAL, "%s: empty column list", pr_csv_path(t));
-	while (*p) {
+	if (!(taken = calloc((size_t)t->ncols + 1, 1)))
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	while (*p && rc == PR_OK) {
 		q = strchr(p, ',');
 		len = q ? (size_t)(q - p) : strlen(p);
-		if (len == 0 || len >= sizeof name)
-			return pr_err(err, PR_EINVAL, "%s: bad column list '%s'", pr_csv_path(t), list);
+		if (len == 0 || len >= sizeof name) {
+			rc = pr_err(err, PR_EINVAL, "%s: bad column list '%s'", pr_csv_path(t), list);
+			break;
+		}
 		memcpy(name, p, len);
 		name[len] = '\0';
-		if (name[len - 1] == '*') {
-			int found = 0;
-			for (j = 0; j < t->ncols; ++j) {
-				if (strncmp(t->names[j], name, len - 1) == 0) {
-					if ((rc = select_one(t, list, cols, &n, maxcols, j, err)))
-						return rc;
-					found = 1;
-				}
-			}
-			if (!found)
-				return pr_err(err, PR_EINVAL, "%s: no column matches '%s'", pr_csv_path(t), name);
-		} else {
-			j = pr_csv_find(t, name);
-			if (j < 0)
-				return pr_err(err, PR_EINVAL, "%s: no column '%s'", pr_csv_path(t), name);
-			if ((rc = select_one(t, list, cols, &n, maxcols, j, err)))
-				return rc;
-		}
+		rc = select_name(t, list, name, len, cols, &n, maxcols, taken, err);
 		p += len;
 		if (*p == ',')
 			++p;
 	}
-	return n;
+	free(taken);
+	return rc == PR_OK ? n : rc;
 }
 
 /* ---- writer ---- */
@@ -577,8 +610,8 @@ static char *folder_of(const char *path)
 	return strndup(path, (size_t)(slash - path));
 }
 
-/* Remove temporary files in folder left by processes that no longer exist
- * (killed with SIGKILL): their names hold the PID. */
+/* Remove temporary files in folder left by processes provably gone (killed
+ * with SIGKILL): their names hold the owner tag (pr_owner_dead). */
 static void sweep_stale(const char *folder)
 {
 	DIR *d = opendir(folder);
@@ -586,19 +619,14 @@ static void sweep_stale(const char *folder)
 
 	if (!d)
 		return;
-	while ((e = readdir(d))) {
-		char *end;
-		long pid;
-		if (strncmp(e->d_name, TMP_PREFIX, strlen(TMP_PREFIX)) != 0)
-			continue;
-		pid = strtol(e->d_name + strlen(TMP_PREFIX), &end, 10);
-		if (*end == '-' && pr_pid_gone(pid))
+	while ((e = readdir(d)))
+		if (strncmp(e->d_name, TMP_PREFIX, strlen(TMP_PREFIX)) == 0 &&
+		    pr_owner_dead(e->d_name + strlen(TMP_PREFIX)))
 			unlinkat(dirfd(d), e->d_name, 0);
-	}
 	closedir(d);
 }
 
-/* A new, registered file in folder named TMP_PREFIX<pid>-<n>, opened for
+/* A new, registered file in folder named TMP_PREFIX<owner tag>-<n>, opened for
  * writing with mode 0666 less the umask; fd, or -1 with errno set. */
 static int make_temp(const char *folder, char **name)
 {
@@ -607,12 +635,12 @@ static int make_temp(const char *folder, char **name)
 
 	for (;;) {
 		long k = atomic_fetch_add(&seq, 1);
-		*name = malloc(strlen(folder) + 64);
+		*name = malloc(strlen(folder) + 160);
 		if (!*name) {
 			errno = ENOMEM;
 			return -1;
 		}
-		sprintf(*name, "%s/%s%ld-%ld", folder, TMP_PREFIX, (long)getpid(), k);
+		sprintf(*name, "%s/%s%s-%ld", folder, TMP_PREFIX, pr_owner_tag(), k);
 		pr_cleanup_add_file(*name);
 		fd = open(*name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
 		if (fd >= 0)
@@ -871,8 +899,10 @@ void pr_csvw_abort(pr_csvw *w)
 int pr_csvw_close(pr_csvw *w, char *err)
 {
 	int rc = finish(w, err);
+	sigset_t old;
 
 	if (rc == PR_OK && w->kind == W_FILE) {
+		pr_cleanup_hold(&old);
 		if (rename(w->tmp, w->target) != 0) {
 			rc = pr_err(err, pr_errno_status(), "%s: cannot rename into place: %s", w->shown, strerror(errno));
 		} else {
@@ -880,6 +910,7 @@ int pr_csvw_close(pr_csvw *w, char *err)
 			free(w->tmp);
 			w->tmp = NULL;
 		}
+		pr_commit_end(&old, rc, w->target);
 	}
 	writer_fail(w);
 	return rc;
@@ -995,7 +1026,8 @@ static int rename_all(pr_outset *s, char *err)
 		if (w->kind != W_FILE)
 			continue;
 		if (rename(w->tmp, w->target) != 0) {
-			rc = pr_err(err, pr_errno_status(), "%s: cannot rename into place: %s", w->shown, strerror(errno));
+			rc = pr_err(err, pr_errno_status(), "%s: cannot rename into place: %s; every output left as it was",
+			            w->shown, strerror(errno));
 			for (u = s->first; u != w; u = u->next) {
 				if (u->kind != W_FILE)
 					continue;
@@ -1036,9 +1068,15 @@ int pr_outset_commit(pr_outset *s, int rc, char *err)
 			rc = r;
 	}
 	if (rc == PR_OK) {
+		const char *target = "";
+		for (w = s->first; w; w = w->next)
+			if (w->kind == W_FILE) {
+				target = w->target;
+				break;
+			}
 		pr_cleanup_hold(&old);
 		rc = rename_all(s, err);
-		pr_cleanup_release(&old);
+		pr_commit_end(&old, rc, target);
 	}
 	free_set(s, rc != PR_OK);
 	return rc;

@@ -238,28 +238,67 @@ static void say_now(const char *s)
 	(void)rc;
 }
 
-static void on_signal(int sig)
+static const char *signal_name(int sig)
 {
 	static const struct { int sig; const char *name; } names[] = {
 		{SIGINT, "SIGINT"}, {SIGTERM, "SIGTERM"}, {SIGHUP, "SIGHUP"}, {SIGQUIT, "SIGQUIT"},
 		{SIGPIPE, "SIGPIPE"}, {SIGXFSZ, "SIGXFSZ"}, {SIGXCPU, "SIGXCPU"}, {SIGUSR1, "SIGUSR1"},
 		{SIGUSR2, "SIGUSR2"}, {SIGALRM, "SIGALRM"}, {SIGVTALRM, "SIGVTALRM"}};
 	size_t i;
-	int named = 0;
 
-	if (graceful && !pr_interrupted) {
+	for (i = 0; i < sizeof names / sizeof names[0]; ++i)
+		if (names[i].sig == sig)
+			return names[i].name;
+	return "a signal";
+}
+
+/* The grace the loops of a run, merge, sweep or collect get to stop after
+ * the first signal: they check pr_interrupted between steps, but one step
+ * (a large factorisation inside GSL) can take minutes, and a batch system
+ * kills 30 s after SIGTERM. When it runs out, the handler cleans up and
+ * exits itself: the signal is honoured within a second. */
+#define STOP_GRACE_NS 400000000L
+static timer_t stop_timer;
+static volatile sig_atomic_t have_timer, deadline_armed;
+
+static void arm_deadline(void)
+{
+	struct itimerspec its = {{0, 0}, {0, STOP_GRACE_NS}};
+
+	if (have_timer && timer_settime(stop_timer, 0, &its, NULL) == 0)
+		deadline_armed = 1;
+}
+
+/* The timer of the grace period, made before any signal can need it. */
+static void make_stop_timer(void)
+{
+	struct sigevent sev;
+
+	memset(&sev, 0, sizeof sev);
+	sev.sigev_notify = SIGEV_SIGNAL;
+	sev.sigev_signo = SIGALRM;
+	have_timer = timer_create(CLOCK_MONOTONIC, &sev, &stop_timer) == 0;
+}
+
+static void on_signal(int sig)
+{
+	/* the grace of the first signal ran out: act on it now */
+	if (sig == SIGALRM && deadline_armed && pr_interrupted) {
+		sig = (int)pr_interrupted;
+	} else if ((graceful || pr_committed) && !pr_interrupted) {
+		/* the outputs are in place: the command ends as it is, successfully,
+		 * rather than claiming that it left everything as it was */
 		pr_interrupted = sig;
+		if (!pr_committed)
+			arm_deadline();
 		return;
 	}
 	pr_cleanup_run();
 	say_now("poolreps: interrupted by ");
-	for (i = 0; i < sizeof names / sizeof names[0]; ++i)
-		if (names[i].sig == sig)
-			say_now(names[i].name), named = 1;
-	if (!named)
-		say_now("a signal");
-	say_now(": partial output files removed, existing files left as they were\n");
-	_exit(128 + sig);
+	say_now(signal_name(sig));
+	say_now(pr_committed ? ": the outputs were already complete and are kept\n"
+	                     : ": partial output files removed, existing files left as they were\n");
+	_exit(pr_committed ? 0 : 128 + sig);
 }
 
 /* Progress on stderr: a bar with ETA on a terminal, else (--progress) a plain
@@ -539,6 +578,8 @@ int main(int argc, char **argv)
 	a.command = cmd->name;
 	graceful = cmd->fn == pr_cmd_run || cmd->fn == pr_cmd_merge || cmd->fn == pr_cmd_sweep ||
 	           cmd->fn == pr_cmd_collect;
+	if (graceful)
+		make_stop_timer();
 	memset(&prog, 0, sizeof prog);
 	prog.tty = isatty(STDERR_FILENO);
 	/* plain lines only when asked: a failure must stay one stderr line */
@@ -602,9 +643,13 @@ int main(int argc, char **argv)
 		fprintf(stderr, "poolreps: %s\n", err);
 		return pr_exit_code(rc);
 	}
-	if (!a.quiet && note[0])
+	/* a signal after the commit point: the outputs are complete (exit 0) */
+	if (pr_interrupted && pr_committed)
+		fprintf(stderr, "poolreps: %s arrived after the outputs were complete: they are kept\n",
+		        signal_name((int)pr_interrupted));
+	else if (!a.quiet && note[0])
 		fprintf(stderr, "poolreps: %s\n", note);
-	if (cmd->fn == pr_cmd_run && !a.quiet)
+	if (cmd->fn == pr_cmd_run && !a.quiet && !pr_interrupted)
 		print_done(&t0, c0);
 	return 0;
 }

@@ -1,5 +1,5 @@
 /* outdir.c — an output folder written all or nothing: everything a run,
- * merge or sweep writes goes first into a staging folder DIR/.partial-PID
+ * merge or sweep writes goes first into a staging folder DIR/.partial-TAG
  * and is moved into DIR only when the whole command succeeded (publish), so
  * a failed or interrupted command leaves no partial CSV behind and the
  * previous run in DIR untouched. provenance.txt lists the files a run owns;
@@ -73,9 +73,10 @@ static int mkdir_p(const char *dir, size_t *keep, char *err)
 	return rc;
 }
 
-/* Leftovers of runs killed with SIGKILL, whose PID no longer exists: their
- * staging folders .partial-PID and temporary files .poolreps-tmp-PID-N. A
- * run still alive (writing into the same folder) keeps its own. */
+/* Leftovers of runs killed with SIGKILL, provably gone (pr_owner_dead):
+ * their staging folders .partial-TAG and temporary files
+ * .poolreps-tmp-TAG-N. A run still alive (writing into the same folder, on
+ * this node or another) keeps its own. */
 void pr_outdir_sweep_stale(const char *dir)
 {
 	DIR *d = opendir(dir);
@@ -86,16 +87,11 @@ void pr_outdir_sweep_stale(const char *dir)
 		return;
 	while ((e = readdir(d))) {
 		const char *p = NULL;
-		char *end;
-		long pid;
 		if (strncmp(e->d_name, ".partial-", 9) == 0)
 			p = e->d_name + 9;
 		else if (strncmp(e->d_name, ".poolreps-tmp-", 14) == 0)
 			p = e->d_name + 14;
-		if (!p)
-			continue;
-		pid = strtol(p, &end, 10);
-		if (end == p || (*end && *end != '-') || !pr_pid_gone(pid))
+		if (!p || !pr_owner_dead(p))
 			continue;
 		if (snprintf(path, sizeof path, "%s/%s", dir, e->d_name) >= (int)sizeof path)
 			continue;
@@ -165,38 +161,167 @@ int pr_outdir_list(const char *dir, pr_names *out, char *err)
 	return PR_OK;
 }
 
-/* The files an earlier run in dir wrote: the "files:" line of its
- * provenance.txt. Nothing when dir holds no poolreps run. */
-static int earlier_run(const char *dir, pr_names *out)
+/* The keys of provenance.txt, in the order provenance_text writes them. */
+static const char *const prov_keys[] = {"version", "command", "experiment", "seed", "repetition",
+                                        "parameter_file", "host", "finished", "wall_seconds",
+                                        "cpu_seconds", "peak_memory_mib", "files", NULL};
+
+/* The names of the experiments' CSVs (src/exp*.c) start with one of these. */
+static const char *const csv_prefixes[] = {"exp1_", "exp2_", "exp3_", "exp4_", "bench_", "fig7_", NULL};
+static const char *const fixed_names[] = {"config.ini", "provenance.txt", "jobs.txt", "slurm.sbatch",
+                                          "parallel.sh", "sweep_summary.csv", NULL};
+
+/* 1 if poolreps could have written name into a run or sweep folder: a plain
+ * name (letters, digits, '_', '-', '.'; no '/', not starting with '.'),
+ * one of the fixed names or an experiment's CSV. */
+int pr_outdir_own_name(const char *name, size_t k)
 {
+	int i;
+
+	if (!k || name[0] == '.' || strspn(name, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+	                                        "0123456789_-.") < k)
+		return 0;
+	for (i = 0; fixed_names[i]; ++i)
+		if (strlen(fixed_names[i]) == k && memcmp(name, fixed_names[i], k) == 0)
+			return 1;
+	for (i = 0; csv_prefixes[i]; ++i) {
+		size_t n = strlen(csv_prefixes[i]);
+		if (k > n + 4 && memcmp(name, csv_prefixes[i], n) == 0 && memcmp(name + k - 4, ".csv", 4) == 0)
+			return 1;
+	}
+	return 0;
+}
+
+/* One line of fp into line (at most n - 1 bytes kept, the rest read and
+ * checked): 0 at the end of the file, -1 for a control character or a
+ * missing line end, else 1. */
+static int prov_line(FILE *fp, char *line, size_t n)
+{
+	size_t k = 0;
+	int c;
+
+	while ((c = getc(fp)) != EOF && c != '\n') {
+		if ((unsigned char)c < 0x20 || c == 0x7f)
+			return -1;
+		if (k + 1 < n)
+			line[k++] = (char)c;
+	}
+	line[k] = '\0';
+	if (c == EOF)
+		return k ? -1 : 0;
+	return 1;
+}
+
+/* The files of the "files:" line of a provenance record, every name one
+ * poolreps could have written. */
+static int prov_files(const char *p, pr_names *out)
+{
+	while (*p) {
+		size_t k;
+		p += strspn(p, " ");
+		k = strcspn(p, " ");
+		if (k && !pr_outdir_own_name(p, k))
+			return PR_EINVAL;
+		if (k && pr_names_add(out, p, k))
+			return PR_ENOMEM;
+		p += k;
+	}
+	return PR_OK;
+}
+
+/* See outdir.h. */
+int pr_outdir_earlier_run(const char *dir, pr_names *out, char *err)
+{
+	enum { FILES = 11 };
 	char path[PR_PATHLEN + 16], line[1 << 16];
+	const char *why = NULL;
 	struct stat st;
 	FILE *fp;
-	int rc = PR_OK, n = 0;
+	int rc = PR_OK, n = 1, key = 0, r;
 
 	snprintf(path, sizeof path, "%s/provenance.txt", dir);
 	/* a fixed buffer, and only a regular file: never a FIFO or /dev/zero */
 	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode) || !(fp = fopen(path, "r")))
 		return PR_OK;
-	while (rc == PR_OK && n++ < 64 && fgets(line, sizeof line, fp)) {
-		const char *p;
-		if (n == 1 && strncmp(line, "version: ", 9) != 0)
+	if (prov_line(fp, line, sizeof line) <= 0 || strncmp(line, "version: ", 9) != 0) {
+		fclose(fp);
+		return PR_OK;
+	}
+	while (!why && key != FILES) {
+		const char *colon;
+		int i;
+		++n;
+		if ((r = prov_line(fp, line, sizeof line)) <= 0) {
+			why = r < 0 ? "a control character or an unfinished line" : "no files: line";
 			break;
-		if (strncmp(line, "files:", 6) != 0)
-			continue;
-		for (p = line + 6; *p && rc == PR_OK;) {
-			size_t k;
-			p += strspn(p, " \n");
-			k = strcspn(p, " \n");
-			/* only plain pr_names in dir itself */
-			if (k && *p != '.' && !memchr(p, '/', k))
-				rc = pr_names_add(out, p, k);
-			p += k;
 		}
-		break;
+		colon = strchr(line, ':');
+		for (i = key + 1; colon && prov_keys[i]; ++i)
+			if ((size_t)(colon - line) == strlen(prov_keys[i]) && !strncmp(line, prov_keys[i], strlen(prov_keys[i])))
+				break;
+		if (!colon || !prov_keys[i])
+			why = "an unknown, repeated or misplaced key";
+		else if ((key = i) == FILES && (rc = prov_files(colon + 1, out)) != PR_OK)
+			why = "a file name poolreps does not write";
+	}
+	if (!why && prov_line(fp, line, sizeof line) != 0) {
+		why = "more after the files: line";
+		++n;
 	}
 	fclose(fp);
-	return rc;
+	if (rc == PR_ENOMEM)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	if (why) {
+		pr_names_free(out);
+		return pr_err(err, PR_EIO, "%s:%d: not a provenance record poolreps writes (%s): "
+		              "move it away to run into %s", path, n, why, dir);
+	}
+	return PR_OK;
+}
+
+/* A run folder is published by renames inside it: a file there that is a
+ * symbolic link would be replaced by a regular file (the link broken, its
+ * target left stale), and a target in another folder or on another file
+ * system escapes the all-or-nothing moves and their put-back. */
+static int refuse_link(const char *path, char *err)
+{
+	return pr_err(err, PR_EIO, "%s: is a symbolic link: a run folder's files are not written through "
+	              "links (remove the link, or write the run elsewhere and link to it)", path);
+}
+
+/* An exclusive lock on folder dir, waited for: flock on the folder itself;
+ * where folders cannot be locked (NFS emulates flock with byte-range locks,
+ * which need a file open for writing), an fcntl lock on DIR/.poolreps.lock,
+ * created once and kept (removing it would let two processes lock two
+ * files). The descriptor to close, or -1 with errno set. */
+static int lock_dir(const char *dir)
+{
+	char path[PR_PATHLEN + 32];
+	struct flock fl;
+	int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC), e;
+
+	if (fd < 0)
+		return -1;
+	if (flock(fd, LOCK_EX) == 0)
+		return fd;
+	e = errno;
+	close(fd);
+	if (e != EBADF && e != ENOLCK && e != EOPNOTSUPP && e != EINVAL) {
+		errno = e;
+		return -1;
+	}
+	snprintf(path, sizeof path, "%s/.poolreps.lock", dir);
+	if ((fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0666)) < 0)
+		return -1;
+	memset(&fl, 0, sizeof fl);
+	fl.l_type = F_WRLCK;
+	fl.l_whence = SEEK_SET;
+	if (fcntl(fd, F_SETLKW, &fl) == 0)
+		return fd;
+	e = errno;
+	close(fd);
+	errno = e;
+	return -1;
 }
 
 /* Put back what the renames of sets [0, s] moved, the files of set s
@@ -233,16 +358,20 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 	for (s = 0; s < n && rc == PR_OK; ++s) {
 		if ((rc = pr_outdir_list(p[s].staging, &p[s].now, err)))
 			break;
-		if (p[s].lock && ((p[s].fd = open(p[s].dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC)) < 0 ||
-		                  flock(p[s].fd, LOCK_EX) != 0))
+		if (p[s].lock && (p[s].fd = lock_dir(p[s].dir)) < 0)
 			rc = pr_err(err, pr_errno_status(), "%s: cannot lock folder: %s", p[s].dir, strerror(errno));
-		else if ((p[s].owns && earlier_run(p[s].dir, &p[s].old)) ||
-		         !(p[s].had = calloc((size_t)p[s].now.n + 1, 1)))
+		else if (p[s].owns && (rc = pr_outdir_earlier_run(p[s].dir, &p[s].old, err)))
+			break;
+		else if (!(p[s].had = calloc((size_t)p[s].now.n + 1, 1)))
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
 	}
 	if (rc == PR_OK) {
 		pr_cleanup_hold(&mask);
 		held = 1;
+		/* a signal while waiting for the lock: nothing has moved yet */
+		if (pr_interrupted)
+			rc = pr_err(err, PR_EINTR, "interrupted (signal %d) before publishing: %s left as it was",
+			            (int)pr_interrupted, p[0].dir);
 	}
 	for (s = 0; s < n && rc == PR_OK; ++s)
 		for (i = 0; i < p[s].now.n && rc == PR_OK; ++i) {
@@ -253,6 +382,8 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 				continue;
 			if (S_ISDIR(st.st_mode))
 				rc = pr_err(err, PR_EIO, "%s: is a folder: cannot replace it with the run's file", to);
+			else if (S_ISLNK(st.st_mode))
+				rc = refuse_link(to, err);
 			/* like any output: a file the (non-root) user may not write stays */
 			else if (S_ISREG(st.st_mode) && faccessat(AT_FDCWD, to, W_OK, AT_EACCESS) != 0)
 				rc = pr_err(err, pr_errno_status(), "%s: cannot write: %s", to, strerror(errno));
@@ -272,17 +403,18 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 			snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].now.name[i]);
 			if (rename(from, to) == 0)
 				continue;
-			rc = pr_err(err, pr_errno_status(), "%s: cannot move into place: %s", to, strerror(errno));
+			rc = pr_err(err, pr_errno_status(), "%s: cannot move into place: %s; every file left as it was",
+			            to, strerror(errno));
 			put_back(p, s, i);
 		}
 	for (s = 0; s < n && rc == PR_OK; ++s)
 		for (i = 0; i < p[s].old.n; ++i)
 			if (!pr_names_has(&p[s].now, p[s].old.name[i]) &&
 			    snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].old.name[i]) < (int)sizeof to &&
-			    lstat(to, &st) == 0 && !S_ISDIR(st.st_mode))
+			    lstat(to, &st) == 0 && S_ISREG(st.st_mode))
 				unlink(to);
 	if (held)
-		pr_cleanup_release(&mask);
+		pr_commit_end(&mask, rc, p[0].dir);
 	for (s = 0; s < n; ++s) {
 		if (p[s].fd >= 0)
 			close(p[s].fd);
@@ -336,7 +468,16 @@ int pr_outdir_write_config(const pr_config *cfg, const char *dir, char *err)
 	return pr_outdir_write_text(path, config_file_text, cfg, err);
 }
 
-void pr_outdir_shell_word(FILE *fp, const char *arg)
+/* A control character as \xHH: a record keeps one line per key. */
+static void put_escaped(FILE *fp, int c, int escape)
+{
+	if (escape && ((unsigned char)c < 0x20 || c == 0x7f))
+		fprintf(fp, "\\x%02x", (unsigned char)c);
+	else
+		fputc(c, fp);
+}
+
+static void shell_word(FILE *fp, const char *arg, int escape)
 {
 	const char *c;
 
@@ -350,9 +491,20 @@ void pr_outdir_shell_word(FILE *fp, const char *arg)
 		if (*c == '\'')
 			fputs("'\\''", fp);
 		else
-			fputc(*c, fp);
+			put_escaped(fp, *c, escape);
 	}
 	fputc('\'', fp);
+}
+
+void pr_outdir_shell_word(FILE *fp, const char *arg)
+{
+	shell_word(fp, arg, 0);
+}
+
+static void put_record(FILE *fp, const char *s)
+{
+	for (; *s; ++s)
+		put_escaped(fp, *s, 1);
 }
 
 typedef struct {
@@ -376,17 +528,19 @@ static void provenance_text(FILE *fp, const void *arg)
 	getrusage(RUSAGE_SELF, &ru);
 	fprintf(fp, "version: %s\n", pr_version());
 	fprintf(fp, "command:");
+	/* control characters escaped: an argument never starts a line of its own */
 	for (i = 0; i < p->a->argc; ++i) {
 		fputc(' ', fp);
-		pr_outdir_shell_word(fp, p->a->argv[i]);
+		shell_word(fp, p->a->argv[i], 1);
 	}
-	fprintf(fp, "\nexperiment: %s\nseed: %lu\nrepetition: %d\nparameter_file: %s\n",
-	        p->cfg->run.name, p->cfg->run.seed, p->cfg->run.repetition,
-	        p->cfg->source[0] ? p->cfg->source : "(none)");
+	fprintf(fp, "\nexperiment: %s\nseed: %lu\nrepetition: %d\nparameter_file: ",
+	        p->cfg->run.name, p->cfg->run.seed, p->cfg->run.repetition);
+	put_record(fp, p->cfg->source[0] ? p->cfg->source : "(none)");
+	fputs("\nhost: ", fp);
+	put_record(fp, host);
 	if (uname(&un) == 0)
-		fprintf(fp, "host: %s (%s %s %s)\n", host, un.sysname, un.release, un.machine);
-	else
-		fprintf(fp, "host: %s\n", host);
+		fprintf(fp, " (%s %s %s)", un.sysname, un.release, un.machine);
+	fputc('\n', fp);
 	fprintf(fp, "finished: %s\nwall_seconds: %.3f\ncpu_seconds: %.3f\npeak_memory_mib: %.1f\n",
 	        when, p->wall,
 	        (double)ru.ru_utime.tv_sec + 1e-6 * (double)ru.ru_utime.tv_usec +
@@ -423,8 +577,7 @@ static double seconds_since(const struct timespec *t0)
 	return (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec);
 }
 
-/* Messages name the file where it was going to be, not the staging folder. */
-static void unstage(char *err, const char *staging, const char *dir)
+void pr_outdir_unstage(char *err, const char *staging, const char *dir)
 {
 	char out[PR_ERRLEN], *p;
 	size_t n = strlen(staging);
@@ -441,16 +594,31 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 {
 	char staging[PR_PATHLEN];
 	struct timespec t0;
+	pr_names old = {NULL, 0};
 	size_t keep;
-	int rc;
+	int rc, i, published = 0;
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
 	if ((rc = mkdir_p(dir, &keep, err)))
 		return rc;
-	if (snprintf(staging, sizeof staging, "%s/.partial-%ld", dir, (long)getpid()) >= (int)sizeof staging)
+	if (snprintf(staging, sizeof staging, "%s/.partial-%s", dir, pr_owner_tag()) >= (int)sizeof staging)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
 	pr_outdir_sweep_stale(dir);
 	pr_remove_tree(staging);
+	/* a record poolreps did not write is refused before any work */
+	rc = pr_outdir_earlier_run(dir, &old, err);
+	for (i = 0; rc == PR_OK && i < old.n; ++i) {
+		struct stat st;
+		char path[2 * PR_PATHLEN];
+		snprintf(path, sizeof path, "%s/%s", dir, old.name[i]);
+		if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode))
+			rc = refuse_link(path, err);
+	}
+	pr_names_free(&old);
+	if (rc != PR_OK) {
+		remove_created(dir, keep);
+		return rc;
+	}
 	if (mkdir(staging, 0777) != 0) {
 		rc = pr_err(err, pr_errno_status(), "%s: cannot write into the folder: %s", dir, strerror(errno));
 		remove_created(dir, keep);
@@ -465,15 +633,17 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 	if (rc == PR_OK && !pr_interrupted) {
 		pr_outdir_pub pub = {staging, dir, 1, 1, {NULL, 0}, {NULL, 0}, NULL, -1};
 		rc = pr_outdir_publish(&pub, 1, err);
+		published = rc == PR_OK;
 	}
 	pr_remove_tree(staging);
 	pr_cleanup_clear_dir();
-	if (rc == PR_OK && !pr_interrupted)
-		return PR_OK;
+	/* published: the run is complete, whatever signal came during the moves */
+	if (published || (rc == PR_OK && !pr_interrupted))
+		return rc;
 	/* a failed run leaves no trace: drop the folders it made (if empty) */
 	remove_created(dir, keep);
 	if (rc != PR_OK)
-		unstage(err, staging, dir);
+		pr_outdir_unstage(err, staging, dir);
 	/* after a signal every failure is its echo (a fit cut short may report
 	 * itself as a numerical failure): say what the user is left with */
 	if (pr_interrupted)

@@ -19,6 +19,17 @@ void pr_names_free(pr_names *l);
 int pr_names_add(pr_names *l, const char *name, size_t len);
 int pr_names_has(const pr_names *l, const char *name);
 
+/* 1 if the k bytes at name are a plain file name poolreps writes into a run
+ * or sweep folder (config.ini, provenance.txt, the sweep's files, an
+ * experiment's CSV): the only names a later run removes. */
+int pr_outdir_own_name(const char *name, size_t k);
+/* The files an earlier run in dir wrote: the "files:" line of its
+ * provenance.txt, read strictly (the keys poolreps writes, in its order,
+ * each once, "files:" last, no control character). Nothing when dir holds
+ * no poolreps run (no provenance.txt, not a regular file, or a first line
+ * that is not "version: "); a record that starts like one and then departs
+ * from it is refused (exit 2): it was not written by poolreps. */
+int pr_outdir_earlier_run(const char *dir, pr_names *out, char *err);
 /* The file names of folder dir (not starting with '.'), sorted, with
  * provenance.txt last: it marks a complete run. */
 int pr_outdir_list(const char *dir, pr_names *out, char *err);
@@ -49,8 +60,12 @@ typedef struct {
 	int fd;
 } pr_outdir_pub;
 int pr_outdir_publish(pr_outdir_pub *p, int n, char *err);
+/* Messages name the file where it was going to be, not a staging folder
+ * gone once the command failed: every staging in err becomes dir. */
+void pr_outdir_unstage(char *err, const char *staging, const char *dir);
 /* Remove what runs killed with SIGKILL left in dir: staging folders
- * .partial-PID and temporary files .poolreps-tmp-PID-N whose PID is gone. */
+ * .partial-TAG and temporary files .poolreps-tmp-TAG-N whose owner is provably
+ * gone (pr_owner_dead). */
 void pr_outdir_sweep_stale(const char *dir);
 /* Create dir, run work into a staging folder inside it, add config.ini and
  * provenance.txt (version, command line, seed, host, timings, the files

@@ -104,3 +104,17 @@ def csv_rows(path):
         r = csv.reader(f)
         header = next(r)
         return header, [dict(zip(header, x)) for x in r]
+
+
+def owner_tag(pid):
+    """The owner tag poolreps names a staging folder or temporary file by
+    (docs/hardening.md, guarantee 5): PID-START-NS-BOOT as process pid of
+    this machine and PID namespace has or, once gone, had it (start 1)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+        start = int(stat[stat.rindex(")") + 2:].split()[19])
+    except OSError:
+        start = 1
+    ns = os.stat("/proc/self/ns/pid").st_ino
+    boot = Path("/proc/sys/kernel/random/boot_id").read_text().replace("-", "").strip()[:12]
+    return f"{pid}-{start}-{ns}-{boot}"

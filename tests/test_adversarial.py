@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, owner_tag
 from test_safety import (IN, IO, OK, RUN_Q, SAN, USAGE, Case, binary, copy_runs, edit_file, env,
                          leftovers, one_line, peak_kib, run, runs, snapshot, wait_for)
 from test_safety import test_case as _check_case
@@ -298,8 +298,8 @@ def test_collect_removes_what_sigkill_left(tmp_path, sweeps):
     """A collect killed with SIGKILL leaves its staging folder (with
     folders in it); the next collect removes it once that PID is gone."""
     shutil.copytree(sweeps / "s", tmp_path / "s", symlinks=True)
-    stale = tmp_path / "s" / f".partial-{dead_pid()}"
-    (stale / "point-0" / f".partial-{dead_pid()}").mkdir(parents=True)
+    stale = tmp_path / "s" / f".partial-{owner_tag(dead_pid())}"
+    (stale / "point-0" / f".partial-{owner_tag(dead_pid())}").mkdir(parents=True)
     (stale / "point-0" / "bench_curve.csv").write_bytes(b"x\n")
     (stale / "summary").mkdir()
     r = run(COLLECT, tmp_path)
@@ -506,13 +506,13 @@ def test_sweep_into_a_folder_a_killed_sweep_left(tmp_path):
     """A sweep killed with SIGKILL leaves SWEEP_DIR/.partial-PID: the next
     sweep into the folder removes it (its PID is gone) rather than calling
     the folder not empty; a live sweep's staging still makes it refuse."""
-    stale = tmp_path / "sw" / f".partial-{dead_pid()}"
+    stale = tmp_path / "sw" / f".partial-{owner_tag(dead_pid())}"
     (stale / "point-0").mkdir(parents=True)
     (stale / "jobs.txt").write_bytes(b"x\n")
     r = run(["sweep", QUAD, "--grid", "bench.samples=30,40", "-o", "sw"] + SWEEP_Q, tmp_path)
     assert r.returncode == OK, r.stderr
     assert not stale.exists() and (tmp_path / "sw" / "jobs.txt").exists()
-    live = tmp_path / "sw2" / f".partial-{os.getpid()}"
+    live = tmp_path / "sw2" / f".partial-{owner_tag(os.getpid())}"
     live.mkdir(parents=True)
     r = run(["sweep", QUAD, "--grid", "bench.samples=30,40", "-o", "sw2"] + SWEEP_Q, tmp_path)
     assert r.returncode == IO and b"not empty" in one_line(r).encode()

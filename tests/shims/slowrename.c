@@ -1,0 +1,83 @@
+/* slowrename.c — an LD_PRELOAD shim over rename(2) and flock(2) that opens the commit
+ * window of a command for the tests (tests/test_commit.py):
+ *   RENAME_LOG=FILE       append "old new" of every rename to FILE
+ *   RENAME_DELAY_MS=N     sleep N ms before every rename
+ *   RENAME_MARK=FILE      create FILE just before the first rename whose new
+ *                         name does not hold "/.partial-" or "/.poolreps-tmp-"
+ *                         (the first move into the user's folder)
+ *   RENAME_KILL_AT=K      before the K-th such rename (1-based) send
+ *   RENAME_KILL_SIG=S     signal S (default SIGTERM) to this process
+ *   RENAME_FAIL_AT=K      make the K-th such rename fail with EIO
+ *   FLOCK_DIR_EBADF=1     flock(2) on a folder fails with EBADF, as on NFS,
+ *                         where flock is emulated by byte-range locks that
+ *                         need a file open for writing
+ * Only the test builds it; it is not part of the library. */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+static int staged(const char *p)
+{
+	return strstr(p, "/.partial-") || strstr(p, ".poolreps-tmp-");
+}
+
+int rename(const char *from, const char *to)
+{
+	static int (*real)(const char *, const char *);
+	static int count;
+	const char *log = getenv("RENAME_LOG"), *delay = getenv("RENAME_DELAY_MS");
+	const char *mark = getenv("RENAME_MARK"), *at = getenv("RENAME_KILL_AT");
+	const char *sig = getenv("RENAME_KILL_SIG"), *fail = getenv("RENAME_FAIL_AT");
+
+	if (!real)
+		real = (int (*)(const char *, const char *))dlsym(RTLD_NEXT, "rename");
+	if (log) {
+		FILE *fp = fopen(log, "a");
+		if (fp) {
+			fprintf(fp, "%s %s\n", from, to);
+			fclose(fp);
+		}
+	}
+	if (!staged(to)) {
+		++count;
+		if (mark && count == 1) {
+			int fd = open(mark, O_WRONLY | O_CREAT, 0666);
+			if (fd >= 0)
+				close(fd);
+		}
+		if (at && atoi(at) == count)
+			kill(getpid(), sig ? atoi(sig) : SIGTERM);
+		if (fail && atoi(fail) == count) {
+			errno = EIO;
+			return -1;
+		}
+	}
+	if (delay) {
+		struct timespec ts = {atoi(delay) / 1000, (long)(atoi(delay) % 1000) * 1000000L};
+		nanosleep(&ts, NULL);
+	}
+	return real(from, to);
+}
+
+int flock(int fd, int op)
+{
+	static int (*real)(int, int);
+	struct stat st;
+
+	if (!real)
+		real = (int (*)(int, int))dlsym(RTLD_NEXT, "flock");
+	if (getenv("FLOCK_DIR_EBADF") && fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) {
+		errno = EBADF;
+		return -1;
+	}
+	return real(fd, op);
+}
