@@ -94,7 +94,9 @@ NCOLS = 100000
 
 
 def wide(path, names):
-    path.write_text(",".join(names) + "\n" + ",".join("1" for _ in names) + "\n")
+    # two rows: REPS needs at least two samples
+    row = ",".join("1" for _ in names) + "\n"
+    path.write_text(",".join(names) + "\n" + row + row.replace("1", "2", 1))
 
 
 @pytest.mark.parametrize("dup", [None, 1, NCOLS // 2, NCOLS - 1])
