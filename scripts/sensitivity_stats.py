@@ -1,0 +1,323 @@
+#!/usr/bin/env python3
+"""The sensitivity study's points, verdicts and report (scripts/sensitivity.sh).
+
+Usage:
+  sensitivity_stats.py --points                     the point names, one per line
+  sensitivity_stats.py --point-options NAME         that point's poolreps --set options
+  sensitivity_stats.py --study OUT --csv DIR        verdicts of OUT's merged points -> DIR/*.csv
+  sensitivity_stats.py --csv DIR --docs DOCS [--readme README]
+                                                    DOCS/sensitivity.md (and the README
+                                                    sentence) from DIR/*.csv alone
+
+Every point is Experiment 3 (data/exp3.ini) with one open choice changed.
+Its verdicts on the thesis's claims of section 7.5.2 come from the power
+study's code (scripts/power_stats.py: the same claims, quantities, 95 %
+intervals and rules), so a verdict here means what it means in
+docs/power.md. A verdict "flips" when it differs from the reference point's:
+the default for every choice, the constant law at its default deceleration
+for the deceleration's points. Exit codes: 1 usage, 2 missing or malformed
+input, 3 inconsistent data.
+"""
+import argparse
+import csv
+import math
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import power_stats as ps  # noqa: E402  (the verdict rules)
+
+# name, choice, column label, --set options, reference point
+POINTS = [
+    ("default", "default", "default", [], None),
+    ("law_constant", "friction law", "constant law", ["table.friction_law=constant"], "default"),
+    ("c_half", "friction c", "c ½×", ["table.friction=0.125"], "default"),
+    ("c_double", "friction c", "c 2×", ["table.friction=0.5"], "default"),
+    ("a_half", "deceleration a", "a ½×",
+     ["table.friction_law=constant", "table.deceleration=0.03125"], "law_constant"),
+    ("a_double", "deceleration a", "a 2×",
+     ["table.friction_law=constant", "table.deceleration=0.125"], "law_constant"),
+    ("kappa_06", "restitution", "κ 0.6", ["table.restitution=0.6"], "default"),
+    ("kappa_09", "restitution", "κ 0.9", ["table.restitution=0.9"], "default"),
+    ("eps_01", "epsilon", "ε 0.1", ["reps.epsilon=0.1"], "default"),
+    ("eps_025", "epsilon", "ε 0.25", ["reps.epsilon=0.25"], "default"),
+    ("eps_1", "epsilon", "ε 1", ["reps.epsilon=1"], "default"),
+    ("vmax_5", "max speed", "5 m/s", ["sim.max_speed=5"], "default"),
+    ("vmax_20", "max speed", "20 m/s", ["sim.max_speed=20"], "default"),
+    ("trunc_clip", "truncation", "clip", ["exp3.truncation=clip"], "default"),
+    ("trunc_corrected", "truncation", "corrected", ["exp3.truncation=corrected"], "default"),
+    ("stop_half", "stop speed", "v_stop ½×", ["table.stop_speed=0.001"], "default"),
+    ("stop_double", "stop speed", "v_stop 2×", ["table.stop_speed=0.004"], "default"),
+    ("state_full", "state", "4-D state", ["exp3.state=full"], "default"),
+]
+BY_NAME = {p[0]: p for p in POINTS}
+# what each choice is and what its default is, for the paragraphs
+CHOICES = {
+    "friction law": "how a ball slows: the thesis's exponential law v' = −c v (default, "
+                    "c = 0.25 s⁻¹) against a constant deceleration (rolling resistance) of "
+                    "a = 0.0625 m/s², which stops a ball from 0.5 m/s in the same distance",
+    "friction c": "the exponential law's rate c (default 0.25 s⁻¹), halved and doubled",
+    "deceleration a": "the constant law's deceleration a (0.0625 m/s²), halved and doubled; "
+                      "compared with the constant law at 0.0625 m/s²",
+    "restitution": "the cushion restitution κ (default 0.8)",
+    "epsilon": "REPS's KL bound ε (default 0.5 nats)",
+    "max speed": "sim.max_speed (default 10 m/s), the speed above which an action is not shot",
+    "truncation": "what happens to an action drawn faster than sim.max_speed (default: drawn "
+                  "again, the importance weights ignoring the truncation): scaled onto the "
+                  "limit (clip) or drawn again with truncated densities (corrected)",
+    "stop speed": "table.stop_speed (default 0.002 m/s), below which a ball stops",
+    "state": "the learner's state: the two varying coordinates (default; the cue ball "
+             "always starts at (−0.25, 0)) or both balls' positions, the thesis's 4-D state",
+}
+SYMBOL = {ps.AGREE: "✓", ps.DISAGREE: "✗", ps.UNDECIDED: "?"}
+FILES = ("claims.csv", "effects.csv", "runs.csv")
+
+
+class Fail(Exception):
+    def __init__(self, msg, code):
+        super().__init__(msg)
+        self.code = code
+
+
+def write_csv(path, header, rows):
+    tmp = f"{path}.tmp.{os.getpid()}"
+    with open(tmp, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(header)
+        w.writerows(rows)
+    os.replace(tmp, path)
+
+
+def read_csv(path):
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            return list(csv.DictReader(f))
+    except OSError as e:
+        raise Fail(f"{path}: {e.strerror}", 2) from e
+
+
+def g(x):
+    return "nan" if not math.isfinite(x) else f"{x:.6g}"
+
+
+def study_to_csv(study_dir, out, boot, seed):
+    """Verdicts, effects and costs of every merged point of study_dir."""
+    arms = [ps.Arm(p[0], os.path.join(study_dir, p[0])) for p in POINTS
+            if os.path.isdir(os.path.join(study_dir, p[0]))]
+    if not arms or arms[0].name != "default":
+        raise Fail(f"{study_dir}: no merged point 'default'", 2)
+    for a in arms[1:]:
+        if a.reps != arms[0].reps or a.policies != arms[0].policies:
+            raise Fail(f"{a.folder}: repetitions or policies differ from the default's", 3)
+    study = ps.Study(arms, boot, seed)
+    claims = [(a.name, cid, study.claims[cid][a.name][1], study.claims[cid][a.name][0])
+              for a in arms for cid, _, _ in ps.CLAIMS]
+    write_csv(os.path.join(out, "claims.csv"), ["point", "claim", "verdict", "detail"], claims)
+    write_csv(os.path.join(out, "effects.csv"),
+              ["point", "policy", "mean_return", "mean_lo", "mean_hi", "effect", "lo", "hi"],
+              [(e["arm"], e["policy"], g(e["mean_return"]), g(e["mean_lo"]), g(e["mean_hi"]),
+                g(e["effect"]), g(e["t_lo"]), g(e["t_hi"])) for e in study.effects])
+    timing = {r["phase"]: r for r in ps.read_timing(os.path.join(study_dir, "timing.csv"))}
+    rows = [(a.name, len(a.reps), g(ps.cpu_seconds(a)), a.version) for a in arms]
+    rows.append(("all", len(arms[0].reps), g(sum(float(r[2]) for r in rows)), arms[0].version))
+    write_csv(os.path.join(out, "runs.csv"),
+              ["point", "repetitions", "cpu_seconds", "version"], rows)
+    write_csv(os.path.join(out, "timing.csv"),
+              ["phase", "wall_seconds", "jobs", "cores", "load_before", "load_after"],
+              [[timing[k][c] for c in ("phase", "wall_seconds", "jobs", "cores", "load_before",
+                                       "load_after")] for k in ("runs", "merge")])
+
+
+class Results:
+    """The committed CSVs, read back."""
+
+    def __init__(self, folder):
+        self.folder = folder
+        self.verdict, self.detail = {}, {}
+        for r in read_csv(os.path.join(folder, "claims.csv")):
+            if r.get("verdict") not in SYMBOL:
+                raise Fail(f"{folder}/claims.csv: bad verdict {r.get('verdict')!r}", 2)
+            self.verdict[(r["point"], r["claim"])] = r["verdict"]
+            self.detail[(r["point"], r["claim"])] = r["detail"]
+        self.points = [p for p in BY_NAME if (p, ps.CLAIMS[0][0]) in self.verdict]
+        if "default" not in self.points:
+            raise Fail(f"{folder}/claims.csv: no point 'default'", 3)
+        self.effects = read_csv(os.path.join(folder, "effects.csv"))
+        self.runs = {r["point"]: r for r in read_csv(os.path.join(folder, "runs.csv"))}
+        self.timing = {r["phase"]: r for r in read_csv(os.path.join(folder, "timing.csv"))}
+        if "all" not in self.runs or "runs" not in self.timing:
+            raise Fail(f"{folder}: runs.csv or timing.csv incomplete", 2)
+
+    def reference(self, point):
+        ref = BY_NAME[point][4]
+        return ref if ref in self.points else "default"
+
+    def flips(self, point):
+        """Claims whose verdict at point differs from its reference's."""
+        ref = self.reference(point)
+        return [c for c, _, _ in ps.CLAIMS
+                if self.verdict[(point, c)] != self.verdict[(ref, c)]]
+
+    def robust(self):
+        """Claims whose verdict no point changes, and the others with the
+        choices that change them."""
+        keep, moved = [], {}
+        for c, _, _ in ps.CLAIMS:
+            by = [BY_NAME[p][1] for p in self.points[1:] if c in self.flips(p)]
+            if by:
+                moved[c] = sorted(set(by), key=by.index)
+            else:
+                keep.append(c)
+        return keep, moved
+
+
+def claim_words(cid):
+    return next(t for c, t, _ in ps.CLAIMS if c == cid)
+
+
+def render(res):
+    pts = res.points
+    reps = res.runs["default"]["repetitions"]
+    cpu = float(res.runs["all"]["cpu_seconds"])
+    wall = float(res.timing["runs"]["wall_seconds"]) + float(res.timing["merge"]["wall_seconds"])
+    t = res.timing["runs"]
+    lines = [
+        "# Sensitivity of the Experiment 3 verdicts to the open choices",
+        "",
+        "Generated by `make sensitivity` (scripts/sensitivity.sh, scripts/sensitivity_stats.py)"
+        " from the CSVs in [data/sensitivity/](data/sensitivity/); do not edit by hand.",
+        "",
+        f"Each point is Experiment 3 (`data/exp3.ini`) at {reps} repetitions with one choice "
+        "the thesis leaves open changed; everything else is the default. The verdict on each "
+        "claim of the thesis's section 7.5.2 comes from the power study's code "
+        "(scripts/power_stats.py): the same quantities, paired 95 % t intervals over the "
+        "repetitions and the same rules, so ✓ agrees, ✗ disagrees and ? undecided mean what "
+        "they mean in [power.md](power.md) (where each rule is spelled out). A **bold** verdict "
+        "differs from its reference point's (the default; for the deceleration's points the "
+        "constant law at its default deceleration): the verdict flips.",
+        "",
+        f"Cost: {cpu:.0f} CPU seconds over all points ({len(pts)} points, "
+        f"{reps} repetitions of 6 policies each), {wall:.0f} s wall with {t['jobs']} jobs on "
+        f"{t['cores']} cores (load {t['load_before']} before, {t['load_after']} after). "
+        f"Version {res.runs['default']['version']}.",
+        "",
+        "## Claims × choices",
+        "",
+    ]
+    head = ["claim"] + [BY_NAME[p][2] for p in pts]
+    lines.append("| " + " | ".join(head) + " |")
+    lines.append("|" + "---|" * len(head))
+    for cid, _, _ in ps.CLAIMS:
+        cells = [cid]
+        for p in pts:
+            v = SYMBOL[res.verdict[(p, cid)]]
+            cells.append(f"**{v}**" if p != "default" and cid in res.flips(p) else v)
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "The claims (thesis's words):", ""]
+    lines += [f"- `{cid}`: {words}" for cid, words, _ in ps.CLAIMS]
+    lines += ["", "## Mean returns and effects (95 % intervals)", "",
+              "Mean return of each policy's last episodes over the repetitions, and its paired "
+              "effect against the baseline (policy − baseline), with 95 % t intervals.", ""]
+    pol = [e["policy"] for e in res.effects if e["point"] == "default"]
+    lines.append("| point | " + " | ".join(pol) + " |")
+    lines.append("|---|" + "---|" * len(pol))
+    for p in pts:
+        cells = []
+        for q in pol:
+            e = next(x for x in res.effects if x["point"] == p and x["policy"] == q)
+            cell = ps.fmt_ci(float(e["mean_return"]), float(e["mean_lo"]), float(e["mean_hi"]),
+                             digits=2)
+            if q != ps.BASELINE:
+                cell += "; Δ " + ps.fmt_ci(float(e["effect"]), float(e["lo"]), float(e["hi"]),
+                                           digits=2)
+            cells.append(cell)
+        lines.append(f"| {BY_NAME[p][2]} | " + " | ".join(cells) + " |")
+    lines += ["", "## Choice by choice", ""]
+    for choice, what in CHOICES.items():
+        mine = [p for p in pts if BY_NAME[p][1] == choice]
+        if not mine:
+            continue
+        text = [f"**{choice[0].upper() + choice[1:]}** — {what}."]
+        for p in mine:
+            fl = res.flips(p)
+            ref = BY_NAME[res.reference(p)][2]
+            if not fl:
+                text.append(f"At {BY_NAME[p][2]} no verdict changes (against {ref}).")
+                continue
+            parts = [f"`{c}` {res.verdict[(res.reference(p), c)]} → {res.verdict[(p, c)]} "
+                     f"({res.detail[(p, c)]})" for c in fl]
+            text.append(f"At {BY_NAME[p][2]} {len(fl)} of {len(ps.CLAIMS)} verdicts change "
+                        f"against {ref}: " + "; ".join(parts) + ".")
+        lines += [" ".join(text), ""]
+    return "\n".join(lines)
+
+
+def sentence(res):
+    keep, moved = res.robust()
+    alts = len(res.points) - 1
+    s = (f"Against {alts} alternatives to the open choices ([docs/sensitivity.md]"
+         f"(docs/sensitivity.md), {res.runs['default']['repetitions']} repetitions each), "
+         f"{len(keep)} of the {len(ps.CLAIMS)} Experiment 3 verdicts never change")
+    s += (": " + ", ".join(f"`{c}`" for c in keep)) if keep else ""
+    if moved:
+        s += "; the others change under " + "; ".join(
+            f"`{c}` ({', '.join(by)})" for c, by in moved.items())
+    return s + "."
+
+
+def update_readme(path, text):
+    with open(path, encoding="utf-8") as f:
+        src = f.read()
+    a, b = "<!-- sensitivity -->", "<!-- /sensitivity -->"
+    i, j = src.find(a), src.find(b)
+    if i < 0 or j < i:
+        raise Fail(f"{path}: no {a} ... {b} marks", 2)
+    new = src[:i + len(a)] + text + src[j:]
+    tmp = f"{path}.tmp.{os.getpid()}"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(new)
+    os.replace(tmp, path)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--points", action="store_true")
+    ap.add_argument("--point-options")
+    ap.add_argument("--study")
+    ap.add_argument("--csv")
+    ap.add_argument("--docs")
+    ap.add_argument("--readme")
+    ap.add_argument("--boot", type=int, default=ps.BOOT)
+    ap.add_argument("--seed", type=int, default=ps.SEED)
+    args = ap.parse_args()
+    try:
+        if args.points:
+            print("\n".join(p[0] for p in POINTS))
+        elif args.point_options:
+            if args.point_options not in BY_NAME:
+                raise Fail(f"unknown point {args.point_options}", 1)
+            print(" ".join(f"--set {s}" for s in BY_NAME[args.point_options][3]))
+        elif args.study and args.csv:
+            study_to_csv(args.study, args.csv, args.boot, args.seed)
+        elif args.csv and args.docs:
+            res = Results(args.csv)
+            path = os.path.join(args.docs, "sensitivity.md")
+            tmp = f"{path}.tmp.{os.getpid()}"
+            with open(tmp, "w", encoding="utf-8") as f:
+                f.write(render(res) + "\n")
+            os.replace(tmp, path)
+            if args.readme:
+                update_readme(args.readme, sentence(res))
+        else:
+            ap.error("give --points, --point-options, --study with --csv, or --csv with --docs")
+    except (Fail, ps.Fail) as e:
+        print(f"sensitivity_stats: {e}", file=sys.stderr)
+        return e.code
+    except OSError as e:
+        print(f"sensitivity_stats: {e.filename}: {e.strerror}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
