@@ -136,14 +136,14 @@ power: all
 # open choice changed at a time. The default size writes docs/ and the README
 # sentence; QUICK=1 (tiny runs, 3 repetitions; tests/test_sensitivity.py) and
 # other sizes write OUT/sensitivity/docs.
-SENSITIVITY_REPS ?= 30
+SENSITIVITY_REPS ?= 20
 SENSITIVITY_QUICK_ARGS := --set exp3.iterations=3 --set exp3.init_samples=60 --set exp3.window=60 \
   --set exp3.samples=20 --set exp3.final_episodes=30 --set policy.n_min=20 --set exp3.baseline_n_min=100 \
   --set value.n_min=15 --set value.trees=3 --set policy.trees=3
 ifeq ($(QUICK),1)
   SENSITIVITY_RUN = 3 "$(OUT)/sensitivity/docs" "$(PYTHON)" $(SENSITIVITY_QUICK_ARGS)
-else ifeq ($(SENSITIVITY_REPS),30)
-  SENSITIVITY_RUN = 30 docs "$(PYTHON)"
+else ifeq ($(SENSITIVITY_REPS),20)
+  SENSITIVITY_RUN = 20 docs "$(PYTHON)"
 else
   SENSITIVITY_RUN = $(SENSITIVITY_REPS) "$(OUT)/sensitivity/docs" "$(PYTHON)"
 endif

@@ -6,8 +6,9 @@ Usage:
   sensitivity_stats.py --point-options NAME         that point's poolreps --set options
   sensitivity_stats.py --study OUT --csv DIR        verdicts of OUT's merged points -> DIR/*.csv
   sensitivity_stats.py --csv DIR --docs DOCS [--readme README]
-                                                    DOCS/sensitivity.md (and the README
-                                                    sentence) from DIR/*.csv alone
+                                                    DOCS/sensitivity.md, the README
+                                                    sentence and DOCS/choices.md's
+                                                    one-line results, from DIR/*.csv alone
 
 Every point is Experiment 3 (data/exp3.ini) with one open choice changed.
 Its verdicts on the thesis's claims of section 7.5.2 come from the power
@@ -25,7 +26,18 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import power_stats as ps  # noqa: E402  (the verdict rules)
+
+
+class _Rules:
+    """scripts/power_stats.py (the verdict rules), imported on first use so
+    that --points and --point-options start without numpy and scipy."""
+
+    def __getattr__(self, name):
+        import power_stats
+        return getattr(power_stats, name)
+
+
+ps = _Rules()
 
 # name, choice, column label, --set options, reference point
 POINTS = [
@@ -69,7 +81,7 @@ CHOICES = {
     "state": "the learner's state: the two varying coordinates (default; the cue ball "
              "always starts at (−0.25, 0)) or both balls' positions, the thesis's 4-D state",
 }
-SYMBOL = {ps.AGREE: "✓", ps.DISAGREE: "✗", ps.UNDECIDED: "?"}
+SYMBOL = {"agrees": "✓", "disagrees": "✗", "undecided": "?"}  # power_stats's verdicts
 FILES = ("claims.csv", "effects.csv", "runs.csv")
 
 
@@ -265,17 +277,50 @@ def sentence(res):
     return s + "."
 
 
-def update_readme(path, text):
+def slug(choice):
+    return choice.replace(" ", "_")
+
+
+def choice_line(res, choice):
+    """One line on a choice's points: which verdicts change where."""
+    mine = [p for p in res.points if BY_NAME[p][1] == choice]
+    if not mine:
+        return "not varied"
+    parts, calm = [], []
+    for p in mine:
+        fl = res.flips(p)
+        if fl:
+            parts.append(f"at {BY_NAME[p][2]} " + ", ".join(
+                f"`{c}` {SYMBOL[res.verdict[(res.reference(p), c)]]} → "
+                f"{SYMBOL[res.verdict[(p, c)]]}" for c in fl))
+        else:
+            calm.append(BY_NAME[p][2])
+    text = "; ".join(parts) if parts else "no verdict changes"
+    if parts and calm:
+        text += f"; none at {', '.join(calm)}"
+    elif not parts:
+        text += f" at {', '.join(calm)}"
+    return text + f" ({res.runs['default']['repetitions']} repetitions, [sensitivity.md](sensitivity.md))"
+
+
+def update_marks(path, cells):
+    """Rewrite the text between <!-- sensitivity:ID --> and the next
+    <!-- /sensitivity --> for every ID of cells that path holds; the README's
+    ID is 'robust'. Missing marks are an error only for the README."""
     with open(path, encoding="utf-8") as f:
         src = f.read()
-    a, b = "<!-- sensitivity -->", "<!-- /sensitivity -->"
-    i, j = src.find(a), src.find(b)
-    if i < 0 or j < i:
-        raise Fail(f"{path}: no {a} ... {b} marks", 2)
-    new = src[:i + len(a)] + text + src[j:]
+    for key, text in cells.items():
+        a, b = f"<!-- sensitivity:{key} -->", "<!-- /sensitivity -->"
+        i = src.find(a)
+        j = src.find(b, i + 1)
+        if i < 0 or j < 0:
+            if key == "robust":
+                raise Fail(f"{path}: no {a} ... {b} marks", 2)
+            continue
+        src = src[:i + len(a)] + text + src[j:]
     tmp = f"{path}.tmp.{os.getpid()}"
     with open(tmp, "w", encoding="utf-8") as f:
-        f.write(new)
+        f.write(src)
     os.replace(tmp, path)
 
 
@@ -307,15 +352,23 @@ def main():
                 f.write(render(res) + "\n")
             os.replace(tmp, path)
             if args.readme:
-                update_readme(args.readme, sentence(res))
+                update_marks(args.readme, {"robust": sentence(res)})
+            choices = os.path.join(args.docs, "choices.md")
+            if os.path.isfile(choices):
+                update_marks(choices, {slug(c): choice_line(res, c) for c in CHOICES})
         else:
             ap.error("give --points, --point-options, --study with --csv, or --csv with --docs")
-    except (Fail, ps.Fail) as e:
+    except Fail as e:
         print(f"sensitivity_stats: {e}", file=sys.stderr)
         return e.code
     except OSError as e:
         print(f"sensitivity_stats: {e.filename}: {e.strerror}", file=sys.stderr)
         return 2
+    except Exception as e:  # power_stats.Fail: its message and exit code
+        if type(e).__name__ != "Fail":
+            raise
+        print(f"sensitivity_stats: {e}", file=sys.stderr)
+        return e.code
     return 0
 
 
