@@ -272,6 +272,37 @@ static double time_of(const pr_sim *s, double tau)
 	return s->t.friction_law == PR_FRICTION_CONSTANT ? tau : -log1p(-c * tau) / c;
 }
 
+/* After an event of the np balls part[]: re-predict them in full, every
+ * other ball against them (or in full if its cached partner was one). */
+static void repredict(pr_sim *s, int n, const int *part, int np, double tau)
+{
+	pr_sim_ball *b = s->b;
+	int i, j;
+
+	for (j = 0; j < np; ++j)
+		predict_full(s, n, part[j], tau);
+	for (i = 0; i < n; ++i) {
+		pr_sim_ball *bi = &b[i];
+		if (i == part[0] || (np == 2 && i == part[1]) || bi->st == PR_BALL_POCKETED)
+			continue;
+		if (bi->etype == PR_EV_BALL && (bi->eother == part[0] || (np == 2 && bi->eother == part[1]))) {
+			predict_full(s, n, i, tau);
+			continue;
+		}
+		for (j = 0; j < np; ++j) {
+			double t;
+			if (b[part[j]].st == PR_BALL_POCKETED)
+				continue;
+			t = pair_time(s, bi, &b[part[j]], tau);
+			if (t < HUGE_VAL && earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
+				bi->et = t;
+				bi->etype = PR_EV_BALL;
+				bi->eother = part[j];
+			}
+		}
+	}
+}
+
 int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err)
 {
 	const double c = s->t.friction, kappa = s->t.restitution;
@@ -375,29 +406,7 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 		}
 		if (tr && trace_all(s, n, tr, tau, time_of(s, tau)))
 			return pr_err(err, PR_ENOMEM, "trace: out of memory");
-		/* re-predict: the balls involved in full, the others against them */
-		for (j = 0; j < np; ++j)
-			predict_full(s, n, part[j], tau);
-		for (i = 0; i < n; ++i) {
-			pr_sim_ball *bi = &b[i];
-			if (i == part[0] || (np == 2 && i == part[1]) || bi->st == PR_BALL_POCKETED)
-				continue;
-			if (bi->etype == PR_EV_BALL && (bi->eother == part[0] || (np == 2 && bi->eother == part[1]))) {
-				predict_full(s, n, i, tau);
-				continue;
-			}
-			for (j = 0; j < np; ++j) {
-				double t;
-				if (b[part[j]].st == PR_BALL_POCKETED)
-					continue;
-				t = pair_time(s, bi, &b[part[j]], tau);
-				if (t < HUGE_VAL && earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
-					bi->et = t;
-					bi->etype = PR_EV_BALL;
-					bi->eother = part[j];
-				}
-			}
-		}
+		repredict(s, n, part, np, tau);
 	}
 	if (!g.hit)
 		for (i = 1; i <= g.nr; ++i)
