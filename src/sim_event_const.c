@@ -34,6 +34,13 @@
 #define MIN_CLOSING 1e-9 /* m/s: slower approaches are not collisions (as sim_event.c) */
 #define MAX_POLISH 200   /* safeguarded Newton steps; bisection alone needs < 1100 */
 
+/* |(x, y)|: table distances and speeds, far from overflow, so no hypot (its
+ * care costs several times the square root here) */
+static double norm(double x, double y)
+{
+	return sqrt(x * x + y * y);
+}
+
 /* s at which a ball of speed v has travelled l (0 <= l <= v^2 / 2a). */
 static double time_for(double v, double a, double l)
 {
@@ -82,7 +89,7 @@ void pr_sim_const_advance(const pr_sim *s, pr_sim_ball *b, double t)
 	b->y = p[1];
 	b->ux = v[0];
 	b->uy = v[1];
-	b->sp = hypot(v[0], v[1]);
+	b->sp = norm(v[0], v[1]);
 	b->tr = t;
 }
 
@@ -149,7 +156,7 @@ static void gap_fn(const rel_path *q, double s, double *f, double *df)
 	double d[2], dd[2], n;
 
 	rel_at(q, s, d, dd);
-	n = hypot(d[0], d[1]);
+	n = norm(d[0], d[1]);
 	*f = n - q->r2;
 	*df = n > 0 ? (d[0] * dd[0] + d[1] * dd[1]) / n : 0;
 }
@@ -269,8 +276,8 @@ static void relative(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *
 
 	pr_sim_const_at(s, bi, t, pi, vi);
 	pr_sim_const_at(s, bj, t, pj, vj);
-	si = hypot(vi[0], vi[1]);
-	sj = hypot(vj[0], vj[1]);
+	si = norm(vi[0], vi[1]);
+	sj = norm(vj[0], vj[1]);
 	q->r2 = 2 * s->t.ball_radius;
 	q->D[0] = pj[0] - pi[0];
 	q->D[1] = pj[1] - pi[1];
@@ -305,7 +312,7 @@ static double line_contact(const pr_sim *s, const pr_sim_ball *m, const pr_sim_b
 	double pm[2], vm[2], ex, ey, dx, dy, bq, cr, cc, disc, l;
 
 	pr_sim_const_at(s, m, t, pm, vm);
-	*sp = hypot(vm[0], vm[1]);
+	*sp = norm(vm[0], vm[1]);
 	if (!(*sp > 0))
 		return HUGE_VAL;
 	ex = vm[0] / *sp;
@@ -342,10 +349,29 @@ double pr_sim_const_pair_time(const pr_sim *s, const pr_sim_ball *bi, const pr_s
 	}
 	relative(s, bi, bj, t, &q, &S, &L);
 	/* too far apart to meet: farther than both can still travel */
-	if (hypot(q.D[0], q.D[1]) * (1 - 1e-9) - q.r2 > L)
+	if (norm(q.D[0], q.D[1]) * (1 - 1e-9) - q.r2 > L)
 		return HUGE_VAL;
 	r = first_contact(&q, S);
 	return r < HUGE_VAL ? t + r : HUGE_VAL;
+}
+
+/* One ball at rest (or both): the other's path over [t0, t] is a straight
+ * segment, and the smallest distance is the point's to it. */
+static double line_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj,
+                            double t0, double t)
+{
+	const pr_sim_ball *m = bi->st == PR_BALL_MOVING && bi->sp > 0 ? bi : bj, *o = m == bi ? bj : bi;
+	double p0[2], p1[2], v[2], ex, ey, len, dx, dy, u;
+
+	pr_sim_const_at(s, m, t0, p0, v);
+	pr_sim_const_at(s, m, t, p1, v);
+	ex = p1[0] - p0[0];
+	ey = p1[1] - p0[1];
+	dx = o->x - p0[0];
+	dy = o->y - p0[1];
+	len = ex * ex + ey * ey;
+	u = len > 0 ? fmin(1, fmax(0, (dx * ex + dy * ey) / len)) : 0;
+	return norm(dx - u * ex, dy - u * ey);
 }
 
 double pr_sim_const_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj,
@@ -356,6 +382,8 @@ double pr_sim_const_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_si
 	double S, L, pt[5], best = HUGE_VAL;
 	int m, k;
 
+	if (bi->sp == 0 || bj->sp == 0 || bi->st != PR_BALL_MOVING || bj->st != PR_BALL_MOVING)
+		return line_min_dist(s, bi, bj, t0, t);
 	relative(s, bi, bj, t0, &q, &S, &L);
 	q.r2 = 0;
 	m = split_points(&q, fmin(S, t - t0), pt);
