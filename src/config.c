@@ -958,13 +958,13 @@ int pr_config_write(const pr_config *c, FILE *fp)
 		const pr_config_key *k = key_at(c, i, &base);
 		char name[2 * NAMELEN + 1];
 		snprintf(name, sizeof name, "%s.%s", k->section, k->key);
-		if (strcmp(name, idle_friction_key(c)) == 0)
-			continue; /* read back, it would clash with table.friction_law */
 		if (strcmp(section, k->section) != 0) {
 			section = k->section;
 			fprintf(fp, "%s[%s]\n", i ? "\n" : "", section);
 		}
-		fprintf(fp, "%s = ", k->key);
+		/* the other law's key as a comment: read back, it would clash with
+		 * table.friction_law */
+		fprintf(fp, "%s%s = ", strcmp(name, idle_friction_key(c)) == 0 ? "; " : "", k->key);
 		write_value(c, i, fp);
 		fputc('\n', fp);
 	}
