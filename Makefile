@@ -33,7 +33,7 @@ LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
-.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power sensitivity quick-sums FORCE
+.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power study verdicts sensitivity quick-sums FORCE
 .PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin
 
 all: poolreps
@@ -71,6 +71,7 @@ $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)
 # the packages are probed when make starts (below); nothing is installed here
 check:
 	$(MAKE) check-c check-py
+	$(MAKE) verdicts CHECK=1
 
 check-c: $(TEST_BIN)
 	@fail=0; for t in $(TEST_BIN); do echo "== $$t"; $$t || fail=1; done; exit $$fail
@@ -132,6 +133,19 @@ endif
 power: all
 	sh scripts/power.sh "$(OUT)/power" "$(POWER_REPS)" "$(POWER_DOCS)" "$(PYTHON)" $(POWER_ARGS)
 
+# The study behind every verdict (docs/verdicts.md; not part of reproduce):
+# Experiment 3 as `make power`, Experiments 1 and 2 at STUDY_SEEDS seeds; its
+# compact results go to data/study/ (committed), then `make verdicts`.
+STUDY_SEEDS ?= 20
+study: all
+	sh scripts/study.sh "$(OUT)/study" "$(POWER_REPS)" "$(STUDY_SEEDS)" data/study docs "$(PYTHON)"
+	$(MAKE) verdicts
+
+# docs/verdicts.md, docs/verdicts_report.html and the README's verdict table
+# from data/study/; CHECK=1 writes nothing and fails on a difference
+verdicts:
+	$(PYTHON) scripts/verdicts.py data/study $(if $(CHECK),--check)
+
 # Sensitivity study (docs/sensitivity.md): Experiment 3's verdicts with one
 # open choice changed at a time. The default size writes docs/ and the README
 # sentence; QUICK=1 (tiny runs, 3 repetitions; tests/test_sensitivity.py) and
@@ -159,6 +173,8 @@ install: all
 	install -m 644 data/quick/*.ini $(DESTDIR)$(PREFIX)/share/poolreps/data/quick
 	install -m 755 scripts/*.py scripts/*.sh scripts/plot $(DESTDIR)$(PREFIX)/share/poolreps/scripts
 	install -m 644 scripts/power_template.md $(DESTDIR)$(PREFIX)/share/poolreps/scripts
+	install -d $(DESTDIR)$(PREFIX)/share/poolreps/docs
+	install -m 644 docs/verdicts_report.html $(DESTDIR)$(PREFIX)/share/poolreps/docs
 	install -m 644 docs/poolreps.1 $(DESTDIR)$(PREFIX)/share/man/man1
 
 clean:

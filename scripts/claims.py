@@ -1,16 +1,16 @@
 #!/usr/bin/env python3
-"""The thesis's claims (chapter 7 discussions) against one reproduction run.
+"""What one reproduction run measures on each of the thesis's claims
+(chapter 7 discussions): a sample of a few repetitions, without verdicts.
 
 Usage: claims.py OUT     (OUT holds exp1/, exp2/ and exp3/ as `make reproduce` writes them)
 
-Prints a markdown table: section, the thesis's claim, what this run measured,
-the verdict and the rule that decided it. Every number comes from the run's
-CSVs (standard library only). Verdicts: "agrees" when every part of the rule
-holds, "partly" when some do, "does not agree" when none (or, for one-part
-rules, when it fails), "not tested" when the run lacks the settings or
-repetitions the rule needs. "Significant" means that the 95 % Student-t
-interval of a paired difference over the repetitions (forests or runs, each
-repetition with its own data) excludes 0; scripts/figstats.py computes it.
+Prints a markdown table: section, the thesis's claim, what this run measured.
+Every number comes from the run's CSVs (standard library only); intervals are
+95 % Student-t intervals of a paired difference over the repetitions (forests
+or runs), written [lo, hi] (scripts/figstats.py). A run that lacks the
+settings or repetitions a measurement needs says so. The verdicts are judged
+on the study with the power to decide them: scripts/verdicts.py,
+docs/verdicts.md.
 """
 import argparse
 import math
@@ -21,18 +21,8 @@ import exp3_table
 import exp_data
 from figstats import fmt_ci, mean_ci, paired
 
-AGREES, PARTLY, DISAGREES, UNTESTED = "agrees", "partly", "does not agree", "not tested"
-
-
 class Untested(Exception):
     """The run lacks what a rule needs; the message says what."""
-
-
-def verdict(parts):
-    """From a list of booleans: all true agrees, none does not agree, else partly."""
-    if all(parts):
-        return AGREES
-    return DISAGREES if not any(parts) else PARTLY
 
 
 def ci(values):
@@ -43,25 +33,11 @@ def ci(values):
     return m, lo, hi
 
 
-def sig_pos(values):
-    return ci(values)[1] > 0
-
-
-def sig_neg(values):
-    return ci(values)[2] < 0
-
-
 def have(d, *names):
     """Untested unless the run folder d holds every CSV in names."""
     for n in names:
         if not os.path.isfile(os.path.join(d, n)):
             raise Untested(f"the run has no {os.path.join(os.path.basename(d), n)}")
-
-
-def not_sig(values):
-    """The 95 % interval contains 0: no significant difference either way."""
-    _, lo, hi = ci(values)
-    return lo <= 0 <= hi
 
 
 def need(mapping, key, what):
@@ -88,17 +64,13 @@ def claim_cuts(d):
     lo_k, hi_k = min(v), max(v)
     if lo_k >= kd or hi_k <= kd:
         raise Untested(f"the K sweep must hold values below and above {kd}")
-    best_ok = not any(sig_neg(paired(v[k], ref)) for k in v if k != kd)
     more = paired(v[hi_k], ref)
     one = paired(v[lo_k], ref)
     worse_all = sum(x > 0 for x in one)
     here = (f"K {kd}: MSE {statistics.fmean(ref.values()):.4f} m²; K {hi_k} − K {kd}: "
             f"{fmt_ci(more, 4)}; K {lo_k} − K {kd}: {fmt_ci(one, 4)}, worse in {worse_all} of "
             f"{len(one)} forests")
-    parts = [best_ok, not_sig(more), sig_pos(one)]
-    rule = (f"no K is significantly better than K = {kd}; K = {hi_k} is not significantly "
-            f"different from it; K = {lo_k} is significantly worse")
-    return here, verdict(parts), rule
+    return here
 
 
 def claim_trees(d):
@@ -111,12 +83,9 @@ def claim_trees(d):
     d10 = paired(ten, v[mx])
     over = [paired(v[m], ten) for m in v if m > 10]
     here = (f"M 1 − M {mx}: {fmt_ci(d1, 4)} m²; M 10 − M {mx}: {fmt_ci(d10, 4)} m²; "
-            f"{sum(sig_pos(x) for x in over)} of {len(over)} settings with M > 10 significantly "
+            f"{sum(ci(x)[1] > 0 for x in over)} of {len(over)} settings with M > 10 significantly "
             "worse than M 10")
-    parts = [sig_pos(d1), not_sig(d10), not any(sig_pos(x) for x in over)]
-    rule = (f"M = 1 significantly worse than M = {mx}; M = 10 not significantly different from "
-            f"M = {mx}; no M > 10 significantly worse than M = 10")
-    return here, verdict(parts), rule
+    return here
 
 
 def claim_nmin(d):
@@ -130,10 +99,7 @@ def claim_nmin(d):
     span = paired(v[xs[-1]], v[xs[0]])
     here = (f"lowest mean MSE at n_min {best} ({mean[best]:.4f} m²), highest at {worst} "
             f"({mean[worst]:.4f}); n_min {xs[-1]} − n_min {xs[0]}: {fmt_ci(span, 4)} m²")
-    parts = [best in xs[:2], worst == xs[-1], sig_pos(span)]
-    rule = ("the lowest mean MSE at one of the two smallest n_min; the highest at the largest; "
-            "the largest significantly worse than the smallest")
-    return here, verdict(parts), rule
+    return here
 
 
 def claim_map(d):
@@ -157,9 +123,7 @@ def claim_map(d):
     n = len({r["repetition"] for r in rows})
     here = (f"{len(pocketed)} of {len(mean)} grid positions pocket the ball (return 0); there "
             f"the mean of {n} forests predicts {under:.2f} m; RMS error elsewhere {rms:.3f} m")
-    rule = ("the mean prediction at the pocketed positions lies below 0 by more than the RMS "
-            "error of the prediction at the other positions")
-    return here, AGREES if -under > rms else DISAGREES, rule
+    return here
 
 
 # ---- Experiment 2 (thesis 7.4.2) ----
@@ -189,23 +153,19 @@ def claim_short_of_expert(d):
             f"({100 * statistics.fmean(series(ret, 0, 'expert', 'mean', 1).values()):.0f} % "
             f"pocketed); best learned ({best}, n = {n}) {fmt_ci(diffs[best])} m below it "
             f"({100 * pk:.0f} % pocketed)")
-    rule = f"at n = {n}, every policy's mean-action return significantly below the expert's"
-    return here, AGREES if all(sig_neg(x) for x in diffs.values()) else DISAGREES, rule
+    return here
 
 
 def claim_single_worst(d):
     ret, n = exp2_at_largest(d)
-    parts, bits = [], []
+    bits = []
     for mode in ("mean", "sample"):
         single = series(ret, n, "single", mode)
         da = paired(single, series(ret, n, "s_a", mode))
         drs = paired(single, series(ret, n, "s_rs", mode))
-        parts.append(sig_neg(da) and sig_neg(drs))
         bits.append(f"{mode} actions: single {statistics.fmean(single.values()):.3f} m, − s→a "
                     f"{fmt_ci(da)}, − s→rs {fmt_ci(drs)}")
-    rule = (f"at n = {n}, the single-node policy significantly below both tree policies, with "
-            "mean actions and with sampled actions")
-    return "; ".join(bits), verdict(parts), rule
+    return "; ".join(bits)
 
 
 def claim_rs_beats_a(d):
@@ -215,9 +175,7 @@ def claim_rs_beats_a(d):
     ds = paired(series(ret, n, "s_rs", "sample"), series(ret, n, "s_a", "sample"))
     here = (f"s→rs − s→a at n = {n}: mean actions {fmt_ci(dm)} m; pocketed share "
             f"{fmt_ci([100 * x for x in dp], 1)} points; sampled actions {fmt_ci(ds)} m")
-    rule = (f"at n = {n}, s→rs significantly ahead of s→a in mean-action return, in the "
-            "share pocketed and in sampled-action return (each a part)")
-    return here, verdict([sig_pos(dm), sig_pos(dp), sig_pos(ds)]), rule
+    return here
 
 
 # ---- Experiment 3 (thesis 7.5.2) ----
@@ -235,11 +193,10 @@ def claim_none_better(d):
     st, last = exp3_stats(d)
     tree = exp3_table.TREE_VARIANTS
     best = max(tree, key=lambda p: statistics.fmean(st[p]["paired"]))
-    n_sig = sum(sig_pos(st[p]["paired"]) for p in tree)
+    n_sig = sum(ci(st[p]["paired"])[1] > 0 for p in tree)
     here = (f"best tree variant {best}: {fmt_ci(st[best]['paired'])} m over the baseline "
             f"(paired, {len(st[best]['paired'])} runs); {n_sig} of 4 significantly better")
-    rule = "no tree variant's paired difference to the baseline significantly above 0"
-    return here, AGREES if n_sig == 0 else DISAGREES, rule
+    return here
 
 
 def claim_best_nrvr_rs(d):
@@ -249,9 +206,7 @@ def claim_best_nrvr_rs(d):
     m = statistics.fmean(st["nrvr_rs"]["paired"])
     here = (f"highest mean return: {best} ({st[best]['mean']:.3f} m); nrvr_rs − baseline "
             f"{fmt_ci(st['nrvr_rs']['paired'])} m")
-    rule = ("nrvr_rs has the highest mean return of the four tree variants; its mean paired "
-            "difference to the baseline lies within 0.1 ± 0.05 m")
-    return here, verdict([best == "nrvr_rs", abs(m - 0.1) <= 0.05]), rule
+    return here
 
 
 def claim_worst_rvr_a(d):
@@ -265,14 +220,7 @@ def claim_worst_rvr_a(d):
             f"{r['std_runs']:.3f}, baseline {b['std_runs']:.3f} m); target pocketed rvr_a "
             f"{r['target']} vs baseline {b['target']}; fastest median shot: {fastest} "
             f"({st[fastest]['median_speed']:.2f} m/s; rvr_a {r['median_speed']:.2f})")
-    rule = ("four parts: rvr_a has the lowest mean return of the tree variants; the largest "
-            "std of run means (tree variants and baseline); more balls in the targets than the "
-            "baseline; the fastest median shot of the tree variants. Agrees: all four; partly: "
-            "two or three")
-    parts = [worst == "rvr_a", widest == "rvr_a", r["target"] > b["target"], fastest == "rvr_a"]
-    k = sum(parts)
-    v = AGREES if k == 4 else PARTLY if k >= 2 else DISAGREES
-    return here, v, rule
+    return here
 
 
 def claim_even_split(d):
@@ -283,8 +231,7 @@ def claim_even_split(d):
         raise Untested("fewer than 10 balls in the target pockets")
     share = min(a, b) / (a + b)
     here = f"pocket 2 / pocket 5: {a} / {b} (smaller share {100 * share:.0f} %)"
-    rule = "the less used target pocket gets at least 40 % of nrvr_rs's target-pocketed balls"
-    return here, AGREES if share >= 0.4 else DISAGREES, rule
+    return here
 
 
 def claim_baseline_fewest(d):
@@ -292,21 +239,20 @@ def claim_baseline_fewest(d):
     tree = exp3_table.TREE_VARIANTS
     counts = ", ".join(f"{p} {st[p]['target']}" for p in tree)
     here = f"balls in the target pockets: baseline {st['baseline']['target']}; {counts}"
-    rule = "the baseline's count of balls in the target pockets is the smallest of the five"
-    fewest = all(st["baseline"]["target"] <= st[p]["target"] for p in tree)
-    return here, AGREES if fewest else DISAGREES, rule
+    return here
 
 
 def settle_episode(curve, level, tol=0.1, window=5):
     """First episode count from which the moving average (window
-    iterations) of the curve stays within tol of level."""
+    iterations) of the curve stays within tol of level; None when it never
+    does (the last point alone is no settling)."""
     eps = [e for e, _ in curve]
     ys = [y for _, y in curve]
     avg = [statistics.fmean(ys[max(0, i - window + 1):i + 1]) for i in range(len(ys))]
     for i in range(len(avg)):
-        if all(abs(a - level) <= tol for a in avg[i:]):
+        if i < len(avg) - 1 and all(abs(a - level) <= tol for a in avg[i:]):
             return eps[i]
-    return eps[-1]
+    return None
 
 
 def claim_converge(d):
@@ -321,17 +267,14 @@ def claim_converge(d):
             raise Untested("needs at least 10 iterations")
         settle[p] = settle_episode(curve, st[p]["mean"])
         pocketed[p] = st[p]["target"] / st[p]["episodes"]
-    med = statistics.median(settle.values())
     here = ("settled (5-iteration average within 0.1 m of the final level) after "
-            + ", ".join(f"{p} {e}" for p, e in settle.items())
+            + ", ".join(f"{p} {'never' if e is None else e}" for p, e in settle.items())
             + f" episodes; in the last episodes at most {100 * max(pocketed.values()):.1f} % "
             "pocketed in a target")
-    rule = ("the median settling point lies within 700–2800 episodes (a factor 2 of 1400), and "
-            "every tree variant pockets under 10 % of its last episodes in a target")
-    return here, verdict([700 <= med <= 2800, max(pocketed.values()) < 0.1]), rule
+    return here
 
 
-# (thesis section, result folder, the claim in short, the function that decides it)
+# (thesis section, result folder, the claim in short, the function that measures it)
 CLAIMS = [
     ("7.3.2", "exp1", "best with K = 10; slightly worse with more cuts (not significant); "
      "worse as K → 1", claim_cuts),
@@ -359,15 +302,14 @@ CLAIMS = [
 
 
 def evaluate(out):
-    """[{section, claim, here, verdict, rule}] for the run in folder out."""
+    """[{section, claim, here}] for the run in folder out."""
     rows = []
     for section, sub, claim, fn in CLAIMS:
         try:
-            here, v, rule = fn(os.path.join(out, sub))
+            here = fn(os.path.join(out, sub))
         except Untested as e:
-            here, v, rule = str(e), UNTESTED, "–"
-        rows.append({"section": section, "claim": claim, "here": here, "verdict": v,
-                     "rule": rule})
+            here = f"not measured: {e}"
+        rows.append({"section": section, "claim": claim, "here": here})
     return rows
 
 
@@ -375,10 +317,10 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", help="folder with exp1/, exp2/, exp3/")
     rows = evaluate(ap.parse_args().out)
-    print("| thesis | claim | this run | verdict | rule |")
-    print("|---|---|---|---|---|")
+    print("| thesis | claim | this run |")
+    print("|---|---|---|")
     for r in rows:
-        print(f"| {r['section']} | {r['claim']} | {r['here']} | {r['verdict']} | {r['rule']} |")
+        print(f"| {r['section']} | {r['claim']} | {r['here']} |")
 
 
 if __name__ == "__main__":

@@ -6,8 +6,8 @@ Usage: exp3_table.py DIR [--last N]
 
 Per policy, over each run's last N episodes (default: exp3.final_episodes
 from DIR/config.ini, else 500): the mean return of all runs pooled, the
-sample std of the run means, the paired difference to the baseline's run of
-the same repetition (mean +- sample std over repetitions), reward balls
+SD of the run means, the paired difference to the baseline's run of the
+same repetition (mean and 95 % t interval [lo, hi] over repetitions), reward balls
 pocketed in pocket 2 / pocket 5 / any other pocket, the hit rate (cue ball
 touched the reward ball) and the median cue speed.
 
@@ -39,7 +39,7 @@ import sys
 from collections import defaultdict
 
 import exp_data
-from figstats import paired
+from figstats import fmt_ci, paired
 
 TARGETS = ("2", "5")
 # the thesis's panel order (Figs. 7.7, 7.8 a-d), then the references
@@ -196,22 +196,13 @@ def compare_rows(base, arms, labels=None, last=None):
     return rows, unchanged
 
 
-def fmt_pm(values):
-    """'+0.105 ± 0.181' (mean ± sample std), '+0.105' for one value, '–' for none."""
-    if not values:
-        return "–"
-    if len(values) < 2:
-        return f"{values[0]:+.3f}"
-    return f"{statistics.mean(values):+.3f} ± {statistics.stdev(values):.3f}"
-
-
 def table_rows(stats):
     """The table as lists of cell strings, header first."""
-    rows = [["policy", "mean return", "std over runs", "paired vs baseline",
+    rows = [["policy", "mean return", "SD over runs", "paired vs baseline [95 %]",
              "pocketed 2 / 5 / other", "hit rate", "median speed"]]
     for p, s in stats.items():
         rows.append([p, f"{s['mean']:.3f}", f"{s['std_runs']:.3f}",
-                     "0" if p == "baseline" else fmt_pm(s["paired"]),
+                     "0" if p == "baseline" else fmt_ci(s["paired"]) if s["paired"] else "–",
                      f"{s['pockets'].get('2', 0)} / {s['pockets'].get('5', 0)} / {s['other']}",
                      f"{100 * s['hit_rate']:.0f} %", f"{s['median_speed']:.2f} m/s"])
     return rows

@@ -8,8 +8,9 @@ Reads DIR/bench_curve.csv and writes DIR/bench_curve.png and .svg with three
 log-scale panels against the number of episodes: the negated mean return of
 each iteration's samples, the negated return of the policy mean on the fixed
 test contexts, and the RMS distance of the policy mean to the optimum x*(s),
-plus the policy's root mean variance. Thin lines are single repetitions, the
-thick line their median. Every method in METHODS whose CSV is in DIR is
+plus the policy's root mean variance. Thin lines are single repetitions (every
+one the folder holds), the thick line their median, the dotted line its
+plateau (the median over the last tenth of the iterations). Every method in METHODS whose CSV is in DIR is
 drawn (same columns as bench_curve.csv), each in its own colour.
 """
 import argparse
@@ -56,8 +57,12 @@ def draw(axes, curves, name, colour):
             stack.append(y)
         n = min(len(y) for y in stack)
         x = curves[sorted(curves)[0]]["samples"][:n]
-        ax.plot(x, np.median(np.array([y[:n] for y in stack]), axis=0), color=colour, lw=1.8,
-                label=f"{name}: median of {len(stack)} runs")
+        med = np.median(np.array([y[:n] for y in stack]), axis=0)
+        ax.plot(x, med, color=colour, lw=1.8, label=f"{name}: median of {len(stack)} runs")
+        # the plateau: the median over the last tenth of the iterations
+        plateau = float(np.median(med[-max(1, n // 10):]))
+        ax.axhline(plateau, color=colour, lw=0.8, ls=":",
+                   label=f"{name}: plateau {plateau:.3g} (median, last tenth)")
         if col == "test_error":
             std = np.median(np.array([curves[r]["mean_std"][:n] for r in sorted(curves)]), axis=0)
             ax.plot(x, np.maximum(std, TINY), color=colour, lw=1.2, ls="--",
@@ -87,7 +92,7 @@ def main():
         ax.set_xlabel(fs.label("episodes"))
         ax.set_ylabel(label, fontsize=8)
         # the median std falls to the bottom right: keep the legend off it
-        ax.legend(loc="center right" if col == "test_error" else "best", fontsize=6.5)
+        ax.legend(loc="center right" if col == "test_error" else "upper right", fontsize=6)
     fig.suptitle(f"Episodic contextual REPS on the {title} problem (log scale; thin lines: "
                  "single runs)")
     fs.finish(args.dir, fs.save(fig, args.dir, "bench_curve"), ["bench_curve"])

@@ -6,17 +6,19 @@
 Reads DIR/exp3_episodes.csv and DIR/config.ini, and writes as PNG and SVG:
   fig7_7   average return per iteration, panels a-d (value score x policy
            target), each with the baseline and the hand-crafted variant; the
-           mean over the repetitions, bands from the lowest to the highest;
-  fig7_8   the returns of each run's last episodes (exp3.final_episodes): a
-           box per run (quartiles, whiskers at the 5th and 95th percentiles,
-           diamond: the run's mean), and the mean of the run means with their
-           range; every policy once;
-  fig7_9   reward balls pocketed in each pocket group, as a share of the N
-           last episodes of all runs (bars) and of each run (dots);
+           mean over the repetitions, bands -+ one SD over the repetitions;
+  fig7_8   the returns of each run's last episodes (exp3.final_episodes): top,
+           as the thesis draws it, each run's mean with one SD of its returns;
+           below, a box per run (quartiles, whiskers at the 5th and 95th
+           percentiles, diamond: the run's mean); every policy once;
+  fig7_9   reward balls pocketed in each pocket group (numbered as in
+           Fig. 7.1), as a share of the N last episodes of all runs (bars) and
+           of each run (dots);
   fig7_10  the outcome of those episodes (pocketed in a target, pocketed
            elsewhere, reward ball never hit, on the table after a hit), with
            each run's share, and the final distance of the reward ball to the
-           nearest target pocket for the episodes left on the table.
+           nearest target pocket: over every ball (the thesis's histogram) and
+           for the balls left on the table after a hit, on one scale.
 Policies missing from the CSVs (exp3.policies) are left out.
 """
 import argparse
@@ -71,8 +73,8 @@ def colour_of(p):
 def curves(all_runs):
     """{policy: (episodes, mean, low, high)}: per iteration, the episodes run so
     far, the mean over the repetitions of the iteration's average return and
-    the lowest and highest of those averages (a band that, unlike mean +- std,
-    never leaves the possible returns)."""
+    that mean -+ one SD of those averages over the repetitions (the band of
+    Experiment 4's curves too)."""
     out = {}
     for p in exp3_table.policies(all_runs):
         per_rep = []
@@ -86,7 +88,9 @@ def curves(all_runs):
         iters = sorted(set.intersection(*(set(i) for i in per_rep)))
         count = np.cumsum([len(per_rep[0][i]) for i in iters])
         avg = np.array([[np.mean(its[i]) for i in iters] for its in per_rep])
-        out[p] = (count, avg.mean(axis=0), avg.min(axis=0), avg.max(axis=0))
+        m = avg.mean(axis=0)
+        sd = avg.std(axis=0, ddof=1) if len(avg) > 1 else np.zeros_like(m)
+        out[p] = (count, m, m - sd, m + sd)
     return out
 
 
@@ -154,7 +158,7 @@ def fig7_7(d, cur, nreps):
             ax.text(0.5, 0.5, f"{pol}: not run", transform=ax.transAxes, ha="center")
         ax.set_title(title, fontsize=8.5)
         ax.axhline(0, color="black", lw=0.5)
-        ax.set_ylim(max(lo, -4.0) - 0.05, 0.05)
+        ax.set_ylim(max(lo, -4.0) - 0.05, 0.15)
     for ax in axes[1]:
         ax.set_xlabel(fs.label("episodes"))
     for ax in axes[:, 0]:
@@ -167,19 +171,31 @@ def fig7_7(d, cur, nreps):
         handles.append(Line2D([], [], color=colour_of("handcrafted"), ls=":", lw=1.2,
                               label="hand-crafted features (beyond the thesis)"))
     fs.legend_below(fig, handles, ncol=3, height=0.07)
-    fig.suptitle(f"Fig. 7.7: average return per iteration (mean over {nreps} repetitions; "
-                 "bands: lowest to highest)")
+    fig.suptitle(f"Fig. 7.7: average return per iteration, mean over {nreps} repetitions "
+                 "(bands: ± 1 SD)")
     return fs.save(fig, d, "fig7_7")
 
 
+def run_returns(runs, p):
+    """[returns of each of policy p's runs], in repetition order."""
+    return [[float(e["return"]) for e in runs[(p, r)]] for r in sorted(r for q, r in runs if q == p)]
+
+
 def fig7_8(d, runs, last):
+    """Top, as the thesis draws it: each run's mean return with one SD of its
+    returns as the error bar. Bottom: the same runs as boxes."""
     pols = exp3_table.policies(runs)
-    fig, ax = fs.figure("full", 0.5)
-    pos, ticks, lows = 0.0, [], []
+    fig, (top, ax) = fs.figure("full", 0.8, nrows=2, sharex=True,
+                               gridspec_kw={"height_ratios": [1, 1.15]})
+    pos, ticks, lows, sd_lo, sd_hi = 0.0, [], [], [], []
     for p in pols:
-        reps = sorted(r for q, r in runs if q == p)
-        data = [[float(e["return"]) for e in runs[(p, r)]] for r in reps]
-        x = pos + np.arange(len(reps))
+        data = run_returns(runs, p)
+        x = pos + np.arange(len(data))
+        means = np.array([np.mean(v) for v in data])
+        sds = np.array([np.std(v, ddof=1) if len(v) > 1 else 0.0 for v in data])
+        top.errorbar(x, means, yerr=sds, fmt="o", color=colour_of(p), ms=4, capsize=3, lw=1)
+        sd_lo.append(float(np.min(means - sds)))
+        sd_hi.append(float(np.max(means + sds)))
         ax.boxplot(data, positions=x, widths=0.7, whis=(5, 95), showfliers=False,
                    showmeans=True, patch_artist=True,
                    boxprops={"facecolor": colour_of(p), "alpha": 0.55, "lw": 0.8},
@@ -187,31 +203,29 @@ def fig7_8(d, runs, last):
                    meanprops={"marker": "D", "mfc": "white", "mec": "black", "ms": 3.5},
                    whiskerprops={"lw": 0.8}, capprops={"lw": 0.8})
         lows.extend(np.percentile(v, 5) for v in data)
-        # the range of the run means: unlike a t interval it never passes 0
-        means = [float(np.mean(v)) for v in data]
-        m = float(np.mean(means))
-        ax.errorbar([pos + len(reps) + 0.1], [m], yerr=[[m - min(means)], [max(means) - m]],
-                    fmt="o", color="black", ms=4, capsize=3)
-        ticks.append((pos + (len(reps) - 1) / 2 + 0.3, label_of(p)))
-        pos += len(reps) + 1.6
+        ticks.append((pos + (len(data) - 1) / 2, label_of(p)))
+        pos += len(data) + 1.0
+    for a in (top, ax):
+        a.axhline(0, color="black", lw=0.8)
+        a.set_ylabel(RETURN)
+        a.grid(axis="x", visible=False)
+    top.set_ylim(min(sd_lo) * 1.05, max(0.08, max(sd_hi) + 0.05))
+    top.set_title("as in the thesis: each run's mean return ± 1 SD of its returns "
+                  "(the bar may pass 0, which no return exceeds)", fontsize=8.5)
+    ax.set_ylim(min(lows) * 1.05, 0.08)
+    ax.set_title("the same runs as boxes: quartiles, whiskers 5–95 %, diamond: the run's mean",
+                 fontsize=8.5)
     ax.set_xticks([t for t, _ in ticks], [lab for _, lab in ticks])
     ax.tick_params(axis="x", length=0)
-    ax.axhline(0, color="black", lw=0.8)
-    ax.set_ylim(min(lows) * 1.05, 0.08)
-    ax.set_ylabel(RETURN)
-    ax.grid(axis="x", visible=False)
-    handles = [Patch(facecolor="0.7", label="one run: quartiles, whiskers 5–95 %"),
-               Line2D([], [], ls="", marker="D", mfc="white", mec="black", ms=3.5,
-                      label="the run's mean"),
-               Line2D([], [], ls="-", marker="o", color="black", ms=4,
-                      label="mean of the run means, their range")]
-    ax.legend(handles=handles, loc="lower right")
-    fig.suptitle(f"Fig. 7.8: returns of the last {last} episodes of each run ({iterations(runs)})\n"
-                 "0 m: pocketed in a target, the best possible")
+    fig.suptitle(f"Fig. 7.8: returns of the last {last} episodes of each run ({iterations(runs)}); "
+                 "one mark per run\n0 m: pocketed in a target, the best possible")
     return fs.save(fig, d, "fig7_8")
 
 
-POCKET_GROUPS = [("2", "pocket 2 (target)", ("2",)), ("5", "pocket 5 (target)", ("5",)),
+# pockets numbered as in Fig. 7.1: 0-2 along the lower cushion (y < 0), 3-5
+# along the upper; the targets are the corners at x = +L/2
+POCKET_GROUPS = [("2", "pocket 2 (target, lower)", ("2",)),
+                 ("5", "pocket 5 (target, upper)", ("5",)),
                  ("middle", "middle pockets 1, 4", ("1", "4")),
                  ("far", "far corners 0, 3", ("0", "3"))]
 
@@ -229,8 +243,11 @@ def fig7_9(d, runs, last):
             pooled, per_run = sh.get(g, (0.0, []))
             x = i + (j - (len(POCKET_GROUPS) - 1) / 2) * w
             b = ax.bar([x], [100 * pooled], w, color=col, label=lab if i == 0 else None)
-            ax.bar_label(b, [f"{round(pooled * n_eps[p])}"], fontsize=6.5, padding=1)
-            top = max(top, 100 * pooled)
+            ax.bar_label(b, [f"{round(pooled * n_eps[p])}"], fontsize=6, padding=1)
+            # the runs' dots beside the bar's right edge, clear of its count
+            ax.plot([x + 0.3 * w] * len(per_run), [100 * v for v in per_run], "o", mfc="white",
+                    mec="black", mew=0.5, ms=2.2, label="one run" if i == 0 and j == 0 else None)
+            top = max(top, 100 * pooled, *(100 * v for v in per_run))
     ax.set_xticks(range(len(pols)), [label_of(p) for p in pols])
     ax.set_ylabel(fs.label("reward balls pocketed", "% of N"))
     ax.grid(axis="x", visible=False)
@@ -240,8 +257,8 @@ def fig7_9(d, runs, last):
     n = sorted(set(n_eps.values()))
     ax.set_title(f"Fig. 7.9: where the reward ball was pocketed in the last {last} episodes of "
                  f"each of the {runs_n} runs ({iterations(runs)})\n(N = "
-                 f"{', '.join(map(str, n))} episodes per policy; bars: share of the N episodes; "
-                 "numbers: balls)", fontsize=8.5)
+                 f"{', '.join(map(str, n))} episodes per policy; bars: share of the N episodes, "
+                 "numbers: balls; dots: each run's share)", fontsize=8.5)
     return fs.save(fig, d, "fig7_9")
 
 
@@ -255,7 +272,7 @@ def fig7_10(d, runs, last, geo):
     gs = fig.add_gridspec(1 + nrow, ncol, height_ratios=[1.25] + [1] * nrow)
     top = fig.add_subplot(gs[0, :])
     w = 0.8 / len(OUTCOMES)
-    dist_all = {}
+    dist_all, every = {}, {}
     for i, p in enumerate(pols):
         sh, _ = shares(runs, p, lambda e: outcome(e, targets))
         for j, (k, lab, col) in enumerate(OUTCOMES):
@@ -268,19 +285,24 @@ def fig7_10(d, runs, last, geo):
         dist_all[p] = {r: [target_distance(e, geo) for e in runs[(p, r)]
                            if outcome(e, targets) == "table"]
                        for q, r in runs if q == p}
+        # the thesis's histogram: every ball, 0 when in a target pocket, a
+        # pocket's centre when pocketed elsewhere, where it stopped otherwise
+        every[p] = [0.0 if outcome(e, targets) == "target" else target_distance(e, geo)
+                    for q, r in runs if q == p for e in runs[(p, r)]]
     top.set_xticks(range(len(pols)), [label_of(p) for p in pols])
     top.set_ylabel(fs.label("share of the episodes", "%"))
     top.grid(axis="x", visible=False)
     top.legend(loc="upper left", ncol=3, fontsize=7)
     top.set_ylim(0, 130)
     top.set_title("outcome of each episode (bars: all runs, dots: each run)", fontsize=8.5)
-    dmax = max((max(v) for runs_d in dist_all.values() for v in runs_d.values() if v), default=BIN)
+    dmax = max((max(v) for v in every.values() if v), default=BIN)
     edges = np.arange(0, dmax + BIN, BIN)
     if len(edges) < 2:
         edges = np.array([0, BIN])
     axes = [fig.add_subplot(gs[1 + k // ncol, k % ncol]) for k in range(len(pols))]
     for ax in axes[1:]:
         ax.sharex(axes[0])
+        ax.sharey(axes[0])
     for ax, p in zip(axes, pols):
         per_run = []
         for r, dist in sorted(dist_all[p].items()):
@@ -290,8 +312,10 @@ def fig7_10(d, runs, last, geo):
         pooled = 100 * np.histogram([x for v in dist_all[p].values() for x in v], edges)[0] / \
             sum(len(runs[(p, r)]) for r in dist_all[p])
         centres = (edges[:-1] + edges[1:]) / 2
+        ax.stairs(100 * np.histogram(every[p], edges)[0] / len(every[p]), edges,
+                  color="black", lw=1.0, label="every ball (the thesis's histogram)")
         ax.bar(edges[:-1], pooled, BIN, align="edge", color=colour_of(p), alpha=0.8,
-               edgecolor="black", lw=0.3)
+               edgecolor="black", lw=0.3, label="hit, left on the table")
         if len(per_run) > 1:
             ax.vlines(centres, per_run.min(axis=0), per_run.max(axis=0), color="black", lw=0.8)
         ax.set_title(label_of(p), fontsize=8.5)
@@ -299,12 +323,15 @@ def fig7_10(d, runs, last, geo):
     for k, ax in enumerate(axes):
         if k % ncol == 0:
             ax.set_ylabel(fs.label("share of the episodes", "%"), fontsize=8)
+    axes[0].legend(loc="upper right", fontsize=6)
     fig.supxlabel(fs.label("final distance of the reward ball to the nearest target pocket", "m"),
                   fontsize=8.5)
     fig.suptitle(f"Fig. 7.10: the last {last} episodes of each run ({iterations(runs)})\n"
-                 "top: their outcome; below: the final distance of the reward balls left on "
-                 "the table after a hit\n(bars: share of all the policy's episodes per "
-                 f"{BIN:g} m bin; lines: range over the runs)", fontsize=9)
+                 "top: their outcome; below: the final distance of the reward ball to the "
+                 "nearest target pocket\nline: every ball, as the thesis counts it (0 in a "
+                 "target); bars: the balls left on the table after a hit\n(share of all the "
+                 f"policy's episodes per {BIN:g} m bin, range over the runs; one scale for "
+                 "every policy)", fontsize=9)
     return fs.save(fig, d, "fig7_10")
 
 

@@ -17,8 +17,10 @@ import sys
 import exp_data
 import figstyle as fs
 import numpy as np  # noqa: E402  (after figstyle: it picks the Python)
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.colors import ListedColormap  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
-from matplotlib.patches import Circle, Rectangle  # noqa: E402
+from matplotlib.patches import Circle, Patch, Rectangle  # noqa: E402
 
 STEMS = ["fig7_1_table", "fig7_2_reward", "fig7_3_shots", "fig7_5_ghost"]
 FELT, RAIL = "#2f7d4f", "#6b4a2f"
@@ -103,16 +105,29 @@ def fig_reward(d):
     xs, ys = np.unique(vx), np.unique(vy)
     grid = np.full((len(ys), len(xs)), np.nan)
     grid[np.searchsorted(ys, vy), np.searchsorted(xs, vx)] = [num(r, "reward") for r in rows]
+    missed = np.zeros(grid.shape, bool)
+    missed[np.searchsorted(ys, vy), np.searchsorted(xs, vx)] = [num(r, "hit") == 0 for r in rows]
     dx, dy = (xs[1] - xs[0]) / 2, (ys[1] - ys[0]) / 2
     extent = (xs[0] - dx, xs[-1] + dx, ys[0] - dy, ys[-1] + dy)
+    # a miss pays the miss penalty, far below every hit: its own colour, so that
+    # the colour scale spans the hits and the zero-return set stands out
+    hits = np.ma.masked_where(missed | np.isnan(grid), grid)
+    cmap = plt.get_cmap(fs.CMAP).copy()
+    cmap.set_bad(fs.PALETTE["lightgrey"])
     fig, ax = fs.figure(4.8, 0.9)
-    im = ax.imshow(grid, origin="lower", extent=extent, cmap=fs.CMAP, vmax=0,
-                   interpolation="nearest")
-    # the return is 0 only when the ball drops into a target pocket: outline those actions
-    ax.contour(xs, ys, (grid == 0).astype(float), levels=[0.5], colors="white",
-               linewidths=0.6)
-    fig.colorbar(im, ax=ax, label=fs.label("return", "m") + "; white outline: 0 (pocketed)",
+    im = ax.imshow(hits, origin="lower", extent=extent, cmap=cmap, vmax=0,
+                   vmin=float(np.floor(hits.min() * 10) / 10), interpolation="nearest")
+    zero = np.ma.masked_where(grid != 0, np.ones_like(grid))
+    ax.imshow(zero, origin="lower", extent=extent, cmap=ListedColormap(["white"]),
+              interpolation="nearest")
+    ax.contour(xs, ys, (grid == 0).astype(float), levels=[0.5], colors="black",
+               linewidths=0.9)
+    fig.colorbar(im, ax=ax, label=fs.label("return of a shot that hits the reward ball", "m"),
                  shrink=0.9)
+    fs.legend_below(fig, [Patch(facecolor="white", edgecolor="black",
+                                label="return 0: pocketed in a target"),
+                          Patch(facecolor=fs.PALETTE["lightgrey"],
+                                label="reward ball missed (miss penalty)")], ncol=2, height=0.08)
     for s in shots:
         ax.plot(num(s, "vx"), num(s, "vy"), "o", mfc="none", mec=fs.PALETTE["vermillion"],
                 ms=8, mew=1.5)

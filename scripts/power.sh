@@ -9,9 +9,8 @@
 # OUT/ARM             the merged arm, as one process would have written it
 # OUT/timing.csv      wall time of the runs and merges, jobs, cores, load
 # OUT/*.csv           the statistics (power_stats.py)
-# DOCS/power.md, DOCS/figures/power_effects.{png,svg}  the report; when DOCS
-#                     is this checkout's docs/, README.md's 50-repetition
-#                     column is rewritten too
+# DOCS/power.md, DOCS/figures/power_effects.{png,svg}  the report (the
+#                     verdicts: scripts/study.sh, scripts/verdicts.py)
 # Options after PYTHON go to every run before the arm's own (tests pass tiny
 # Experiment 3 settings). POWER_JOBS jobs at once (default 2), POOLREPS the
 # binary (default ./poolreps). OUT/runs and OUT/ARM are replaced.
@@ -65,6 +64,4 @@ for a in $ARMS; do merge_arm "$a"; done
 	echo "merge,$(since "$t1"),1,$(nproc),$load1,$(load)"
 } > "$out/timing.csv"
 
-readme=
-[ -d "$docs" ] && [ "$(cd "$docs" && pwd -P)" = "$(cd "$here/.." && pwd -P)/docs" ] && readme="$here/../README.md"
-"$py" "$here/power_stats.py" "$out" --docs "$docs" ${readme:+--readme "$readme"}
+"$py" "$here/power_stats.py" "$out" --docs "$docs"

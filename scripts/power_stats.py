@@ -1,16 +1,16 @@
 #!/usr/bin/env python3
 """Statistics of the Experiment 3 power study from its merged runs.
 
-Usage: power_stats.py STUDY [--docs DIR] [--readme FILE] [--boot B] [--seed S]
+Usage: power_stats.py STUDY [--docs DIR] [--boot B] [--seed S]
 
 STUDY holds one merged Experiment 3 run per arm (folders event, stepped,
 stepped05, as `poolreps merge` writes them) and timing.csv (scripts/power.sh).
 For every claim of the thesis's section 7.5.2 it computes the paired effect
 with a 95 % interval and a verdict per arm; also each variant's rank with its
 bootstrap probability and the pocket counts with intervals. It writes
-STUDY/power_{effects,pairwise,ranks,pockets,runs,claims}.csv; with --docs,
+STUDY/power_{effects,pairwise,ranks,pockets,runs}.csv; with --docs,
 DIR/power.md (from scripts/power_template.md) and DIR/figures/power_effects.png
-and .svg; with --readme, the README cells that start with <!-- power:ID -->.
+and .svg. The verdicts on the claims: scripts/verdicts.py (docs/verdicts.md).
 Exit codes: 1 usage, 2 missing or malformed input, 3 inconsistent data.
 """
 import argparse
@@ -36,16 +36,12 @@ POCKETS = (-1, 0, 1, 2, 3, 4, 5)
 LEVEL = 0.95
 BOOT = 10000
 SEED = 20251201
-# thresholds of the claims (returns are minus a distance in metres, eq. 7.7)
-CONSIDERABLE = 0.2   # "considerably better": twice the 0.1 the thesis calls significant
+# quantities the claims name (returns are minus a distance in metres, eq. 7.7)
 MARGIN = 0.1         # "approximately 0.1 greater than the baseline"
-EVEN = (0.4, 0.6)    # "almost evenly between the two pockets": pocket-2 share
 FAR = 0.3            # "balls with a distance greater than 0.3"
-FLAT = 0.05          # "converged": mean return moves less than this
 CONVERGED_AT = 0.6   # 1400 episodes = iteration 60 of 100 at the thesis's settings
-POOR = 0.1           # "poor local optimum": under one ball in ten in a target pocket
-MANY = 3             # "many of them": at least 3 of the 5 thesis policies
-AGREE, DISAGREE, UNDECIDED = "agrees", "disagrees", "undecided"
+RULES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "study",
+                     "rules.ini")
 
 
 class Fail(Exception):
@@ -109,54 +105,6 @@ def rank_probabilities(means, idx):
     point = np.empty(k, int)
     point[np.argsort(-means.mean(axis=1), kind="stable")] = np.arange(k)
     return prob, point + 1
-
-
-# ---------------------------------------------------------------- verdicts
-
-def above(lo, hi, x=0.0):
-    """The claim 'quantity > x': agrees when the interval lies above x,
-    disagrees when it lies below, else undecided."""
-    if not (math.isfinite(lo) and math.isfinite(hi)):
-        return UNDECIDED
-    return AGREE if lo > x else DISAGREE if hi < x else UNDECIDED
-
-
-def within(lo, hi, a, b):
-    """The claim 'a <= quantity <= b': agrees when the interval lies inside
-    [a, b], disagrees when it misses [a, b], else undecided."""
-    if not (math.isfinite(lo) and math.isfinite(hi)):
-        return UNDECIDED
-    if a <= lo and hi <= b:
-        return AGREE
-    return DISAGREE if hi < a or lo > b else UNDECIDED
-
-
-def about(lo, hi, x):
-    """The claim 'quantity > 0 and about x': agrees when the interval lies
-    above 0 and contains x, disagrees when it excludes x, else undecided."""
-    if not (math.isfinite(lo) and math.isfinite(hi)):
-        return UNDECIDED
-    if hi < x or lo > x:
-        return DISAGREE
-    return AGREE if lo > 0 else UNDECIDED
-
-
-def all_of(verdicts):
-    """A claim about every member: agrees when each part agrees, disagrees
-    when any part disagrees, else undecided."""
-    verdicts = list(verdicts)
-    if verdicts and all(v == AGREE for v in verdicts):
-        return AGREE
-    return DISAGREE if DISAGREE in verdicts else UNDECIDED
-
-
-def at_least(verdicts, k):
-    """'At least k members satisfy it': agrees when k parts agree, disagrees
-    when fewer than k parts could (agree or undecided), else undecided."""
-    verdicts = list(verdicts)
-    if sum(v == AGREE for v in verdicts) >= k:
-        return AGREE
-    return DISAGREE if sum(v != DISAGREE for v in verdicts) < k else UNDECIDED
 
 
 # ---------------------------------------------------------------- input
@@ -284,6 +232,9 @@ class Arm:
         early = (it > k0) & (it <= k1)
         late = it > k1
         self.conv_iters = (k0, k1, self.iterations)
+        # mean return per iteration 1..iterations of each run (Fig. 7.7's curve)
+        self.curve = np.stack([(ret * (it == k)).sum(-1) / (it == k).sum(-1)
+                               for k in range(1, self.iterations + 1)], axis=-1)
         with np.errstate(invalid="ignore"):
             self.change = ((ret * late).sum(-1) / late.sum(-1)
                            - (ret * early).sum(-1) / early.sum(-1))
@@ -367,8 +318,8 @@ class Study:
         self.boot = boot
         self.seed = seed
         self.idx = {a.name: resamples(len(a.reps), boot, seed) for a in arms}
+        self.considerable = considerable()
         self.effects, self.pairwise, self.ranks, self.pockets, self.perrun = [], [], [], [], []
-        self.claims = {}      # claim id -> {arm: (text, verdict, short text)}
         for a in arms:
             self.analyse(a)
 
@@ -413,183 +364,17 @@ class Study:
         for j, p in enumerate(THESIS):
             self.ranks.append(dict(arm=a.name, policy=p, rank=int(point[j]),
                                    prob=[float(x) for x in prob[j]]))
-        tprob, _ = rank_probabilities(means[:len(TREES)], idx)
-        self.claim_verdicts(a, tprob)
-
-    def put(self, cid, arm, text, verdict, short=""):
-        """Record a claim's verdict in one arm: the full text for docs/power.md,
-        the short one (optional) for the README cell."""
-        self.claims.setdefault(cid, {})[arm] = (text, verdict, short)
-
-    def claim_verdicts(self, a, tprob):
-        x = a.name
-        b = BASELINE
-        # none considerably better
-        eff = {p: paired_t(a.ret[a.row(p)] - a.ret[a.row(b)]) for p in TREES}
-        top = max(TREES, key=lambda p: eff[p][2])
-        sig = [p for p in TREES if eff[p][1] > 0]
-        self.put("none_better", x,
-                 f"largest upper bound: {top} {fmt_ci(*eff[top][:3])}; "
-                 f"significantly above 0: {', '.join(sig) or 'none'}",
-                 all_of(above(-hi, -lo, -CONSIDERABLE) for _, lo, hi, _ in eff.values()),
-                 f"highest {top} {fmt_ci(*eff[top][:3], digits=2)}")
-        # worst: rvr_a below every other tree variant
-        self.rank_claim(a, "worst", "rvr_a", -1, tprob)
-        for cid, attr, what in (("worst_variance", "sd", "episode std"),
-                                ("worst_pockets", "target", "target balls per run"),
-                                ("worst_misses", "miss_dist", "missed-ball distance, m"),
-                                ("worst_speed", "speed", "median speed, m/s")):
-            m, lo, hi, _ = self.paired(a, getattr(a, attr), "rvr_a", b)
-            self.put(cid, x, f"{what}, rvr_a − baseline: {fmt_ci(m, lo, hi)}", above(lo, hi))
-        self.rank_claim(a, "best", "nrvr_rs", 1, tprob)
-        m, lo, hi, _ = eff["nrvr_rs"]
-        self.put("best_margin", x, f"nrvr_rs − baseline: {fmt_ci(m, lo, hi)}",
-                 about(lo, hi, MARGIN), fmt_ci(m, lo, hi, digits=2))
-        s, lo, hi = self.share(a, "nrvr_rs")
-        self.put("even", x, f"share in pocket 2: {fmt_ci(s, lo, hi, False, 2)}",
-                 within(lo, hi, *EVEN), f"pocket-2 share {fmt_ci(s, lo, hi, False, 2)}")
-        parts, texts = [], []
-        for p in TREES:
-            m, lo, hi, _ = self.paired(a, a.target, p, b)
-            parts.append(above(lo, hi))
-            texts.append(f"{p} {fmt_ci(m, lo, hi, digits=1)}")
-        self.put("fewest", x, "target balls per run over the baseline's: " + "; ".join(texts),
-                 all_of(parts))
-        s, lo, hi = self.share(a, "nrvr_a")
-        self.put("lower", x, f"nrvr_a's share in pocket 2: {fmt_ci(s, lo, hi, False, 2)}",
-                 above(lo, hi, 0.5))
-        m, lo, hi, _ = self.paired(a, a.far, "nrvr_a", "nrvr_rs")
-        self.put("far", x, f"share beyond {FAR} m, nrvr_a − nrvr_rs: {fmt_ci(m, lo, hi)}",
-                 above(lo, hi))
-        parts, texts = [], []
-        for p in THESIS:
-            m, lo, hi, _ = paired_t(a.change[a.row(p)])
-            parts.append(within(lo, hi, -FLAT, FLAT))
-            texts.append(f"{p} {fmt_ci(m, lo, hi)}")
-        self.put("converged", x, "late − early: " + "; ".join(texts), all_of(parts))
-        parts, texts = [], []
-        for p in THESIS:
-            rate = a.target[a.row(p)] / a.final
-            m, lo, hi, _ = paired_t(rate)
-            parts.append(above(-hi, -lo, -POOR))
-            texts.append(f"{p} {fmt_ci(100 * m, 100 * lo, 100 * hi, False, 1)} %")
-        self.put("poor", x, "target rate: " + "; ".join(texts), at_least(parts, MANY))
-
-    def share(self, a, policy):
-        s, lo, hi = share2(a.counts[a.row(policy)], self.idx[a.name])[0]
-        return s, lo, hi
-
-    def rank_claim(self, a, cid, policy, sign, tprob):
-        """policy is the best (sign 1) or worst (sign -1) tree variant: every
-        paired difference to another tree variant has that sign."""
-        parts, texts = [], []
-        for w in TREES:
-            if w != policy:
-                m, lo, hi, _ = self.paired(a, a.ret, policy, w)
-                parts.append(above(lo, hi) if sign > 0 else above(-hi, -lo))
-                texts.append(f"{w} {fmt_ci(m, lo, hi)}")
-        j = TREES.index(policy)
-        p = tprob[j, 0 if sign > 0 else len(TREES) - 1]
-        what = f"P({'best' if sign > 0 else 'worst'}) {p:.2f}"
-        self.put(cid, a.name, f"{what}; {policy} − " + "; ".join(texts), all_of(parts), what)
 
 
-# ---------------------------------------------------------------- claims text
-
-CLAIMS = [
-    # id, thesis's words (7.5.2), quantity and rule
-    ("none_better", "None of the tree-based policies performed considerably better than "
-     "the baseline.",
-     f"each tree variant's paired effect on the mean return against the baseline is below "
-     f"{CONSIDERABLE} (\"considerably\": twice the {MARGIN} the thesis calls a significant "
-     "improvement for its best variant)"),
-    ("worst", "The worst performance: rvr score with states → actions.",
-     "rvr_a's mean return is below each other tree variant's (paired)"),
-    ("worst_variance", "This policy has a large variance in the returns.",
-     "rvr_a's standard deviation of the returns over a run's last episodes (the error bars "
-     "of the thesis's Fig. 7.8) exceeds the baseline's (paired)"),
-    ("worst_pockets", "It managed to pocket more balls than the baseline policy.",
-     "rvr_a pockets more reward balls in the target pockets per run than the baseline (paired)"),
-    ("worst_misses", "... but the balls that missed tended to stop further away from the pockets.",
-     "rvr_a's mean distance to the nearest target pocket over the balls not pocketed there "
-     "exceeds the baseline's (paired)"),
-    ("worst_speed", "This behavior is often caused by policies that use excessive velocities.",
-     "rvr_a's median cue speed per run exceeds the baseline's (paired)"),
-    ("best", "The best performance: nrvr score with states → reward states.",
-     "nrvr_rs's mean return is above each other tree variant's (paired)"),
-    ("best_margin", "The mean of the returns for this policy is approximately 0.1 greater "
-     "than the baseline policy.",
-     f"nrvr_rs − baseline is above 0 and consistent with {MARGIN}: the interval lies above 0 "
-     f"and contains {MARGIN} (disagrees when it excludes {MARGIN})"),
-    ("even", "The policy also distributed the pocketed balls almost evenly between the two "
-     "pockets.",
-     f"nrvr_rs's share of its target-pocketed balls in pocket 2 lies in [{EVEN[0]}, {EVEN[1]}]"),
-    ("fewest", "The baseline policy pocketed the fewest balls.",
-     "each tree variant pockets more reward balls in the target pockets per run than the "
-     "baseline (paired)"),
-    ("lower", "nrvr with states → actions ... favored the lower pocket.",
-     "nrvr_a's share of its target-pocketed balls in pocket 2 (y < 0) exceeds 0.5"),
-    ("far", "Its overall performance is also decreased by the number of balls with a distance "
-     "greater than 0.3.",
-     f"nrvr_a's share of final distances above {FAR} m exceeds nrvr_rs's (paired)"),
-    ("converged", "All of the policies converged after approximately 1400 episodes.",
-     f"for each of the five thesis policies, the mean return of the second half of the "
-     f"iterations after {round(100 * CONVERGED_AT)} % of the run (iterations 81–100 at the "
-     f"thesis's settings) minus that of the first half (61–80) lies in ±{FLAT}"),
-    ("poor", "... many of them converged to poor local optima.",
-     f"at least {MANY} of the five thesis policies pocket fewer than {round(100 * POOR)} % of "
-     "their last episodes' balls in a target pocket (the ghost-ball expert pockets all)"),
-]
-
-# README rows of the 7.5.2 claims: cell id -> the claims it summarises, with labels
-README_ROWS = {
-    "none_better": [("none_better", "")],
-    "best": [("best", "best"), ("best_margin", "≈ 0.1 above")],
-    "worst": [("worst", "worst"), ("worst_variance", "higher variance"),
-              ("worst_pockets", "pockets more"), ("worst_speed", "faster")],
-    "even": [("even", "")],
-    "fewest": [("fewest", "")],
-    "converged": [("converged", "converged"), ("poor", "many poor")],
-}
-
-
-def readme_cell(study, cell):
-    parts = []
-    for cid, label in README_ROWS[cell]:
-        got = study.claims[cid]
-        v = f"{got['event'][1]} / {got['stepped'][1]}"
-        if "stepped05" in got and got["stepped05"][1] != got["stepped"][1]:
-            v += f" (0.5 ms: {got['stepped05'][1]})"
-        if got["event"][2]:
-            v += f", {got['event'][2]} / {got['stepped'][2]}"
-        parts.append(f"{label}: {v}" if label else v)
-    return "; ".join(parts)
-
-
-def update_readme(path, cells):
-    """Replace the text after each <!-- power:ID --> up to the cell's end."""
+def considerable():
+    """The "considerably better" margin of the verdict rules (data/study/rules.ini)."""
+    cfg = configparser.ConfigParser(interpolation=None)
+    if not cfg.read(RULES, encoding="utf-8"):
+        raise Fail(f"{RULES}: missing or unreadable", 2)
     try:
-        with open(path, encoding="utf-8") as f:
-            text = f.read()
-    except OSError as e:
-        raise Fail(f"{path}: {e.strerror}", 2) from e
-    found = set()
-
-    def repl(m):
-        found.add(m.group(1))
-        return m.group(0) if m.group(1) not in cells else \
-            f"<!-- power:{m.group(1)} -->{cells[m.group(1)]} |"
-
-    new = re.sub(r"<!-- power:(\w+) -->[^|\n]*\|", repl, text)
-    for cid in cells:
-        if cid not in found:
-            print(f"power_stats: {path}: no cell <!-- power:{cid} -->; not updated",
-                  file=sys.stderr)
-    if new != text:
-        tmp = f"{path}.tmp.{os.getpid()}"
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(new)
-        os.replace(tmp, path)
+        return cfg.getfloat("margins", "considerable")
+    except (configparser.Error, ValueError) as e:
+        raise Fail(f"{RULES}: margins.considerable: missing or malformed", 2) from e
 
 
 # ---------------------------------------------------------------- output
@@ -626,9 +411,7 @@ def write_study_csvs(study, out):
               [[r["arm"], r["policy"], r["sd"], r["target"], r["speed"], r["miss_dist"], r["far"],
                 r["change"][0], r["change"][1], r["change"][2], *r["share2"]]
                for r in study.perrun])
-    write_csv(os.path.join(out, "power_claims.csv"), ["claim", "arm", "verdict", "estimate"],
-              [[cid, arm, v, t] for cid, per in study.claims.items() for arm, (t, v, _) in
-               per.items()])
+
 
 
 def draw_effects(study, png, svg):
@@ -661,8 +444,8 @@ def draw_effects(study, png, svg):
         zero = ax.axvline(0, color=fs.PALETTE["black"], lw=0.8, label="no difference")
         thesis = ax.axvline(MARGIN, color=fs.PALETTE["grey"], lw=0.8, ls=":",
                             label=f"{MARGIN}: thesis's nrvr, s→rs")
-        big = ax.axvline(CONSIDERABLE, color=fs.PALETTE["grey"], lw=0.8, ls="--",
-                         label=f"{CONSIDERABLE}: \"considerably better\"")
+        big = ax.axvline(study.considerable, color=fs.PALETTE["grey"], lw=0.8, ls="--",
+                         label=f"{study.considerable:g}: \"considerably better\"")
         ax.set_title(f"{title} mode")
         ax.set_xlabel(fs.label("return − baseline's (paired)", "m"))
         ax.grid(axis="y", visible=False)
@@ -689,11 +472,6 @@ def render(study, timing, template):
     names = [a.name for a in arms]
     head = [a.label for a in arms]
     first = arms[0]
-    claim_rows = []
-    for cid, words, rule in CLAIMS:
-        per = study.claims[cid]
-        claim_rows.append([f"`{cid}`: {words}", rule] + [f"**{per[n][1]}**: {per[n][0]}"
-                                                       for n in names])
     eff = {(e["arm"], e["policy"]): e for e in study.effects}
     effect_tables = []
     for a in arms:
@@ -706,7 +484,7 @@ def render(study, timing, template):
             rows.append([LABEL.get(p, p), fmt_ci(e["mean_return"], e["mean_lo"], e["mean_hi"]),
                          fmt(e["std_runs"], False), diff, boot, corr])
         effect_tables.append(f"**{a.label}**\n\n" + md_table(
-            ["policy", "mean return [95 % t]", "std over runs",
+            ["policy", "mean return [95 % t]", "SD over runs",
              "paired vs baseline [95 % t]", "bootstrap 95 %", "corr. with baseline"], rows))
     pair_rows = []
     pw = {(p["arm"], p["a"], p["b"]): p for p in study.pairwise}
@@ -746,7 +524,7 @@ def render(study, timing, template):
                          f"{100 * r['far']:.1f} %", fmt_ci(*r["change"][:3]),
                          f"{fmt_ci(*s2, signed=False, digits=2)} of {r['target_total']}"])
         run_tables.append(f"**{a.label}**\n\n" + md_table(
-            ["policy", "episode std", "target balls per run", "median speed m/s",
+            ["policy", "episode SD", "target balls per run", "median speed m/s",
              "missed-ball distance m", f"beyond {FAR} m", "late − early [95 % t]",
              "pocket-2 share [95 % bootstrap]"], rows))
     trow = [[t["phase"], f"{float(t['wall_seconds']):.0f}", t["jobs"], t["cores"],
@@ -754,7 +532,6 @@ def render(study, timing, template):
     wall = sum(float(t["wall_seconds"]) for t in timing)
     cpu = sum(cpu_seconds(a) for a in arms)
     cpu_text = f"{cpu:.0f} s ({cpu / 60:.1f} min)" if math.isfinite(cpu) else "not recorded"
-    readme = "\n".join(f"- `{cell}`: {readme_cell(study, cell)}" for cell in README_ROWS)
     k0, k1, kn = first.conv_iters
     values = {
         "reps": str(len(first.reps)), "boot": str(study.boot), "seed": str(study.seed),
@@ -765,8 +542,6 @@ def render(study, timing, template):
         "init": str(first.init),
         "policies": ", ".join(first.policies),
         "overrides": overrides(first),
-        "claims": md_table(["claim (thesis 7.5.2)", "quantity: the claim agrees when"] + head,
-                           claim_rows, ["---"] * (2 + len(head))),
         "effects": "\n\n".join(effect_tables),
         "pairwise": md_table(["tree variants"] + head, pair_rows),
         "ranks": "\n\n".join(rank_tables),
@@ -776,10 +551,7 @@ def render(study, timing, template):
                             "load after"], trow),
         "wall": f"{wall:.0f} s ({wall / 60:.1f} min)",
         "cpu": cpu_text,
-        "readme": readme,
-        "considerable": str(CONSIDERABLE), "margin": str(MARGIN),
-        "even": f"[{EVEN[0]}, {EVEN[1]}]", "flat": str(FLAT), "poor": f"{round(100 * POOR)} %",
-        "many": str(MANY), "far": str(FAR),
+        "considerable": f"{study.considerable:g}", "far": str(FAR),
     }
     used = set(re.findall(r"\{\{(\w+)\}\}", template))
     if used - values.keys():
@@ -828,7 +600,6 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("study")
     ap.add_argument("--docs", help="write DOCS/power.md and DOCS/figures/power_effects.*")
-    ap.add_argument("--readme", help="rewrite this README's <!-- power:ID --> cells")
     ap.add_argument("--boot", type=int, default=BOOT, help=f"bootstrap resamples ({BOOT})")
     ap.add_argument("--seed", type=int, default=SEED, help=f"bootstrap seed ({SEED})")
     args = ap.parse_args()
@@ -859,8 +630,6 @@ def main():
             with open(tmp, "w", encoding="utf-8") as f:
                 f.write(text)
             os.replace(tmp, os.path.join(args.docs, "power.md"))
-        if args.readme:
-            update_readme(args.readme, {c: readme_cell(study, c) for c in README_ROWS})
     except Fail as e:
         print(f"power_stats: {e}", file=sys.stderr)
         return e.code

@@ -5,8 +5,10 @@ Usage: report.py OUT [--quick]
 
 OUT is the folder scripts/reproduce.sh fills: OUT/figures/*.png and *.svg,
 OUT/<experiment>/ with CSVs and provenance.txt, OUT/timings.csv. The page
-holds every figure with a caption, the thesis's claims against this run
-(scripts/claims.py, computed from the CSVs), the Experiment 3 table
+holds every figure with a caption, the verdicts on the thesis's claims (the
+committed study's, docs/verdicts_report.html from scripts/verdicts.py) and this
+run's own measurements of them without verdicts (scripts/claims.py, computed
+from the CSVs), the Experiment 3 table
 (scripts/exp3_table.py), and each experiment's provenance and timing. It has
 no scripts and loads nothing from the network: the figures are relative
 links into OUT/figures. --quick marks the page as a smoke run at tiny sizes.
@@ -32,10 +34,12 @@ FIGURES = [
     ("fig7_2_reward", "Fig. 7.2 — return over the actions",
      "The return of every action, the cue ball's initial velocity, on a grid of 201 by 201 "
      "actions, for the cue ball at (−0.25, 0) and the reward ball at (0.1, 0). The return is "
-     "minus a distance, in metres. Only the actions outlined in white sink the ball in a target "
+     "minus a distance, in metres. White cells outlined in black sink the ball in a target "
      "pocket and earn the best possible 0; they lie in thin rays, so a small change of the "
-     "action loses them. The dark vertical band holds the shots that miss the reward ball and "
-     "pay the miss penalty. The two circles are the actions of Fig. 7.3."),
+     "action loses them. Grey: shots that never touch the reward ball and pay the miss "
+     "penalty. Differs from the thesis's figure: misses get their own colour so that the "
+     "colour scale spans the hits only (with the penalty on one scale the zero-return set, "
+     "the figure's point, fades into specks). The two circles are the actions of Fig. 7.3."),
     ("fig7_3_shots", "Fig. 7.3 — two optimal shots",
      "Two actions of that grid with return 0 and their paths: one sends the reward ball into "
      "the lower target pocket (red), the other into the upper one (yellow). The state is the "
@@ -83,29 +87,36 @@ FIGURES = [
      "expert itself."),
     ("fig7_7", "Fig. 7.7 — learning curves of Experiment 3",
      "Average return of each REPS iteration's new episodes, the mean over the repetitions "
-     "with a band from the lowest to the highest, for the four tree variants (panels a–d: value-forest score nrvr or "
-     "rvr, policy forest to reward states or to actions). Every panel repeats the single-node "
-     "baseline (hatched band, dashed mean) and the hand-crafted variant, which is not in the "
-     "thesis."),
+     "with a band of ± 1 SD over the repetitions (the band of Experiment 4's curves too), for "
+     "the four tree variants (panels a–d: value-forest score nrvr or rvr, policy forest to "
+     "reward states or to actions). Every panel repeats the single-node baseline (hatched "
+     "band, dashed mean) and the hand-crafted variant, which is not in the thesis; they are "
+     "added so that each panel holds its comparison, on one y-scale for all panels."),
     ("fig7_8", "Fig. 7.8 — returns at the end of learning",
-     "The returns of each run's last episodes: one box per run (quartiles, whiskers at the 5th "
-     "and 95th percentiles, diamond at the run's mean), then the mean of the run means with "
-     "their range. Every policy appears once. Returns never exceed 0, the value of a "
-     "ball pocketed in a target; the long tails below −1 m are shots that miss the reward "
-     "ball."),
+     "The returns of each run's last episodes. Top, as the thesis draws it: each run's mean "
+     "with ± 1 SD of its returns. Below, the same runs as boxes (quartiles, whiskers at the "
+     "5th and 95th percentiles, diamond at the run's mean), which the thesis does not show: "
+     "returns never exceed 0, the value of a ball pocketed in a target, and are far from "
+     "normal (long tails below −1 m are shots that miss the reward ball), so a mean ± SD bar "
+     "can pass 0 and hide the skew. Every policy appears once, the hand-crafted one beyond "
+     "the thesis."),
     ("fig7_9", "Fig. 7.9 — where the balls went",
-     "Reward balls pocketed in the last episodes of every run, by pocket: the two targets, the "
+     "Reward balls pocketed in the last episodes of every run, by pocket, numbered as in "
+     "Fig. 7.1: the two targets (pocket 2, the lower one, and pocket 5, the upper), the "
      "middle pockets and the far corners, as a share of all those episodes (N per policy in "
-     "the title) with the counts on the bars. The tree policies drop many more balls into the "
-     "middle pockets than into the targets."),
+     "the title; bars, with the counts) and of each run (dots). Differs from the thesis's "
+     "figure: it adds the non-target pockets (the tree policies drop many more balls into the "
+     "middle pockets than into the targets) and each run's share, so that the spread behind "
+     "\"favoured the lower pocket\" shows."),
     ("fig7_10", "Fig. 7.10 — final distance to the targets",
      "Top: the outcome of each of the last episodes, as shares with every run as a dot: "
      "pocketed in a target, pocketed elsewhere, the reward ball never touched, or hit but "
-     "left on the table. Below: for the balls left on the table after a hit, the distance of "
-     "their final position to the nearest target pocket, as a share of all the policy's "
-     "episodes per bin, with the range over the runs. Separating the outcomes shows that the "
-     "pile of distances near 0.45 m in a single histogram is mostly balls that were never "
-     "hit, resting where they started."),
+     "left on the table. Below, per policy on one y-scale: the line is the thesis's "
+     "histogram, the final distance of every reward ball to the nearest target pocket (0 "
+     "when pocketed in a target, a pocket's centre when pocketed elsewhere); the bars, ours "
+     "beside it, count only the balls left on the table after a hit, with the range over the "
+     "runs. Added because the thesis's single histogram mixes outcomes: its pile near 0.45 m "
+     "is mostly balls that were never hit, resting where they started."),
     ("exp4_curves_query", "Experiment 4 — learning curves, covariance as printed",
      "Beyond the thesis: does starting from imitation rescue the policies of Experiment 3? "
      "Average return of each iteration's new episodes, mean over the repetitions with a band of "
@@ -130,9 +141,11 @@ FIGURES = [
      "distance of the policy mean to the optimum, against the number of episodes (log "
      "scales; thin lines are single runs, the thick line their median)."),
     ("bench_sphere", "REPS on the contextual sphere",
-     "The same curves on the 20-dimensional contextual sphere function. With 50 samples per "
-     "iteration REPS converges early: the weighted maximum-likelihood covariance collapses "
-     "before the mean reaches the optimum."),
+     "The same curves on the 20-dimensional contextual sphere function, every one of the 20 "
+     "seeds drawn, with the plateau (the median over the last tenth of the iterations) "
+     "marked and its value in the legend. With 50 samples per iteration REPS converges "
+     "early: the weighted maximum-likelihood covariance collapses before the mean reaches "
+     "the optimum."),
     ("bench_rosenbrock", "REPS on the contextual Rosenbrock function",
      "The same curves on the contextual Rosenbrock function."),
 ]
@@ -150,8 +163,9 @@ figure { margin: 1.6rem 0; } figure img { max-width: 100%; height: auto; border:
 figcaption { max-width: 60rem; } .note { background: #fbf0c8; padding: 0.5rem 0.8rem; }
 .missing { color: #a00; font-weight: bold; } code { font-size: 0.9em; }
 """
-VERDICT_CLASS = {claims.AGREES: "agrees", claims.PARTLY: "partly",
-                 claims.DISAGREES: "disagrees", claims.UNTESTED: "untested"}
+# the verdicts of the study, written by scripts/verdicts.py (make verdicts)
+VERDICTS_HTML = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs",
+                             "verdicts_report.html")
 EXPERIMENTS = ["sim", "exp1", "exp2", "exp3", "exp4", "quadratic", "sphere", "rosenbrock"]
 
 
@@ -181,23 +195,26 @@ def provenance(out, name):
 
 
 def claims_section(out):
+    """The study's verdicts (generated by make verdicts), then this run's own
+    measurements as a sample without verdicts."""
+    try:
+        with open(VERDICTS_HTML, encoding="utf-8") as f:
+            study = f.read()
+    except OSError:
+        study = ("<p class=\"missing\">The study's verdicts (docs/verdicts_report.html, "
+                 "written by <code>make verdicts</code>) are not installed here.</p>\n")
     rows = claims.evaluate(out)
-    body = ["<tr><th>thesis</th><th>claim</th><th>this run</th><th>verdict</th>"
-            "<th>rule</th></tr>"]
-    for r in rows:
-        body.append(f"<tr><td>{esc(r['section'])}</td><td>{esc(r['claim'])}</td>"
-                    f"<td>{esc(r['here'])}</td>"
-                    f"<td class=\"{VERDICT_CLASS[r['verdict']]}\">{esc(r['verdict'])}</td>"
-                    f"<td>{esc(r['rule'])}</td></tr>")
-    counts = {v: sum(r["verdict"] == v for r in rows) for v in VERDICT_CLASS}
-    summary = ", ".join(f"{n} {v}" for v, n in counts.items() if n)
-    return (f"<p>{len(rows)} claims from the discussions of thesis chapter 7 ({esc(summary)}). "
-            "Each verdict follows the rule in its row, applied to this run's CSVs by "
-            "<code>scripts/claims.py</code>: &ldquo;significant&rdquo; means that the 95 % "
-            "Student-t interval of a paired difference over the repetitions excludes 0; "
-            "intervals are written [low, high]. Agrees: every part of the rule holds; partly: "
-            "some do; does not agree: none (or the one part fails).</p>\n<table>\n"
-            + "\n".join(body) + "\n</table>")
+    reps = {exp_data.config(os.path.join(out, e)).get("experiment", "repetitions", fallback="?")
+            for e in ("exp1", "exp2", "exp3")}
+    n = reps.pop() if len(reps) == 1 else "few"
+    sample = table(["thesis", "claim", "this run"],
+                   [[r["section"], r["claim"], r["here"]] for r in rows])
+    return (study + f"<h3>This run: a {n}-repetition sample, no verdicts</h3>\n"
+            f"<p>What this run measures on the same {len(rows)} claims, computed from its CSVs "
+            f"by <code>scripts/claims.py</code>: a sample of {n} repetitions per experiment, "
+            "too few to decide the claims, so no verdict is drawn from it. Intervals are 95 % Student-t "
+            "intervals of paired differences over the repetitions, written [lo, hi].</p>\n"
+            + sample)
 
 
 def exp3_section(out):
@@ -299,7 +316,7 @@ def write(out, quick):
     version = next((provenance(out, n).get("version") for n in EXPERIMENTS
                     if provenance(out, n)), "unknown")
     note = ('<p class="note">This is a smoke run at tiny sizes (<code>make reproduce '
-            'QUICK=1</code>): the numbers and verdicts below show that the pipeline works, '
+            'QUICK=1</code>): the numbers of this run below show that the pipeline works, '
             "not what the experiments find.</p>") if quick else ""
     page = f"""<!DOCTYPE html>
 <html lang="en">
@@ -321,7 +338,7 @@ def write(out, quick):
 </header>
 <main>
 <section id="claims">
-<h2>The thesis's claims against this run</h2>
+<h2>The thesis's claims</h2>
 {claims_section(out)}
 </section>
 <section id="exp3">

@@ -1,0 +1,193 @@
+#!/usr/bin/env python3
+"""The compact results of the verdict study, from its run folders.
+
+Usage: study_extract.py OUT DATA
+
+OUT is what scripts/study.sh writes: OUT/power/ARM (merged Experiment 3 arms),
+OUT/seeds/exp1 and OUT/seeds/exp2 (collected seed sweeps), OUT/timing.csv.
+DATA receives only what scripts/verdicts.py needs, each file replaced whole:
+  manifest.csv     experiment, unit (arm or seed), key, value: every unit's
+                   effective configuration and the version that ran it
+  exp3_runs.csv    one row per (arm, policy, repetition): last episodes' mean
+                   and SD of the returns, balls in pockets 2 and 5, median cue
+                   speed, mean distance of the balls not in a target pocket
+  exp3_curves.csv  mean return of every iteration of every run (Fig. 7.7)
+  exp1_mse.csv     seed, forest, sweep, value, test MSE
+  exp1_map.csv     per seed: grid positions, pocketed positions (return 0),
+                   the forests' mean prediction there, RMS error elsewhere
+  exp2_returns.csv seed, repetition, size, policy, mode, mean return, pocketed share
+  timing.csv       wall and CPU seconds of each phase
+Exit codes: 1 usage, 2 missing or malformed input.
+"""
+import configparser
+import csv
+import glob
+import math
+import os
+import sys
+from collections import defaultdict
+
+import power_stats as ps
+
+ARMS = ps.ARMS
+
+
+def fail(msg):
+    print(f"study_extract: {msg}", file=sys.stderr)
+    sys.exit(2)
+
+
+def read_rows(path, need):
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            missing = [c for c in need if c not in (reader.fieldnames or [])]
+            if missing:
+                fail(f"{path}:1: no column {missing[0]}")
+            return list(reader)
+    except OSError as e:
+        fail(f"{path}: {e.strerror}")
+
+
+def config_items(folder):
+    cfg = configparser.ConfigParser(inline_comment_prefixes=(";",), interpolation=None)
+    path = os.path.join(folder, "config.ini")
+    if not cfg.read(path, encoding="utf-8"):
+        fail(f"{path}: missing or unreadable")
+    items = [(f"{s}.{k}", v) for s in cfg.sections() for k, v in cfg.items(s)]
+    items.append(("version", ps.provenance(os.path.join(folder, "provenance.txt"))
+                  .get("version", "?")))
+    return items
+
+
+def seed_points(sweep):
+    """{seed: merged folder} of a collected seed sweep."""
+    points = {}
+    for d in sorted(glob.glob(os.path.join(sweep, "point-*", "merged"))):
+        cfg = configparser.ConfigParser(inline_comment_prefixes=(";",), interpolation=None)
+        cfg.read(os.path.join(d, "config.ini"), encoding="utf-8")
+        points[cfg.getint("experiment", "seed")] = d
+    if not points:
+        fail(f"{sweep}: no collected points (point-K/merged)")
+    return points
+
+
+def cpu(folders):
+    """CPU seconds summed over run folders' provenance."""
+    return sum(float(ps.provenance(os.path.join(f, "provenance.txt")).get("cpu_seconds", "nan"))
+               for f in folders)
+
+
+def g(x):
+    return f"{x:.10g}" if isinstance(x, float) else str(x)
+
+
+def write(path, header, rows):
+    tmp = f"{path}.tmp.{os.getpid()}"
+    with open(tmp, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(header)
+        w.writerows([[g(v) for v in r] for r in rows])
+    return tmp, path
+
+
+def exp3(out):
+    runs, curves, manifest, cpu_s = [], [], [], 0.0
+    for name in ARMS:
+        try:
+            a = ps.Arm(name, os.path.join(out, "power", name))
+        except ps.Fail as e:
+            fail(str(e))
+        manifest += [("exp3", name, k, v) for k, v in config_items(a.folder)]
+        cpu_s += ps.cpu_seconds(a)
+        i2, i5 = ps.POCKETS.index(2), ps.POCKETS.index(5)
+        for p in a.policies:
+            i = a.row(p)
+            for j, r in enumerate(a.reps):
+                runs.append([name, p, r, float(a.ret[i, j]), float(a.sd[i, j]),
+                             int(a.target[i, j]), int(a.counts[i, j, i2]),
+                             int(a.counts[i, j, i5]), float(a.speed[i, j]),
+                             float(a.miss_dist[i, j])])
+                curves.append([name, p, r] + [float(x) for x in a.curve[i, j]])
+    return runs, curves, manifest, cpu_s, len(curves[0]) - 3
+
+
+def exp1(out):
+    points = seed_points(os.path.join(out, "seeds", "exp1"))
+    mse, maps, manifest = [], [], []
+    for seed, d in sorted(points.items()):
+        manifest += [("exp1", seed, k, v) for k, v in config_items(d)]
+        for r in read_rows(os.path.join(d, "exp1_mse.csv"),
+                           ("repetition", "sweep", "n_min", "trees", "cuts", "mse")):
+            col = {"n_min": "n_min", "trees": "trees", "cuts": "cuts"}[r["sweep"]]
+            mse.append([seed, int(r["repetition"]), r["sweep"], int(r[col]), float(r["mse"])])
+        pred, reward = defaultdict(list), {}
+        for r in read_rows(os.path.join(d, "exp1_map.csv"), ("x1", "y1", "reward", "pred")):
+            pred[(r["x1"], r["y1"])].append(float(r["pred"]))
+            reward[(r["x1"], r["y1"])] = float(r["reward"])
+        mean = {k: sum(v) / len(v) for k, v in pred.items()}
+        pocketed = [k for k in mean if reward[k] == 0]
+        rest = [k for k in mean if reward[k] != 0]
+        if not pocketed or not rest:
+            fail(f"{d}/exp1_map.csv: no pocketed (or no other) grid positions")
+        under = sum(mean[k] for k in pocketed) / len(pocketed)
+        rms = math.sqrt(sum((mean[k] - reward[k]) ** 2 for k in rest) / len(rest))
+        maps.append([seed, len(mean), len(pocketed), under, rms])
+    return mse, maps, manifest, points
+
+
+def exp2(out):
+    points = seed_points(os.path.join(out, "seeds", "exp2"))
+    rows, manifest = [], []
+    for seed, d in sorted(points.items()):
+        manifest += [("exp2", seed, k, v) for k, v in config_items(d)]
+        for r in read_rows(os.path.join(d, "exp2_returns.csv"),
+                           ("repetition", "size", "policy", "mode", "mean_return", "pocketed")):
+            rows.append([seed, int(r["repetition"]), int(r["size"]), r["policy"], r["mode"],
+                         float(r["mean_return"]), float(r["pocketed"])])
+    return rows, manifest, points
+
+
+def seed_cpu(points):
+    return cpu(f for d in points.values()
+               for f in glob.glob(os.path.join(os.path.dirname(d), "runs", "rep-*")))
+
+
+def main():
+    if len(sys.argv) != 3:
+        print("usage: study_extract.py OUT DATA", file=sys.stderr)
+        return 1
+    out, data = sys.argv[1:]
+    runs, curves, m3, cpu3, iters = exp3(out)
+    mse, maps, m1, p1 = exp1(out)
+    ret2, m2, p2 = exp2(out)
+    wall = {r["phase"]: r for r in read_rows(os.path.join(out, "timing.csv"),
+                                             ("phase", "wall_seconds", "jobs"))}
+    timing = [["exp3", float(wall["exp3"]["wall_seconds"]), cpu3, wall["exp3"]["jobs"]],
+              ["exp12", float(wall["exp12"]["wall_seconds"]), seed_cpu(p1) + seed_cpu(p2),
+               wall["exp12"]["jobs"]]]
+    os.makedirs(data, exist_ok=True)
+    staged = [
+        write(os.path.join(data, "manifest.csv"), ["experiment", "unit", "key", "value"],
+              m3 + m1 + m2),
+        write(os.path.join(data, "exp3_runs.csv"),
+              ["arm", "policy", "repetition", "mean_return", "sd_return", "target", "pocket2",
+               "pocket5", "median_speed", "miss_distance"], runs),
+        write(os.path.join(data, "exp3_curves.csv"),
+              ["arm", "policy", "repetition"] + [f"i{k}" for k in range(1, iters + 1)], curves),
+        write(os.path.join(data, "exp1_mse.csv"), ["seed", "forest", "sweep", "value", "mse"],
+              mse),
+        write(os.path.join(data, "exp1_map.csv"),
+              ["seed", "positions", "pocketed", "pred_pocketed", "rms_rest"], maps),
+        write(os.path.join(data, "exp2_returns.csv"),
+              ["seed", "repetition", "size", "policy", "mode", "mean_return", "pocketed"], ret2),
+        write(os.path.join(data, "timing.csv"), ["phase", "wall_seconds", "cpu_seconds", "jobs"],
+              timing),
+    ]
+    for tmp, path in staged:
+        os.replace(tmp, path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,209 @@
+#!/usr/bin/env python3
+"""Tests and verdicts for claims judged on independent repetitions.
+
+A stable API for every generated verdict table (docs/verdicts.md and the
+studies that reuse it). Each function takes plain sequences of numbers; NaN
+values are refused, not dropped (a missing run is an error upstream).
+
+Estimates (a mean difference with its standard error and degrees of freedom):
+
+    e = one_sample(x)          # mean of x
+    e = paired(a, b)           # mean of a[k] - b[k]: runs paired by repetition
+    e = welch(a, b)            # mean(a) - mean(b), independent samples (Welch)
+    e.est, e.se, e.df, e.n     # the estimate, its standard error, df, sample size
+    lo, hi = interval(e)       # 95 % t interval: est -+ t(0.975, df) * se
+
+Tests (each returns a p-value; small p supports the alternative named):
+
+    p_greater(e, bound=0)      # H1: mean > bound  (one-sided t test; superiority)
+    p_less(e, bound=0)         # H1: mean < bound
+    p_tost(e, low, high)       # H1: low < mean < high (two one-sided tests: the larger p)
+    p_outside(e, low, high)    # H1: mean < low or mean > high (2 x the smaller one-sided p)
+
+Multiplicity and verdicts:
+
+    holm(ps)                   # Holm-adjusted p-values, same order as ps
+    part_verdict(p_support, p_refute, alpha=0.05)   # 'agrees' / 'disagrees' / 'undecided'
+    all_of(verdicts), at_least(verdicts, k)          # combine the parts of a claim
+
+A claim part is a pair of complementary hypotheses on one quantity: the
+support (what the claim says) and the refutation (its complement at the same
+bound). The part agrees when the support's adjusted p is below alpha, disagrees
+when the refutation's is, and is undecided (not enough power to tell) when
+neither is. The rule is fixed before the data are read; only the data decide.
+"""
+import math
+from collections import namedtuple
+
+import numpy as np
+from scipy import stats
+
+AGREES, DISAGREES, UNDECIDED = "agrees", "disagrees", "undecided"
+LEVEL = 0.95
+ALPHA = 0.05
+
+Estimate = namedtuple("Estimate", "est se df n")
+Estimate.__doc__ = "A mean (difference): estimate, standard error, degrees of freedom, n."
+
+
+def _values(x, what):
+    v = np.asarray(x, float).ravel()
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{what}: non-finite value")
+    if len(v) < 2:
+        raise ValueError(f"{what}: needs at least 2 values (got {len(v)})")
+    return v
+
+
+def one_sample(x):
+    """Mean of x, se = s / sqrt(n), df = n - 1."""
+    v = _values(x, "one_sample")
+    n = len(v)
+    return Estimate(float(v.mean()), float(v.std(ddof=1)) / math.sqrt(n), n - 1, n)
+
+
+def paired(a, b):
+    """Mean of the paired differences a[k] - b[k] (same length, same order)."""
+    a, b = np.asarray(a, float).ravel(), np.asarray(b, float).ravel()
+    if a.shape != b.shape:
+        raise ValueError(f"paired: lengths differ ({len(a)} and {len(b)})")
+    return one_sample(a - b)
+
+
+def welch(a, b):
+    """mean(a) - mean(b) of independent samples: se^2 = s_a^2/n_a + s_b^2/n_b,
+    Welch-Satterthwaite df. n is n_a + n_b."""
+    a, b = _values(a, "welch"), _values(b, "welch")
+    va, vb = a.var(ddof=1) / len(a), b.var(ddof=1) / len(b)
+    se2 = va + vb
+    if se2 == 0:
+        df = float(len(a) + len(b) - 2)
+    else:
+        df = se2 ** 2 / (va ** 2 / (len(a) - 1) + vb ** 2 / (len(b) - 1))
+    return Estimate(float(a.mean() - b.mean()), math.sqrt(se2), float(df), len(a) + len(b))
+
+
+def interval(e, level=LEVEL):
+    """Two-sided t interval (lo, hi) of the estimate."""
+    half = stats.t.ppf(0.5 + level / 2, e.df) * e.se
+    return e.est - half, e.est + half
+
+
+def _t(e, bound):
+    """t statistic of the estimate against bound; +-inf when se is 0."""
+    d = e.est - bound
+    if e.se == 0:
+        return math.inf if d > 0 else -math.inf if d < 0 else 0.0
+    return d / e.se
+
+
+def p_greater(e, bound=0.0):
+    """One-sided p of H0: mean <= bound against H1: mean > bound."""
+    return float(stats.t.sf(_t(e, bound), e.df))
+
+
+def p_less(e, bound=0.0):
+    """One-sided p of H0: mean >= bound against H1: mean < bound."""
+    return float(stats.t.cdf(_t(e, bound), e.df))
+
+
+def p_tost(e, low, high):
+    """Equivalence, H1: low < mean < high, by two one-sided tests at the same
+    level: the larger of their p-values. low may be -inf (one-sided bound)."""
+    if not low < high:
+        raise ValueError(f"p_tost: need low < high (got {low}, {high})")
+    return max(p_greater(e, low) if math.isfinite(low) else 0.0,
+               p_less(e, high) if math.isfinite(high) else 0.0)
+
+
+def p_outside(e, low, high):
+    """The complement of p_tost's alternative, H1: mean < low or mean > high:
+    twice the smaller one-sided p (Bonferroni over the two directions)."""
+    if not low < high:
+        raise ValueError(f"p_outside: need low < high (got {low}, {high})")
+    ps = [p_less(e, low) if math.isfinite(low) else 1.0,
+          p_greater(e, high) if math.isfinite(high) else 1.0]
+    return min(1.0, 2 * min(ps)) if all(map(math.isfinite, (low, high))) else min(ps)
+
+
+def holm(ps):
+    """Holm's step-down adjustment: the k-th smallest of m p-values becomes
+    max over j <= k of min(1, (m - j + 1) p_(j)). Same order as ps."""
+    p = np.asarray(ps, float)
+    if p.ndim != 1 or not np.all((p >= 0) & (p <= 1)):
+        raise ValueError("holm: p-values must be a list of numbers in [0, 1]")
+    m = len(p)
+    order = np.argsort(p, kind="stable")
+    adj = np.minimum(1.0, np.maximum.accumulate((m - np.arange(m)) * p[order]))
+    out = np.empty(m)
+    out[order] = adj
+    return [float(x) for x in out]
+
+
+def part_verdict(p_support, p_refute, alpha=ALPHA):
+    """agrees when the support is significant, disagrees when the refutation
+    is, undecided when neither (both cannot be: they are complementary)."""
+    s, r = p_support < alpha, p_refute < alpha
+    if s and r:
+        raise ValueError("part_verdict: support and refutation both significant")
+    return AGREES if s else DISAGREES if r else UNDECIDED
+
+
+def all_of(verdicts):
+    """A claim about every part: agrees when each part agrees, disagrees when
+    any part disagrees, else undecided."""
+    v = list(verdicts)
+    if not v:
+        raise ValueError("all_of: no parts")
+    if all(x == AGREES for x in v):
+        return AGREES
+    return DISAGREES if DISAGREES in v else UNDECIDED
+
+
+def at_least(verdicts, k):
+    """'At least k parts hold': agrees when k parts agree, disagrees when fewer
+    than k parts could (agree or undecided), else undecided."""
+    v = list(verdicts)
+    if sum(x == AGREES for x in v) >= k:
+        return AGREES
+    return DISAGREES if sum(x != DISAGREES for x in v) < k else UNDECIDED
+
+
+def combine_modes(verdicts):
+    """One verdict over several replications (physics modes): the common
+    verdict when they all give it, else undecided."""
+    v = list(verdicts)
+    if not v:
+        raise ValueError("combine_modes: no verdicts")
+    return v[0] if all(x == v[0] for x in v) else UNDECIDED
+
+
+def fieller(num, den, level=LEVEL):
+    """Ratio of means sum(num) / sum(den) over paired per-repetition values
+    (e.g. balls in one pocket over balls in both) and its Fieller interval:
+    every c for which the t test of mean(num - c den) = 0 is not rejected at
+    1 - level (two-sided). Returns (ratio, lo, hi); lo or hi is +-inf when the
+    set is unbounded (the denominator's mean not significantly above 0)."""
+    a, b = _values(num, "fieller"), _values(den, "fieller")
+    if a.shape != b.shape:
+        raise ValueError(f"fieller: lengths differ ({len(a)} and {len(b)})")
+    n = len(a)
+    if b.mean() <= 0:
+        raise ValueError("fieller: the denominator's mean must be positive")
+    q = stats.t.ppf(0.5 + level / 2, n - 1) ** 2 / n
+    cov = np.cov(a, b, ddof=1)
+    ma, mb = a.mean(), b.mean()
+    # (ma - c mb)^2 <= q (saa - 2 c sab + c^2 sbb): A c^2 - 2 B c + C <= 0
+    A, B, C = mb * mb - q * cov[1, 1], ma * mb - q * cov[0, 1], ma * ma - q * cov[0, 0]
+    r = float(ma / mb)
+    if A <= 0:
+        return r, -math.inf, math.inf
+    disc = math.sqrt(max(B * B - A * C, 0.0))
+    return r, float((B - disc) / A), float((B + disc) / A)
+
+
+def share_estimate(num, den, c):
+    """The estimate mean(num - c den) whose sign says whether the ratio
+    sum(num) / sum(den) is above (> 0) or below c: tests of a ratio bound."""
+    a, b = np.asarray(num, float), np.asarray(den, float)
+    return one_sample(a - c * b)

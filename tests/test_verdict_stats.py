@@ -1,0 +1,165 @@
+"""scripts/verdict_stats.py against scipy.stats's own tests, on many seeded
+random problems and degenerate ones (n = 2, zero spread, ties in Holm)."""
+import itertools
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+from scipy import optimize, stats
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "scripts"))
+import verdict_stats as vs  # noqa: E402
+
+SEEDS = range(40)
+
+
+def problem(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 60))
+    a = rng.normal(rng.normal(0, 1), rng.uniform(0.01, 3), n)
+    b = a * rng.uniform(-1, 1) + rng.normal(0, rng.uniform(0.01, 2), n)
+    return rng, a, b
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_paired_interval_and_one_sided_tests(seed):
+    rng, a, b = problem(seed)
+    e = vs.paired(a, b)
+    d = a - b
+    lo, hi = stats.t.interval(0.95, len(d) - 1, loc=d.mean(), scale=stats.sem(d))
+    assert vs.interval(e) == pytest.approx((lo, hi), rel=1e-10, abs=1e-12)
+    bound = float(rng.normal(d.mean(), 2 * stats.sem(d)))
+    for alt, fn in (("greater", vs.p_greater), ("less", vs.p_less)):
+        ref = stats.ttest_1samp(d, bound, alternative=alt).pvalue
+        assert fn(e, bound) == pytest.approx(ref, rel=1e-9, abs=1e-14)
+        ref = stats.ttest_rel(a, b, alternative=alt).pvalue
+        assert fn(e) == pytest.approx(ref, rel=1e-9, abs=1e-14)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_welch(seed):
+    rng, a, _ = problem(seed)
+    b = rng.normal(0.3, rng.uniform(0.1, 4), int(rng.integers(2, 40)))
+    e = vs.welch(a, b)
+    for alt, fn in (("greater", vs.p_greater), ("less", vs.p_less)):
+        ref = stats.ttest_ind(a, b, equal_var=False, alternative=alt).pvalue
+        assert fn(e) == pytest.approx(ref, rel=1e-9, abs=1e-14)
+    # the interval is where the two-sided Welch test does not reject at 5 %
+    lo, hi = vs.interval(e)
+    for edge in (lo, hi):
+        assert stats.ttest_ind(a - edge, b, equal_var=False).pvalue == pytest.approx(0.05, abs=1e-9)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_tost_and_its_complement(seed):
+    rng, a, b = problem(seed)
+    d = a - b
+    half = float(rng.uniform(0.05, 2)) * max(stats.sem(d), 1e-3)
+    low, high = d.mean() + float(rng.normal(0, 1)) * half - half, 0.0
+    high = low + 2 * half
+    e = vs.paired(a, b)
+    p1 = stats.ttest_1samp(d, low, alternative="greater").pvalue
+    p2 = stats.ttest_1samp(d, high, alternative="less").pvalue
+    assert vs.p_tost(e, low, high) == pytest.approx(max(p1, p2), rel=1e-9, abs=1e-14)
+    out = min(1, 2 * min(stats.ttest_1samp(d, low, alternative="less").pvalue,
+                         stats.ttest_1samp(d, high, alternative="greater").pvalue))
+    assert vs.p_outside(e, low, high) == pytest.approx(out, rel=1e-9, abs=1e-14)
+    assert vs.p_tost(e, -math.inf, high) == pytest.approx(p2, rel=1e-9, abs=1e-14)
+    # the equivalence holds at 5 % exactly when the 90 % interval lies inside
+    lo90, hi90 = stats.t.interval(0.90, len(d) - 1, loc=d.mean(), scale=stats.sem(d))
+    assert (vs.p_tost(e, low, high) < 0.05) == (low < lo90 and hi90 < high)
+
+
+def holm_reference(ps):
+    """Holm by its definition: reject in order while p_(k) <= alpha / (m - k + 1);
+    the adjusted p-value is the smallest alpha at which H_k is rejected."""
+    m = len(ps)
+    order = sorted(range(m), key=lambda i: ps[i])
+    out, running = [0.0] * m, 0.0
+    for k, i in enumerate(order):
+        running = max(running, min(1.0, (m - k) * ps[i]))
+        out[i] = running
+    return out
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_holm(seed):
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(1, 80))
+    ps = list(rng.uniform(0, 1, m) ** rng.uniform(1, 8))
+    if m > 3:
+        ps[1] = ps[0]  # a tie
+        ps[2] = 0.0
+    adj = vs.holm(ps)
+    assert adj == pytest.approx(holm_reference(ps), rel=1e-12, abs=0)
+    # rejections at alpha are those of the step-down procedure
+    for alpha in (0.01, 0.05, 0.2):
+        order = sorted(range(m), key=lambda i: ps[i])
+        rejected = set()
+        for k, i in enumerate(order):
+            if ps[i] > alpha / (m - k):
+                break
+            rejected.add(i)
+        assert {i for i in range(m) if adj[i] <= alpha} == rejected
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_fieller(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(5, 60))
+    b = rng.poisson(rng.uniform(3, 20), n) + 1
+    a = rng.binomial(b, rng.uniform(0.2, 0.8))
+    r, lo, hi = vs.fieller(a, b)
+    assert r == pytest.approx(a.sum() / b.sum(), rel=1e-12)
+    q = stats.t.ppf(0.975, n - 1)
+
+    def tstat(c):
+        return stats.ttest_1samp(a - c * b, 0).statistic
+
+    # the interval's ends are where the t statistic of a - c b crosses -+q
+    if math.isfinite(lo) and math.isfinite(hi):
+        assert lo <= r <= hi
+        ref_lo = optimize.brentq(lambda c: tstat(c) - q, -10, r)
+        ref_hi = optimize.brentq(lambda c: tstat(c) + q, r, 10)
+        assert (lo, hi) == pytest.approx((ref_lo, ref_hi), abs=1e-9)
+        assert vs.p_greater(vs.share_estimate(a, b, lo)) == pytest.approx(0.025, abs=1e-9)
+
+
+def test_degenerate():
+    e = vs.paired([1.0, 1.0, 1.0], [0.0, 0.0, 0.0])     # zero spread
+    assert e.se == 0 and vs.p_greater(e) == 0.0 and vs.p_less(e) == 1.0
+    assert vs.interval(e) == (1.0, 1.0)
+    e = vs.one_sample([0.0, 0.0])
+    assert vs.p_greater(e) == 0.5 and vs.p_tost(e, -1, 1) == 0.0
+    e = vs.one_sample([0.2, 0.5])                        # n = 2
+    ref = stats.ttest_1samp([0.2, 0.5], 0.1, alternative="greater").pvalue
+    assert vs.p_greater(e, 0.1) == pytest.approx(ref, rel=1e-10)
+    for bad in ([1.0], [1.0, math.nan], []):
+        with pytest.raises(ValueError):
+            vs.one_sample(bad)
+    with pytest.raises(ValueError):
+        vs.paired([1, 2, 3], [1, 2])
+    with pytest.raises(ValueError):
+        vs.p_tost(e, 1, 1)
+    with pytest.raises(ValueError):
+        vs.holm([0.5, 1.5])
+    assert vs.holm([]) == []
+
+
+def test_verdicts():
+    A, D, U = vs.AGREES, vs.DISAGREES, vs.UNDECIDED
+    assert vs.part_verdict(0.01, 0.9) == A
+    assert vs.part_verdict(0.9, 0.01) == D
+    assert vs.part_verdict(0.05, 0.05) == U     # not below alpha
+    with pytest.raises(ValueError):
+        vs.part_verdict(0.01, 0.01)
+    for parts in itertools.product((A, D, U), repeat=3):
+        got = vs.all_of(parts)
+        assert got == (A if set(parts) == {A} else D if D in parts else U)
+        n_a, n_d = parts.count(A), parts.count(D)
+        assert vs.at_least(parts, 2) == (A if n_a >= 2 else D if 3 - n_d < 2 else U)
+    assert vs.combine_modes([A, A, A]) == A
+    assert vs.combine_modes([A, U, A]) == U
+    assert vs.combine_modes([D, D]) == D
