@@ -15,8 +15,9 @@
 #                  sentence between <!-- sensitivity --> marks is rewritten
 # Options after PYTHON go to every run before the point's own (QUICK=1 and
 # the tests pass tiny Experiment 3 settings). SENSITIVITY_JOBS jobs at once
-# (default 2), POOLREPS the binary (default ./poolreps). OUT/runs and the
-# points' folders are replaced.
+# (default 2), POOLREPS the binary (default ./poolreps), SENSITIVITY_POINTS
+# the points to run (default all; the others' merged folders in OUT are kept,
+# to finish a study that stopped). The points' folders are replaced.
 set -e
 [ $# -ge 4 ] || { echo "usage: scripts/sensitivity.sh OUT REPS DOCS PYTHON [poolreps options...]" >&2; exit 1; }
 out=$1; reps=$2; docs=$3; py=$4; shift 4
@@ -24,7 +25,7 @@ out=$1; reps=$2; docs=$3; py=$4; shift 4
 jobs=${SENSITIVITY_JOBS:-2}
 export POOLREPS="${POOLREPS:-./poolreps}"
 here=$(dirname "$0")
-POINTS=$("$py" "$here/sensitivity_stats.py" --points)
+POINTS=${SENSITIVITY_POINTS:-$("$py" "$here/sensitivity_stats.py" --points)}
 
 now() { date +%s.%N; }
 since() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.1f", b - a }'; }

@@ -20,7 +20,6 @@ spec = importlib.util.spec_from_file_location("sensitivity_stats",
                                               ROOT / "scripts" / "sensitivity_stats.py")
 ss = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(ss)
-ps = ss.ps
 DATA = ROOT / "docs" / "data" / "sensitivity"
 
 
@@ -55,7 +54,8 @@ def test_quick_study(tmp_path):
     with open(docs / "data" / "sensitivity" / "claims.csv", newline="") as f:
         claims = list(csv.DictReader(f))
     assert {(r["point"], r["claim"]) for r in claims} == {
-        (n, c[0]) for n, *_ in ss.POINTS for c in ps.CLAIMS}
+        (n, c) for n, *_ in ss.POINTS for c in ss.CLAIMS}
+    assert {r["verdict"] for r in claims} <= set(ss.SYMBOL)
     md = (docs / "sensitivity.md").read_text(encoding="utf-8")
     assert not re.search(r"\bnan\b", md, re.I)
     assert "at 3 repetitions" in md and "CPU seconds" in md
@@ -88,20 +88,20 @@ def fake_results(verdicts):
 
 
 def test_flips_against_the_reference():
-    ids = [c[0] for c in ps.CLAIMS]
-    base = {c: ps.UNDECIDED for c in ids}
-    law = dict(base, even=ps.AGREE)
+    ids = list(ss.CLAIMS)
+    base = {c: "undecided" for c in ids}
+    law = dict(base, even="agrees")
     a_half = dict(law)                     # same as the constant law: no flip there
-    eps = dict(base, poor=ps.DISAGREE)
+    eps = dict(base, converged="disagrees")
     r = fake_results({"default": base, "law_constant": law, "a_half": a_half, "eps_1": eps})
     assert r.flips("law_constant") == ["even"]
     assert r.flips("a_half") == []          # its reference is the constant law
-    assert r.flips("eps_1") == ["poor"]
+    assert r.flips("eps_1") == ["converged"]
     keep, moved = r.robust()
-    assert moved == {"even": ["friction law"], "poor": ["epsilon"]}
-    assert set(keep) == set(ids) - {"even", "poor"}
+    assert moved == {"even": ["friction law"], "converged": ["epsilon"]}
+    assert set(keep) == set(ids) - {"even", "converged"}
     s = ss.sentence(r)
-    assert "3 alternatives" in s and "`even` (friction law)" in s
+    assert "3 alternatives" in s and "`even` changes under friction law" in s
 
 
 def test_committed_report_is_generated(tmp_path):
