@@ -247,6 +247,13 @@ class Results:
         ref = self.reference(point)
         return [c for c in CLAIMS if self.verdict[(point, c)] != self.verdict[(ref, c)]]
 
+    def reversals(self):
+        """(point, claim) pairs whose verdict goes from agrees to disagrees
+        or back against the reference point."""
+        opp = {("agrees", "disagrees"), ("disagrees", "agrees")}
+        return [(p, c) for p in self.points[1:] for c in self.flips(p)
+                if (self.verdict[(self.reference(p), c)], self.verdict[(p, c)]) in opp]
+
     def robust(self):
         """Claims whose verdict no point changes, and the others with the
         choices that change them."""
@@ -291,7 +298,9 @@ def render(res):
         f"Cost: {cpu:.0f} CPU seconds over all points ({len(pts)} points, "
         f"{reps} repetitions of 6 policies each), {wall:.0f} s wall with {t['jobs']} jobs on "
         f"{t['cores']} cores (load {t['load_before']} before, {t['load_after']} after; the "
-        f"machine was shared). Version {res.runs['default']['version']}.",
+        f"machine was shared). Versions: " + "; ".join(
+            f"{v} ({', '.join(BY_NAME[p][2] for p in pts if res.runs[p]['version'] == v)})"
+            for v in sorted({res.runs[p]["version"] for p in pts})) + ".",
         "",
         "## Claims × choices",
         "",
@@ -359,6 +368,10 @@ def sentence(res):
     s += (" (" + ", ".join(f"`{c}`" for c in keep) + ")") if keep else ""
     if moved:
         s += "; " + "; ".join(f"`{c}` changes under {', '.join(by)}" for c, by in moved.items())
+    rev = res.reversals()
+    s += (". No verdict reverses between agrees and disagrees" if not rev else
+          ". Reversals between agrees and disagrees: " + ", ".join(
+              f"`{c}` at {BY_NAME[p][2]}" for p, c in rev))
     return s + "."
 
 
