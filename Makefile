@@ -35,7 +35,7 @@ LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
-.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power exp4-study study verdicts quick-sums FORCE
+.PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power exp4-study study verdicts sensitivity quick-sums FORCE
 .PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin
 
 all: poolreps
@@ -163,6 +163,25 @@ study: all
 # from data/study/; CHECK=1 writes nothing and fails on a difference
 verdicts:
 	$(PYTHON) scripts/verdicts.py data/study $(if $(CHECK),--check)
+
+# Sensitivity study (docs/sensitivity.md): Experiment 3's verdicts with one
+# open choice changed at a time. The default size writes docs/ and the README
+# sentence; QUICK=1 (tiny runs, 3 repetitions; tests/test_sensitivity.py) and
+# other sizes write OUT/sensitivity/docs.
+SENSITIVITY_REPS ?= 20
+SENSITIVITY_QUICK_ARGS := --set exp3.iterations=3 --set exp3.init_samples=60 --set exp3.window=60 \
+  --set exp3.samples=20 --set exp3.final_episodes=30 --set policy.n_min=20 --set exp3.baseline_n_min=100 \
+  --set value.n_min=15 --set value.trees=3 --set policy.trees=3
+ifeq ($(QUICK),1)
+  SENSITIVITY_RUN = 3 "$(OUT)/sensitivity/docs" "$(PYTHON)" $(SENSITIVITY_QUICK_ARGS)
+else ifeq ($(SENSITIVITY_REPS),20)
+  SENSITIVITY_RUN = 20 docs "$(PYTHON)"
+else
+  SENSITIVITY_RUN = $(SENSITIVITY_REPS) "$(OUT)/sensitivity/docs" "$(PYTHON)"
+endif
+sensitivity: all
+	mkdir -p "$(OUT)/sensitivity/docs"
+	sh scripts/sensitivity.sh "$(OUT)/sensitivity" $(SENSITIVITY_RUN)
 
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/poolreps/data/quick \

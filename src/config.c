@@ -45,7 +45,12 @@ static const pr_config_key core_keys[] = {
 	{"table", "ball_radius", PR_KEY_DOUBLE, F(table.ball_radius), 0, 1, PR_KEY_OPEN_LO, "m", "ball radius R"},
 	{"table", "pocket_radius", PR_KEY_DOUBLE, F(table.pocket_radius), 0, 1, PR_KEY_OPEN_LO, "m", "pocket radius"},
 	{"table", "restitution", PR_KEY_DOUBLE, F(table.restitution), 0, 1, 0, "", "cushion restitution kappa (eq. 7.4)"},
-	{"table", "friction", PR_KEY_DOUBLE, F(table.friction), 0, 1000, PR_KEY_OPEN_LO, "1/s", "c in v(t) = v0 exp(-c t)"},
+	{"table", "friction", PR_KEY_DOUBLE, F(table.friction), 0, 1000, PR_KEY_OPEN_LO, "1/s",
+	 "exponential law: c in v(t) = v0 exp(-c t)"},
+	{"table", "friction_law", PR_KEY_ENUM, F(table.friction_law), 0, 0, 0, "exponential|constant",
+	 "how a ball slows: v' = -c v (thesis) or a constant deceleration (rolling resistance)"},
+	{"table", "deceleration", PR_KEY_DOUBLE, F(table.deceleration), 0, 100, PR_KEY_OPEN_LO, "m/s^2",
+	 "constant law: a = mu_r g in |v|(t) = v0 - a t (0.0625 stops as c = 0.25 does from 0.5 m/s)"},
 	{"table", "stop_speed", PR_KEY_DOUBLE, F(table.stop_speed), 0, 10, PR_KEY_OPEN_LO, "m/s", "slower balls stop"},
 	{"table", "balls", PR_KEY_INT, F(table.balls), 2, 10000, 0, "", "balls: cue + reward + obstacles"},
 	{"table", "reward_balls", PR_KEY_INT, F(table.reward_balls), 1, 9999, 0, "", "reward balls b"},
@@ -787,12 +792,35 @@ static int box_inside(const pr_config *c, const double *b, const char *name, cha
 	return PR_OK;
 }
 
+/* The key of the other friction law than table.friction_law, which that law ignores. */
+static const char *idle_friction_key(const pr_config *c)
+{
+	return c->table.friction_law == PR_FRICTION_CONSTANT ? "table.friction" : "table.deceleration";
+}
+
+/* A law's parameter set together with the other law chosen explicitly
+ * would be ignored silently: refused. */
+static int friction_keys(const pr_config *c, char *err)
+{
+	char at[PR_WHERE_LEN];
+	const char *idle = idle_friction_key(c);
+	int law = find_dotted(c, "table.friction_law"), k = find_dotted(c, idle);
+
+	if (law >= 0 && k >= 0 && c->key_line[law] != 0 && c->key_line[k] != 0)
+		return pr_err(err, PR_EINVAL, "%s: %s: not used with table.friction_law = %s",
+		              pr_config_where(c, idle, at, sizeof at), idle,
+		              c->table.friction_law == PR_FRICTION_CONSTANT ? "constant" : "exponential");
+	return PR_OK;
+}
+
 int pr_config_validate(const pr_config *c, char *err)
 {
 	char at[PR_WHERE_LEN];
 	int rc, b;
 
 #define AT(key) pr_config_where(c, key, at, sizeof at)
+	if ((rc = friction_keys(c, err)))
+		return rc;
 	if (c->table.reward_balls > c->table.balls - 1)
 		return pr_err(err, PR_EINVAL, "%s: table.reward_balls: %d, but only %d balls besides the cue ball",
 		              AT("table.reward_balls"), c->table.reward_balls, c->table.balls - 1);
@@ -944,11 +972,15 @@ int pr_config_write(const pr_config *c, FILE *fp)
 
 	for (i = 0; i < n; ++i) {
 		const pr_config_key *k = key_at(c, i, &base);
+		char name[2 * NAMELEN + 1];
+		snprintf(name, sizeof name, "%s.%s", k->section, k->key);
 		if (strcmp(section, k->section) != 0) {
 			section = k->section;
 			fprintf(fp, "%s[%s]\n", i ? "\n" : "", section);
 		}
-		fprintf(fp, "%s = ", k->key);
+		/* the other law's key as a comment: read back, it would clash with
+		 * table.friction_law */
+		fprintf(fp, "%s%s = ", strcmp(name, idle_friction_key(c)) == 0 ? "; " : "", k->key);
 		write_value(c, i, fp);
 		fputc('\n', fp);
 	}

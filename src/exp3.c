@@ -31,6 +31,8 @@ void pr_exp3_opts_init(pr_exp3_opts *o)
 	snprintf(o->policies, sizeof o->policies, "nrvr_rs,rvr_rs,nrvr_a,rvr_a,baseline,handcrafted");
 	o->baseline_n_min = 250;
 	o->final_episodes = 500;
+	o->state = PR_EXP3_STATE_VARYING;
+	o->truncation = PR_EXP3_TRUNC_REDRAW;
 }
 
 static void init_keys(void *o)
@@ -52,6 +54,10 @@ static const pr_config_key key_table[] = {
 	 "Figs. 7.8-7.10: each run's last episodes"},
 	{"exp3", "handcrafted_method", PR_KEY_ENUM, F(handcrafted_method), 0, 0, 0, "creps|ccmaes",
 	 "hand-crafted variant: REPS + weighted ML, or contextual CMA-ES"},
+	{"exp3", "state", PR_KEY_ENUM, F(state), 0, 0, 0, "varying|full",
+	 "learning state: the coordinates that vary, or every ball's position (eq. 7.1: 4-D)"},
+	{"exp3", "truncation", PR_KEY_ENUM, F(truncation), 0, 0, 0, "redraw|clip|corrected",
+	 "actions above sim.max_speed: drawn again, scaled onto the limit, or drawn again with truncated densities"},
 };
 #undef F
 

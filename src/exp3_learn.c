@@ -109,18 +109,78 @@ static int draw_start(pr_exp3_learner *L, int i, char *err)
 	return rc;
 }
 
+#define DISC_DIRS 2048 /* directions of pr_exp3_disc_logmass's quadrature */
+#define DISC_SIGMAS 8  /* a disc holding the 8-sigma ellipse holds all the mass */
+
+double pr_exp3_disc_logmass(const double mean[2], const double cov[4], double vmax)
+{
+	const double tr = 0.5 * (cov[0] + cov[3]), df = 0.5 * (cov[0] - cov[3]);
+	const double lmax = tr + sqrt(df * df + cov[1] * cov[1]);
+	const double l11 = sqrt(cov[0]), l21 = cov[2] / l11, l22 = sqrt(fmax(0, cov[3] - l21 * l21));
+	const double mm = mean[0] * mean[0] + mean[1] * mean[1] - vmax * vmax;
+	double z = 0;
+	int k;
+
+	if (hypot(mean[0], mean[1]) + DISC_SIGMAS * sqrt(lmax) <= vmax)
+		return 0;
+	/* a = mean + L r u(phi), r^2 ~ chi^2_2: the ray's mass inside the disc is
+	 * e^{-lo^2/2} - e^{-hi^2/2} for the roots lo <= hi of |mean + r w|^2 = vmax^2 */
+	for (k = 0; k < DISC_DIRS; ++k) {
+		double ph = 4 * acos(0.0) * k / DISC_DIRS, u0 = cos(ph), u1 = sin(ph);
+		double w0 = l11 * u0, w1 = l21 * u0 + l22 * u1;
+		double ww = w0 * w0 + w1 * w1, mw = mean[0] * w0 + mean[1] * w1, disc = mw * mw - ww * mm;
+		double lo, hi;
+		if (disc <= 0 || ww == 0)
+			continue;
+		lo = fmax(0, (-mw - sqrt(disc)) / ww);
+		hi = fmax(0, (-mw + sqrt(disc)) / ww);
+		z += exp(-0.5 * lo * lo) - exp(-0.5 * hi * hi);
+	}
+	z /= DISC_DIRS;
+	return z > 0 ? log(fmin(z, 1)) : -HUGE_VAL;
+}
+
+/* log of the Gaussian density of a, divided by its mass inside the speed
+ * limit under exp3.truncation = corrected. */
+static int gauss_logpdf(const pr_exp3_learner *L, const double *mean, const double *cov,
+                        const double *a, double *lp, char *err)
+{
+	int rc = pr_policy_gauss_logpdf(DA, mean, cov, a, lp, err);
+
+	if (rc == PR_OK && L->e->truncation == PR_EXP3_TRUNC_CORRECTED)
+		*lp -= pr_exp3_disc_logmass(mean, cov, L->cfg->sim.max_speed);
+	return rc;
+}
+
+/* log pi_m(a|x), truncated as gauss_logpdf says. */
+static int policy_logpdf(pr_exp3_learner *L, int m, const double *x, const double *a, double *lp,
+                         int *flags, char *err)
+{
+	double mean[DA], cov[DA * DA];
+	int rc;
+
+	if (L->e->truncation != PR_EXP3_TRUNC_CORRECTED)
+		return pr_policy_logpdf(L->pol[m], x, a, lp, flags, L->work[m], err);
+	if ((rc = pr_policy_eval(L->pol[m], x, mean, cov, flags, L->work[m], err)))
+		return rc;
+	return gauss_logpdf(L, mean, cov, a, lp, err);
+}
+
 /* Draw episode i's action from policy m, and note log pi_j(a_i|s_i) for
  * every live policy j <= m. Actions faster than sim.max_speed are drawn
  * again (the simulator refuses them), so the policy really draws from its
- * Gaussian truncated there; the noted densities are the untruncated ones
- * (they lack -log P(|a| <= max_speed | s)). Redraws are counted in
- * exp3_reps.csv, so their share is on record. */
+ * Gaussian truncated there; with exp3.truncation = redraw the noted
+ * densities are the untruncated ones (they lack -log P(|a| <= max_speed | s)),
+ * with corrected they include it, and with clip a fast draw is scaled onto
+ * the limit instead. Redraws (or clips) are counted in exp3_reps.csv, so
+ * their share is on record. */
 static int draw_action(pr_exp3_learner *L, int i, int m, gsl_rng *rng, int *flags, char *err)
 {
 	const double *x = L->X + (size_t)i * L->nx;
 	const double vmax = L->cfg->sim.max_speed;
+	const int clip = L->cm || L->e->truncation == PR_EXP3_TRUNC_CLIP;
 	double mean[DA], cov[DA * DA], lp, *a = L->o.A + DA * (size_t)i;
-	int rc, j, tries = 0, f = 0;
+	int rc, j, tries = 0, f = 0, clipped = 0;
 
 	if ((rc = pr_policy_eval(L->pol[m], x, mean, cov, &f, L->work[m], err)))
 		return rc;
@@ -133,24 +193,26 @@ static int draw_action(pr_exp3_learner *L, int i, int m, gsl_rng *rng, int *flag
 			              "sim.max_speed = %g m/s", i, MAX_REDRAW, vmax);
 		if ((rc = pr_policy_gauss_sample(DA, mean, cov, 1, rng, a, err)))
 			return rc;
-		if (L->cm && hypot(a[0], a[1]) > vmax) {
-			/* C-CMA-ES: the draw is projected onto the speed limit and the
-			 * projected action is shot and used in the update (a repair
-			 * that keeps the mean near admissible actions; redrawing would
-			 * let it drift past the limit, where every draw is refused) */
+		if (clip && hypot(a[0], a[1]) > vmax) {
+			/* C-CMA-ES (always) and exp3.truncation = clip: the draw is
+			 * projected onto the speed limit and the projected action is
+			 * shot and used in the update (for C-CMA-ES a repair that keeps
+			 * the mean near admissible actions; redrawing would let it
+			 * drift past the limit, where every draw is refused) */
 			double shrink = vmax / hypot(a[0], a[1]) * (1.0 - SPEED_MARGIN);
 
 			a[0] *= shrink;
 			a[1] *= shrink;
+			clipped = L->e->truncation == PR_EXP3_TRUNC_CLIP;
 		}
 	} while (hypot(a[0], a[1]) > vmax);
-	L->redraws += tries - 1;
-	if ((rc = pr_policy_gauss_logpdf(DA, mean, cov, a, &lp, err)))
+	L->redraws += tries - 1 + clipped;
+	if ((rc = gauss_logpdf(L, mean, cov, a, &lp, err)))
 		return rc;
 	set_lp(L, i, m, lp);
 	for (j = L->pmin; j < m; ++j) {
 		f = 0;
-		if ((rc = pr_policy_logpdf(L->pol[j], x, a, &lp, &f, L->work[j], err)))
+		if ((rc = policy_logpdf(L, j, x, a, &lp, &f, err)))
 			return rc;
 		*flags |= f;
 		set_lp(L, i, j, lp);
@@ -426,8 +488,7 @@ static int iterate(pr_exp3_learner *L, int t, char *err)
 	for (i = a0; i < end; ++i) {
 		double lp;
 		int f = 0;
-		rc = pr_policy_logpdf(L->pol[t], L->X + (size_t)i * L->nx, o->A + DA * (size_t)i, &lp, &f,
-		                      L->work[t], err);
+		rc = policy_logpdf(L, t, L->X + (size_t)i * L->nx, o->A + DA * (size_t)i, &lp, &f, err);
 		if (rc)
 			return rc;
 		flags |= f;
@@ -481,7 +542,9 @@ int pr_exp3_learner_check(const pr_config *cfg, const pr_exp3_opts *e, char *err
 	              "needs varying start states", pr_config_where(cfg, "start.reward_box", at, sizeof at));
 }
 
-/* The coordinates whose start box has extent: the learner's state. */
+/* The coordinates whose start box has extent, or with exp3.state = full
+ * every coordinate (a point box's coordinate is centred on the point, half-width 1): the
+ * learner's state. */
 static int learning_dims(pr_exp3_learner *L, char *err)
 {
 	const pr_start_opts *so = &L->cfg->start;
@@ -497,10 +560,10 @@ static int learning_dims(pr_exp3_learner *L, char *err)
 		const double *box = b == 0 ? so->cue_box : b <= L->cfg->table.reward_balls ?
 		                    so->reward_box : so->obstacle_box;
 		for (c = 0; c < 2; ++c)
-			if (box[2 * c + 1] > box[2 * c]) {
+			if (box[2 * c + 1] > box[2 * c] || L->e->state == PR_EXP3_STATE_FULL) {
 				L->xdim[L->nx] = 2 * b + c;
 				L->xmid[L->nx] = 0.5 * (box[2 * c] + box[2 * c + 1]);
-				L->xhalf[L->nx] = 0.5 * (box[2 * c + 1] - box[2 * c]);
+				L->xhalf[L->nx] = box[2 * c + 1] > box[2 * c] ? 0.5 * (box[2 * c + 1] - box[2 * c]) : 1;
 				L->nx++;
 			}
 	}
@@ -730,8 +793,7 @@ int pr_exp3_learner_seed(pr_exp3_learner *L, int n, const double *S, const doubl
 			memcpy(L->mu + DA * (size_t)i, mean, sizeof mean);
 		if (logq)
 			lp = logq[i];
-		else if ((rc = pr_policy_logpdf(L->pol[0], x, o->A + DA * (size_t)i, &lp, &f, L->work[0],
-		                                err)))
+		else if ((rc = policy_logpdf(L, 0, x, o->A + DA * (size_t)i, &lp, &f, err)))
 			return rc;
 		if (!isfinite(lp))
 			return pr_err(err, PR_EINVAL, "seeded episode %d: log-density %g", i, lp);

@@ -41,7 +41,22 @@ typedef struct {
 	int baseline_n_min;    /* n_min of the single-node baseline policy */
 	int final_episodes;    /* Figs. 7.8-7.10 use each run's last episodes */
 	int handcrafted_method; /* PR_METHOD_*: the hand-crafted variant's learner */
+	int state;             /* PR_EXP3_STATE_*: the learner's state coordinates */
+	int truncation;        /* PR_EXP3_TRUNC_*: actions faster than sim.max_speed */
 } pr_exp3_opts;
+/* exp3.state: the coordinates whose start box has extent (the cue ball's is a
+ * point), or every ball's position as in eq. 7.1 (4-D with two balls). */
+enum { PR_EXP3_STATE_VARYING = 0, PR_EXP3_STATE_FULL = 1 };
+/* exp3.truncation: an action drawn faster than sim.max_speed is drawn again
+ * with the untruncated densities in the importance weights (redraw), scaled
+ * onto the limit and shot (clip), or drawn again with each density divided by
+ * the policy's mass inside the limit, P(|a| <= max_speed | s) (corrected). */
+enum { PR_EXP3_TRUNC_REDRAW = 0, PR_EXP3_TRUNC_CLIP = 1, PR_EXP3_TRUNC_CORRECTED = 2 };
+/* log P(|a| <= vmax) for a ~ N(mean, cov), 2-D (exp3.truncation = corrected):
+ * 0 when the disc holds the Gaussian's 8-sigma ellipse, else quadrature over
+ * the directions of the whitened Gaussian (each ray's mass inside the disc in
+ * closed form), -HUGE_VAL if it holds none. */
+double pr_exp3_disc_logmass(const double mean[2], const double cov[4], double vmax);
 void pr_exp3_opts_init(pr_exp3_opts *o);
 /* cfg's exp3.* options. */
 const pr_exp3_opts *pr_exp3_opts_of(const pr_config *cfg);

@@ -17,6 +17,8 @@ void pr_sim_table_init(pr_table *t)
 	t->pocket_radius = 0.03;
 	t->restitution = 0.8;
 	t->friction = 0.25;
+	t->friction_law = PR_FRICTION_EXPONENTIAL;
+	t->deceleration = 0.0625; /* the stopping distance of c = 0.25 at 0.5 m/s: a = c v / 2 */
 	t->stop_speed = 0.002;
 	t->balls = 2;
 	t->reward_balls = 1;
@@ -97,6 +99,10 @@ static int check_table(const pr_table *t, const pr_sim_opts *o, char *err)
 		return pr_err(err, PR_EINVAL, "table.restitution: must be in [0,1] (got %g)", t->restitution);
 	if (!(t->friction > 0) || !isfinite(t->friction))
 		return pr_err(err, PR_EINVAL, "table.friction: must be > 0 (got %g)", t->friction);
+	if (t->friction_law != PR_FRICTION_EXPONENTIAL && t->friction_law != PR_FRICTION_CONSTANT)
+		return pr_err(err, PR_EINVAL, "table.friction_law: unknown law %d", t->friction_law);
+	if (!(t->deceleration > 0) || !isfinite(t->deceleration))
+		return pr_err(err, PR_EINVAL, "table.deceleration: must be > 0 (got %g)", t->deceleration);
 	if (!(t->stop_speed > 0) || !isfinite(t->stop_speed))
 		return pr_err(err, PR_EINVAL, "table.stop_speed: must be > 0 (got %g)", t->stop_speed);
 	if (t->reward_balls < 0 || t->reward_balls >= PR_SIM_MAX_BALLS)
@@ -434,9 +440,16 @@ int pr_sim_ghost_action(const pr_table *t, const pr_sim_opts *o, const pr_reward
 	if (!(cosc > 0))
 		return pr_err(err, PR_EINVAL, "ghost ball: cut angle %.1f deg >= 90 deg, the ghost "
 		              "position cannot be reached", acos(fmax(-1, fmin(1, cosc))) * 180 / acos(-1.0));
-	/* under v' = -c v the speed falls linearly with distance: v = v0 - c s */
-	vc = (e->arrival_speed + t->friction * sr) / cosc;
-	v0 = vc + t->friction * sc;
+	if (t->friction_law == PR_FRICTION_CONSTANT) {
+		/* under |v|' = -a: v^2 = v0^2 - 2 a s */
+		const double a2 = 2 * t->deceleration;
+		vc = sqrt(e->arrival_speed * e->arrival_speed + a2 * sr) / cosc;
+		v0 = sqrt(vc * vc + a2 * sc);
+	} else {
+		/* under v' = -c v the speed falls linearly with distance: v = v0 - c s */
+		vc = (e->arrival_speed + t->friction * sr) / cosc;
+		v0 = vc + t->friction * sc;
+	}
 	if (v0 > o->max_speed)
 		return pr_err(err, PR_EINVAL, "ghost ball: needs %g m/s > sim.max_speed = %g", v0, o->max_speed);
 	a[0] = v0 * dir[0];

@@ -28,20 +28,75 @@ static int earlier(double t1, int k1, double t2, int k2)
 	return t1 < t2 || (t1 == t2 && k1 < k2);
 }
 
-static void advance(pr_sim_ball *b, double tau)
+static void advance(const pr_sim *s, pr_sim_ball *b, double tau)
 {
+	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
+		pr_sim_const_advance(s, b, tau);
+		return;
+	}
 	b->x += b->ux * (tau - b->tr);
 	b->y += b->uy * (tau - b->tr);
 	b->tr = tau;
 }
 
+void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy, double sp,
+                      pr_sim_hits *h)
+{
+	const double rp = s->t.pocket_radius;
+	double sy;
+	int j;
+
+	h->cushion = h->pocket = HUGE_VAL;
+	h->cid = h->pid = -1;
+	if (ux > 0) {
+		h->cushion = (s->hx - x) / ux;
+		h->cid = 1;
+	} else if (ux < 0) {
+		h->cushion = (-s->hx - x) / ux;
+		h->cid = 0;
+	}
+	sy = HUGE_VAL;
+	if (uy > 0)
+		sy = (s->hy - y) / uy;
+	else if (uy < 0)
+		sy = (-s->hy - y) / uy;
+	if (sy < h->cushion) {
+		h->cushion = sy;
+		h->cid = uy > 0 ? 3 : 2;
+	}
+	h->cushion = fmax(h->cushion, 0);
+	/* pockets: |d + u s| = rp, entering (d.u < 0); discriminant via the
+	 * Lagrange identity b^2 - a c = a rp^2 - (d x u)^2 to avoid cancellation */
+	for (j = 0; j < PR_SIM_POCKETS; ++j) {
+		double dx = x - s->px[j], dy = y - s->py[j];
+		double bq = dx * ux + dy * uy, cc, cr, disc, t;
+		if (bq >= 0)
+			continue;
+		cr = dx * uy - dy * ux;
+		disc = rp * rp * sp * sp - cr * cr;
+		if (disc < 0)
+			continue;
+		cc = dx * dx + dy * dy - rp * rp;
+		t = cc <= 0 ? 0 : cc / (-bq + sqrt(disc));
+		if (t < h->pocket) {
+			h->pocket = t;
+			h->pid = j;
+		}
+	}
+}
+
 /* The ball's own next event: stop, cushion or pocket entry. */
 static void predict_own(const pr_sim *s, pr_sim_ball *b)
 {
-	const double c = s->t.friction, rp = s->t.pocket_radius;
-	double best, sc, sy;
-	int type, other = -1, j;
+	const double c = s->t.friction;
+	pr_sim_hits h;
+	double best;
+	int type, other = -1;
 
+	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
+		pr_sim_const_predict_own(s, b);
+		return;
+	}
 	b->et = HUGE_VAL;
 	b->etype = PR_EV_NONE;
 	b->eother = -1;
@@ -50,48 +105,16 @@ static void predict_own(const pr_sim *s, pr_sim_ball *b)
 	/* |u| (1 - c tau) = stop_speed */
 	best = fmax(b->tr, (1 - s->t.stop_speed / b->sp) / c);
 	type = PR_EV_STOP;
-	/* cushions: 0 x = -hx, 1 x = +hx, 2 y = -hy, 3 y = +hy (centre lines) */
-	sc = HUGE_VAL;
-	if (b->ux > 0) {
-		sc = (s->hx - b->x) / b->ux;
-		other = 1;
-	} else if (b->ux < 0) {
-		sc = (-s->hx - b->x) / b->ux;
-		other = 0;
-	}
-	sy = HUGE_VAL;
-	if (b->uy > 0)
-		sy = (s->hy - b->y) / b->uy;
-	else if (b->uy < 0)
-		sy = (-s->hy - b->y) / b->uy;
-	if (sy < sc) {
-		sc = sy;
-		other = b->uy > 0 ? 3 : 2;
-	}
-	if (sc < HUGE_VAL && earlier(b->tr + fmax(sc, 0), PR_EV_CUSHION, best, type)) {
-		best = b->tr + fmax(sc, 0);
+	pr_sim_path_hits(s, b->x, b->y, b->ux, b->uy, b->sp, &h);
+	if (h.cid >= 0 && earlier(b->tr + h.cushion, PR_EV_CUSHION, best, type)) {
+		best = b->tr + h.cushion;
 		type = PR_EV_CUSHION;
-	} else {
-		other = -1;
+		other = h.cid;
 	}
-	/* pockets: |d + u s| = rp, entering (d.u < 0); discriminant via the
-	 * Lagrange identity b^2 - a c = a rp^2 - (d x u)^2 to avoid cancellation */
-	for (j = 0; j < PR_SIM_POCKETS; ++j) {
-		double dx = b->x - s->px[j], dy = b->y - s->py[j];
-		double bq = dx * b->ux + dy * b->uy, cc, cr, disc, t;
-		if (bq >= 0)
-			continue;
-		cr = dx * b->uy - dy * b->ux;
-		disc = rp * rp * b->sp * b->sp - cr * cr;
-		if (disc < 0)
-			continue;
-		cc = dx * dx + dy * dy - rp * rp;
-		t = b->tr + (cc <= 0 ? 0 : cc / (-bq + sqrt(disc)));
-		if (earlier(t, PR_EV_POCKET, best, type)) {
-			best = t;
-			type = PR_EV_POCKET;
-			other = j;
-		}
+	if (h.pid >= 0 && earlier(b->tr + h.pocket, PR_EV_POCKET, best, type)) {
+		best = b->tr + h.pocket;
+		type = PR_EV_POCKET;
+		other = h.pid;
 	}
 	b->et = best;
 	b->etype = type;
@@ -107,6 +130,8 @@ static double pair_time(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_bal
 
 	if (bi->st != PR_BALL_MOVING && bj->st != PR_BALL_MOVING)
 		return HUGE_VAL;
+	if (s->t.friction_law == PR_FRICTION_CONSTANT)
+		return pr_sim_const_pair_time(s, bi, bj, tau);
 	wx = bj->ux - bi->ux;
 	wy = bj->uy - bi->uy;
 	dx = (bj->x + bj->ux * (tau - bj->tr)) - (bi->x + bi->ux * (tau - bi->tr));
@@ -170,6 +195,10 @@ static void gap_piece(const pr_sim *s, gap_state *g, int i, double tau)
 
 	if (c->st == PR_BALL_POCKETED || r->st == PR_BALL_POCKETED)
 		return;
+	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
+		g->gap = fmin(g->gap, pr_sim_const_min_dist(s, c, r, tau));
+		return;
+	}
 	t0 = fmax(c->tr, r->tr);
 	dx = (r->x + r->ux * (t0 - r->tr)) - (c->x + c->ux * (t0 - c->tr));
 	dy = (r->y + r->uy * (t0 - r->tr)) - (c->y + c->uy * (t0 - c->tr));
@@ -203,31 +232,82 @@ static void gap_close(const pr_sim *s, gap_state *g, int k, double tau)
 		gap_piece(s, g, i, tau);
 }
 
-static int trace_all(const pr_sim *s, int n, pr_sim_trace *tr, double tau, double t)
+/* Position and velocity of ball b at event variable tau. */
+static void ball_at(const pr_sim *s, const pr_sim_ball *b, double tau, double p[2], double v[2])
 {
 	double f = 1 - s->t.friction * tau; /* e^{-ct} */
+
+	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
+		pr_sim_const_at(s, b, tau, p, v);
+		return;
+	}
+	p[0] = b->x + b->ux * (tau - b->tr);
+	p[1] = b->y + b->uy * (tau - b->tr);
+	v[0] = b->ux * f;
+	v[1] = b->uy * f;
+}
+
+static int trace_all(const pr_sim *s, int n, pr_sim_trace *tr, double tau, double t)
+{
 	int i;
 
 	for (i = 0; i < n; ++i) {
 		const pr_sim_ball *b = &s->b[i];
+		double p[2], v[2];
 		if (b->st == PR_BALL_POCKETED)
 			continue;
-		if (pr_sim_trace_add(tr, t, i, b->x + b->ux * (tau - b->tr), b->y + b->uy * (tau - b->tr),
-		                     b->ux * f, b->uy * f))
+		ball_at(s, b, tau, p, v);
+		if (pr_sim_trace_add(tr, t, i, p[0], p[1], v[0], v[1]))
 			return PR_ENOMEM;
 	}
 	return PR_OK;
 }
 
-static double time_of(double c, double tau)
+/* Real time of event variable tau: t = -ln(1 - c tau)/c, or t itself under
+ * the constant law. */
+static double time_of(const pr_sim *s, double tau)
 {
-	return -log1p(-c * tau) / c;
+	const double c = s->t.friction;
+
+	return s->t.friction_law == PR_FRICTION_CONSTANT ? tau : -log1p(-c * tau) / c;
+}
+
+/* After an event of the np balls part[]: re-predict them in full, every
+ * other ball against them (or in full if its cached partner was one). */
+static void repredict(pr_sim *s, int n, const int *part, int np, double tau)
+{
+	pr_sim_ball *b = s->b;
+	int i, j;
+
+	for (j = 0; j < np; ++j)
+		predict_full(s, n, part[j], tau);
+	for (i = 0; i < n; ++i) {
+		pr_sim_ball *bi = &b[i];
+		if (i == part[0] || (np == 2 && i == part[1]) || bi->st == PR_BALL_POCKETED)
+			continue;
+		if (bi->etype == PR_EV_BALL && (bi->eother == part[0] || (np == 2 && bi->eother == part[1]))) {
+			predict_full(s, n, i, tau);
+			continue;
+		}
+		for (j = 0; j < np; ++j) {
+			double t;
+			if (b[part[j]].st == PR_BALL_POCKETED)
+				continue;
+			t = pair_time(s, bi, &b[part[j]], tau);
+			if (t < HUGE_VAL && earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
+				bi->et = t;
+				bi->etype = PR_EV_BALL;
+				bi->eother = part[j];
+			}
+		}
+	}
 }
 
 int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err)
 {
 	const double c = s->t.friction, kappa = s->t.restitution;
-	const double tmax = -expm1(-c * s->o.max_time) / c; /* tau at sim.max_time */
+	const double tmax = s->t.friction_law == PR_FRICTION_CONSTANT ? s->o.max_time
+	                  : -expm1(-c * s->o.max_time) / c; /* tau at sim.max_time */
 	pr_sim_ball *b = s->b;
 	gap_state g;
 	double tau = 0;
@@ -264,24 +344,26 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 		tau = bk->et;
 		part[0] = k;
 		gap_close(s, &g, k, tau);
-		advance(bk, tau);
+		advance(s, bk, tau);
 		switch (bk->etype) {
 		case PR_EV_STOP:
 			bk->ux = bk->uy = bk->sp = 0;
 			bk->st = PR_BALL_REST;
 			break;
-		case PR_EV_POCKET:
-			if (tr && pr_sim_trace_add(tr, time_of(c, tau), k, bk->x, bk->y,
-			                           bk->ux * (1 - c * tau), bk->uy * (1 - c * tau)))
+		case PR_EV_POCKET: {
+			double p[2], v[2];
+			ball_at(s, bk, tau, p, v);
+			if (tr && pr_sim_trace_add(tr, time_of(s, tau), k, p[0], p[1], v[0], v[1]))
 				return pr_err(err, PR_ENOMEM, "trace: out of memory");
 			s->pocket[k] = bk->eother;
 			bk->x = s->px[bk->eother];
 			bk->y = s->py[bk->eother];
 			bk->ux = bk->uy = bk->sp = 0;
 			bk->st = PR_BALL_POCKETED;
-			if (tr && pr_sim_trace_add(tr, time_of(c, tau), k, bk->x, bk->y, 0, 0))
+			if (tr && pr_sim_trace_add(tr, time_of(s, tau), k, bk->x, bk->y, 0, 0))
 				return pr_err(err, PR_ENOMEM, "trace: out of memory");
 			break;
+		}
 		case PR_EV_CUSHION: /* eq. 7.4; the centre sits exactly on its line */
 			if (bk->eother < 2) {
 				bk->x = bk->eother ? s->hx : -s->hx;
@@ -300,7 +382,7 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 			j = bk->eother;
 			part[np++] = j;
 			gap_close(s, &g, j, tau);
-			advance(bj, tau);
+			advance(s, bj, tau);
 			nx = bj->x - bk->x;
 			ny = bj->y - bk->y;
 			d = hypot(nx, ny);
@@ -322,44 +404,22 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 			break;
 		}
 		}
-		if (tr && trace_all(s, n, tr, tau, time_of(c, tau)))
+		if (tr && trace_all(s, n, tr, tau, time_of(s, tau)))
 			return pr_err(err, PR_ENOMEM, "trace: out of memory");
-		/* re-predict: the balls involved in full, the others against them */
-		for (j = 0; j < np; ++j)
-			predict_full(s, n, part[j], tau);
-		for (i = 0; i < n; ++i) {
-			pr_sim_ball *bi = &b[i];
-			if (i == part[0] || (np == 2 && i == part[1]) || bi->st == PR_BALL_POCKETED)
-				continue;
-			if (bi->etype == PR_EV_BALL && (bi->eother == part[0] || (np == 2 && bi->eother == part[1]))) {
-				predict_full(s, n, i, tau);
-				continue;
-			}
-			for (j = 0; j < np; ++j) {
-				double t;
-				if (b[part[j]].st == PR_BALL_POCKETED)
-					continue;
-				t = pair_time(s, bi, &b[part[j]], tau);
-				if (t < HUGE_VAL && earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
-					bi->et = t;
-					bi->etype = PR_EV_BALL;
-					bi->eother = part[j];
-				}
-			}
-		}
+		repredict(s, n, part, np, tau);
 	}
 	if (!g.hit)
 		for (i = 1; i <= g.nr; ++i)
 			gap_piece(s, &g, i, tau);
 	for (i = 0; i < n; ++i) {
 		if (b[i].st != PR_BALL_POCKETED)
-			advance(&b[i], tau);
+			advance(s, &b[i], tau);
 		s->final[2 * i] = b[i].x;
 		s->final[2 * i + 1] = b[i].y;
 	}
 	res->hit = g.hit;
 	res->min_gap = g.nr < 1 ? 0 : fmax(0, g.gap - 2 * s->t.ball_radius);
-	res->t_end = timeout ? s->o.max_time : time_of(c, tau);
+	res->t_end = timeout ? s->o.max_time : time_of(s, tau);
 	res->events = events;
 	if (tr && trace_all(s, n, tr, tau, res->t_end))
 		return pr_err(err, PR_ENOMEM, "trace: out of memory");

@@ -47,6 +47,29 @@ struct pr_sim_trace {
 int pr_sim_trace_add(pr_sim_trace *tr, double t, int ball, double x, double y,
                      double vx, double vy);
 
+/* Where a straight path from (x,y) along (ux,uy), |u| = sp, first meets a
+ * cushion line (cushion 0 x = -hx, 1 x = +hx, 2 y = -hy, 3 y = +hy) and a
+ * pocket's capture circle, in units of the path parameter s of
+ * (x,y) + u s (HUGE_VAL and -1 if never; an entry already under way is 0). */
+typedef struct {
+	double cushion, pocket;
+	int cid, pid;
+} pr_sim_hits;
+void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy, double sp,
+                      pr_sim_hits *h);
+
+/* Event mode under the constant-deceleration law (sim_event_const.c). The
+ * event variable is the real time t; (x,y) and (ux,uy) are a ball's
+ * position and velocity at its reference time tr. */
+void pr_sim_const_at(const pr_sim *s, const pr_sim_ball *b, double t, double p[2], double v[2]);
+void pr_sim_const_advance(const pr_sim *s, pr_sim_ball *b, double t);
+void pr_sim_const_predict_own(const pr_sim *s, pr_sim_ball *b);
+double pr_sim_const_pair_time(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj,
+                              double t);
+/* Smallest centre distance of balls i and j over [max(tr_i, tr_j), t]. */
+double pr_sim_const_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj,
+                             double t);
+
 /* The two time-advance schemes. They start from s->b[0..n-1] set up by
  * pr_sim_shoot (positions, cue velocity, states) and fill res except nballs,
  * final and pocket, which they leave in s->final and s->pocket. */

@@ -7,6 +7,9 @@
  * 1 - f with f = 1 - e^{-c dt}, the same c as event mode; a ball slower than
  * the stop speed stops. Positions are not corrected after a bounce, as in
  * the thesis, so the scheme converges to event mode at first order in dt.
+ * Under the constant law (table.friction_law = constant) friction instead
+ * takes a dt off the speed along the direction of motion, and every step
+ * runs the tested phases.
  *
  * Without a trace, stretches of steps in which no test can fire run without
  * the tests (see "Event-free windows" below); the arithmetic of every step
@@ -46,6 +49,7 @@ static double gap2(const pr_sim *s, int nr, double best)
 
 typedef struct {
 	double dt, kappa, decay, vs2, r2, rp2, ypk, hx, hy;
+	double dv;           /* constant law: speed lost per step, a dt; 0 under the exponential law */
 	int n, nr, nmov, hit;
 	long step;
 	double g2;           /* smallest squared cue-reward centre distance */
@@ -139,7 +143,9 @@ static int phase_pairs(pr_sim *s, stepper *k)
 	return ev;
 }
 
-/* Friction factor 1 - f = e^{-c dt}, then the stop threshold. */
+/* Friction factor 1 - f = e^{-c dt}, or under the constant law
+ * |v| <- max(0, |v| - a dt) along the direction of motion; then the stop
+ * threshold. */
 static int phase_friction(pr_sim *s, stepper *k)
 {
 	int i, ev = 0;
@@ -148,8 +154,14 @@ static int phase_friction(pr_sim *s, stepper *k)
 		pr_sim_ball *bi = &s->b[i];
 		if (bi->st != PR_BALL_MOVING)
 			continue;
-		bi->ux *= k->decay;
-		bi->uy *= k->decay;
+		if (k->dv > 0) {
+			double v = hypot(bi->ux, bi->uy), f = v > k->dv ? (v - k->dv) / v : 0;
+			bi->ux *= f;
+			bi->uy *= f;
+		} else {
+			bi->ux *= k->decay;
+			bi->uy *= k->decay;
+		}
 		if (bi->ux * bi->ux + bi->uy * bi->uy < k->vs2) {
 			bi->ux = bi->uy = 0;
 			bi->st = PR_BALL_REST;
@@ -621,6 +633,7 @@ int pr_sim_run_stepped(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *e
 	k.dt = s->o.dt;
 	k.kappa = s->t.restitution;
 	k.decay = exp(-s->t.friction * s->o.dt);
+	k.dv = s->t.friction_law == PR_FRICTION_CONSTANT ? s->t.deceleration * s->o.dt : 0;
 	k.vs2 = s->t.stop_speed * s->t.stop_speed;
 	k.r2 = 4 * s->t.ball_radius * s->t.ball_radius;
 	k.rp2 = s->t.pocket_radius * s->t.pocket_radius;
@@ -641,18 +654,19 @@ int pr_sim_run_stepped(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *e
 	while (k.nmov > 0 && k.step < maxsteps) {
 		long lim = maxsteps;
 		int ev;
-		if (!tr) {
+		/* the fast paths and windows hard-code the exponential law's v *= decay */
+		if (!tr && k.dv == 0) {
 			if (run_window(s, &k, maxsteps))
 				continue;
 			/* near an event: tested steps for a while */
 			lim = maxsteps - k.step > WIN_MIN ? k.step + WIN_MIN : maxsteps;
 		}
-		if (k.nmov == 1 && !tr) {
+		if (k.nmov == 1 && !tr && k.dv == 0) {
 			if (!run_single(s, &k, lim))
 				continue;
 			ev = 0;
 		} else {
-			if (n == 2 && k.nmov == 2 && !tr) {
+			if (n == 2 && k.nmov == 2 && !tr && k.dv == 0) {
 				long before = k.step;
 				run_pair(s, &k, lim);
 				if (k.step > before)

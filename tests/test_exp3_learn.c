@@ -328,6 +328,59 @@ static void test_repeat_draws_from_pi0(void **state)
 
 /* Every registered experiment's defaults are valid keys and values, and
  * every block fits into a pr_config. */
+/* log P(|a| <= V), a ~ N(mean, cov), by a midpoint rule on a polar grid of
+ * the disc itself (the method of pr_exp3_disc_logmass integrates over the
+ * Gaussian's directions instead). */
+static double disc_logmass_grid(const double m[2], const double c[4], double V)
+{
+	const int nr = 1500, nt = 1500;
+	const double det = c[0] * c[3] - c[1] * c[2];
+	double z = 0;
+	int i, j;
+
+	for (i = 0; i < nr; ++i) {
+		double r = V * (i + 0.5) / nr;
+		for (j = 0; j < nt; ++j) {
+			double th = 2 * acos(-1.0) * (j + 0.5) / nt, dx = r * cos(th) - m[0], dy = r * sin(th) - m[1];
+			double q = (c[3] * dx * dx - 2 * c[1] * dx * dy + c[0] * dy * dy) / det;
+			z += exp(-0.5 * q) * r;
+		}
+	}
+	return log(z * (V / nr) * (2 * acos(-1.0) / nt) / (2 * acos(-1.0) * sqrt(det)));
+}
+
+/* exp3.truncation = corrected: the Gaussian's mass inside the speed limit,
+ * against the closed form of a centred isotropic Gaussian and a quadrature
+ * over the disc, for means inside, on and outside the limit. */
+static void test_disc_logmass(void **state)
+{
+	const double cases[][7] = {
+		/* mean x, y, cov 00, 01, 11, V */
+		{0.5, 0.2, 0.04, 0.01, 0.09, 1.0, 0},
+		{0.9, 0.0, 0.01, 0.0, 0.01, 1.0, 0},
+		{1.0, 0.3, 0.02, -0.012, 0.03, 1.0, 0},
+		{1.3, -0.4, 0.05, 0.02, 0.02, 1.0, 0},
+		{0.0, 0.0, 4.0, 1.0, 1.0, 2.0, 0},
+	};
+	double m[2] = {0, 0}, c[4] = {0.25, 0, 0, 0.25};
+	size_t k;
+
+	(void)state;
+	/* centred, isotropic: P = 1 - exp(-V^2 / 2 sigma^2) */
+	assert_true(fabs(pr_exp3_disc_logmass(m, c, 1.0) - log(-expm1(-0.5 / 0.25))) < 1e-12);
+	/* far inside: exactly 0 */
+	c[0] = c[3] = 1e-4;
+	m[0] = 0.3;
+	assert_true(pr_exp3_disc_logmass(m, c, 10.0) == 0);
+	for (k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+		const double *q = cases[k];
+		double mm[2] = {q[0], q[1]}, cc[4] = {q[2], q[3], q[3], q[4]};
+		double got = pr_exp3_disc_logmass(mm, cc, q[5]), ref = disc_logmass_grid(mm, cc, q[5]);
+		print_message("disc mass case %zu: %.8f (grid %.8f)\n", k, got, ref);
+		assert_true(fabs(got - ref) < 1e-4);
+	}
+}
+
 static void test_registry_schema(void **state)
 {
 	pr_config c;
@@ -358,6 +411,7 @@ int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_seeded_learner_continues_the_same),
+		cmocka_unit_test(test_disc_logmass),
 		cmocka_unit_test(test_initial_policy),
 		cmocka_unit_test(test_repeat_draws_from_pi0),
 		cmocka_unit_test(test_controls_refit_and_n_min),

@@ -18,6 +18,7 @@
 #define C 0.25
 #define VS 0.002
 #define KAPPA 0.8
+#define A 0.0625 /* table.deceleration under the constant law */
 
 typedef struct {
 	pr_table t;
@@ -55,6 +56,17 @@ static void rebuild(fixture *f)
 	pr_sim_free(f->sim);
 	f->sim = pr_sim_new(&f->t, &f->o, f->err);
 	assert_non_null(f->sim);
+}
+
+/* A fixture under friction law law (PR_FRICTION_*), deceleration A. */
+static fixture *make_law(int mode, int reward_balls, int law)
+{
+	fixture *f = make(mode, reward_balls);
+
+	f->t.friction_law = law;
+	f->t.deceleration = A;
+	rebuild(f);
+	return f;
 }
 
 static void destroy(fixture *f)
@@ -365,15 +377,15 @@ static void test_ghost_known(void **state)
 	destroy(f);
 }
 
-/* The ghost-ball expert pockets from Experiment 2's start region. */
-static void test_ghost_rate(void **state)
+/* The ghost-ball expert pockets from Experiment 2's start region, under
+ * friction law law (its speed law re-derived for each). */
+static void ghost_rate(int law)
 {
-	fixture *f = make(PR_SIM_EVENT, 1);
+	fixture *f = make_law(PR_SIM_EVENT, 1, law);
 	gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
 	double st[4], a[2];
 	int i, ok = 0, n = 1000;
 
-	(void)state;
 	gsl_rng_set(rng, 2);
 	for (i = 0; i < n; ++i) {
 		assert_int_equal(pr_sim_sample_start(&f->t, &f->so, 2, rng, st, f->err), PR_OK);
@@ -381,9 +393,117 @@ static void test_ghost_rate(void **state)
 		assert_int_equal(pr_sim_shoot(f->sim, st, 2, a, &f->res, NULL, f->err), PR_OK);
 		ok += pr_sim_reward(&f->t, &f->ro, &f->res) == 0;
 	}
-	print_message("ghost-ball expert: %d of %d pocketed (event mode, Exp. 2 region)\n", ok, n);
+	print_message("ghost-ball expert: %d of %d pocketed (event mode, Exp. 2 region, %s law)\n", ok,
+	              n, law == PR_FRICTION_CONSTANT ? "constant" : "exponential");
 	assert_true(ok >= 0.99 * n);
 	gsl_rng_free(rng);
+	destroy(f);
+}
+
+static void test_ghost_rate(void **state)
+{
+	(void)state;
+	ghost_rate(PR_FRICTION_EXPONENTIAL);
+	ghost_rate(PR_FRICTION_CONSTANT);
+}
+
+/* Constant law, free flight: the ball stops after (v0^2 - v_stop^2)/2a at
+ * t = (v0 - v_stop)/a; cut by sim.max_time at 1 s it is at v0 - a/2. */
+static void test_const_free_flight(void **state)
+{
+	fixture *f = make_law(PR_SIM_EVENT, 0, PR_FRICTION_CONSTANT);
+	double st[2] = {-0.45, -0.1}, v0 = 0.2, d = (v0 * v0 - VS * VS) / (2 * A);
+
+	(void)state;
+	assert_int_equal(shoot(f, st, 1, v0, 0), PR_OK);
+	assert_near(f->res.final[0], -0.45 + d, 1e-14);
+	assert_near(f->res.final[1], -0.1, 0);
+	assert_near(f->res.t_end, (v0 - VS) / A, 1e-13);
+	assert_int_equal(f->res.events, 1);
+	assert_int_equal(shoot(f, st, 1, 0.08, 0.06), PR_OK); /* diagonal, speed 0.1 */
+	d = (0.01 - VS * VS) / (2 * A);
+	assert_near(f->res.final[0], -0.45 + 0.8 * d, 1e-14);
+	assert_near(f->res.final[1], -0.1 + 0.6 * d, 1e-14);
+	f->o.max_time = 1;
+	rebuild(f);
+	assert_int_equal(shoot(f, st, 1, v0, 0), PR_OK);
+	assert_near(f->res.t_end, 1, 0);
+	assert_near(f->res.final[0], -0.45 + v0 - A / 2, 1e-14);
+	destroy(f);
+}
+
+/* Constant law, head-on: the cue ball stops at contact, after
+ * (v0 - v_c)/a with v_c^2 = v0^2 - 2 a s, and the object ball travels
+ * (v_c^2 - v_stop^2)/2a. */
+static void test_const_head_on(void **state)
+{
+	fixture *f = make_law(PR_SIM_EVENT, 1, PR_FRICTION_CONSTANT);
+	double st[4] = {-0.2, 0, 0, 0}, v0 = 0.2;
+	double vc = sqrt(v0 * v0 - 2 * A * (0.2 - 2 * R));
+	const pr_sim_trace_row *r0, *r1;
+
+	(void)state;
+	assert_int_equal(shoot(f, st, 2, v0, 0), PR_OK);
+	assert_int_equal(f->res.hit, 1);
+	assert_near(f->res.final[0], -2 * R, 1e-15);
+	assert_near(f->res.final[1], 0, 0);
+	assert_near(f->res.final[2], (vc * vc - VS * VS) / (2 * A), 1e-14);
+	r0 = row_after(f, 0, 0);
+	r1 = row_after(f, 1, 0);
+	assert_near(r0->t, (v0 - vc) / A, 1e-13);
+	assert_near(r0->vx, 0, 0);
+	assert_near(r1->vx, vc, 1e-15);
+	assert_near(f->res.t_end, (v0 - vc) / A + (vc - VS) / A, 1e-12);
+	destroy(f);
+}
+
+/* Constant law, cushions: v_in^2 = v0^2 - 2 a s, out at kappa v_in; the
+ * oblique bounce keeps the tangential component. */
+static void test_const_cushion(void **state)
+{
+	fixture *f = make_law(PR_SIM_EVENT, 0, PR_FRICTION_CONSTANT);
+	double st[2] = {0.3, 0}, hx = 0.5 - R;
+	double vin = sqrt(0.04 - 2 * A * (hx - 0.3)), vout = KAPPA * vin;
+	const pr_sim_trace_row *r;
+
+	(void)state;
+	assert_int_equal(shoot(f, st, 1, 0.2, 0), PR_OK);
+	assert_int_equal(f->res.events, 2);
+	assert_near(f->res.final[0], hx - (vout * vout - VS * VS) / (2 * A), 1e-14);
+	r = row_after(f, 0, 0);
+	assert_near(r->x, hx, 0);
+	assert_near(r->vx, -vout, 1e-15);
+	assert_near(r->t, (0.2 - vin) / A, 1e-13);
+	assert_int_equal(shoot(f, st, 1, 0.2, 0.05), PR_OK);
+	r = row_after(f, 0, 0);
+	assert_near(r->x, hx, 0);
+	assert_near(r->vx / r->vy, -KAPPA * 0.2 / 0.05, 1e-12);
+	destroy(f);
+}
+
+/* Constant law, pocket entry and glancing contacts: 2R - 1e-9 hits with the
+ * normal share of the contact speed, 2R + 1e-9 misses by 1e-9. */
+static void test_const_pocket_glancing(void **state)
+{
+	fixture *f = make_law(PR_SIM_EVENT, 1, PR_FRICTION_CONSTANT);
+	double st[4] = {0.3, 0.1, -0.3, -0.1}, sp = 0.25 - 0.03, ve = sqrt(0.25 - 2 * A * sp);
+	double hit[4] = {-0.3, 0, 0, 2 * R - 1e-9}, miss[4] = {-0.3, 0, 0, 2 * R + 1e-9};
+	double nx = sqrt((2 * R - hit[3]) * (2 * R + hit[3])) / (2 * R);
+	double vc = sqrt(0.25 - 2 * A * (0.3 - 2 * R * nx));
+	const pr_sim_trace_row *r;
+
+	(void)state;
+	assert_int_equal(shoot(f, st, 2, 0.4, 0.3), PR_OK);
+	assert_int_equal(f->res.pocket[0], 5);
+	assert_near(f->res.t_end, (0.5 - ve) / A, 1e-12);
+	assert_int_equal(shoot(f, hit, 2, 0.5, 0), PR_OK);
+	assert_int_equal(f->res.hit, 1);
+	r = row_after(f, 1, 0);
+	assert_near(hypot(r->vx, r->vy), vc * nx, 1e-9 * vc * nx);
+	assert_int_equal(shoot(f, miss, 2, 0.5, 0), PR_OK);
+	assert_int_equal(f->res.hit, 0);
+	assert_near(f->res.final[3], miss[3], 0);
+	assert_near(f->res.min_gap, 1e-9, 1e-14);
 	destroy(f);
 }
 
@@ -439,17 +559,16 @@ static void random_shot(fixture *f, gsl_rng *rng, int n, double *st, double *a)
  * few shots flip a discrete outcome, a pocket or a near-grazing contact, and
  * are not yet in the asymptotic regime), so the ratio is taken of geometric
  * means (mean log error) over the shots; the arithmetic means are printed. */
-static void test_stepped_convergence(void **state)
+static void convergence(int law)
 {
-	fixture *ev = make(PR_SIM_EVENT, 1), *sp[3];
+	fixture *ev = make_law(PR_SIM_EVENT, 1, law), *sp[3];
 	gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
 	const double dts[3] = {1e-3, 5e-4, 2.5e-4};
 	double lg[2] = {0, 0}, mean[3] = {0, 0, 0}, st[4], a[2], fe[4];
 	int i, k, b, n = 400, used = 0;
 
-	(void)state;
 	for (k = 0; k < 3; ++k) {
-		sp[k] = make(PR_SIM_STEPPED, 1);
+		sp[k] = make_law(PR_SIM_STEPPED, 1, law);
 		sp[k]->o.dt = dts[k];
 		rebuild(sp[k]);
 	}
@@ -475,14 +594,23 @@ static void test_stepped_convergence(void **state)
 	assert_true(used >= 100);
 	lg[0] = exp(lg[0] / used);
 	lg[1] = exp(lg[1] / used);
-	print_message("stepped vs event, %d shots: error ratio dt 1->0.5 ms %.3f, 0.5->0.25 ms %.3f "
-	              "(arithmetic means %.3g %.3g %.3g m)\n", used, lg[0], lg[1], mean[0], mean[1], mean[2]);
+	print_message("stepped vs event, %s law, %d shots: error ratio dt 1->0.5 ms %.3f, 0.5->0.25 ms "
+	              "%.3f (arithmetic means %.3g %.3g %.3g m)\n",
+	              law == PR_FRICTION_CONSTANT ? "constant" : "exponential", used, lg[0], lg[1],
+	              mean[0], mean[1], mean[2]);
 	assert_true(lg[0] > 1.6 && lg[0] < 2.6);
 	assert_true(lg[1] > 1.6 && lg[1] < 2.6);
 	gsl_rng_free(rng);
 	for (k = 0; k < 3; ++k)
 		destroy(sp[k]);
 	destroy(ev);
+}
+
+static void test_stepped_convergence(void **state)
+{
+	(void)state;
+	convergence(PR_FRICTION_EXPONENTIAL);
+	convergence(PR_FRICTION_CONSTANT);
 }
 
 /* Invariants over random 5-ball shots in event mode: kinetic energy never
@@ -616,6 +744,10 @@ int main(void)
 		cmocka_unit_test(test_invariants),
 		cmocka_unit_test(test_stepped_fast_paths),
 		cmocka_unit_test(test_stepped_basics),
+		cmocka_unit_test(test_const_free_flight),
+		cmocka_unit_test(test_const_head_on),
+		cmocka_unit_test(test_const_cushion),
+		cmocka_unit_test(test_const_pocket_glancing),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -109,7 +109,10 @@ const char *pr_config_where(const pr_config *c, const char *key, char *buf, size
  * and vb (each n bytes, truncated). 0 if none, -1 if out of memory. */
 int pr_config_diff(const pr_config *a, const pr_config *b, const char *const *skip, char *key,
                    size_t nkey, char *va, char *vb, size_t n);
-/* Write every key as INI (the effective configuration). */
+/* Write every key as INI (the effective configuration); the other friction
+ * law's parameter (table.deceleration under the exponential law, table.friction
+ * under the constant one) as a comment, since read back it would clash with
+ * table.friction_law. */
 int pr_config_write(const pr_config *c, FILE *fp);
 /* List the keys of schema with default, unit and range: every key, or only
  * those in the list `only` (as pr_config_key_listed reads it). */

@@ -13,6 +13,12 @@
 
 #define PR_SIM_POCKETS 6
 
+/* table.friction_law: how a rolling ball slows. */
+enum {
+	PR_FRICTION_EXPONENTIAL = 0, /* v' = -c v (thesis): v(t) = v0 e^(-c t) */
+	PR_FRICTION_CONSTANT = 1     /* |v|' = -a (rolling resistance, a = mu_r g) */
+};
+
 /* Table geometry and physics constants (keys table.*). */
 typedef struct {
 	double length;        /* m, long side (x) */
@@ -20,7 +26,9 @@ typedef struct {
 	double ball_radius;   /* m, R */
 	double pocket_radius; /* m */
 	double restitution;   /* cushion kappa, eq. 7.4 */
-	double friction;      /* c in v(t) = v0 exp(-c t), 1/s */
+	double friction;      /* c in v(t) = v0 exp(-c t), 1/s (exponential law) */
+	int friction_law;     /* PR_FRICTION_* */
+	double deceleration;  /* a in |v|(t) = v0 - a t, m/s^2 (constant law) */
 	double stop_speed;    /* m/s; slower balls stop */
 	int balls;            /* cue + reward + obstacle balls */
 	int reward_balls;     /* b */
@@ -76,7 +84,7 @@ void pr_sim_expert_opts_init(pr_expert_opts *o);
  * Not thread-safe; use one per thread. No global mutable state. */
 typedef struct pr_sim pr_sim;
 
-/* Validates t and o (positive sizes, friction > 0, stop speed > 0, the ball
+/* Validates t and o (positive sizes, friction > 0, deceleration > 0, stop speed > 0, the ball
  * fits on the table, ...). Returns NULL and fills err on failure. */
 pr_sim *pr_sim_new(const pr_table *t, const pr_sim_opts *o, char *err);
 void pr_sim_free(pr_sim *s);
@@ -171,8 +179,9 @@ typedef struct {
 /* Ghost-ball expert (thesis 7.4.1): target = the target pocket
  * nearest reward ball 1 (by its centre); aim point = its centre or, with
  * e->aim = PR_GHOST_AIM_CORRIDOR, its corridor entry (pr_sim_pocket_entry,
- * as the caption of the thesis's Fig. 7.5 says); speed from v = v0 - c s so
- * that the reward ball arrives at the aim point at e->arrival_speed. PR_EINVAL if the cut is 90
+ * as the caption of the thesis's Fig. 7.5 says); speed from v = v0 - c s
+ * (exponential law) or v^2 = v0^2 - 2 a s (constant law) so that the reward
+ * ball arrives at the aim point at e->arrival_speed. PR_EINVAL if the cut is 90
  * degrees or more (no contact at the ghost position) or the speed exceeds
  * o->max_speed. geom may be NULL. */
 int pr_sim_ghost_action(const pr_table *t, const pr_sim_opts *o, const pr_reward_opts *ro,

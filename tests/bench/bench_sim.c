@@ -1,7 +1,7 @@
 /* bench_sim.c — simulator throughput (shots per second), single thread.
  *
  *   bench_sim --mode event|stepped --actions gauss|uniform [--dt S] [--shots N]
- *             [--runs K] [--seed S]
+ *             [--runs K] [--seed S] [--law exponential|constant]
  *
  * Two-ball shots from Experiment 3's start region (cue ball at (-0.25, 0),
  * reward ball uniform in [0.05,0.15]x[-0.1,0.1]). Actions: "gauss" draws
@@ -9,7 +9,8 @@
  * direction and a speed uniform in [0, 1.5] m/s. States and actions are drawn
  * before the clock starts (a pool of 65536 shots, reused cyclically), no
  * trace is recorded, and the result is only summed so the work is not
- * optimised away. Prints one line of key=value pairs with the median of the
+ * optimised away. --law picks table.friction_law (the constant law at its
+ * default deceleration, 0.0625 m/s^2). Prints one line of key=value pairs with the median of the
  * runs. */
 #include <getopt.h>
 #include <math.h>
@@ -46,7 +47,7 @@ int main(int argc, char **argv)
 		{"mode", required_argument, NULL, 'm'}, {"actions", required_argument, NULL, 'a'},
 		{"dt", required_argument, NULL, 'd'},   {"shots", required_argument, NULL, 'n'},
 		{"runs", required_argument, NULL, 'r'}, {"seed", required_argument, NULL, 's'},
-		{NULL, 0, NULL, 0}};
+		{"law", required_argument, NULL, 'l'},  {NULL, 0, NULL, 0}};
 	pr_table t;
 	pr_sim_opts o;
 	pr_start_opts so;
@@ -70,6 +71,9 @@ int main(int argc, char **argv)
 		case 'n': shots = strtol(optarg, NULL, 10); break;
 		case 'r': runs = (int)strtol(optarg, NULL, 10); break;
 		case 's': seed = strtoul(optarg, NULL, 10); break;
+		case 'l':
+			t.friction_law = strcmp(optarg, "constant") ? PR_FRICTION_EXPONENTIAL : PR_FRICTION_CONSTANT;
+			break;
 		default: return 1;
 		}
 	}
@@ -120,9 +124,9 @@ int main(int argc, char **argv)
 		rate[k] = (double)shots / (now() - t0);
 	}
 	qsort(rate, (size_t)runs, sizeof *rate, cmp);
-	printf("mode=%s actions=%s dt=%g shots=%ld runs=%d median_shots_per_s=%.0f min=%.0f max=%.0f "
+	printf("mode=%s law=%s actions=%s dt=%g shots=%ld runs=%d median_shots_per_s=%.0f min=%.0f max=%.0f "
 	       "events_per_shot=%.2f checksum=%.6g\n", o.mode == PR_SIM_EVENT ? "event" : "stepped",
-	       actions, o.dt, shots, runs, rate[runs / 2], rate[0], rate[runs - 1],
+	       t.friction_law == PR_FRICTION_CONSTANT ? "constant" : "exponential", actions, o.dt, shots, runs, rate[runs / 2], rate[0], rate[runs - 1],
 	       (double)events / (double)shots, sink);
 	pr_sim_free(sim);
 	gsl_rng_free(rng);

@@ -1,0 +1,164 @@
+"""The constant-deceleration friction law (table.friction_law = constant,
+docs/sim.md): `poolreps shoot` in event mode against an independent
+reference (tests/ref_sim_constant.py: every event time a root of a
+polynomial in time from numpy's companion-matrix eigenvalues, no code
+shared with src/) on seeded random shots, degenerate ones included; and the
+bad-input rules of the law's keys."""
+import csv
+import io
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import run_cmd
+
+from ref_sim_constant import Sim
+
+ROOT = Path(__file__).resolve().parent.parent
+BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
+R, RP = 0.015, 0.03
+
+
+def shoot(rows, nballs, sets, tmp_path):
+    head = ",".join([f"x{i},y{i}" for i in range(nballs)] + ["vx", "vy"])
+    text = head + "\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in rows)
+    args = [BIN, "shoot", "--set", "table.friction_law=constant"]
+    for kv in sets:
+        args += ["--set", kv]
+    r = run_cmd(args, input=text, capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert r.returncode == 0, r.stderr
+    return list(csv.DictReader(io.StringIO(r.stdout)))
+
+
+def valid(st, n, sim):
+    for i in range(n):
+        x, y = st[2 * i], st[2 * i + 1]
+        if any(math.hypot(x - px, y - py) <= RP for px, py in sim.pk):
+            return False
+        for j in range(i):
+            if math.hypot(x - st[2 * j], y - st[2 * j + 1]) < 2 * R:
+                return False
+    return True
+
+
+def random_shots(rng, n, nballs, sim, vmax):
+    rows = []
+    while len(rows) < n:
+        st = []
+        for _ in range(nballs):
+            st += [rng.uniform(-sim.hx, sim.hx), rng.uniform(-sim.hy, sim.hy)]
+        if not valid(st, nballs, sim):
+            continue
+        if rng.uniform() < 0.5:  # aimed near a ball: contacts, cut shots, grazes
+            j = int(rng.integers(1, nballs))
+            ang = math.atan2(st[2 * j + 1] - st[1], st[2 * j] - st[0]) + rng.uniform(-0.1, 0.1)
+        else:
+            ang = rng.uniform(0, 2 * math.pi)
+        sp = rng.uniform(0, vmax)
+        rows.append(st + [sp * math.cos(ang), sp * math.sin(ang)])
+    return rows
+
+
+def degenerate_shots(sim):
+    """Touching balls, balls on a cushion line, straight and exact-graze
+    shots, shots below the stop speed, a ball starting on a pocket's rim."""
+    hx, hy = sim.hx, sim.hy
+    return [
+        [0, 0, 2 * R, 0, 0.3, 0],                      # touching, approaching
+        [0, 0, 2 * R, 0, -0.3, 0],                     # touching, separating
+        [-hx, 0, 0.2, 0, -0.5, 0.1],                   # on the cushion, moving into it
+        [-0.3, 0, 0, 2 * R, 0.5, 0],                   # exact tangential graze
+        [-0.3, 0, 0, 2 * R - 1e-9, 0.5, 0],            # just hits
+        [-0.3, 0, 0, 0, 0.001, 0],                     # below the stop speed
+        [-0.3, 0, 0, 0, 0.002, 0],                     # at the stop speed
+        [-0.3, 0, 0.3, 0.0, 2.5, 0],                   # straight, several cushions
+        [0.2, hy, -0.2, -hy, 0.4, 0.0],                # along a cushion line
+        [0.5 - RP - 1e-6 - 0.02, 0.25 - RP - 0.02, 0, 0, 0.3, 0.3],  # into the corner
+    ]
+
+
+def compare(rows, nballs, sets, params, tol, tmp_path, ttol=1e-9):
+    sim = Sim(**params)
+    got = shoot(rows, nballs, sets, tmp_path)
+    worst = 0.0
+    for row, c in zip(rows, got):
+        ref = sim.shoot(row[:-2], row[-2:])
+        fin = [float(c[f"{k}{i}"]) for i in range(nballs) for k in "xy"]
+        assert [int(c[f"pocket{i}"]) for i in range(nballs)] == ref["pocket"], row
+        assert int(c["hit"]) == int(ref["hit"]), row
+        assert int(c["events"]) == ref["events"], row
+        err = max(abs(a - b) for a, b in zip(fin, ref["final"]))
+        assert err <= tol, (err, row)
+        assert float(c["t_end"]) == pytest.approx(ref["t_end"], abs=ttol, rel=ttol), row
+        worst = max(worst, err)
+    return worst
+
+
+TABLES = [
+    ([], {}),
+    (["table.deceleration=0.2", "table.restitution=0.6", "table.stop_speed=0.01"],
+     {"a": 0.2, "kappa": 0.6, "v_stop": 0.01}),
+]
+
+
+@pytest.mark.parametrize("table", range(len(TABLES)))
+def test_reference_two_and_three_balls(table, tmp_path):
+    """>= 1000 random shots (two and three balls, speeds up to 2 m/s, half
+    aimed near a ball) plus the degenerate ones: same events, pockets and
+    hits, final positions within 1e-9 m."""
+    sets, params = TABLES[table]
+    rng = np.random.default_rng(11 + table)
+    sim = Sim(**params)
+    n2 = 800 if table == 0 else 300
+    worst = compare(random_shots(rng, n2, 2, sim, 2.0) + degenerate_shots(sim), 2, sets, params,
+                    1e-9, tmp_path)
+    worst = max(worst, compare(random_shots(rng, 200 if table == 0 else 100, 3, sim, 2.0), 3,
+                               sets, params, 1e-9, tmp_path))
+    print(f"constant law vs reference: worst final-position difference {worst:.2e} m")
+
+
+def test_reference_many_balls(tmp_path):
+    """Six balls: chains of collisions multiply rounding differences (each
+    contact between moving balls can amplify a position error by the ratio of
+    path length to ball size), so the positions agree to 1e-6 m and the end
+    times to 1e-6 (relative), the discrete outcome (events, pockets, hits)
+    exactly."""
+    rng = np.random.default_rng(5)
+    sim = Sim()
+    compare(random_shots(rng, 60, 6, sim, 2.0), 6, [], {}, 1e-6, tmp_path, 1e-6)
+
+
+@pytest.mark.parametrize("sets,msg", [
+    (["table.deceleration=0"], "table.deceleration: 0 out of range"),
+    (["table.deceleration=-1"], "table.deceleration: -1 out of range"),
+    (["table.deceleration=inf"], "table.deceleration: not a finite number"),
+    (["table.friction=0.3"], "table.friction: not used with table.friction_law = constant"),
+])
+def test_bad_constant_keys(sets, msg, tmp_path):
+    inp = "x0,y0,x1,y1,vx,vy\n-0.25,0,0.1,0,0.5,0\n"
+    args = [BIN, "shoot", "--set", "table.friction_law=constant"]
+    for kv in sets:
+        args += ["--set", kv]
+    r = run_cmd(args, input=inp, capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 1
+    assert r.stdout == ""
+    assert r.stderr.count("\n") == 1 and msg in r.stderr, r.stderr
+
+
+def test_bad_exponential_keys(tmp_path):
+    """A deceleration with the exponential law chosen explicitly, in a file:
+    the file's line is named; with the law left at its default it is
+    accepted (and unused)."""
+    ini = tmp_path / "p.ini"
+    ini.write_text("[table]\nfriction_law = exponential\ndeceleration = 0.1\n")
+    inp = "x0,y0,x1,y1,vx,vy\n-0.25,0,0.1,0,0.5,0\n"
+    r = run_cmd([BIN, "shoot", "-c", str(ini)], input=inp, capture_output=True, text=True,
+                cwd=tmp_path)
+    assert r.returncode == 1
+    assert r.stderr == (f"poolreps: {ini}:3: table.deceleration: not used with "
+                        "table.friction_law = exponential\n")
+    r = run_cmd([BIN, "shoot", "--set", "table.deceleration=0.1"], input=inp,
+                capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
