@@ -287,14 +287,17 @@ else ifeq ($(filter clean,$(MAKECMDGOALS)),)
   ifeq ($(wildcard $(BUILD)/deps.ok),)
     DEPS_MISSING := $(shell CC='$(CC)' sh scripts/check-deps.sh build)
     ifneq ($(DEPS_MISSING),)
-      $(error $(DEPS_MISSING))
+      # dpkg's list names every missing package at once (without a compiler
+      # the header probes cannot tell); the probe's own line where dpkg
+      # knows of nothing missing (another compiler, a non-Debian system)
+      $(error $(or $(shell sh scripts/install-deps.sh --probe 2>&1),$(DEPS_MISSING)))
     endif
     $(shell mkdir -p $(BUILD)/tests && touch $(BUILD)/deps.ok)
   endif
   ifneq ($(filter check check-c check-py,$(MAKECMDGOALS)),)
     DEPS_MISSING := $(shell CC='$(CC)' sh scripts/check-deps.sh check "$(PYTHON)")
     ifneq ($(DEPS_MISSING),)
-      $(error $(DEPS_MISSING))
+      $(error $(or $(shell sh scripts/install-deps.sh --probe 2>&1),$(DEPS_MISSING)))
     endif
   endif
 endif

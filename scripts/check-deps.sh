@@ -38,5 +38,5 @@ if [ "$mode" = check ]; then
 	fi
 fi
 [ -z "$missing" ] && exit 0
-echo "poolreps: missing Debian packages:$missing; install them with 'make deps' as root (or: apt-get install$missing)"
+echo "poolreps: missing Debian packages:$missing; install them with 'make deps' as root (or: apt-get update && apt-get install -y --no-install-recommends$missing)"
 exit 1

@@ -33,7 +33,7 @@ if [ -z "$missing" ]; then
 	exit 0
 fi
 if [ $probe = 1 ] || [ "$(id -u)" != 0 ]; then
-	echo "poolreps: missing Debian packages:$missing; as root run: apt-get update && apt-get install -y --no-install-recommends$missing" >&2
+	echo "poolreps: missing Debian packages:$missing; install them with 'make deps' as root (or: apt-get update && apt-get install -y --no-install-recommends$missing)" >&2
 	exit 2
 fi
 export DEBIAN_FRONTEND=noninteractive

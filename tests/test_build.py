@@ -121,3 +121,23 @@ def test_reproduce_goes_to_the_install_step_first(tmp_path):
                  "reproduce"], capture_output=True, text=True, env=e, timeout=120)
     first = [ln for ln in p.stdout.splitlines() if not ln.startswith("make")][0]
     assert first.startswith("sh scripts/install-deps.sh"), p.stdout
+
+
+@pytest.mark.parametrize("goal", ["all", "check"])
+def test_a_bare_machine_gets_every_missing_package_at_once(tmp_path, goal):
+    """No compiler and no packages (dpkg says so): `make` and `make check`
+    name every missing package in one line, not just the compiler (whose
+    absence hides the header probes)."""
+    stub = stub_bin(tmp_path, **{"dpkg-query": NO_PACKAGES})
+    env = dict(os.environ, PATH=f"{stub}:{os.environ['PATH']}", LC_ALL="C")
+    env.pop("MAKEFLAGS", None)
+    p = run_cmd(["make", "-C", str(ROOT), f"BUILD={tmp_path / 'b'}", "CC=/nonexistent/cc", goal],
+                capture_output=True, text=True, env=env, timeout=120)
+    assert p.returncode == 2
+    lines = p.stderr.splitlines()
+    assert len(lines) == 1, p.stderr
+    for pkg in ("build-essential", "libgsl-dev", "libcsv-dev", "libinih-dev", "libglpk-dev",
+                "libnlopt-dev", "libcmocka-dev", "python3-matplotlib", "python3-pytest-xdist"):
+        assert pkg in lines[0], pkg
+    assert "make deps" in lines[0] and "apt-get update && apt-get install -y" in lines[0]
+    assert not (tmp_path / "b").exists()
