@@ -34,7 +34,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
 .PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power quick-sums FORCE
-.PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin
+.PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin venv
 
 all: poolreps
 
@@ -204,6 +204,14 @@ check-pybind: $(SOLIB) $(BUILD)/poolreps
 	  LSAN_OPTIONS=suppressions=$(abspath tests/lsan-python.supp):print_suppressions=0 \
 	  $(PYTHON) -m pytest -q -p no:cacheprovider tests/test_python.py
 endif
+
+# build/venv: the system's Python packages plus Gymnasium from PyPI (not a
+# Debian package), for tests/test_gym.py (which skips without it)
+venv: build/venv/.done
+build/venv/.done:
+	/usr/bin/python3 -m venv --system-site-packages build/venv
+	build/venv/bin/pip install -q gymnasium
+	touch $@
 
 # the Python package: the library next to it, so that `pip install ./python`
 # carries it (the package also finds build/rel or an installed copy)
