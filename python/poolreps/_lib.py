@@ -56,6 +56,27 @@ def _candidates():
     yield Path(SONAME)
 
 
+# The shared libraries libpoolreps.so.0 links against, and the Debian 12
+# packages that hold them (the wheel does not vendor them: docs/python.md).
+RUNTIME_PACKAGES = {
+    "libgsl.so.27": "libgsl27", "libgslcblas.so.0": "libgslcblas0",
+    "libglpk.so.40": "libglpk40", "libcsv.so.3": "libcsv3", "libinih.so.1": "libinih1",
+}
+
+
+def missing_runtime(message):
+    """The error for a library that exists but whose dependencies the loader
+    cannot find (None when message says something else)."""
+    import re
+    m = re.search(r"(lib[\w.+-]+\.so[\w.]*): cannot open shared object file", message)
+    if not m or m.group(1) == SONAME:
+        return None
+    pkgs = " ".join(RUNTIME_PACKAGES.values())
+    return OSError(f"poolreps: {m.group(1)} is missing, which libpoolreps.so.0 needs: install "
+                   f"the runtime libraries (Debian 12: apt-get install {pkgs}; see "
+                   f"docs/python.md)")
+
+
 def _load():
     tried = []
     for path in _candidates():
@@ -65,6 +86,9 @@ def _load():
         try:
             return ctypes.CDLL(str(path)), str(path)
         except OSError as e:
+            err = missing_runtime(str(e))
+            if err is not None:
+                raise err from None
             tried.append(f"{path} ({e})")
     raise OSError("poolreps: libpoolreps.so.0 not found; build it with `make` (or `make "
                   "install`), or set POOLREPS_LIB. Tried: " + "; ".join(tried))
