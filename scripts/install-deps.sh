@@ -14,7 +14,7 @@ libnlopt-dev libcmocka-dev python3 python3-numpy python3-scipy python3-matplotli
 python3-pytest python3-pytest-xdist"
 # tests that need these skip without them
 EXTRAS="python3-venv python3-wheel parallel valgrind clang libclang-rt-14-dev \
-slurm-wlm munge openssh-server chromium"
+slurm-wlm munge openssh-server chromium time"
 probe=0
 for a in "$@"; do
 	case $a in
