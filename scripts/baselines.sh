@@ -13,7 +13,8 @@
 # report), BASELINES_JOBS runs at once (default 2), BASELINES_DOCS the folder
 # for baselines.md and figures/ (default OUT/docs), BASELINES_SAC_BUDGETS,
 # BASELINES_PPO_BUDGETS, BASELINES_BUDGETS (defaults below), BASELINES_DATA
-# the folder for the CSVs (default OUT/data).
+# the folder for the CSVs (default OUT/data), BASELINES_README a README.md
+# whose Experiment 5 paragraph to rewrite (default none).
 set -e
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
@@ -94,7 +95,7 @@ reps_runs() {
 report() {
 	data=${BASELINES_DATA:-$1/data}
 	"$PYTHON" "$here/baselines_report.py" collect "$1" "$data"
-	"$PYTHON" "$here/baselines_report.py" report "$data" "${BASELINES_DOCS:-$1/docs}"
+	"$PYTHON" "$here/baselines_report.py" report "$data" "${BASELINES_DOCS:-$1/docs}" $BASELINES_README
 }
 
 case $1 in

@@ -130,3 +130,21 @@ def test_smoke_run_writes_the_csvs_and_the_report(tmp_path):
     text = (docs / "baselines.md").read_text()
     assert "## Budget 600 episodes" in text and "SAC (SB3 defaults)" in text
     print(f"smoke run: {secs:.1f} s")
+
+
+@pytest.mark.parametrize("policy", ["handcrafted", "nrvr_a"])
+def test_a_longer_poolreps_run_starts_with_the_shorter_one(tmp_path, policy):
+    # what lets one long run per seed stand for every budget
+    from conftest import run_poolreps
+    out = {}
+    for it in (3, 8):
+        p = run_poolreps([ROOT / "data/exp3.ini", "-q", "-o", tmp_path / f"i{it}",
+                          "--set", f"exp3.iterations={it}", "--set", "experiment.repetitions=2",
+                          "--set", f"exp3.policies={policy}"])
+        assert p.returncode == 0, p.stderr
+        with open(tmp_path / f"i{it}/exp3_episodes.csv") as f:
+            out[it] = [(r["repetition"], r["return"]) for r in csv.DictReader(f)]
+    for k in ("0", "1"):
+        short = [r for r in out[3] if r[0] == k]
+        long = [r for r in out[8] if r[0] == k]
+        assert len(short) == 260 and long[:260] == short
