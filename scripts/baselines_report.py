@@ -199,7 +199,7 @@ def figure(curve, budgets, path):
     by = defaultdict(lambda: defaultdict(list))
     for r in curve:
         by[r["learner"]][int(r["episodes"])].append(float(r["last500_mean"]))
-    fig, ax = plt.subplots(figsize=(8, 4.8), dpi=110)
+    fig, ax = plt.subplots(figsize=(8, 5.6), dpi=110)
     for k in LEARNERS:
         if k not in by:
             continue
@@ -216,7 +216,7 @@ def figure(curve, budgets, path):
     ax.set_xlabel("training episodes")
     ax.set_ylabel(f"mean return of the last {LAST} episodes")
     ax.set_title("Experiment 3's task: return against episodes (mean over seeds, 95 % t band)")
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3)
     ax.grid(alpha=0.3)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
