@@ -148,3 +148,12 @@ def test_a_longer_poolreps_run_starts_with_the_shorter_one(tmp_path, policy):
         short = [r for r in out[3] if r[0] == k]
         long = [r for r in out[8] if r[0] == k]
         assert len(short) == 260 and long[:260] == short
+
+
+def test_docs_baselines_md_is_what_the_committed_csvs_give(tmp_path):
+    import shutil
+    readme = tmp_path / "README.md"
+    shutil.copy(ROOT / "README.md", readme)
+    br.report(ROOT / "data/baselines", tmp_path / "docs", readme)
+    assert (tmp_path / "docs/baselines.md").read_text() == (ROOT / "docs/baselines.md").read_text()
+    assert readme.read_text() == (ROOT / "README.md").read_text()
