@@ -36,7 +36,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
 .PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power exp4-study study verdicts sensitivity quick-sums FORCE
-.PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin
+.PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin venv baselines
 
 all: poolreps
 
@@ -257,6 +257,22 @@ check-pybind: $(SOLIB) $(BUILD)/poolreps
 	  LSAN_OPTIONS=suppressions=$(abspath tests/lsan-python.supp):print_suppressions=0 \
 	  $(PYTHON) -m pytest -q -p no:cacheprovider tests/test_python.py
 endif
+
+# Experiment 5 (docs/baselines.md): SB3 (CPU torch) and pycma from PyPI in
+# build/baselines/venv, every run into OUT/baselines, data/baselines/*.csv,
+# docs/baselines.md and docs/figures/baselines.png. Not part of reproduce.
+BASELINES_SEEDS ?= 10
+baselines: all
+	POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) BASELINES_DATA=data/baselines \
+	  BASELINES_DOCS=docs BASELINES_README=README.md sh scripts/baselines.sh run $(OUT)/baselines $(BASELINES_SEEDS)
+
+# build/venv: the system's Python packages plus Gymnasium from PyPI (not a
+# Debian package), for tests/test_gym.py (which skips without it)
+venv: build/venv/.done
+build/venv/.done:
+	/usr/bin/python3 -m venv --system-site-packages build/venv
+	build/venv/bin/pip install -q gymnasium
+	touch $@
 
 # the Python package: the library next to it, so that `pip install ./python`
 # carries it (the package also finds build/rel or an installed copy)

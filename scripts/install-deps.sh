@@ -15,7 +15,7 @@ python3-pytest python3-pytest-xdist"
 # tests that need these skip without them (libopenblas0: REPS's wide dense
 # Hessians load it at run time, GSL's BLAS otherwise)
 EXTRAS="python3-venv python3-wheel parallel valgrind clang libclang-rt-14-dev \
-slurm-wlm munge openssh-server chromium libopenblas0"
+slurm-wlm munge openssh-server chromium libopenblas0 time"
 probe=0
 for a in "$@"; do
 	case $a in

@@ -16,6 +16,14 @@
 #include "poolreps/bind.h"
 #include "poolreps/exp.h"
 #include "poolreps/sim.h"
+#include "streams.h"
+
+/* Constructors and fits return NULL for bad input and for a failed allocation
+ * alike; their messages say which. */
+static int null_status(const char *err)
+{
+	return strstr(err, "out of memory") ? PR_ENOMEM : PR_EINVAL;
+}
 
 const char *pr_bind_init(void)
 {
@@ -62,9 +70,9 @@ char *pr_bind_config_ini(const pr_config *c, char *err)
 	return buf;
 }
 
-int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
-                  const double *actions, double *final, int *pocket, unsigned char *hit,
-                  double *min_gap, double *reward, double *t_end, long *events, char *err)
+int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const double *balls,
+                        const double *actions, double *final, int *pocket, unsigned char *hit,
+                        double *min_gap, double *reward, double *t_end, long *events, char *err)
 {
 	char why[PR_ERRLEN];
 	pr_sim *sim;
@@ -75,8 +83,8 @@ int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
 		return pr_err(err, PR_EINVAL, "%d balls: need 1 + table.reward_balls (%d) to %d",
 		              nballs, c->table.reward_balls, PR_SIM_MAX_BALLS);
 	if (!(sim = pr_sim_new(&c->table, &c->sim, err)))
-		return strstr(err, "out of memory") ? PR_ENOMEM : PR_EINVAL;
-	for (r = 0; r < n; ++r) {
+		return null_status(err);
+	for (r = lo; r < hi; ++r) {
 		const size_t k = (size_t)r * (size_t)nballs;
 		pr_shot res;
 
@@ -100,6 +108,14 @@ int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
 	return rc;
 }
 
+int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
+                  const double *actions, double *final, int *pocket, unsigned char *hit,
+                  double *min_gap, double *reward, double *t_end, long *events, char *err)
+{
+	return pr_bind_shoot_range(c, 0, n, nballs, balls, actions, final, pocket, hit, min_gap,
+	                           reward, t_end, events, err);
+}
+
 gsl_rng *pr_bind_rng_new(unsigned long seed)
 {
 	gsl_rng *r = gsl_rng_alloc(gsl_rng_mt19937);
@@ -109,10 +125,58 @@ gsl_rng *pr_bind_rng_new(unsigned long seed)
 	return r;
 }
 
+size_t pr_bind_rng_size(const gsl_rng *rng)
+{
+	return gsl_rng_size(rng);
+}
+
+void *pr_bind_rng_state(gsl_rng *rng)
+{
+	return gsl_rng_state(rng);
+}
+
 void pr_bind_rng_free(gsl_rng *rng)
 {
 	if (rng)
 		gsl_rng_free(rng);
+}
+
+gsl_rng *pr_bind_exp3_start_rng(unsigned long seed, unsigned long repetition)
+{
+	return pr_exp_rng(seed, PR_STREAM_EXP3_START, repetition);
+}
+
+int pr_bind_trace(const pr_config *c, int nballs, const double *state, const double *action,
+                  double **rows, long *nrows, char *err)
+{
+	pr_sim *sim = pr_sim_new(&c->table, &c->sim, err);
+	pr_sim_trace *tr = sim ? pr_sim_trace_new(err) : NULL;
+	pr_shot res;
+	int rc = PR_ENOMEM;
+
+	*rows = NULL;
+	*nrows = 0;
+	if (!sim || !tr) {
+		rc = sim ? PR_ENOMEM : null_status(err);
+	} else if ((rc = pr_sim_shoot(sim, state, nballs, action, &res, tr, err)) == PR_OK) {
+		const pr_sim_trace_row *t = pr_sim_trace_rows(tr);
+		const long n = pr_sim_trace_len(tr);
+
+		if (!(*rows = malloc(((size_t)n + 1) * 4 * sizeof **rows))) {
+			rc = pr_err(err, PR_ENOMEM, "trace: out of memory");
+		} else {
+			for (long i = 0; i < n; ++i) {
+				(*rows)[4 * i] = t[i].t;
+				(*rows)[4 * i + 1] = t[i].x;
+				(*rows)[4 * i + 2] = t[i].y;
+				(*rows)[4 * i + 3] = t[i].ball;
+			}
+			*nrows = n;
+		}
+	}
+	pr_sim_trace_free(tr);
+	pr_sim_free(sim);
+	return rc;
 }
 
 int pr_bind_check_state(const pr_config *c, const double *state, int nballs, char *err)
@@ -130,13 +194,6 @@ int pr_bind_starts(const pr_config *c, gsl_rng *rng, long n, double *states, cha
 		if ((rc = pr_sim_sample_start(&c->table, &c->start, b, rng, states + 2 * (size_t)b * i, err)))
 			return rc;
 	return PR_OK;
-}
-
-/* The fit functions return NULL for bad input and for a failed allocation
- * alike; their messages say which. */
-static int null_status(const char *err)
-{
-	return strstr(err, "out of memory") ? PR_ENOMEM : PR_EINVAL;
 }
 
 int pr_bind_forest_fit(const pr_config *c, int n, int dx, int dy, const double *X,
@@ -312,17 +369,31 @@ int pr_bind_policy_eval(const pr_policy *p, long nq, const double *S, double *me
 	return eval_rows(p, nq, S, mean, cov, status, 0, NULL, NULL, err);
 }
 
+gsl_rng *pr_bind_policy_rng_new(unsigned long seed)
+{
+	gsl_rng *rng = pr_bind_rng_new(seed);
+
+	/* the command's fit took one draw to seed its forest (pr_forest_fit) */
+	if (rng)
+		gsl_rng_get(rng);
+	return rng;
+}
+
+int pr_bind_policy_sample_rng(const pr_policy *p, long nq, const double *S, int k,
+                              gsl_rng *rng, double *draws, int *status, char *err)
+{
+	return eval_rows(p, nq, S, NULL, NULL, status, k, rng, draws, err);
+}
+
 int pr_bind_policy_sample(const pr_policy *p, long nq, const double *S, int k,
                           unsigned long seed, double *draws, int *status, char *err)
 {
-	gsl_rng *rng = pr_bind_rng_new(seed);
+	gsl_rng *rng = pr_bind_policy_rng_new(seed);
 	int rc;
 
 	if (!rng)
 		return pr_err(err, PR_ENOMEM, "policy: out of memory");
-	/* the command's fit took one draw to seed its forest (pr_forest_fit) */
-	gsl_rng_get(rng);
-	rc = eval_rows(p, nq, S, NULL, NULL, status, k, rng, draws, err);
+	rc = pr_bind_policy_sample_rng(p, nq, S, k, rng, draws, status, err);
 	gsl_rng_free(rng);
 	return rc;
 }

@@ -9,10 +9,14 @@
  * active leaf, numbered within its tree. Options come from cfg->forest and
  * the seed from cfg->run.seed. Every check runs before anything is written;
  * on an error no output file is left. The timings and the test MSE go into
- * a->note, which the CLI prints after a success.
+ * a->note, which the CLI prints after a success. --save FILE writes the
+ * fitted forest with its column names (pr_forest_save); --load FILE reads
+ * one instead of fitting and finds its input columns in the test CSV.
  */
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 #include <gsl/gsl_rng.h>
@@ -31,14 +35,13 @@ static double seconds(void)
 	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static int write_pred(pr_csvw *w, const pr_csv *tr, const int *tc, int dy, const double *P,
-                      long nt)
+static int write_pred(pr_csvw *w, const char *const *ynames, int dy, const double *P, long nt)
 {
 	char name[PR_CSV_MAX_FIELD + sizeof "pred_"];
 	int rc = 0;
 
 	for (int k = 0; k < dy && !rc; k++) {
-		snprintf(name, sizeof name, "pred_%s", pr_csv_name(tr, tc[k]));
+		snprintf(name, sizeof name, "pred_%s", ynames[k]);
 		rc = pr_csvw_str(w, name);
 	}
 	if (!rc)
@@ -177,18 +180,167 @@ static void note_fit(const pr_cmd_args *a, const tables *t, const pr_forest *f, 
 	snprintf(a->note + len, (size_t)(PR_ERRLEN - len), ", test MSE %.6g", sse / ((double)nt * t->dy));
 }
 
+/* The names of the training table's input and target columns, in the
+ * forest's order (borrowed from the table). */
+static const char **column_names(const tables *t, char *err)
+{
+	const char **nm = malloc((size_t)(t->dx + t->dy) * sizeof *nm);
+
+	if (!nm) {
+		pr_err(err, PR_ENOMEM, "forest: out of memory");
+		return NULL;
+	}
+	for (int j = 0; j < t->dx; j++)
+		nm[j] = pr_csv_name(t->tr, t->xc[j]);
+	for (int k = 0; k < t->dy; k++)
+		nm[t->dx + k] = pr_csv_name(t->tr, t->tc[k]);
+	return nm;
+}
+
+/* --save: the forest's text into its own output of the set. */
+static int save_forest(pr_outset *set, const char *path, const pr_forest *f, const char **nm,
+                       char *err)
+{
+	char *text = NULL;
+	size_t len = 0;
+	pr_csvw *w = NULL;
+	int rc = pr_forest_to_text(f, nm, &text, &len, err);
+
+	if (!rc && !(rc = pr_outset_add(set, path, &w, err)))
+		rc = pr_csvw_raw(w, text, len);
+	free(text);
+	return rc;
+}
+
+/* The predictions (-o) and, with --leaves, the leaves, into a new set that
+ * the caller commits; with save, the forest's file joins the set first. */
+static int write_outputs(const pr_cmd_args *a, pr_outset **set, const pr_forest *f,
+                         const char **nm, int save, const double *Xt, long nt, const double *P,
+                         const char *test, char *err)
+{
+	const int dx = pr_forest_dx(f);
+	pr_csvw *pw = NULL, *lw = NULL;
+	int *act = malloc((size_t)pr_forest_ntrees(f) * sizeof *act);
+	int rc;
+
+	if (!act || !(*set = pr_outset_new(err))) {
+		free(act);
+		return act ? PR_ENOMEM : pr_err(err, PR_ENOMEM, "forest: out of memory");
+	}
+	if ((rc = pr_outset_add(*set, a->output, &pw, err)) ||
+	    (a->leaves && (rc = pr_outset_add(*set, a->leaves, &lw, err))) ||
+	    (save && (rc = save_forest(*set, a->save, f, nm, err)))) {
+		free(act);
+		return rc;
+	}
+	write_pred(pw, nm + dx, pr_forest_dy(f), P, nt);
+	if (lw && write_leaves(lw, f, Xt, dx, nt, act) == PR_EINVAL)
+		rc = pr_err(err, PR_ENUM, "%s: a test row reaches no leaf of some tree", test);
+	free(act);
+	return rc;
+}
+
+/* The whole of a file into memory. */
+static int read_file(const char *path, char **text, size_t *len, char *err)
+{
+	FILE *fp = fopen(path, "rb");
+	char *buf = NULL;
+	size_t cap = 0, n = 0, got = 1;
+	int rc = PR_OK;
+
+	if (!fp)
+		return pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
+	while (got > 0 && rc == PR_OK) {
+		if (n == cap) {
+			char *nb = realloc(buf, cap = cap ? 2 * cap : 65536);
+
+			if (!nb) {
+				rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
+				break;
+			}
+			buf = nb;
+		}
+		n += got = fread(buf + n, 1, cap - n, fp);
+	}
+	if (rc == PR_OK && ferror(fp))
+		rc = pr_err(err, PR_EIO, "%s: cannot read", path);
+	fclose(fp);
+	if (rc)
+		free(buf);
+	*text = rc ? NULL : buf;
+	*len = n;
+	return rc;
+}
+
+/* --load FILE: predict the test CSV with a saved forest. */
+static int forest_loaded(const pr_cmd_args *a, char *err)
+{
+	pr_forest *f = NULL;
+	pr_csv *te = NULL;
+	pr_outset *set = NULL;
+	char *text = NULL, **nm = NULL;
+	double *Xt = NULL, *P = NULL;
+	int *xt = NULL, dx = 0, rc;
+	size_t len = 0;
+	long nt = 0;
+
+	if (a->train || a->target || a->weight || a->save)
+		return pr_err(err, PR_EINVAL, "forest: --load takes no --train, --target, --weight or --save");
+	if (!a->test)
+		return pr_err(err, PR_EINVAL, "forest: --load needs --test");
+	if ((rc = read_file(a->load, &text, &len, err)))
+		return rc;
+	if (!(f = pr_forest_load(text, len, a->load, &nm, err))) {
+		rc = pr_out_of_memory ? PR_ENOMEM : strstr(err, "format version") ? PR_EINVAL : PR_EIO;
+		goto done;
+	}
+	dx = pr_forest_dx(f);
+	if ((rc = pr_csv_read(a->test, &te, err)))
+		goto done;
+	nt = pr_csv_nrows(te);
+	xt = malloc((size_t)dx * sizeof *xt);
+	P = malloc(((size_t)nt + 1) * (size_t)pr_forest_dy(f) * sizeof *P);
+	if (!xt || !P) {
+		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
+		goto done;
+	}
+	for (int j = 0; j < dx; j++)
+		if ((xt[j] = pr_csv_find(te, nm[j])) < 0) {
+			rc = pr_err(err, PR_EIO, "%s:1: missing input column '%s'", pr_csv_path(te), nm[j]);
+			goto done;
+		}
+	if (!(Xt = pr_cmd_matrix(te, xt, dx, err))) {
+		rc = PR_ENOMEM;
+		goto done;
+	}
+	pr_forest_predict_many(f, Xt, (int)nt, P);
+	rc = write_outputs(a, &set, f, (const char **)nm, 0, Xt, nt, P, pr_csv_path(te), err);
+done:
+	rc = pr_outset_commit(set, rc, err);
+	pr_forest_free(f);
+	pr_csv_free(te);
+	free(text);
+	free(nm);
+	free(Xt);
+	free(P);
+	free(xt);
+	return rc;
+}
+
 int pr_cmd_forest(const pr_config *cfg, const pr_cmd_args *a, char *err)
 {
 	tables t = { 0 };
 	pr_forest *f = NULL;
 	pr_outset *set = NULL;
-	pr_csvw *pw = NULL, *lw = NULL;
 	gsl_rng *rng = NULL;
 	double *X = NULL, *Y = NULL, *W = NULL, *Xt = NULL, *P = NULL;
-	int *act = NULL, rc;
+	const char **nm = NULL;
+	int rc;
 	long n, nt;
 	double t0, tfit, tpred;
 
+	if (a->load)
+		return forest_loaded(a, err);
 	if (!a->train || !a->test || !a->target)
 		return pr_err(err, PR_EINVAL, "forest: --train, --test and --target are required");
 	if ((rc = pr_forest_opts_check(&cfg->forest, "forest", err)) || (rc = read_tables(cfg, a, &t, err)))
@@ -203,8 +355,7 @@ int pr_cmd_forest(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	if (t.wc >= 0 && (rc = pr_cmd_weights(t.tr, t.wc, a->weight, "weight", &W, err)))
 		goto done;
 	P = malloc(((size_t)nt + 1) * t.dy * sizeof *P);
-	act = malloc((size_t)cfg->forest.trees * sizeof *act);
-	if (!P || !act || !(rng = gsl_rng_alloc(gsl_rng_mt19937))) {
+	if (!P || !(rng = gsl_rng_alloc(gsl_rng_mt19937))) {
 		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
 		goto done;
 	}
@@ -222,19 +373,14 @@ int pr_cmd_forest(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pr_forest_predict_many(f, Xt, (int)nt, P);
 	tpred = seconds() - t0;
 
-	/* predictions and leaves are committed together, only if both are complete */
-	if (!(set = pr_outset_new(err))) {
+	/* predictions, leaves and the forest are committed together, only if
+	 * all are complete */
+	if (!(nm = column_names(&t, err))) {
 		rc = PR_ENOMEM;
 		goto done;
 	}
-	if ((rc = pr_outset_add(set, a->output, &pw, err)) ||
-	    (a->leaves && (rc = pr_outset_add(set, a->leaves, &lw, err))))
+	if ((rc = write_outputs(a, &set, f, nm, a->save != NULL, Xt, nt, P, pr_csv_path(t.te), err)))
 		goto done;
-	write_pred(pw, t.tr, t.tc, t.dy, P, nt);
-	if (lw && write_leaves(lw, f, Xt, t.dx, nt, act) == PR_EINVAL) {
-		rc = pr_err(err, PR_ENUM, "%s: a test row reaches no leaf of some tree", pr_csv_path(t.te));
-		goto done;
-	}
 	if (!a->quiet)
 		note_fit(a, &t, f, P, tfit, tpred);
 done:
@@ -247,6 +393,6 @@ done:
 	free(W);
 	free(Xt);
 	free(P);
-	free(act);
+	free(nm);
 	return rc;
 }

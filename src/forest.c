@@ -42,6 +42,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -1054,4 +1055,328 @@ int pr_forest_active_samples(const pr_forest *f, const double *x, int dq, double
 	for (int i = 0; i < f->n; i++)
 		phi[i] = 0;
 	return walk(f, x, dq, add_samples, phi);
+}
+
+/* ---- saving and loading (docs/forest.md, "File format") ---------------- */
+
+/* A name fits a line of the format: non-empty, no line break. */
+static int name_ok(const char *s)
+{
+	return s && *s && !strpbrk(s, "\r\n");
+}
+
+int pr_forest_save(const pr_forest *f, FILE *fp, const char *const *names, char *err)
+{
+	const int nn = f->dx + f->dy;
+
+	for (int j = 0; names && j < nn; j++)
+		if (!name_ok(names[j]))
+			return pr_err(err, PR_EINVAL, "forest: column name %d is empty or holds a line break", j);
+	fprintf(fp, "poolreps-forest %d\ntrees %d samples %d inputs %d outputs %d nodes %d leaves %d\n",
+	        PR_FOREST_FORMAT, f->M, f->n, f->dx, f->dy, f->nnodes, f->nleaves);
+	for (int j = 0; j < nn; j++) {
+		if (names)
+			fprintf(fp, "%s %s\n", j < f->dx ? "input" : "output", names[j]);
+		else
+			fprintf(fp, "%s %c%d\n", j < f->dx ? "input" : "output", j < f->dx ? 'x' : 'y',
+			        j < f->dx ? j : j - f->dx);
+	}
+	for (int t = 0; t < f->M; t++) {
+		fprintf(fp, "tree %d\n", t);
+		for (int k = f->tree_node0[t]; k < f->tree_node0[t + 1]; k++) {
+			const pr_node *nd = f->node + k;
+			const int g = nd->right;
+
+			if (nd->dim >= 0) {
+				fprintf(fp, "split %d %a\n", nd->dim, nd->thr);
+				continue;
+			}
+			fprintf(fp, "leaf %d", f->leaf_start[g + 1] - f->leaf_start[g]);
+			for (int i = 0; i < f->dy; i++)
+				fprintf(fp, " %a", f->mean[(size_t)g * f->dy + i]);
+			for (int i = f->leaf_start[g]; i < f->leaf_start[g + 1]; i++)
+				fprintf(fp, " %d", f->perm[i]);
+			fputc('\n', fp);
+		}
+	}
+	fputs("end\n", fp);
+	return ferror(fp) ? pr_err(err, PR_EIO, "forest: write error") : PR_OK;
+}
+
+int pr_forest_to_text(const pr_forest *f, const char *const *names, char **text, size_t *len,
+                      char *err)
+{
+	FILE *fp = open_memstream(text, len);
+	int rc;
+
+	if (!fp)
+		return pr_err(err, PR_ENOMEM, "forest: out of memory");
+	rc = pr_forest_save(f, fp, names, err);
+	if (fclose(fp) && !rc)
+		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
+	if (rc) {
+		free(*text);
+		*text = NULL;
+	}
+	return rc;
+}
+
+/* The loader's cursor over a NUL-terminated copy of the text. */
+typedef struct {
+	char *p;          /* the next character */
+	int line;         /* of p, from 1 */
+	const char *what; /* file name or "forest" for messages */
+	char *err;
+} reader;
+
+static int bad(reader *r, const char *why)
+{
+	return pr_err(r->err, PR_EIO, "%s:%d: %s", r->what, r->line, why);
+}
+
+/* The next line's keyword must be kw; p moves past it and one blank. */
+static int keyword(reader *r, const char *kw)
+{
+	size_t n = strlen(kw);
+
+	if (strncmp(r->p, kw, n) || (r->p[n] != ' ' && r->p[n] != '\n'))
+		return pr_err(r->err, PR_EIO, "%s:%d: expected '%s'", r->what, r->line, kw);
+	r->p += n + (r->p[n] == ' ');
+	return PR_OK;
+}
+
+static int int_in(reader *r, long lo, long hi, int *out)
+{
+	char *end;
+	long v;
+
+	if (*r->p == ' ')
+		++r->p;
+	if (!(*r->p >= '0' && *r->p <= '9') && *r->p != '-')
+		return bad(r, "expected an integer");
+	v = strtol(r->p, &end, 10);
+	if (end == r->p || (*end != ' ' && *end != '\n'))
+		return bad(r, "expected an integer");
+	if (v < lo || v > hi)
+		return pr_err(r->err, PR_EIO, "%s:%d: %ld out of range %ld..%ld", r->what, r->line, v, lo, hi);
+	r->p = end;
+	*out = (int)v;
+	return PR_OK;
+}
+
+static int num(reader *r, double *out)
+{
+	char *end;
+
+	if (*r->p == ' ')
+		++r->p;
+	if (*r->p == ' ' || *r->p == '\n' || !*r->p)
+		return bad(r, "expected a number");
+	*out = strtod(r->p, &end);
+	if (end == r->p || (*end != ' ' && *end != '\n') || !isfinite(*out))
+		return bad(r, "expected a finite number");
+	r->p = end;
+	return PR_OK;
+}
+
+static int eol(reader *r)
+{
+	if (*r->p != '\n')
+		return bad(r, "unexpected text at the end of the line");
+	++r->p;
+	++r->line;
+	return PR_OK;
+}
+
+/* "poolreps-forest V" and the sizes line; allocates f's arrays. */
+static int read_head(reader *r, pr_forest *f)
+{
+	int v, rc;
+
+	if (keyword(r, "poolreps-forest"))
+		return bad(r, "not a poolreps forest file");
+	if ((rc = int_in(r, 0, INT_MAX, &v)))
+		return rc;
+	if (v != PR_FOREST_FORMAT)
+		return pr_err(r->err, PR_EINVAL, "%s: forest format version %d, this library reads "
+		              "version %d", r->what, v, PR_FOREST_FORMAT);
+	if ((rc = eol(r)) || (rc = keyword(r, "trees")) || (rc = int_in(r, 1, 100000000, &f->M)) ||
+	    (rc = keyword(r, " samples")) || (rc = int_in(r, 1, INT_MAX, &f->n)) ||
+	    (rc = keyword(r, " inputs")) || (rc = int_in(r, 1, 100000, &f->dx)) ||
+	    (rc = keyword(r, " outputs")) || (rc = int_in(r, 1, 100000, &f->dy)) ||
+	    (rc = keyword(r, " nodes")) || (rc = int_in(r, 1, INT_MAX, &f->nnodes)) ||
+	    (rc = keyword(r, " leaves")) || (rc = int_in(r, 1, INT_MAX, &f->nleaves)) || (rc = eol(r)))
+		return rc;
+	if ((long long)f->M * f->n >= INT_MAX || f->nleaves > f->M * f->n ||
+	    f->nnodes != 2 * f->nleaves - f->M)
+		return bad(r, "inconsistent sizes");
+	f->tree_node0 = malloc(((size_t)f->M + 1) * sizeof *f->tree_node0);
+	f->tree_leaf0 = malloc(((size_t)f->M + 1) * sizeof *f->tree_leaf0);
+	f->node = malloc((size_t)f->nnodes * sizeof *f->node);
+	f->leaf_start = malloc(((size_t)f->nleaves + 1) * sizeof *f->leaf_start);
+	f->mean = malloc((size_t)f->nleaves * f->dy * sizeof *f->mean);
+	f->perm = malloc((size_t)f->M * f->n * sizeof *f->perm);
+	if (!f->tree_node0 || !f->tree_leaf0 || !f->node || !f->leaf_start || !f->mean || !f->perm)
+		return pr_err(r->err, PR_ENOMEM, "forest: out of memory");
+	return PR_OK;
+}
+
+/* The dx + dy "input NAME" / "output NAME" lines, into one allocation
+ * (pointers, then the strings) when names is not NULL. */
+static int read_names(reader *r, const pr_forest *f, char ***names)
+{
+	const int nn = f->dx + f->dy;
+	char *start = r->p, **out, *s;
+	int rc;
+
+	for (int j = 0; j < nn; j++) {
+		if ((rc = keyword(r, j < f->dx ? "input" : "output")))
+			return rc;
+		if (*r->p == '\n' || !*r->p)
+			return bad(r, "empty column name");
+		r->p += strcspn(r->p, "\n");
+		if ((rc = eol(r)))
+			return rc;
+	}
+	if (!names)
+		return PR_OK;
+	if (!(out = malloc((size_t)nn * sizeof *out + (size_t)(r->p - start))))
+		return pr_err(r->err, PR_ENOMEM, "forest: out of memory");
+	s = (char *)(out + nn);
+	for (int j = 0; j < nn; j++) {
+		size_t len;
+
+		start = strchr(start, ' ') + 1;
+		len = strcspn(start, "\n");
+		out[j] = memcpy(s, start, len);
+		s[len] = '\0';
+		s += len + 1;
+		start += len + 1;
+	}
+	*names = out;
+	return PR_OK;
+}
+
+/* One leaf line after "leaf": its count, dy values and sample indices,
+ * each sample once per tree (seen marks them). */
+static int read_leaf(reader *r, pr_forest *f, int g, int *used, unsigned char *seen)
+{
+	int c, rc;
+
+	if ((rc = int_in(r, 0, f->n - *used, &c)))
+		return rc;
+	for (int i = 0; i < f->dy; i++)
+		if ((rc = num(r, f->mean + (size_t)g * f->dy + i)))
+			return rc;
+	for (int i = 0; i < c; i++) {
+		int *at = f->perm + f->leaf_start[g] + i;
+
+		if ((rc = int_in(r, 0, f->n - 1, at)))
+			return rc;
+		if (seen[*at])
+			return bad(r, "a sample appears twice in one tree");
+		seen[*at] = 1;
+	}
+	*used += c;
+	f->leaf_start[g + 1] = f->leaf_start[g] + c;
+	return eol(r);
+}
+
+/* Tree t's nodes in preorder. A pending internal node waits for its right
+ * child, which is the node after the leaf that completes its left subtree. */
+static int read_tree(reader *r, pr_forest *f, int t, int *stk, unsigned char *seen)
+{
+	int k = f->tree_node0[t], g = f->tree_leaf0[t], sp = 0, depth = 0, used = 0, rc, v;
+
+	if ((rc = keyword(r, "tree")) || (rc = int_in(r, t, t, &v)) || (rc = eol(r)))
+		return rc;
+	memset(seen, 0, (size_t)f->n);
+	for (;; k++) {
+		pr_node *nd = f->node + k;
+
+		if (k >= f->nnodes || g >= f->nleaves)
+			return bad(r, "more nodes than the header says");
+		if (depth > f->max_depth)
+			f->max_depth = depth;
+		if (!strncmp(r->p, "split ", 6)) {
+			r->p += 6;
+			if ((rc = int_in(r, 0, f->dx - 1, &nd->dim)) || (rc = num(r, &nd->thr)) || (rc = eol(r)))
+				return rc;
+			stk[sp++] = k;
+			stk[sp++] = ++depth;
+			continue;
+		}
+		if ((rc = keyword(r, "leaf")))
+			return bad(r, "expected 'split' or 'leaf'");
+		nd->dim = -1;
+		nd->thr = 0;
+		nd->right = g;
+		if ((rc = read_leaf(r, f, g++, &used, seen)))
+			return rc;
+		if (sp == 0)
+			break;
+		depth = stk[--sp];
+		f->node[stk[--sp]].right = k + 1;
+	}
+	if (used != f->n)
+		return bad(r, "the tree's leaves do not hold every sample once");
+	f->tree_node0[t + 1] = k + 1;
+	f->tree_leaf0[t + 1] = g;
+	return PR_OK;
+}
+
+pr_forest *pr_forest_load(const char *text, size_t len, const char *what, char ***names, char *err)
+{
+	reader r = { .line = 1, .what = what ? what : "forest", .err = err };
+	pr_forest *f = calloc(1, sizeof *f);
+	char *buf = malloc(len + 1);
+	int *stk = NULL, rc;
+	unsigned char *seen = NULL;
+
+	if (names)
+		*names = NULL;
+	if (!f || !buf) {
+		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
+		goto done;
+	}
+	memcpy(buf, text, len);
+	buf[len] = '\0';
+	r.p = buf;
+	if (strlen(buf) != len) {
+		rc = bad(&r, "NUL byte in the file");
+		goto done;
+	}
+	if ((rc = read_head(&r, f)) || (rc = read_names(&r, f, names)))
+		goto done;
+	/* a pending node holds two ints; at most one per level below the root */
+	stk = malloc(2 * ((size_t)f->nnodes + 1) * sizeof *stk);
+	seen = malloc((size_t)f->n);
+	if (!stk || !seen) {
+		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
+		goto done;
+	}
+	f->tree_node0[0] = f->tree_leaf0[0] = f->leaf_start[0] = 0;
+	for (int t = 0; t < f->M && !rc; t++) {
+		f->leaf_start[f->tree_leaf0[t]] = t * f->n;
+		rc = read_tree(&r, f, t, stk, seen);
+	}
+	if (!rc && (f->tree_node0[f->M] != f->nnodes || f->tree_leaf0[f->M] != f->nleaves))
+		rc = bad(&r, "fewer nodes than the header says");
+	if (!rc && (rc = keyword(&r, "end")) == PR_OK)
+		rc = *r.p == '\n' && !r.p[1] ? PR_OK : bad(&r, "text after 'end'");
+	f->cap_nodes = f->nnodes;
+	f->cap_leaves = f->nleaves;
+done:
+	free(buf);
+	free(stk);
+	free(seen);
+	if (rc) {
+		pr_forest_free(f);
+		if (names) {
+			free(*names);
+			*names = NULL;
+		}
+		return NULL;
+	}
+	return f;
 }

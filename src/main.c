@@ -20,7 +20,8 @@
 enum {
 	O_SET = 256, O_SEED, O_VERSION, O_TRACE, O_TRAIN, O_TEST, O_TARGET, O_WEIGHT,
 	O_LEAVES, O_RETURN, O_FEATURES, O_BASE, O_EPSILON, O_SUMMARY, O_STATE, O_ACTION,
-	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP, O_HELP_KEYS, O_PROGRESS, O_OLD_MEAN
+	O_SAMPLE, O_GRID, O_SPLIT, O_MISSING, O_KEEP, O_HELP_KEYS, O_PROGRESS, O_OLD_MEAN,
+	O_SAVE, O_LOAD
 };
 
 static const struct option longopts[] = {
@@ -49,6 +50,8 @@ static const struct option longopts[] = {
 	{"keep", no_argument, 0, O_KEEP},
 	{"progress", no_argument, 0, O_PROGRESS},
 	{"old-mean", required_argument, 0, O_OLD_MEAN},
+	{"save", required_argument, 0, O_SAVE},
+	{"load", required_argument, 0, O_LOAD},
 	{0, 0, 0, 0}
 };
 
@@ -71,9 +74,12 @@ static const command commands[] = {
 	 "  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events.\n"
 	 "  --keep copies the input columns in front; the final positions are then\n"
 	 "  final_x0,final_y0,..."},
-	{"forest", "c,o,set,seed,train,test,target,weight,leaves", pr_cmd_forest,
+	{"forest", "c,o,set,seed,train,test,target,weight,leaves,save,load", pr_cmd_forest,
 	 "poolreps forest --train FILE --test FILE --target COLS [--weight COL] [--leaves FILE]\n"
-	 "                [-o OUT.csv] [-c FILE] [--set forest.key=value]...\n"
+	 "                [--save FOREST] [-o OUT.csv] [-c FILE] [--set forest.key=value]...\n"
+	 "poolreps forest --load FOREST --test FILE [--leaves FILE] [-o OUT.csv]\n"
+	 "  --save writes the fitted forest (text, format version 1, docs/forest.md);\n"
+	 "  --load predicts with a saved one instead of fitting.\n"
 	 "  Fit extra trees on the training CSV (inputs = every other column), predict the\n"
 	 "  test CSV: one pred_<name> column per target. --leaves writes each test row's\n"
 	 "  active leaf per tree. Timings and test MSE go to stderr (not with -q)."},
@@ -456,6 +462,8 @@ int main(int argc, char **argv)
 		case O_TARGET: a.target = optarg; break;
 		case O_WEIGHT: a.weight = optarg; break;
 		case O_LEAVES: a.leaves = optarg; break;
+		case O_SAVE: a.save = optarg; break;
+		case O_LOAD: a.load = optarg; break;
 		case O_RETURN: a.ret = optarg; break;
 		case O_FEATURES: a.features = optarg; break;
 		case O_BASE: a.base = optarg; break;

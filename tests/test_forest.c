@@ -8,6 +8,7 @@
 #include <cmocka.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -680,6 +681,73 @@ static void test_outputs_sum_and_relative(void **state)
 	assert_int_equal(on_x0[PR_OUTPUTS_RELATIVE], 0);
 }
 
+/* pr_forest_save / pr_forest_load: a loaded forest has the same nodes,
+ * leaf values and samples, so it predicts bit for bit; saving it again gives
+ * the same bytes; every prefix of the text and a wrong version are refused
+ * with a message (and never read out of bounds: the SAN build checks). */
+static char *save_text(const pr_forest *f, size_t *len)
+{
+	char err[PR_ERRLEN], *text = NULL;
+	FILE *fp = open_memstream(&text, len);
+
+	assert_non_null(fp);
+	assert_int_equal(pr_forest_save(f, fp, NULL, err), PR_OK);
+	assert_int_equal(fclose(fp), 0);
+	return text;
+}
+
+static void test_save_load(void **state)
+{
+	double X[3 * 300], Y[2 * 300], W[300], p[2], q[2];
+	char err[PR_ERRLEN], **names = NULL;
+	pr_forest_opts o = opts(6, 5, 8, 2);
+
+	(void)state;
+	random_data(300, 3, X, Y, 21);
+	for (int i = 0; i < 300; i++) {
+		Y[300 + i] = X[3 * i + 1];
+		W[i] = 0.5 + (i % 7);
+	}
+	for (int dy = 1; dy <= 2; dy++) {
+		pr_forest *f = fit(&o, X, 300, 3, Y, dy, dy == 2 ? W : NULL, 5), *g;
+		size_t len, len2;
+		char *text = save_text(f, &len), *again;
+
+		g = pr_forest_load(text, len, "t", &names, err);
+		assert_non_null(g);
+		assert_string_equal(names[0], "x0");
+		assert_string_equal(names[3], "y0");
+		free(names);
+		assert_int_equal(pr_forest_nnodes(g), pr_forest_nnodes(f));
+		for (int k = 0; k < pr_forest_nleaves(f); k++) {
+			const int *a, *b;
+			int na = pr_forest_leaf_samples(f, k, &a), nb = pr_forest_leaf_samples(g, k, &b);
+
+			assert_int_equal(na, nb);
+			assert_memory_equal(a, b, (size_t)na * sizeof *a);
+		}
+		for (int i = 0; i < 300; i++) {
+			double x[3] = { X[3 * i] * 1.3 - 0.1, X[3 * i + 1], X[3 * i + 2] };
+
+			pr_forest_predict(f, x, p);
+			pr_forest_predict(g, x, q);
+			assert_memory_equal(p, q, (size_t)dy * sizeof *p);
+		}
+		again = save_text(g, &len2);
+		assert_int_equal(len, len2);
+		assert_memory_equal(text, again, len);
+		for (size_t cut = 0; cut < len; cut += 1 + cut / 50)
+			assert_null(pr_forest_load(text, cut, "t", NULL, err));
+		memcpy(text + strlen("poolreps-forest "), "2", 1);
+		assert_null(pr_forest_load(text, len, "t", NULL, err));
+		assert_string_equal(err, "t: forest format version 2, this library reads version 1");
+		free(text);
+		free(again);
+		pr_forest_free(f);
+		pr_forest_free(g);
+	}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -698,6 +766,7 @@ int main(void)
 		cmocka_unit_test(test_without_replacement),
 		cmocka_unit_test(test_outputs_sum_and_relative),
 		cmocka_unit_test(test_bad_input),
+		cmocka_unit_test(test_save_load),
 	};
 
 	gsl_set_error_handler_off();

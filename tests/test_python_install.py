@@ -97,3 +97,72 @@ def test_pip_install_finds_an_installed_library_through_pkg_config(venv):
                        env={"PATH": os.environ["PATH"], "PKG_CONFIG_PATH": str(venv)},
                        timeout=120)
     assert p.returncode != 0 and "OSError: poolreps: libpoolreps.so.0 not found" in p.stderr
+
+
+def build_wheel(venv, src):
+    out = venv / "wheels"
+    p = run_cmd([str(venv / "env/bin/pip"), "wheel", "-q", "--no-build-isolation", "--no-deps",
+                 "--no-index", "-w", str(out), str(src)],
+                capture_output=True, text=True, cwd=venv, timeout=300)
+    assert p.returncode == 0, p.stdout + p.stderr
+    wheels = list(out.glob("*.whl"))
+    assert len(wheels) == 1, wheels
+    return wheels[0]
+
+
+def test_the_wheel_is_platform_tagged_and_runs_in_a_fresh_venv(tmp_path):
+    import sysconfig
+    import zipfile
+    assert LIB.exists(), "build the library first (make)"
+    builder = tmp_path / "b"
+    run_cmd([sys.executable, "-m", "venv", "--system-site-packages", str(builder / "env")],
+            check=True, capture_output=True, timeout=300)
+    whl = build_wheel(builder, source_tree(tmp_path / "src", with_library=True))
+    plat = sysconfig.get_platform().replace("-", "_").replace(".", "_")
+    assert whl.name == f"poolreps-0.1.0-py3-none-{plat}.whl"
+    with zipfile.ZipFile(whl) as z:
+        wheel = z.read("poolreps-0.1.0.dist-info/WHEEL").decode()
+        assert "Root-Is-Purelib: false" in wheel and f"Tag: py3-none-{plat}" in wheel
+        assert {"poolreps/libpoolreps.so.0", "poolreps/py.typed"} <= set(z.namelist())
+    # a fresh venv: numpy from the system (a runtime dependency), nothing else
+    fresh = tmp_path / "f"
+    run_cmd([sys.executable, "-m", "venv", "--system-site-packages", str(fresh / "env")],
+            check=True, capture_output=True, timeout=300)
+    pip_install(fresh, whl)
+    path, result, _ = run_installed(fresh)
+    assert Path(path).resolve().is_relative_to((fresh / "env/lib").resolve()), path
+    assert result == "True 2"
+
+
+def test_a_missing_runtime_library_is_named_at_import(tmp_path):
+    # the same library with one dependency renamed (same length) in its
+    # dynamic string table: the loader cannot find it
+    data = LIB.read_bytes()
+    assert data.count(b"libcsv.so.3\0") >= 1
+    bad = tmp_path / "libpoolreps.so.0"
+    bad.write_bytes(data.replace(b"libcsv.so.3\0", b"libcsX.so.3\0"))
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(POOLREPS_LIB=str(bad), PYTHONPATH=str(ROOT / "python"))
+    p = run_cmd([sys.executable, "-c", "import poolreps"], capture_output=True, text=True,
+                env=env, timeout=120)
+    assert p.returncode != 0
+    last = p.stderr.strip().splitlines()[-1]
+    assert last.startswith("OSError: poolreps: libcsX.so.3 is missing, which libpoolreps.so.0 "
+                           "needs: install the runtime libraries (Debian 12: apt-get install "
+                           "libgsl27 libgslcblas0 libglpk40 libcsv3 libinih1"), last
+
+
+def test_pip_wheel_of_the_checkout_leaves_it_clean(tmp_path):
+    if not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout")
+
+    def status():
+        return run_cmd(["git", "-C", str(ROOT), "status", "--porcelain", "--", "python"],
+                       capture_output=True, text=True, timeout=60).stdout
+
+    before = status()
+    builder = tmp_path / "b"
+    run_cmd([sys.executable, "-m", "venv", "--system-site-packages", str(builder / "env")],
+            check=True, capture_output=True, timeout=300)
+    build_wheel(builder, ROOT / "python")
+    assert status() == before

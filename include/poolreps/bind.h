@@ -47,6 +47,12 @@ int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
                   const double *actions, double *final, int *pocket, unsigned char *hit,
                   double *min_gap, double *reward, double *t_end, long *events, char *err);
 
+/* The same for rows lo .. hi - 1 of those arrays (messages number rows
+ * from 0 of the whole arrays): a binding shoots a long batch in pieces. */
+int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const double *balls,
+                        const double *actions, double *final, int *pocket, unsigned char *hit,
+                        double *min_gap, double *reward, double *t_end, long *events, char *err);
+
 /* pr_sim_check_state on the configuration's table. */
 int pr_bind_check_state(const pr_config *c, const double *state, int nballs, char *err);
 /* n start states of table.balls balls each (eq. 7.2, keys start.*), drawn
@@ -55,6 +61,19 @@ int pr_bind_starts(const pr_config *c, gsl_rng *rng, long n, double *states, cha
 /* A GSL mt19937 set to seed (NULL when out of memory). */
 gsl_rng *pr_bind_rng_new(unsigned long seed);
 void pr_bind_rng_free(gsl_rng *rng);
+/* A generator's state, pr_bind_rng_size bytes at pr_bind_rng_state: copied
+ * out and back, the generator continues exactly (pickling an environment). */
+size_t pr_bind_rng_size(const gsl_rng *rng);
+void *pr_bind_rng_state(gsl_rng *rng);
+
+/* Experiment 3's start-state generator of repetition k for experiment.seed
+ * seed: its n-th draw (pr_bind_starts) is the start state of the run's n-th
+ * episode. NULL when out of memory. */
+gsl_rng *pr_bind_exp3_start_rng(unsigned long seed, unsigned long repetition);
+/* The trajectory of one shot (pr_sim_shoot's trace): *nrows rows of t, x, y,
+ * ball into *rows, which the caller frees with pr_bind_free. */
+int pr_bind_trace(const pr_config *c, int nballs, const double *state, const double *action,
+                  double **rows, long *nrows, char *err);
 
 /* `poolreps forest`'s fit: keys forest.*, seed experiment.seed. X is n x dx,
  * Y n x dy, w n weights or NULL. *out is set on success. */
@@ -99,6 +118,11 @@ int pr_bind_policy_eval(const pr_policy *p, long nq, const double *S, double *me
  * stream `poolreps policy --seed SEED --sample K` draws from after its fit. */
 int pr_bind_policy_sample(const pr_policy *p, long nq, const double *S, int k,
                           unsigned long seed, double *draws, int *status, char *err);
+/* The same draws in pieces: a generator as the command's after its fit
+ * (seeded with seed, one draw taken), then calls on consecutive rows. */
+gsl_rng *pr_bind_policy_rng_new(unsigned long seed);
+int pr_bind_policy_sample_rng(const pr_policy *p, long nq, const double *S, int k,
+                              gsl_rng *rng, double *draws, int *status, char *err);
 /* log pi(a|s) per row (nq states S, nq actions A). */
 int pr_bind_policy_logpdf(const pr_policy *p, long nq, const double *S, const double *A,
                           double *logpdf, int *status, char *err);

@@ -19,6 +19,7 @@ typedef struct {
 	int keep;              /* --keep: copy the input columns in front */
 	/* forest */
 	const char *train, *test, *target, *weight, *leaves;
+	const char *save, *load; /* --save FILE, --load FILE: a fitted forest */
 	/* reps */
 	const char *ret, *features, *base, *summary;
 	double epsilon;        /* --epsilon, used when epsilon_set */

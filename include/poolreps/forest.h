@@ -2,6 +2,8 @@
 #ifndef POOLREPS_FOREST_H
 #define POOLREPS_FOREST_H
 
+#include <stdio.h>
+
 #include <gsl/gsl_rng.h>
 #include "poolreps/common.h"
 
@@ -84,5 +86,27 @@ const double *pr_forest_leaf_mean(const pr_forest *f, int leaf);
 int pr_forest_nnodes(const pr_forest *f);
 int pr_forest_tree_node0(const pr_forest *f, int t);
 int pr_forest_node(const pr_forest *f, int node, int *dim, double *thr, int *right);
+
+/* Saving and loading a fitted forest (docs/forest.md, "File format"): a
+ * text format whose first line is "poolreps-forest V"; numbers are written
+ * as C99 hexadecimal floats, so a loaded forest predicts bit for bit as the
+ * saved one. PR_FOREST_FORMAT is the version this library writes and the
+ * only one it reads. */
+#define PR_FOREST_FORMAT 1
+/* Write f to fp. names: NULL (then x0.., y0..) or dx + dy column names,
+ * inputs then outputs, none empty or holding a line break. PR_OK, PR_EINVAL
+ * (a bad name) or PR_EIO (a write error). */
+int pr_forest_save(const pr_forest *f, FILE *fp, const char *const *names, char *err);
+/* The same into a new buffer: *text (*len bytes, NUL-terminated; free()). */
+int pr_forest_to_text(const pr_forest *f, const char *const *names, char **text, size_t *len,
+                      char *err);
+/* A forest from len bytes of text in that format; `what` names it in
+ * messages ("FILE:LINE: ..."). With names not NULL, *names receives the
+ * dx + dy column names in one allocation (free() it). NULL with err:
+ * PR_EINVAL "WHAT: forest format version V, this library reads version
+ * PR_FOREST_FORMAT" for another version, PR_EIO for malformed text (every
+ * index is checked: a loaded forest is safe to query), PR_ENOMEM. */
+pr_forest *pr_forest_load(const char *text, size_t len, const char *what, char ***names,
+                          char *err);
 
 #endif

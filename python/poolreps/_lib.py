@@ -10,7 +10,7 @@ import functools
 import numbers
 import os
 import subprocess
-from ctypes import POINTER, c_char, c_char_p, c_double, c_int, c_long, c_ulong, c_void_p
+from ctypes import POINTER, c_char, c_char_p, c_double, c_int, c_long, c_size_t, c_ulong, c_void_p
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +56,27 @@ def _candidates():
     yield Path(SONAME)
 
 
+# The shared libraries libpoolreps.so.0 links against, and the Debian 12
+# packages that hold them (the wheel does not vendor them: docs/python.md).
+RUNTIME_PACKAGES = {
+    "libgsl.so.27": "libgsl27", "libgslcblas.so.0": "libgslcblas0",
+    "libglpk.so.40": "libglpk40", "libcsv.so.3": "libcsv3", "libinih.so.1": "libinih1",
+}
+
+
+def missing_runtime(message):
+    """The error for a library that exists but whose dependencies the loader
+    cannot find (None when message says something else)."""
+    import re
+    m = re.search(r"(lib[\w.+-]+\.so[\w.]*): cannot open shared object file", message)
+    if not m or m.group(1) == SONAME:
+        return None
+    pkgs = " ".join(RUNTIME_PACKAGES.values())
+    return OSError(f"poolreps: {m.group(1)} is missing, which libpoolreps.so.0 needs: install "
+                   f"the runtime libraries (Debian 12: apt-get install {pkgs}; see "
+                   f"docs/python.md)")
+
+
 def _load():
     tried = []
     for path in _candidates():
@@ -65,6 +86,9 @@ def _load():
         try:
             return ctypes.CDLL(str(path)), str(path)
         except OSError as e:
+            err = missing_runtime(str(e))
+            if err is not None:
+                raise err from None
             tried.append(f"{path} ({e})")
     raise OSError("poolreps: libpoolreps.so.0 not found; build it with `make` (or `make "
                   "install`), or set POOLREPS_LIB. Tried: " + "; ".join(tried))
@@ -84,7 +108,17 @@ _PROTOTYPES = {
     "pr_config_set": (c_int, [_P, c_char_p, c_char_p]),
     "pr_config_validate": (c_int, [_P, c_char_p]),
     "pr_bind_shoot": (c_int, [_P, c_long, c_int, _P, _P, _P, _P, _P, _P, _P, _P, _P, c_char_p]),
+    "pr_bind_shoot_range": (c_int, [_P, c_long, c_long, c_int, _P, _P, _P, _P, _P, _P, _P, _P,
+                                    _P, c_char_p]),
     "pr_bind_check_state": (c_int, [_P, _P, c_int, c_char_p]),
+    "pr_bind_exp3_start_rng": (_P, [c_ulong, c_ulong]),
+    "pr_bind_rng_size": (c_size_t, [_P]),
+    "pr_bind_rng_state": (_P, [_P]),
+    "pr_bind_trace": (c_int, [_P, c_int, _P, _P, POINTER(_P), POINTER(c_long), c_char_p]),
+    "pr_forest_to_text": (c_int, [_P, _P, POINTER(_P), POINTER(c_size_t), c_char_p]),
+    "pr_forest_load": (_P, [c_char_p, c_size_t, c_char_p, _P, c_char_p]),
+    "pr_bind_policy_rng_new": (_P, [c_ulong]),
+    "pr_bind_policy_sample_rng": (c_int, [_P, c_long, _P, c_int, _P, _P, _P, c_char_p]),
     "pr_bind_starts": (c_int, [_P, _P, c_long, _P, c_char_p]),
     "pr_bind_rng_new": (_P, [c_ulong]),
     "pr_bind_rng_free": (None, [_P]),
@@ -156,9 +190,61 @@ class Handle:
         self.meta = meta  # facts of the fit that methods need (e.g. y was 1-D)
 
     def __del__(self):
-        if self.ptr:
-            self._free(self.ptr)
+        # getattr: a Handle whose __init__ never ran (or ran half-way) owns nothing
+        ptr, free = getattr(self, "ptr", None), getattr(self, "_free", None)
+        if ptr and free:
+            free(ptr)
             self.ptr = None
+
+    def __reduce__(self):
+        raise TypeError("a C object of poolreps cannot be pickled by itself; pickle the "
+                        "Forest, Policy or PocketEnv that owns it")
+
+    def __repr__(self):
+        return f"<poolreps C object at {self.ptr:#x}>" if self.ptr else "<poolreps C object (freed)>"
+
+
+def rng_handle(ptr):
+    """A Handle for a gsl_rng the library made (MemoryError for NULL)."""
+    if not ptr:
+        raise MemoryError("rng: out of memory")
+    return Handle(ptr, lib.pr_bind_rng_free)
+
+
+def rng_state(h):
+    """The bytes of a generator's state (it continues from them exactly)."""
+    return ctypes.string_at(lib.pr_bind_rng_state(h.ptr), lib.pr_bind_rng_size(h.ptr))
+
+
+def rng_from_state(state):
+    """A generator set to the state rng_state returned."""
+    h = rng_handle(lib.pr_bind_rng_new(0))
+    if len(state) != lib.pr_bind_rng_size(h.ptr):
+        raise ValueError(f"rng state: {len(state)} bytes, this library's generator has "
+                         f"{lib.pr_bind_rng_size(h.ptr)}")
+    ctypes.memmove(lib.pr_bind_rng_state(h.ptr), state, len(state))
+    return h
+
+
+# Long calls go to the library in pieces of this many rows, and Python
+# handles its signals between them: Ctrl-C stops a long batch within a
+# piece's time (a few milliseconds) instead of at its end.
+CHUNK_ROWS = 8192
+
+
+def chunks(n, rows=CHUNK_ROWS):
+    """(lo, hi) ranges covering 0..n-1 in pieces."""
+    return ((lo, min(n, lo + rows)) for lo in range(0, n, rows))
+
+
+def seed_value(name, seed):
+    """An integer seed in 0..2**32-1; ValueError for anything else (a float
+    such as 1.5, a bool, a negative number)."""
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral):
+        raise ValueError(f"{name}: must be an integer in 0..4294967295 (got {seed!r})")
+    if not 0 <= int(seed) <= 4294967295:
+        raise ValueError(f"{name}: must be an integer in 0..4294967295 (got {seed})")
+    return int(seed)
 
 
 def addr(a):

@@ -3,15 +3,27 @@
 Each call runs the same C code as the matching `poolreps` command with the
 same options and seed, so the numbers are equal bit for bit.
 """
+from __future__ import annotations
+
 import ctypes
+from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
 
 from . import _lib
-from ._lib import Handle, addr, array, check, config, count, errbuf, lib
+from ._lib import Handle, addr, array, check, chunks, config, count, errbuf, lib
+
+ArrayLike = Any  # anything np.asarray takes
+Keys = Optional[Dict[str, Any]]
+
+# Version of the Python pickle of Forest and Policy (the dict __getstate__
+# returns); a Forest's C part is in the library's own text format,
+# PR_FOREST_FORMAT (docs/forest.md).
+PICKLE_FORMAT = 1
 
 
-def shoot(balls, actions, mode="event", set=None):
+def shoot(balls: ArrayLike, actions: ArrayLike, mode: str = "event",
+          set: Keys = None) -> Dict[str, np.ndarray]:
     """Simulate one shot per row, as `poolreps shoot`.
 
     balls: (N, 2*n_balls) start positions x0, y0, x1, y1, ... (ball 0 is the
@@ -36,8 +48,9 @@ def shoot(balls, actions, mode="event", set=None):
                                     allow_empty=True, finite=False))
 
 
-def shoot_rows(cfg, b, a):
-    """shoot on checked arrays with a built Config."""
+def shoot_rows(cfg, b: np.ndarray, a: np.ndarray) -> Dict[str, np.ndarray]:
+    """shoot on checked arrays with a built Config, in pieces (Ctrl-C is
+    honoured between them)."""
     n, nb = b.shape[0], b.shape[1] // 2
     out = {
         "final": np.empty((n, nb, 2)),
@@ -49,9 +62,10 @@ def shoot_rows(cfg, b, a):
         "events": np.empty(n, dtype=_lib.C_LONG),
     }
     err = errbuf()
-    rc = lib.pr_bind_shoot(cfg.ptr, n, nb, addr(b), addr(a), *(addr(out[k]) for k in (
-        "final", "pocket", "hit", "min_gap", "reward", "t_end", "events")), err)
-    check(rc, err)
+    ptrs = [addr(out[k]) for k in ("final", "pocket", "hit", "min_gap", "reward", "t_end",
+                                   "events")]
+    for lo, hi in chunks(n):
+        check(lib.pr_bind_shoot_range(cfg.ptr, lo, hi, nb, addr(b), addr(a), *ptrs, err), err)
     return out
 
 
@@ -90,7 +104,9 @@ def _features(features, n):
     return count("features columns", f.shape[1]), (f if f.shape[1] else None), None
 
 
-def reps(returns, features=None, epsilon=None, base=None, set=None, solver=None):
+def reps(returns: ArrayLike, features: Any = None, epsilon: Optional[float] = None,
+         base: Optional[ArrayLike] = None, set: Keys = None,
+         solver: Optional[str] = None) -> Dict[str, Any]:
     """REPS weights for n samples, as `poolreps reps` (thesis ch. 3, eq. 3.7-3.8).
 
     returns: (n,) returns R_i; features: (n, d) state features phi_i (or
@@ -148,12 +164,39 @@ class _Model:
 
     _section = None
 
-    def __init__(self, **keys):
+    def __init__(self, **keys: Any) -> None:
         self._sets = _lib.assignments(keys, self._section)
         self._cfg = config(self._sets)
         self._h = None
 
-    def get_params(self):
+    def __repr__(self) -> str:
+        keys = ", ".join(repr(a) for a in self._sets)
+        h = self._h
+        return f"{type(self).__name__}({keys}){' fitted: ' + self._describe(h) if h else ''}"
+
+    def _describe(self, h) -> str:
+        return ""
+
+    def _state(self, h) -> Dict[str, Any]:
+        raise NotImplementedError
+
+    def __getstate__(self) -> Dict[str, Any]:
+        h = self._h
+        return {"format": PICKLE_FORMAT, "class": type(self).__name__, "sets": self._sets,
+                "fit": None if h is None else self._state(h)}
+
+    def __setstate__(self, st: Dict[str, Any]) -> None:
+        v = st.get("format") if isinstance(st, dict) else None
+        if v != PICKLE_FORMAT:
+            raise ValueError(f"{type(self).__name__}: pickle format version {v}, this "
+                             f"poolreps reads version {PICKLE_FORMAT}")
+        self._sets = tuple(st["sets"])
+        self._cfg = config(self._sets)
+        self._h = None
+        if st["fit"] is not None:
+            self._restore(st["fit"])
+
+    def get_params(self) -> Dict[str, str]:
         """The effective {section.key: value} of this model's section, and the seed."""
         v = self._cfg.values()
         return {k: x for k, x in v.items()
@@ -183,7 +226,48 @@ class Forest(_Model):
 
     _section = "forest"
 
-    def fit(self, X, y, sample_weight=None):
+    def _describe(self, h) -> str:
+        return (f"{lib.pr_forest_ntrees(h.ptr)} trees, {lib.pr_forest_nleaves(h.ptr)} leaves, "
+                f"{lib.pr_forest_dx(h.ptr)} inputs, {lib.pr_forest_dy(h.ptr)} outputs")
+
+    def save_text(self) -> bytes:
+        """The fitted forest in the library's text format (docs/forest.md):
+        what `poolreps forest --save` writes, with inputs x0.. and outputs y0..;
+        `Forest.from_text` and `poolreps forest --load` read it back."""
+        h = self._fitted()
+        text, n = ctypes.c_void_p(), ctypes.c_size_t()
+        err = errbuf()
+        check(lib.pr_forest_to_text(h.ptr, None, ctypes.byref(text), ctypes.byref(n), err), err)
+        try:
+            return ctypes.string_at(text.value, n.value)
+        finally:
+            lib.pr_bind_free(text)
+
+    @classmethod
+    def from_text(cls, text: bytes, one_output: bool = False, **keys: Any) -> "Forest":
+        """A fitted Forest from the text `save_text` or `poolreps forest
+        --save` wrote (ValueError naming both versions for another format
+        version, OSError for a malformed file); keys as for Forest();
+        one_output: predict returns (n,) as after a fit on 1-D y."""
+        f = cls(**keys)
+        f._restore({"text": text, "one_output": one_output})
+        return f
+
+    def _state(self, h) -> Dict[str, Any]:
+        return {"text": self.save_text(), "one_output": bool(h.meta)}
+
+    def _restore(self, fit: Dict[str, Any]) -> None:
+        text = bytes(fit["text"])
+        err = errbuf()
+        ptr = lib.pr_forest_load(text, len(text), b"forest", None, err)
+        if not ptr:
+            msg = err.value.decode(errors="replace")
+            if "out of memory" in msg:
+                raise MemoryError(msg)
+            raise (ValueError if "format version" in msg else OSError)(msg)
+        self._h = Handle(ptr, lib.pr_forest_free, bool(fit["one_output"]))
+
+    def fit(self, X: ArrayLike, y: ArrayLike, sample_weight: Optional[ArrayLike] = None) -> "Forest":
         """X (n, d) inputs, y (n,) or (n, k) targets, sample_weight (n,) >= 0
         (eq. 6.2-6.3; default all 1). Returns self."""
         X = array("X", X, 2)
@@ -197,40 +281,49 @@ class Forest(_Model):
     def _inputs(self, h, X):
         return array("X", X, 2, cols=lib.pr_forest_dx(h.ptr), allow_empty=True)
 
-    def predict(self, X):
+    def predict(self, X: ArrayLike) -> np.ndarray:
         """Mean over trees of the leaf values (eq. 4.2-4.3): (n,) or (n, k)."""
         h = self._fitted()
         X = self._inputs(h, X)
         n = count("X", X.shape[0])
-        Y = np.empty((n, lib.pr_forest_dy(h.ptr)))
-        lib.pr_forest_predict_many(h.ptr, addr(X), n, addr(Y))
+        dx, dy = X.shape[1], lib.pr_forest_dy(h.ptr)
+        Y = np.empty((n, dy))
+        for lo, hi in chunks(n):
+            lib.pr_forest_predict_many(h.ptr, addr(X) + 8 * lo * dx, hi - lo, addr(Y) + 8 * lo * dy)
         return Y[:, 0].copy() if h.meta else Y
 
-    def apply(self, X):
+    def apply(self, X: ArrayLike) -> np.ndarray:
         """Each row's leaf in each tree, numbered within the tree: (n, trees)
         (the `--leaves` output; like scikit-learn's apply)."""
         h = self._fitted()
         X = self._inputs(h, X)
-        out = np.empty((X.shape[0], lib.pr_forest_ntrees(h.ptr)), dtype=np.intc)
+        M, dx = lib.pr_forest_ntrees(h.ptr), X.shape[1]
+        out = np.empty((X.shape[0], M), dtype=np.intc)
         err = errbuf()
-        check(lib.pr_bind_forest_apply(h.ptr, X.shape[0], addr(X), addr(out), err), err)
+        for lo, hi in chunks(X.shape[0]):
+            check(lib.pr_bind_forest_apply(h.ptr, hi - lo, addr(X) + 8 * lo * dx,
+                                           addr(out) + out.itemsize * lo * M, err), err)
         return out
 
     @property
-    def leaf_offsets(self):
+    def leaf_offsets(self) -> np.ndarray:
         """(trees + 1,): tree t's leaves are global ids leaf_offsets[t] to
         leaf_offsets[t + 1] - 1; the last entry is the number of leaves."""
         h = self._fitted()
         return np.array([lib.pr_forest_tree_leaf0(h.ptr, t)
                          for t in range(lib.pr_forest_ntrees(h.ptr) + 1)])
 
-    def leaf_features(self, X):
+    def leaf_features(self, X: ArrayLike) -> np.ndarray:
         """The active-leaf features of eq. 5.1-5.4: (n, leaves), 1 where the
         row falls into the leaf (one per tree), else 0."""
         leaves = self.apply(X) + self.leaf_offsets[:-1]
         phi = np.zeros((leaves.shape[0], self.leaf_offsets[-1]))
         np.put_along_axis(phi, leaves, 1.0, axis=1)
         return phi
+
+
+# a policy query walks its forest and solves a small fit: fewer rows per piece
+POLICY_CHUNK = 1024
 
 
 class Policy(_Model):
@@ -242,7 +335,20 @@ class Policy(_Model):
 
     _section = "policy"
 
-    def fit(self, S, A, w, target=None):
+    def _describe(self, h) -> str:
+        return f"{h.meta['S'].shape[0]} samples, {lib.pr_policy_ds(h.ptr)} state, " \
+               f"{lib.pr_policy_da(h.ptr)} action dimensions"
+
+    def _state(self, h) -> Dict[str, Any]:
+        # the fit is deterministic (its forest is seeded by experiment.seed):
+        # its inputs are the policy, refitted bit for bit on unpickling
+        return dict(h.meta)
+
+    def _restore(self, fit: Dict[str, Any]) -> None:
+        self.fit(fit["S"], fit["A"], fit["w"], fit["target"])
+
+    def fit(self, S: ArrayLike, A: ArrayLike, w: Optional[ArrayLike],
+            target: Optional[ArrayLike] = None) -> "Policy":
         """S (n, ds) states, A (n, da) actions, w (n,) REPS weights >= 0
         (None: all 1); target (n, dy) the final reward-ball positions the
         forest learns when policy.target = reward_state. Returns self."""
@@ -251,7 +357,9 @@ class Policy(_Model):
         A = array("A", A, 2, rows=n)
         w = None if w is None else array("w", w, 1, rows=n)
         Y = None if target is None else array("target", target, 2, rows=n)
-        return self._fit(lib.pr_bind_policy_fit, lib.pr_policy_free, None, n, S.shape[1],
+        meta = {"S": S.copy(), "A": A.copy(), "w": None if w is None else w.copy(),
+                "target": None if Y is None else Y.copy()}
+        return self._fit(lib.pr_bind_policy_fit, lib.pr_policy_free, meta, n, S.shape[1],
                          A.shape[1], 0 if Y is None else Y.shape[1], addr(S), addr(A), addr(w),
                          addr(Y))
 
@@ -259,7 +367,7 @@ class Policy(_Model):
         S = array("S", S, 2, cols=lib.pr_policy_ds(h.ptr), allow_empty=True)
         return S, S.shape[0], lib.pr_policy_da(h.ptr)
 
-    def mean_cov(self, S, status=False):
+    def mean_cov(self, S: ArrayLike, status: bool = False) -> Tuple[np.ndarray, ...]:
         """Mean (nq, da) and covariance (nq, da, da) at each state; with
         status, also the fallback bits per state (1 global fit, 2
         pseudo-inverse, 4 mean only, 8 covariance fallback, 16 min_std floor)."""
@@ -268,29 +376,34 @@ class Policy(_Model):
         mean, cov = np.empty((nq, da)), np.empty((nq, da, da))
         st = np.empty(nq, dtype=np.intc)
         err = errbuf()
-        check(lib.pr_bind_policy_eval(h.ptr, nq, addr(S), addr(mean), addr(cov), addr(st), err),
-              err)
+        ds = S.shape[1]
+        for lo, hi in chunks(nq, POLICY_CHUNK):
+            check(lib.pr_bind_policy_eval(h.ptr, hi - lo, addr(S) + 8 * lo * ds,
+                                          addr(mean) + 8 * lo * da, addr(cov) + 8 * lo * da * da,
+                                          addr(st) + st.itemsize * lo, err), err)
         return (mean, cov, st) if status else (mean, cov)
 
-    def sample(self, S, seed, n=None):
+    def sample(self, S: ArrayLike, seed: int, n: Optional[int] = None) -> np.ndarray:
         """One action per state, (nq, da), or n per state, (nq, n, da), drawn
         from a generator seeded with seed: the draws of `poolreps policy
         --seed SEED --sample N` for a policy fitted with the same seed."""
         h = self._fitted()
         S, nq, da = self._states(h, S)
-        k = 1 if n is None else int(n)
+        k = 1 if n is None else _lib.seed_value("n", n)
         if not 1 <= k <= 1000000:
             raise ValueError(f"n: must be an integer in 1..1000000 (got {n})")
-        if not 0 <= int(seed) <= 4294967295:
-            raise ValueError(f"seed: must be an integer in 0..4294967295 (got {seed})")
+        rng = _lib.rng_handle(lib.pr_bind_policy_rng_new(_lib.seed_value("seed", seed)))
         draws = np.empty((nq, k, da))
         st = np.empty(nq, dtype=np.intc)
         err = errbuf()
-        check(lib.pr_bind_policy_sample(h.ptr, nq, addr(S), k, int(seed), addr(draws), addr(st),
-                                        err), err)
+        ds = S.shape[1]
+        for lo, hi in chunks(nq, POLICY_CHUNK):
+            check(lib.pr_bind_policy_sample_rng(h.ptr, hi - lo, addr(S) + 8 * lo * ds, k, rng.ptr,
+                                                addr(draws) + 8 * lo * k * da,
+                                                addr(st) + st.itemsize * lo, err), err)
         return draws[:, 0, :].copy() if n is None else draws
 
-    def log_prob(self, S, A):
+    def log_prob(self, S: ArrayLike, A: ArrayLike) -> np.ndarray:
         """log pi(a|s) for each row: (nq,)."""
         h = self._fitted()
         S, nq, da = self._states(h, S)
@@ -298,6 +411,9 @@ class Policy(_Model):
         lp = np.empty(nq)
         st = np.empty(nq, dtype=np.intc)
         err = errbuf()
-        check(lib.pr_bind_policy_logpdf(h.ptr, nq, addr(S), addr(A), addr(lp), addr(st), err),
-              err)
+        ds = S.shape[1]
+        for lo, hi in chunks(nq, POLICY_CHUNK):
+            check(lib.pr_bind_policy_logpdf(h.ptr, hi - lo, addr(S) + 8 * lo * ds,
+                                            addr(A) + 8 * lo * da, addr(lp) + 8 * lo,
+                                            addr(st) + st.itemsize * lo, err), err)
         return lp

@@ -1,0 +1,159 @@
+"""Experiment 5 (docs/baselines.md): the machinery of `make baselines`.
+
+The smoke run needs Stable-Baselines3 and pycma in build/baselines/venv
+(`make baselines` installs them from PyPI) and skips, saying so, without
+them; the statistics and the offline failure need neither."""
+import csv
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from conftest import ROOT, poolreps_path, run_cmd
+
+sys.path.insert(0, str(ROOT / "scripts"))
+import baselines_report as br  # noqa: E402
+
+VENV = Path(os.environ.get("BASELINES_VENV", ROOT / "build/baselines/venv"))
+SCRIPT = ROOT / "scripts/baselines.sh"
+
+
+def have_sb3():
+    py = VENV / "bin/python"
+    return py.exists() and subprocess.run(
+        [str(py), "-c", "import stable_baselines3, cma"], capture_output=True).returncode == 0
+
+
+def script_env(**kw):
+    env = dict(os.environ)
+    env.update(POOLREPS=poolreps_path() or "poolreps", PYTHON=sys.executable,
+               POOLREPS_LIB=os.environ.get("POOLREPS_LIB",
+                                           str(ROOT / "build/rel/libpoolreps.so.0")))
+    env.update({k: str(v) for k, v in kw.items()})
+    return env
+
+
+def test_without_network_it_fails_in_one_line_and_changes_nothing(tmp_path):
+    venv = tmp_path / "no" / "venv"
+    out = tmp_path / "out"
+    env = script_env(BASELINES_VENV=venv, PIP_INDEX_URL="http://127.0.0.1:9/simple",
+                     PIP_RETRIES=0, PIP_TIMEOUT=2, PIP_NO_CACHE_DIR=1)
+    env.pop("PIP_FIND_LINKS", None)
+    p = run_cmd(["sh", SCRIPT, "run", out, 2], capture_output=True, text=True, env=env,
+                timeout=300)
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 2, p.stderr
+    assert len(lines) == 1 and lines[0].startswith(
+        "baselines: could not install stable-baselines3 cma gymnasium from PyPI"), p.stderr
+    assert sorted(tmp_path.iterdir()) == []  # no venv, no folder for it, no output
+
+
+def test_holm_and_intervals_match_their_definitions():
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        ps = list(rng.uniform(0, 0.2, rng.integers(1, 8)))
+        adj = br.holm(ps)
+        m = len(ps)
+        order = np.argsort(ps)
+        ref = np.maximum.accumulate([min(1, (m - r) * ps[i]) for r, i in enumerate(order)])
+        assert np.allclose(np.array(adj)[order], ref)
+        x = rng.normal(size=rng.integers(2, 20))
+        mean, lo, hi = br.t_interval(x)
+        want = stats.t.interval(0.95, len(x) - 1, loc=x.mean(), scale=stats.sem(x))
+        assert math.isclose(lo, want[0], rel_tol=1e-12) and math.isclose(hi, want[1],
+                                                                          rel_tol=1e-12)
+    adj = br.holm([0.01, math.nan, 0.04])
+    assert adj[0] == 0.02 and math.isnan(adj[1]) and adj[2] == 0.04
+    assert math.isnan(br.t_interval([1.0])[1])
+
+
+def write_rows(path, header, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        w.writerows(rows)
+
+
+def test_the_tables_pair_by_seed_and_adjust_within_a_budget(tmp_path):
+    rng = np.random.default_rng(1)
+    rows = []
+    base = rng.normal(-1, 0.3, 10)
+    for k in range(10):
+        rows.append(["reps_handcrafted", k, 2200, base[k], "", "", ""])
+        rows.append(["sac", k, 2200, base[k] - 0.5 + rng.normal(0, 0.01), -0.9, 1, 2])
+        rows.append(["ppo", k, 2200, base[k] + rng.normal(0, 0.3), "", 1, 2])
+    data = tmp_path / "data"
+    data.mkdir()
+    write_rows(data / "runs.csv", ["learner", "seed", "budget", "last500_mean",
+                                   "deterministic_mean", "wall_s", "cpu_s"], rows)
+    t = {r["learner"]: r for r in br.budget_table(br.read(data / "runs.csv"), 2200)}
+    d = [r[3] for r in rows if r[0] == "sac"]
+    diff = np.array(d) - base
+    assert math.isclose(t["sac"]["diff"][0], diff.mean(), rel_tol=1e-12)
+    assert t["sac"]["verdict"] == "below" and t["sac"]["pairs"] == 10
+    p_sac = stats.ttest_1samp(diff, 0).pvalue
+    p_ppo = stats.ttest_1samp(np.array([r[3] for r in rows if r[0] == "ppo"]) - base, 0).pvalue
+    want = br.holm([p_sac, p_ppo])
+    assert math.isclose(t["sac"]["p"], want[0]) and math.isclose(t["ppo"]["p"], want[1])
+    assert t["reps_handcrafted"]["verdict"] == "reference"
+
+
+@pytest.mark.slow
+def test_smoke_run_writes_the_csvs_and_the_report(tmp_path):
+    if not have_sb3():
+        pytest.skip(f"Stable-Baselines3 and pycma are not installed in {VENV} (make "
+                    "baselines installs them from PyPI): the Experiment 5 smoke run is skipped")
+    out, docs, data = tmp_path / "out", tmp_path / "docs", tmp_path / "data"
+    t0 = time.time()
+    p = run_cmd(["sh", SCRIPT, "smoke", out], capture_output=True, text=True,
+                env=script_env(BASELINES_VENV=VENV, BASELINES_DOCS=docs, BASELINES_DATA=data),
+                timeout=300)
+    assert p.returncode == 0, p.stderr
+    secs = time.time() - t0
+    runs = br.read(data / "runs.csv")
+    learners = {r["learner"] for r in runs}
+    assert learners == {"cma_linear", "sac", "ppo_tuned", "reps_handcrafted",
+                        "reps_tree_nrvr_a", "ccmaes_handcrafted"}
+    # a poolreps learner's value is the mean of its episodes 100..599 (independently)
+    with open(out / "reps/creps_handcrafted/exp3_episodes.csv") as f:
+        R = [float(r["return"]) for r in csv.DictReader(f) if r["repetition"] == "1"]
+    got = [float(r["last500_mean"]) for r in runs
+           if r["learner"] == "reps_handcrafted" and r["seed"] == "1" and r["budget"] == "600"]
+    assert got == [float(np.mean(R[100:600]))]
+    assert (docs / "figures/baselines.png").stat().st_size > 10000
+    text = (docs / "baselines.md").read_text()
+    assert "## Budget 600 episodes" in text and "SAC (SB3 defaults)" in text
+    print(f"smoke run: {secs:.1f} s")
+
+
+@pytest.mark.parametrize("policy", ["handcrafted", "nrvr_a"])
+def test_a_longer_poolreps_run_starts_with_the_shorter_one(tmp_path, policy):
+    # what lets one long run per seed stand for every budget
+    from conftest import run_poolreps
+    out = {}
+    for it in (3, 8):
+        p = run_poolreps([ROOT / "data/exp3.ini", "-q", "-o", tmp_path / f"i{it}",
+                          "--set", f"exp3.iterations={it}", "--set", "experiment.repetitions=2",
+                          "--set", f"exp3.policies={policy}"])
+        assert p.returncode == 0, p.stderr
+        with open(tmp_path / f"i{it}/exp3_episodes.csv") as f:
+            out[it] = [(r["repetition"], r["return"]) for r in csv.DictReader(f)]
+    for k in ("0", "1"):
+        short = [r for r in out[3] if r[0] == k]
+        long = [r for r in out[8] if r[0] == k]
+        assert len(short) == 260 and long[:260] == short
+
+
+def test_docs_baselines_md_is_what_the_committed_csvs_give(tmp_path):
+    import shutil
+    readme = tmp_path / "README.md"
+    shutil.copy(ROOT / "README.md", readme)
+    br.report(ROOT / "data/baselines", tmp_path / "docs", readme)
+    assert (tmp_path / "docs/baselines.md").read_text() == (ROOT / "docs/baselines.md").read_text()
+    assert readme.read_text() == (ROOT / "README.md").read_text()

@@ -1,0 +1,532 @@
+"""The Python package as a Gymnasium citizen: registration, rendering,
+normalised actions, both checkers, pickling (env, Forest, Policy) and the
+forest file format shared with the C library and the CLI, reprs, prompt
+Ctrl-C in long calls, the environment's random streams.
+
+Tests that need Gymnasium (not a Debian package) skip without it: `make
+venv` builds build/venv with it, and `build/venv/bin/python -m pytest
+tests/test_gym.py` runs them all."""
+import copy
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, run_cmd, run_poolreps
+
+sys.path.insert(0, str(ROOT / "python"))
+import poolreps  # noqa: E402
+
+try:
+    import gymnasium
+except ImportError:
+    gymnasium = None
+needs_gym = pytest.mark.skipif(gymnasium is None, reason="gymnasium is not installed "
+                               "(make venv; build/venv/bin/python -m pytest tests/test_gym.py)")
+
+
+def child_env():
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT / "python")
+    return env
+
+
+def run_python(code, timeout=120):
+    return run_cmd([sys.executable, "-c", textwrap.dedent(code)], capture_output=True,
+                   text=True, env=child_env(), timeout=timeout)
+
+
+# ---- registration, vector envs -------------------------------------------------
+
+@needs_gym
+def test_make_and_make_vec_use_the_registered_id():
+    env = gymnasium.make("poolreps/PocketEnv-v0", normalize_actions=True)
+    assert isinstance(env.unwrapped, poolreps.PocketEnv)
+    obs, _ = env.reset(seed=3)
+    assert obs.shape == (4,)
+    venv = gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=3, vectorization_mode="sync")
+    a, _ = venv.reset(seed=7)
+    b, _ = gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=3,
+                              vectorization_mode="sync").reset(seed=7)
+    assert np.array_equal(a, b) and a.shape == (3, 4)
+    assert len({tuple(r) for r in a}) == 3  # each sub-env its own stream
+
+
+@needs_gym
+def test_make_with_the_module_prefix_needs_no_import():
+    p = run_python("""
+        import gymnasium
+        env = gymnasium.make("poolreps:poolreps/PocketEnv-v0")
+        print(type(env.unwrapped).__name__)
+    """)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == "PocketEnv"
+
+
+@needs_gym
+def test_async_vector_env_with_spawn_matches_sync():
+    # pickling the env is what AsyncVectorEnv with spawn needs
+    kw = dict(num_envs=2, vectorization_mode="async",
+              vector_kwargs={"context": "spawn"})
+    p = run_python(f"""
+        import gymnasium, numpy as np, poolreps
+        if __name__ == "__main__":
+            a = gymnasium.make_vec("poolreps/PocketEnv-v0", **{kw!r})
+            s = gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=2, vectorization_mode="sync")
+            x, _ = a.reset(seed=5); y, _ = s.reset(seed=5)
+            act = np.array([[0.5, 0.02], [0.3, -0.01]])
+            print(np.array_equal(x, y), np.array_equal(a.step(act)[1], s.step(act)[1]))
+            a.close()
+    """, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == ["True", "True"]
+
+
+def test_package_imports_without_gymnasium():
+    p = run_python("""
+        import sys
+        sys.modules["gymnasium"] = None   # import gymnasium now raises ImportError
+        import poolreps
+        env = poolreps.PocketEnv(normalize_actions=True)
+        s, _ = env.reset(seed=1)
+        print(type(env.action_space).__name__, env.step([0.05, 0.0])[2])
+    """)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == ["Bounds", "True"]
+
+
+# ---- rendering -----------------------------------------------------------------
+
+def frame_after_shot(**kw):
+    env = poolreps.PocketEnv(render_mode="rgb_array", **kw)
+    s, _ = env.reset(seed=2)
+    before = env.render()
+    env.step([0.615, 0.03])
+    return env, s, before, env.render()
+
+
+def test_rgb_array_draws_table_pockets_balls_and_trajectory():
+    env, s, before, after = frame_after_shot()
+    r = env._renderer
+    assert before.shape == (200, 400, 3) and before.dtype == np.uint8
+    for x in (-env.half[0], 0, env.half[0]):
+        for y in (-env.half[1], env.half[1]):
+            c, row = r._px(x, y)
+            assert tuple(before[min(row, 199), min(c, 399)]) == (0, 0, 0), (x, y)  # pockets
+    c, row = r._px(s[0], s[1])
+    assert tuple(before[row, c]) == (245, 245, 245)  # the cue ball before the shot
+    c, row = r._px(s[2], s[3])
+    assert tuple(before[row, c]) == (210, 30, 30)  # the reward ball
+    c, row = r._px(0.3, 0.1)
+    assert tuple(before[row, c]) == (20, 110, 50)  # cloth
+    trail = np.all(after == (200, 200, 255), axis=2)
+    assert trail.sum() > 50  # the cue ball's path
+    assert not np.all(before == (200, 200, 255), axis=2).any()  # none before the shot
+    tr = env.trajectory()
+    assert tr.shape[1] == 4 and set(tr[:, 3].astype(int)) == {0, 1}
+    final = tr[tr[:, 3] == 1][-1, 1:3]
+    assert np.array_equal(final, env._last[2][2:4])
+
+
+def test_rgb_array_is_fast_enough_for_video():
+    env, _, _, _ = frame_after_shot()
+    env.render()
+    n, t0 = 100, time.perf_counter()
+    for _ in range(n):
+        env.render()  # recomputes the trajectory each time
+    fps = n / (time.perf_counter() - t0)
+    assert fps >= 100, f"{fps:.0f} frames/s at 400 x 200"
+
+
+def test_render_mode_is_checked_and_none_renders_nothing():
+    with pytest.raises(ValueError, match="render_mode"):
+        poolreps.PocketEnv(render_mode="ansi")
+    env = poolreps.PocketEnv()
+    env.reset(seed=1)
+    assert env.render() is None
+
+
+# ---- normalised actions, both checkers -----------------------------------------
+
+def test_normalised_actions_scale_to_the_speed_box():
+    env = poolreps.PocketEnv(normalize_actions=True)
+    assert np.array_equal(env.action_space.low, [-1, -1])
+    assert np.array_equal(env.action_space.high, [1, 1])
+    S, _ = env.reset_batch(50, seed=4)
+    a = np.random.default_rng(4).uniform(-0.2, 0.2, (50, 2))
+    obs, rew, *_ = env.step_batch(S, a)
+    ref = poolreps.shoot(S, a * env.max_speed)
+    assert np.array_equal(rew, ref["reward"])
+    assert np.array_equal(obs, ref["final"].reshape(50, -1))
+    # a corner of the box is faster than sim.max_speed: scaled down to it
+    _, _, _, _, info = env.step_batch(S[:1], [[1.0, 1.0]])
+    assert info["clipped"][0] and np.hypot(*info["velocity"][0]) <= env.max_speed
+
+
+@needs_gym
+def test_gymnasium_checker_passes_without_warnings():
+    from gymnasium.utils.env_checker import check_env
+    env = gymnasium.make("poolreps/PocketEnv-v0", normalize_actions=True,
+                         render_mode="rgb_array").unwrapped
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        check_env(env)
+    assert [str(x.message) for x in w] == []
+
+
+def test_sb3_checker_passes_without_warnings():
+    pytest.importorskip("stable_baselines3", reason="Stable-Baselines3 is not installed "
+                        "(make baselines installs it into build/baselines/venv)")
+    from stable_baselines3.common.env_checker import check_env
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        check_env(poolreps.PocketEnv(normalize_actions=True, render_mode="rgb_array"))
+    assert [str(x.message) for x in w] == []
+
+
+@pytest.mark.parametrize("action, msg", [
+    ([0.1], "action: expected 2 rows"),
+    ([[0.1, 0.2]], "action: expected a 1-D array"),
+    ([np.nan, 0.0], r"action\[0\]: not a finite number"),
+    ([0.0, np.inf], r"action\[1\]: not a finite number"),
+])
+@pytest.mark.parametrize("normalize", [False, True])
+def test_bad_actions_name_the_argument(action, msg, normalize):
+    env = poolreps.PocketEnv(normalize_actions=normalize)
+    env.reset(seed=1)
+    with pytest.raises(ValueError, match=msg):
+        env.step(action)
+
+
+# ---- pickling ------------------------------------------------------------------
+
+def roundtrips(obj):
+    return [pickle.loads(pickle.dumps(obj)), copy.deepcopy(obj), copy.copy(obj)]
+
+
+def test_env_pickles_and_continues_bit_identically():
+    env = poolreps.PocketEnv(set={"table.friction": 0.3}, normalize_actions=True,
+                             render_mode="rgb_array")
+    env.reset(seed=11)
+    env.reset_batch(3)
+    env.step([0.05, 0.01])  # the last shot (what render draws) travels too
+    for twin in roundtrips(env):
+        assert np.array_equal(twin.render(), env.render())
+    twins = roundtrips(env)
+    for _ in range(5):
+        x, _ = env.reset()
+        for twin in twins:
+            y, _ = twin.reset()
+            assert np.array_equal(x, y)
+        r = env.step([0.05, 0.0])
+        for twin in twins:
+            q = twin.step([0.05, 0.0])
+            assert np.array_equal(r[0], q[0]) and r[1] == q[1]
+    assert repr(twins[0]) == repr(env) == ("PocketEnv(set={'table.friction': 0.3}, "
+                                           "render_mode='rgb_array', normalize_actions=True)")
+    # mid-episode too: the pending start state is kept
+    env.reset()
+    twin = pickle.loads(pickle.dumps(env))
+    assert np.array_equal(env.step([0.1, 0.0])[0], twin.step([0.1, 0.0])[0])
+
+
+def fitted_forest(seed=0, one_output=True):
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(-1, 1, (400, 3))
+    y = np.sin(3 * X[:, 0]) + X[:, 1] * X[:, 2]
+    Y = y if one_output else np.column_stack([y, X[:, 0]])
+    return poolreps.Forest(trees=7, n_min=15, seed=seed + 3).fit(X, Y), X
+
+
+@pytest.mark.parametrize("one_output", [True, False])
+def test_forest_pickles_bit_identically(one_output):
+    f, X = fitted_forest(1, one_output)
+    Q = np.random.default_rng(9).uniform(-1.5, 1.5, (300, 3))
+    for g in roundtrips(f):
+        assert np.array_equal(f.predict(Q), g.predict(Q))
+        assert np.array_equal(f.apply(Q), g.apply(Q))
+        assert np.array_equal(f.leaf_offsets, g.leaf_offsets)
+        assert g.get_params() == f.get_params()
+    unfitted = pickle.loads(pickle.dumps(poolreps.Forest(trees=3)))
+    with pytest.raises(ValueError, match="call fit"):
+        unfitted.predict(Q)
+    assert repr(unfitted) == "Forest('forest.trees=3')"
+    assert repr(f).startswith("Forest('forest.trees=7', 'forest.n_min=15', "
+                              "'experiment.seed=4') fitted: 7 trees, ")
+
+
+def test_policy_pickles_bit_identically():
+    rng = np.random.default_rng(5)
+    S, A, w = rng.uniform(size=(300, 2)), rng.normal(size=(300, 2)), rng.uniform(size=300)
+    p = poolreps.Policy(n_min=40, seed=2).fit(S, A, w)
+    Q = rng.uniform(size=(50, 2))
+    for q in roundtrips(p):
+        assert all(np.array_equal(x, y) for x, y in zip(p.mean_cov(Q, status=True),
+                                                        q.mean_cov(Q, status=True)))
+        assert np.array_equal(p.sample(Q, 3, n=4), q.sample(Q, 3, n=4))
+        assert np.array_equal(p.log_prob(Q, A[:50]), q.log_prob(Q, A[:50]))
+    assert repr(p) == "Policy('policy.n_min=40', 'experiment.seed=2') fitted: 300 samples, " \
+                      "2 state, 2 action dimensions"
+
+
+def test_an_incompatible_pickle_names_both_versions():
+    f, _ = fitted_forest()
+    st = f.__getstate__()
+    with pytest.raises(ValueError, match="pickle format version 2, this poolreps reads version 1"):
+        poolreps.Forest().__setstate__({**st, "format": 2})
+    text = st["fit"]["text"].replace(b"poolreps-forest 1\n", b"poolreps-forest 2\n", 1)
+    with pytest.raises(ValueError, match="forest format version 2, this library reads version 1"):
+        pickle.loads(pickle.dumps(f).replace(st["fit"]["text"], text))
+    with pytest.raises(ValueError, match="pickle format version None"):
+        poolreps.Policy().__setstate__({"sets": ()})
+    with pytest.raises(ValueError, match="PocketEnv: pickle format version 3"):
+        poolreps.PocketEnv().__setstate__({"format": 3})
+
+
+def test_a_c_object_alone_does_not_pickle_and_never_prints_on_delete():
+    p = run_python("""
+        import pickle, poolreps
+        from poolreps._lib import Handle
+        h = Handle.__new__(Handle)   # never initialised: owns nothing
+        del h
+        f = poolreps.Forest(trees=2).fit([[0.0], [1.0], [2.0]], [0.0, 1.0, 2.0])
+        try:
+            pickle.dumps(f._h)
+        except TypeError as e:
+            print("TypeError", "cannot be pickled by itself" in str(e))
+        print(pickle.loads(pickle.dumps(f)).predict([[1.0]]))
+    """)
+    assert p.returncode == 0, p.stderr
+    assert p.stderr == ""
+    assert p.stdout.split()[:2] == ["TypeError", "True"]
+
+
+# ---- the forest file format: C, CLI and Python ---------------------------------
+
+def write_csv(path, header, rows):
+    np.savetxt(path, np.asarray(rows, dtype=float), fmt="%.17g", delimiter=",",
+               header=",".join(header), comments="")
+
+
+def test_cli_save_load_and_python_agree(tmp_path):
+    rng = np.random.default_rng(3)
+    X = rng.uniform(-1, 1, (250, 2))
+    y = X[:, 0] ** 2 - X[:, 1]
+    write_csv(tmp_path / "tr.csv", ["u", "v", "ret"], np.column_stack([X, y]))
+    Q = rng.uniform(-1, 1, (40, 2))
+    write_csv(tmp_path / "te.csv", ["v", "u"], Q[:, ::-1])
+    args = ["forest", "--train", tmp_path / "tr.csv", "--test", tmp_path / "te.csv",
+            "--target", "ret", "--set", "forest.trees=6", "--seed", "5", "-q"]
+    p = run_poolreps(args + ["--save", tmp_path / "f.txt", "-o", tmp_path / "p1.csv",
+                             "--leaves", tmp_path / "l1.csv"])
+    assert p.returncode == 0, p.stderr
+    p = run_poolreps(["forest", "--load", tmp_path / "f.txt", "--test", tmp_path / "te.csv",
+                      "-o", tmp_path / "p2.csv", "--leaves", tmp_path / "l2.csv"])
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "p1.csv").read_bytes() == (tmp_path / "p2.csv").read_bytes()
+    assert (tmp_path / "l1.csv").read_bytes() == (tmp_path / "l2.csv").read_bytes()
+    saved = (tmp_path / "f.txt").read_bytes()
+    assert saved.startswith(b"poolreps-forest 1\n")
+    assert b"\ninput u\ninput v\noutput ret\n" in saved
+    # Python fits the same forest and writes the same text, but for the names
+    f = poolreps.Forest(trees=6, seed=5).fit(X, y)
+    assert f.save_text() == saved.replace(b"input u\ninput v\noutput ret",
+                                          b"input x0\ninput x1\noutput y0")
+    g = poolreps.Forest.from_text(saved, one_output=True)
+    assert np.array_equal(g.predict(Q), f.predict(Q))
+    pred = np.loadtxt(tmp_path / "p2.csv", delimiter=",", skiprows=1)
+    assert np.array_equal(pred, f.predict(Q))  # the CLI writes round-trip decimals
+
+
+@pytest.mark.parametrize("edit, code, msg", [
+    (lambda t: t.replace(b"poolreps-forest 1", b"poolreps-forest 9"), 1,
+     "forest format version 9, this library reads version 1"),
+    (lambda t: b"hello\n" + t, 2, ":1: not a poolreps forest file"),
+    (lambda t: t[:len(t) // 2], 2, ""),
+    (lambda t: t.replace(b"split 0", b"split 7", 1), 2, "7 out of range 0..2"),
+    (lambda t: t.replace(b"\nend\n", b"\nend\nmore\n"), 2, "text after 'end'"),
+    (lambda t: t.replace(b"leaves", b"leafs"), 2, ":2: expected ' leaves'"),
+])
+def test_cli_load_refuses_a_bad_file_with_one_line(tmp_path, edit, code, msg):
+    f, X = fitted_forest(2)
+    (tmp_path / "f.txt").write_bytes(edit(f.save_text()))
+    write_csv(tmp_path / "te.csv", ["x0", "x1", "x2"], X[:5])
+    p = run_poolreps(["forest", "--load", tmp_path / "f.txt", "--test", tmp_path / "te.csv",
+                      "-o", tmp_path / "out.csv"])
+    lines = p.stderr.decode().splitlines()
+    assert p.returncode == code and len(lines) == 1 and msg in lines[0], p.stderr
+    assert lines[0].startswith(f"poolreps: {tmp_path / 'f.txt'}")
+    assert not (tmp_path / "out.csv").exists()
+    with pytest.raises((ValueError, OSError), match=msg or "forest"):
+        poolreps.Forest.from_text(edit(f.save_text()))
+
+
+def test_a_duplicated_sample_in_a_file_is_refused():
+    f, _ = fitted_forest(4)
+    lines = f.save_text().split(b"\n")
+    i = next(k for k, ln in enumerate(lines) if ln.startswith(b"leaf ") and
+             len(ln.split()) > 4)
+    w = lines[i].split()
+    w[-1] = w[-2]  # the same sample twice in one leaf
+    lines[i] = b" ".join(w)
+    with pytest.raises(OSError, match="a sample appears twice"):
+        poolreps.Forest.from_text(b"\n".join(lines))
+
+
+def test_load_refuses_save_options(tmp_path):
+    p = run_poolreps(["forest", "--load", tmp_path / "f.txt", "--train", tmp_path / "x.csv",
+                      "--test", tmp_path / "x.csv"])
+    assert p.returncode == 1
+    assert "--load takes no --train" in p.stderr.decode()
+
+
+# ---- Ctrl-C in long calls ------------------------------------------------------
+
+@pytest.mark.native
+@pytest.mark.parametrize("call", [
+    "poolreps.shoot(balls, actions)",
+    "env.step_batch(balls, actions)",
+    "env.reset_batch(4000000)",
+    "forest.predict(np.zeros((4000000, 2)))",
+    "policy.mean_cov(balls[:400000, 2:4])",
+])
+def test_keyboard_interrupt_within_0_2_s(call):
+    p = run_python(f"""
+        import os, signal, threading, time
+        import numpy as np, poolreps
+        n = 4000000
+        env = poolreps.PocketEnv()
+        balls, _ = env.reset_batch(n, seed=1)
+        actions = np.full((n, 2), 0.3)
+        rng = np.random.default_rng(0)
+        S = rng.uniform(size=(300, 2))
+        forest = poolreps.Forest(trees=5).fit(S, S[:, 0])
+        policy = poolreps.Policy(n_min=40).fit(S, rng.normal(size=(300, 2)), None)
+        sent = []
+        def interrupt():
+            time.sleep(0.5)
+            sent.append(time.perf_counter())
+            os.kill(os.getpid(), signal.SIGINT)
+        threading.Thread(target=interrupt).start()
+        t0 = time.perf_counter()
+        try:
+            {call}
+            print("finished", time.perf_counter() - t0)
+        except KeyboardInterrupt:
+            print("interrupted", time.perf_counter() - sent[0])
+    """, timeout=300)
+    assert p.returncode == 0, p.stderr
+    word, secs = p.stdout.split()
+    assert word == "interrupted", f"the call ended after {secs} s before the signal"
+    assert float(secs) < 0.2, f"KeyboardInterrupt {secs} s after SIGINT"
+
+
+def test_chunked_calls_equal_one_call():
+    # the pieces of a long batch give what one library call gives
+    env = poolreps.PocketEnv()
+    n = poolreps._lib.CHUNK_ROWS * 2 + 17
+    S, _ = env.reset_batch(n, seed=8)
+    A = np.random.default_rng(8).normal(0, 0.3, (n, 2))
+    r = poolreps.shoot(S, A)
+    one = poolreps.core.shoot_rows.__globals__["lib"]
+    out = np.empty(n)
+    import ctypes
+    err = ctypes.create_string_buffer(512)
+    cfg = poolreps._lib.config(poolreps._lib.assignments({"sim.mode": "event"}))
+    final, pocket = np.empty((n, 2, 2)), np.empty((n, 2), dtype=np.intc)
+    hit, gap, t, ev = (np.empty(n, dtype=np.bool_), np.empty(n), np.empty(n),
+                       np.empty(n, dtype=poolreps._lib.C_LONG))
+    assert one.pr_bind_shoot(cfg.ptr, n, 2, S.ctypes.data, A.ctypes.data, final.ctypes.data,
+                             pocket.ctypes.data, hit.ctypes.data, gap.ctypes.data,
+                             out.ctypes.data, t.ctypes.data, ev.ctypes.data, err) == 0
+    assert np.array_equal(r["reward"], out) and np.array_equal(r["final"], final)
+    # a bad row deep in the batch is named by its row in the whole batch
+    S[n - 3, 2] = 99.0
+    with pytest.raises(ValueError, match=f"row {n - 3}: "):
+        poolreps.shoot(S, A)
+    # Policy.sample in pieces draws what `poolreps policy --sample` draws: one stream
+    rng = np.random.default_rng(1)
+    X = rng.uniform(size=(300, 2))
+    p = poolreps.Policy(n_min=40).fit(X, rng.normal(size=(300, 2)), None)
+    Q = rng.uniform(size=(3000, 2))
+    whole = p.sample(Q, 5)
+    poolreps.core.POLICY_CHUNK, keep = 10**7, poolreps.core.POLICY_CHUNK
+    try:
+        assert np.array_equal(p.sample(Q, 5), whole)
+    finally:
+        poolreps.core.POLICY_CHUNK = keep
+
+
+# ---- random streams ------------------------------------------------------------
+
+def test_repetition_option_reproduces_experiment_3s_start_states(tmp_path):
+    p = run_poolreps([ROOT / "data/exp3.ini", "-q", "-o", tmp_path / "e3", "--seed", "4",
+                      "--set", "exp3.iterations=2", "--set", "experiment.repetitions=2",
+                      "--set", "exp3.policies=handcrafted"])
+    assert p.returncode == 0, p.stderr
+    import csv
+    rows = list(csv.DictReader(open(tmp_path / "e3/exp3_episodes.csv")))
+    for k in (0, 1):
+        want = np.array([[float(r[c]) for c in ("x0", "y0", "x1", "y1")] for r in rows
+                         if r["repetition"] == str(k)])
+        assert len(want) == 240
+        env = poolreps.PocketEnv()
+        first, _ = env.reset(seed=4, options={"repetition": k})
+        got = np.vstack([first] + [env.reset()[0] for _ in range(len(want) - 1)])
+        assert np.array_equal(got, want)
+        assert np.array_equal(poolreps.PocketEnv().reset_batch(240, seed=4, repetition=k)[0],
+                              want)
+    # a plain seed is another stream
+    assert not np.array_equal(poolreps.PocketEnv().reset_batch(240, seed=4)[0], want)
+
+
+@needs_gym
+def test_np_random_seeds_the_start_states_when_reset_has_no_seed():
+    a, b = poolreps.PocketEnv(), poolreps.PocketEnv()
+    a.np_random, _ = gymnasium.utils.seeding.np_random(12)
+    b.np_random, _ = gymnasium.utils.seeding.np_random(12)
+    assert np.array_equal(a.reset()[0], b.reset()[0])
+    assert np.array_equal(a.reset()[0], b.reset()[0])
+    c = poolreps.PocketEnv()
+    c.np_random, _ = gymnasium.utils.seeding.np_random(13)
+    assert not np.array_equal(c.reset()[0], a.reset()[0])
+
+
+@pytest.mark.parametrize("seed", [1.5, True, -1, 2**32, "3"])
+def test_policy_sample_refuses_a_seed_that_is_not_an_integer(seed):
+    rng = np.random.default_rng(1)
+    p = poolreps.Policy(n_min=40).fit(rng.uniform(size=(100, 2)), rng.normal(size=(100, 2)),
+                                      None)
+    with pytest.raises(ValueError, match="seed: must be an integer"):
+        p.sample([[0.5, 0.5]], seed)
+    with pytest.raises(ValueError, match="n: must be an integer"):
+        p.sample([[0.5, 0.5]], 1, n=2.5)
+
+
+def test_type_hints_ship_with_the_package():
+    assert (ROOT / "python/poolreps/py.typed").exists()
+    import typing
+    hints = typing.get_type_hints(poolreps.shoot)
+    assert "balls" in hints and "return" in hints
+
+
+@needs_gym
+def test_the_autoreset_example_of_docs_python_md():
+    text = (ROOT / "docs/python.md").read_text()
+    code = text.split("```python autoreset\n")[1].split("```")[0]
+    ns = {}
+    exec(compile(code.replace("print(", "mean = ("), "docs/python.md", "exec"), ns)
+    rewards = np.array(ns["rewards"])
+    assert rewards.shape == (10, 8) and (rewards != 0).all()  # every step is a shot
+    # the default mode pads every other step with reward 0 (the best reward)
+    envs = gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=8, vectorization_mode="sync")
+    envs.reset(seed=1)
+    r = np.array([envs.step(np.random.default_rng(t).normal(0, 0.1, (8, 2)))[1]
+                  for t in range(10)])
+    assert (r[1::2] == 0).all() and (r[0::2] != 0).all()
