@@ -193,15 +193,16 @@ VERDICT_COLS = ["measure", "comparison", "policy", "cov", "arm_a", "variant_a", 
                 "verdict"]
 
 
-def write_verdicts(out, runs):
-    idx = {(r["arm"], r["variant"], r["repetition"]): r for r in runs}
+def verdict_rows(runs):
+    """The rows of verdicts.csv that runs gives."""
+    idx = {(r["arm"], r["variant"], int(r["repetition"])): r for r in runs}
     rows = []
     for measure, col in (("sampled", "final_return"), ("mean_action", "mean_action_return")):
         fam = []
         for aa, va, ab, vb, name, p, c in comparisons(runs):
             ks = sorted(k for (a, v, k) in idx if (a, v) == (aa, va) and (ab, vb, k) in idx)
-            x = [idx[(aa, va, k)][col] for k in ks]
-            y = [idx[(ab, vb, k)][col] for k in ks]
+            x = [float(idx[(aa, va, k)][col]) for k in ks]
+            y = [float(idx[(ab, vb, k)][col]) for k in ks]
             m, lo, hi, pv, n = paired(x, y)
             fam.append({"measure": measure, "comparison": name, "policy": p, "cov": c,
                         "arm_a": aa, "variant_a": va, "arm_b": ab, "variant_b": vb, "n": n,
@@ -212,14 +213,36 @@ def write_verdicts(out, runs):
             r["verdict"] = ("no sig. change" if ph >= ALPHA else
                             "improves" if r["diff"] > 0 else "degrades")
         rows += fam
-    write_csv(os.path.join(out, "verdicts.csv"), VERDICT_COLS, rows)
+    return rows
+
+
+def write_verdicts(out, runs):
+    write_csv(os.path.join(out, "verdicts.csv"), VERDICT_COLS, verdict_rows(runs))
+
+
+def same_field(want, have):
+    """A recomputed field against its CSV text: numbers to the CSV's nine
+    significant digits (runs.csv is rounded too), words exactly."""
+    if isinstance(want, float):
+        h = float(have)
+        return math.isclose(want, h, rel_tol=1e-6, abs_tol=1e-12)
+    return str(want) == have
 
 
 # ---- tables ----
 
 def read_dir(d):
     runs = exp_data.read_csv(os.path.join(d, "runs.csv"), RUN_COLS)
-    ver = exp_data.read_csv(os.path.join(d, "verdicts.csv"), VERDICT_COLS)
+    path = os.path.join(d, "verdicts.csv")
+    ver = exp_data.read_csv(path, VERDICT_COLS)
+    want = verdict_rows(runs)
+    if len(want) != len(ver):
+        die(f"{path}: {len(ver)} rows, runs.csv gives {len(want)}; run exp4_study.py collect")
+    for line, (w, h) in enumerate(zip(want, ver), start=2):
+        for c in VERDICT_COLS:
+            if not same_field(w[c], h[c]):
+                die(f"{path}:{line}: {c} is {h[c]}, runs.csv gives {fmt(w[c])}; "
+                    "run exp4_study.py collect")
     return runs, ver
 
 

@@ -297,3 +297,30 @@ def test_docs_check_fails_on_a_changed_number(tmp_path):
                         str(ROOT / "docs" / "exp4_study"), "--doc", str(doc), "--check"],
                        capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 1 and "controls" in p.stderr
+
+
+def test_docs_refuse_verdicts_not_those_of_the_runs(tmp_path):
+    """verdicts.csv (the differences, p-values and verdict words the tables
+    print) must be what runs.csv gives: a run's return changed, or a verdict
+    word edited, is refused by `docs` and by `docs --check`."""
+    src = ROOT / "docs" / "exp4_study"
+    for name in ("runs.csv", "verdicts.csv", "timing.csv", "curves.csv"):
+        (tmp_path / name).write_text((src / name).read_text())
+    runs = (tmp_path / "runs.csv").read_text().splitlines()
+    head = runs[0].split(",")
+    row = runs[1].split(",")
+    col = head.index("final_return")
+    row[col] = repr(float(row[col]) + 0.5)
+    (tmp_path / "runs.csv").write_text("\n".join([runs[0], ",".join(row)] + runs[2:]) + "\n")
+    doc = tmp_path / "exp4.md"
+    doc.write_text((ROOT / "docs" / "exp4.md").read_text())
+    for extra in ([], ["--check"]):
+        p = subprocess.run([PY, str(ROOT / "scripts" / "exp4_study.py"), "docs", str(tmp_path),
+                            "--doc", str(doc)] + extra, capture_output=True, text=True, cwd=ROOT)
+        assert p.returncode != 0 and "verdicts.csv" in p.stderr, (extra, p.stderr)
+    (tmp_path / "runs.csv").write_text((src / "runs.csv").read_text())
+    ver = (tmp_path / "verdicts.csv").read_text()
+    (tmp_path / "verdicts.csv").write_text(ver.replace(",degrades\n", ",improves\n", 1))
+    p = subprocess.run([PY, str(ROOT / "scripts" / "exp4_study.py"), "docs", str(tmp_path),
+                        "--doc", str(doc), "--check"], capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode != 0 and "verdicts.csv" in p.stderr, p.stderr
