@@ -23,6 +23,9 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DATA = os.path.join(ROOT, "docs", "data")
 IDLE_SHARE = 0.1
+# the whole `make reproduce` after the install step: build, runs, figures,
+# report (load.csv's wall_s); 'total' of timings.csv stops before the report
+END = "end to end"
 FILES = [os.path.join(ROOT, "README.md"), os.path.join(ROOT, "docs", "benchmarks.md")]
 
 
@@ -67,6 +70,7 @@ def record_reproduce(out, allow_busy=False):
     steps = read_csv(os.path.join(out, "timings.csv"))
     if not steps or steps[0]["step"] != "build":
         sys.exit(f"gen_timings.py: {out}/timings.csv: no build row (run `make reproduce`)")
+    steps.append({"step": END, "seconds": load["wall_s"]})
     rows = [dict(s, machine=machine(), others_share=load["others_share"]) for s in steps]
     write_csv(os.path.join(DATA, "timing_reproduce.csv"), rows,
               ["step", "seconds", "others_share", "machine"])
@@ -92,7 +96,7 @@ def blocks():
     rep = read_csv(os.path.join(DATA, "timing_reproduce.csv"))
     chk = read_csv(os.path.join(DATA, "timing_check.csv"))
     sec = {r["step"]: float(r["seconds"]) for r in rep}
-    total = sec["total"]
+    total = sec[END]
     runs = sum(v for k, v in sec.items() if k.endswith(": run"))
     figs = sum(v for k, v in sec.items() if k.endswith(": figures"))
     mach = rep[0]["machine"]

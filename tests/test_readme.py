@@ -92,4 +92,4 @@ def test_a_full_reproduction_here_takes_at_most_twice_the_readme_figure():
     steps = dict(line.split(",") for line in (res / "timings.csv").read_text().splitlines()[1:])
     if "build" not in steps:
         pytest.skip("results/ was not written by `make reproduce`")
-    assert float(steps["total"]) <= 2 * readme_reproduce_seconds()
+    assert float(load[1]) <= 2 * readme_reproduce_seconds()   # wall_s: end to end
