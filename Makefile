@@ -249,13 +249,14 @@ check-py: export POOLREPS_STAGE := $(STAGE)
 # runtimes preloaded: the binding's tests run apart, with them and with the
 # interpreter's own leaks suppressed (the pip test needs no second run)
 ifeq ($(SAN),1)
-check-py: export PYTEST_ADDOPTS := --ignore=tests/test_python.py --ignore=tests/test_python_install.py
+check-py: export PYTEST_ADDOPTS := --ignore=tests/test_python.py --ignore=tests/test_python_install.py --ignore=tests/test_gym.py
 check-py: check-pybind
 check-pybind: $(SOLIB) $(BUILD)/poolreps
 	PYTEST_ADDOPTS= LC_ALL=C POOLREPS=$(abspath $(BUILD)/poolreps) POOLREPS_LIB=$(abspath $(SOLIB)) \
 	  LD_PRELOAD="$(shell $(CC) -print-file-name=libasan.so) $(shell $(CC) -print-file-name=libubsan.so)" \
 	  LSAN_OPTIONS=suppressions=$(abspath tests/lsan-python.supp):print_suppressions=0 \
-	  $(PYTHON) -m pytest -q -p no:cacheprovider tests/test_python.py
+	  $(PYTHON) -m pytest -q -p no:cacheprovider -m "not native" \
+	  -k "not fast_enough" tests/test_python.py tests/test_gym.py
 endif
 
 # Experiment 5 (docs/baselines.md): SB3 (CPU torch) and pycma from PyPI in
