@@ -9,9 +9,11 @@
 # log (or exit code 99, which fails the test that saw it) fails this script.
 #
 # Environment: JOBS, pytest workers; VALGRIND_PYTEST_ARGS, passed to pytest; the default,
-#   -m "not slow and not native" --ignore=tests/test_exp3.py
-# skips tests marked slow and Experiment 3's (minutes each under valgrind),
-# which keeps the run near 4 minutes on 2 cores. E.g.
+#   -m "not slow and not native" --ignore=tests/test_exp3.py (and the
+#   study tests: test_sensitivity, test_exp4_controls, test_baselines)
+# skips tests marked slow, Experiment 3's and the studies' (they run whole
+# studies, minutes each under valgrind; make check SAN=1 runs them),
+# the run prints its length at the end. E.g.
 # VALGRIND_PYTEST_ARGS='-k badinput' runs the bad-input suite alone.
 set -u
 if [ $# -lt 1 ] || [ -z "$1" ]; then
@@ -56,7 +58,9 @@ chmod +x "$wrapper" || exit 1
 if [ -n "${VALGRIND_PYTEST_ARGS+set}" ]; then
 	eval "set -- $VALGRIND_PYTEST_ARGS"
 else
-	set -- -m "not slow and not native" --ignore=tests/test_exp3.py
+	set -- -m "not slow and not native" --ignore=tests/test_exp3.py \
+		--ignore=tests/test_sensitivity.py --ignore=tests/test_exp4_controls.py \
+		--ignore=tests/test_baselines.py
 fi
 export LC_ALL=C POOLREPS="$wrapper" POOLREPS_TIMEOUT_SCALE=30 PYTHON="$py"
 start=$(date +%s)
