@@ -303,7 +303,7 @@ static void on_signal(int sig)
 	say_now("poolreps: interrupted by ");
 	say_now(signal_name(sig));
 	say_now(pr_committed ? ": the outputs were already complete and are kept\n"
-	                     : ": partial output files removed, existing files left as they were\n");
+	                     : ": partial output files removed, every existing file left as it was\n");
 	_exit(pr_committed ? 0 : 128 + sig);
 }
 
