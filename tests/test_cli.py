@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from conftest import ROOT, poolreps_path, run_cmd
+from conftest import ROOT, poolreps_path, run_cmd, timeout_scale
 
 COMMON_LONG = {"set", "seed", "help", "version", "progress"}
 CORE_COMMANDS = {"run", "shoot", "forest", "reps", "policy"}
@@ -254,9 +254,11 @@ def test_exit_code_interrupted_component_command(tmp_path):
     p = subprocess.Popen([binary(), "shoot", "-o", tmp_path / "out.csv"],
                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
-        time.sleep(0.5)
+        # time to install the handlers: a process under valgrind (scale 30)
+        # starts slower than 0.5 s, more so on busy workers
+        time.sleep(0.5 * min(timeout_scale(), 10))
         p.send_signal(signal.SIGINT)
-        _, err = p.communicate(timeout=30)
+        _, err = p.communicate(timeout=30 * timeout_scale())
     finally:
         p.kill()
         p.stdin.close()
