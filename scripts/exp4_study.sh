@@ -38,9 +38,7 @@ arm() {
 	floor0) echo "--set exp4.inits=imitation,policy,matched --set exp4.covs=residual --set policy.min_std=1e-9" ;;
 	esac
 }
-now() { date +%s.%N; }
-since() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.1f", b - a }'; }
-load() { cut -d' ' -f1 /proc/loadavg 2>/dev/null || echo nan; }
+. "$here/study_lib.sh"
 # cpu FILE: user + system seconds of this shell's finished children, from
 # `times` written to FILE by the shell itself (a subshell has its own)
 cpu() { awk 'NR == 2 { split($1, u, "m"); split($2, s, "m"); printf "%.1f", u[1] * 60 + u[2] + s[1] * 60 + s[2] }' "$1"; }

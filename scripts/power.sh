@@ -31,9 +31,7 @@ arm() {
 	stepped05) echo "--set sim.mode=stepped --set sim.dt=0.0005" ;;
 	esac
 }
-now() { date +%s.%N; }
-since() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.1f", b - a }'; }
-load() { cut -d' ' -f1 /proc/loadavg 2>/dev/null || echo nan; }
+. "$here/study_lib.sh"
 # merge_arm NAME: collect the sweep OUT/runs/NAME, its one grid point into OUT/NAME
 merge_arm() {
 	"$POOLREPS" collect -q "$out/runs/$1"

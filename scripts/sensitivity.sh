@@ -27,9 +27,7 @@ export POOLREPS="${POOLREPS:-./poolreps}"
 here=$(dirname "$0")
 POINTS=${SENSITIVITY_POINTS:-$("$py" "$here/sensitivity_stats.py" --points)}
 
-now() { date +%s.%N; }
-since() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.1f", b - a }'; }
-load() { cut -d' ' -f1 /proc/loadavg 2>/dev/null || echo nan; }
+. "$here/study_lib.sh"
 
 mkdir -p "$out/runs"
 list="$out/runs/jobs.txt"

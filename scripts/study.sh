@@ -20,8 +20,7 @@ out=$1; reps=$2; seeds=$3; data=$4; docs=$5; py=$6
 jobs=${POWER_JOBS:-2}
 export POOLREPS="${POOLREPS:-./poolreps}"
 here=$(dirname "$0")
-now() { date +%s.%N; }
-since() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.1f", b - a }'; }
+. "$here/study_lib.sh"
 
 mkdir -p "$out"
 t0=$(now)
