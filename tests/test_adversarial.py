@@ -492,9 +492,13 @@ def test_sweep_missing_into_a_closed_pipe_is_sigpipe(tmp_path, sweeps):
     for prov in (tmp_path / "s").glob("point-*/runs/*/provenance.txt"):
         prov.unlink()
     before = snapshot(tmp_path)
+    # the reader is closed before the command starts: closing it after the
+    # start raced with the write, which fits in the pipe's buffer
+    r, w = os.pipe()
+    os.close(r)
     p = subprocess.Popen([binary(), "sweep", "--missing", "s"], cwd=tmp_path, env=env(),
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    p.stdout.close()
+                         stdout=w, stderr=subprocess.PIPE)
+    os.close(w)
     err = p.stderr.read()
     p.wait(timeout=60)
     assert p.returncode == 128 + signal.SIGPIPE, err
