@@ -29,8 +29,13 @@ endif
 ALL_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc $(shell pkg-config --cflags $(PKGS) 2>/dev/null) $(CFLAGS) -MMD -MP
 LIBS    := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lglpk -lcsv -linih -lnlopt -lpthread -lm
 
-LIB_SRC := $(filter-out src/main.c,$(wildcard src/*.c))
+LIB_SRC := $(wildcard src/*.c)
 LIB_OBJ := $(LIB_SRC:src/%.c=$(BUILD)/%.o)
+# the command line (src/cli): linked into the poolreps executable alone, and
+# compiled against the public headers only, as any other program would be
+CLI_SRC := $(wildcard src/cli/*.c)
+CLI_OBJ := $(CLI_SRC:src/%.c=$(BUILD)/%.o)
+CLI_CFLAGS = $(WARN) $(DEFS) -Iinclude $(shell pkg-config --cflags $(PKGS) 2>/dev/null) $(CFLAGS) -MMD -MP
 LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
@@ -43,13 +48,19 @@ all: poolreps
 lib: $(LIB)
 
 # flags live here: a changed Makefile rebuilds everything
-$(LIB_OBJ) $(BUILD)/main.o: Makefile
+$(LIB_OBJ) $(CLI_OBJ): Makefile
 
 $(BUILD)/%.o: src/%.c | $(BUILD)
 	$(CC) $(ALL_CFLAGS) -c $< -o $@
 
+$(BUILD)/cli/%.o: src/cli/%.c | $(BUILD)/cli
+	$(CC) $(CLI_CFLAGS) -c $< -o $@
+
 $(BUILD):
 	mkdir -p $(BUILD)/tests
+
+$(BUILD)/cli:
+	mkdir -p $@
 
 # the version string is compiled into common.o: rebuild it when git describe changes
 $(BUILD)/version.stamp: FORCE | $(BUILD)
@@ -61,7 +72,7 @@ $(LIB): $(LIB_OBJ)
 	rm -f $@
 	ar rcs $@ $^
 
-$(BUILD)/poolreps: $(BUILD)/main.o $(LIB)
+$(BUILD)/poolreps: $(CLI_OBJ) $(LIB)
 	$(CC) $(LDFLAGS) $^ $(LIBS) -o $@
 
 poolreps: $(BUILD)/poolreps
@@ -97,7 +108,10 @@ fuzz:
 FUZZ_BIN := $(patsubst tests/fuzz/%.c,$(BUILD)/%,$(wildcard tests/fuzz/fuzz_*.c))
 fuzz-bin: $(FUZZ_BIN)
 $(FUZZ_BIN): $(BUILD)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(LIB)
-	$(CC) $(ALL_CFLAGS) $(LDFLAGS) -fsanitize=fuzzer $< $(LIB) $(LIBS) -o $@
+	$(CC) $(ALL_CFLAGS) $(LDFLAGS) -fsanitize=fuzzer $< $(filter %.o,$^) $(LIB) $(LIBS) -o $@
+# the shoot harness drives the command line's shoot (src/cli/cmd_shoot.c)
+$(BUILD)/fuzz_shoot: $(BUILD)/cli/cmd_shoot.o
+$(BUILD)/fuzz_shoot: ALL_CFLAGS += -Isrc/cli
 
 valgrind: $(BUILD)/poolreps
 	sh scripts/valgrind.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"
@@ -216,8 +230,10 @@ $(LIB_OBJ): CFLAGS += -fPIC -fno-semantic-interposition
 all: $(SOLIB)
 shared: $(SOLIB)
 
-$(SOLIB): $(LIB_OBJ)
-	$(CC) -shared -Wl,-soname,$(SONAME) -Wl,-z,defs $(LDFLAGS) $^ $(LIBS) -o $@
+# src/libpoolreps.map: the exports, exactly what include/poolreps/*.h declare
+# (scripts/exports.py writes it; tests/test_exports.py checks it against nm -D)
+$(SOLIB): $(LIB_OBJ) src/libpoolreps.map
+	$(CC) -shared -Wl,-soname,$(SONAME) -Wl,-z,defs -Wl,--version-script=src/libpoolreps.map $(LDFLAGS) $(LIB_OBJ) $(LIBS) -o $@
 	ln -sf libpoolreps.so.$(LIB_VERSION) $(BUILD)/$(SONAME)
 	ln -sf $(SONAME) $(BUILD)/libpoolreps.so
 
@@ -319,4 +335,4 @@ else ifeq ($(filter clean,$(MAKECMDGOALS)),)
   endif
 endif
 
--include $(LIB_OBJ:.o=.d) $(BUILD)/main.d
+-include $(LIB_OBJ:.o=.d) $(CLI_OBJ:.o=.d)

@@ -14,7 +14,7 @@
 
 /* ---- clean-up on fatal signals ----
  * Temporary files and staging folders are registered while they exist; a
- * signal handler calls pr_cleanup_run, which removes them using only
+ * signal handler calls pr_cleanup_run (common.h), which removes them using only
  * async-signal-safe calls. pr_cleanup_hold blocks the fatal signals in the
  * calling thread around a step that must not be cut in half (renaming a set
  * of finished files into place); pr_cleanup_release delivers them after. */
@@ -26,7 +26,6 @@ void pr_cleanup_remove_file(const char *path);
  * runs, two deep): pr_cleanup_clear_dir forgets the last one set. */
 void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep);
 void pr_cleanup_clear_dir(void);
-void pr_cleanup_run(void);
 /* Remove dir and everything below it (8 folders deep; symlinks themselves,
  * never their targets) with system calls only: no allocation, so it works
  * when memory ran out and inside a signal handler. */
@@ -41,12 +40,7 @@ int pr_cleanup_staged(const char *path);
  * before the signals are released, so that a signal that arrived meanwhile
  * no longer claims that nothing was written: the outputs are complete. */
 void pr_commit_end(const sigset_t *old, int rc, const char *target);
-extern volatile sig_atomic_t pr_committed;
-/* The fatal signals the CLI handles: SIGINT, SIGTERM, SIGHUP, SIGQUIT,
- * SIGPIPE, SIGXFSZ, SIGXCPU, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPOLL,
- * SIGPWR, SIGSTKFLT (every one whose default ends the process, but the
- * faults of a bug); terminated by 0. */
-extern const int pr_fatal_signals[];
+/* pr_committed, pr_fatal_signals and pr_cleanup_run: common.h */
 /* The status of a failed system call by errno: PR_ENOMEM for ENOMEM (the
  * kernel or the C library ran out of memory: exit 4), else PR_EIO. */
 int pr_errno_status(void);

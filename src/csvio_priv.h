@@ -15,7 +15,7 @@ void pr_csv_format_double(double v, char *buf, size_t n);
  * unterminated quoted field is an error), fed in blocks, with every limit
  * applied as the bytes arrive, so memory stays bounded whatever the input
  * (/dev/zero, an endless quoted field, an endless line): a NUL byte, a field
- * over PR_CSV_MAX_FIELD bytes, a line or record over PR_CSV_MAX_LINE bytes,
+ * over PR_CSV_MAX_FIELD bytes (csvio.h), a line or record over PR_CSV_MAX_LINE bytes,
  * more than PR_CSV_MAX_COLS fields. A UTF-8 byte-order mark is skipped. The
  * first record is the header: names are trimmed of trailing blanks and must
  * be non-empty, free of control characters and distinct. Every data record
@@ -24,7 +24,6 @@ void pr_csv_format_double(double v, char *buf, size_t n);
  * during the call) and the file line the record ends on; a non-zero return
  * stops the scan with that status (message in err). path NULL or "-" reads
  * stdin, shown as "<stdin>". */
-#define PR_CSV_MAX_FIELD 4096
 #define PR_CSV_MAX_LINE (1L << 24)
 #define PR_CSV_MAX_COLS 100000
 enum { PR_CSV_COMPLETE = 1 }; /* flag: the last line must end with a line end */

@@ -509,7 +509,7 @@ static void put_record(FILE *fp, const char *s)
 
 typedef struct {
 	const pr_config *cfg;
-	const pr_cmd_args *a;
+	const pr_provenance *prov;
 	const pr_names *files;
 	double wall;
 } provenance;
@@ -529,9 +529,9 @@ static void provenance_text(FILE *fp, const void *arg)
 	fprintf(fp, "version: %s\n", pr_version());
 	fprintf(fp, "command:");
 	/* control characters escaped: an argument never starts a line of its own */
-	for (i = 0; i < p->a->argc; ++i) {
+	for (i = 0; i < p->prov->argc; ++i) {
 		fputc(' ', fp);
-		shell_word(fp, p->a->argv[i], 1);
+		shell_word(fp, p->prov->argv[i], 1);
 	}
 	fprintf(fp, "\nexperiment: %s\nseed: %lu\nrepetition: %d\nparameter_file: ",
 	        p->cfg->run.name, p->cfg->run.seed, p->cfg->run.repetition);
@@ -553,12 +553,12 @@ static void provenance_text(FILE *fp, const void *arg)
 	fprintf(fp, " provenance.txt\n");
 }
 
-static int write_provenance(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
+static int write_provenance(const pr_config *cfg, const pr_provenance *prov, const char *dir,
                             double wall, char *err)
 {
 	char path[2 * PR_PATHLEN];
 	pr_names files = {NULL, 0};
-	provenance p = {cfg, a, &files, wall};
+	provenance p = {cfg, prov, &files, wall};
 	int rc;
 
 	if ((rc = pr_outdir_list(dir, &files, err)))
@@ -588,9 +588,9 @@ void pr_outdir_unstage(char *err, const char *staging, const char *dir)
 	}
 }
 
-int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
-                  int (*work)(const pr_config *, const char *, const pr_cmd_args *, char *),
-                  char *err)
+int pr_outdir_run(const pr_config *cfg, const pr_provenance *prov, const char *dir,
+                  int (*work)(const pr_config *, const char *, const void *, char *),
+                  const void *arg, char *err)
 {
 	char staging[PR_PATHLEN];
 	struct timespec t0;
@@ -625,11 +625,11 @@ int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
 		return rc;
 	}
 	pr_cleanup_set_dir(staging, dir, keep);
-	rc = work(cfg, staging, a, err);
+	rc = work(cfg, staging, arg, err);
 	if (rc == PR_OK)
 		rc = pr_outdir_write_config(cfg, staging, err);
 	if (rc == PR_OK)
-		rc = write_provenance(cfg, a, staging, seconds_since(&t0), err);
+		rc = write_provenance(cfg, prov, staging, seconds_since(&t0), err);
 	if (rc == PR_OK && !pr_interrupted) {
 		pr_outdir_pub pub = {staging, dir, 1, 1, {NULL, 0}, {NULL, 0}, NULL, -1};
 		rc = pr_outdir_publish(&pub, 1, err);

@@ -1,12 +1,12 @@
 /* outdir.h — output folders written all or nothing (outdir.c), shared by
- * the commands that write a folder: run, merge, sweep. */
+ * the operations that write a folder: run, merge, sweep (rundir.h). */
 #ifndef POOLREPS_OUTDIR_H
 #define POOLREPS_OUTDIR_H
 
 #include <stddef.h>
 #include <stdio.h>
 
-#include "poolreps/cmd.h"
+#include "poolreps/config.h"
 #include "common_priv.h"
 
 /* A list of file names. */
@@ -70,8 +70,8 @@ void pr_outdir_sweep_stale(const char *dir);
 /* Create dir, run work into a staging folder inside it, add config.ini and
  * provenance.txt (version, command line, seed, host, timings, the files
  * the run owns), and move everything into dir only if all succeeded. */
-int pr_outdir_run(const pr_config *cfg, const pr_cmd_args *a, const char *dir,
-                  int (*work)(const pr_config *, const char *, const pr_cmd_args *, char *),
-                  char *err);
+int pr_outdir_run(const pr_config *cfg, const pr_provenance *prov, const char *dir,
+                  int (*work)(const pr_config *, const char *, const void *, char *),
+                  const void *arg, char *err);
 
 #endif

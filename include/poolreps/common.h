@@ -43,6 +43,12 @@ int pr_exit_code(int status);
 /* The version string: git describe at build time, or the tarball version. */
 const char *pr_version(void);
 
+/* The command line an output folder's provenance.txt records, as typed. */
+typedef struct {
+	int argc;
+	char **argv;
+} pr_provenance;
+
 /* Set by the CLI's signal handler to the signal number; long loops poll it
  * and return PR_EINTR. */
 extern volatile sig_atomic_t pr_interrupted;
@@ -50,5 +56,18 @@ extern volatile sig_atomic_t pr_interrupted;
  * PR_ENOMEM, in any thread): the command's failure is then out of memory,
  * whatever status the code above it turned the report into. */
 extern volatile sig_atomic_t pr_out_of_memory;
+
+/* ---- for a program's signal handler (the CLI's) ----
+ * The fatal signals the CLI handles: SIGINT, SIGTERM, SIGHUP, SIGQUIT,
+ * SIGPIPE, SIGXFSZ, SIGXCPU, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPOLL,
+ * SIGPWR, SIGSTKFLT (every one whose default ends the process, but the
+ * faults of a bug); terminated by 0. */
+extern const int pr_fatal_signals[];
+/* Remove every temporary file and staging folder the library has
+ * registered, with async-signal-safe calls only. */
+void pr_cleanup_run(void);
+/* Set when a command's outputs are all in place (its commit point): a
+ * signal after it no longer means that nothing was written. */
+extern volatile sig_atomic_t pr_committed;
 
 #endif

@@ -5,6 +5,9 @@
 
 #include "poolreps/common.h"
 
+/* The longest field (a column name included) any CSV reader accepts. */
+#define PR_CSV_MAX_FIELD 4096
+
 /* A numeric table with a header row. Rows are stored row-major. */
 typedef struct pr_csv pr_csv;
 

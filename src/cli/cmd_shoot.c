@@ -12,9 +12,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "poolreps/cmd.h"
 #include "poolreps/csvio.h"
 #include "poolreps/sim.h"
+#include "cli.h"
 
 /* Column of each expected name, or an error naming the first missing one. */
 static int map_columns(const pr_csv *in, int n, int *col, char *err)
@@ -117,7 +117,7 @@ static int write_trace(pr_csvw *w, long shot, const pr_sim_trace *tr)
 	return rc;
 }
 
-int pr_cmd_shoot(const pr_config *cfg, const pr_cmd_args *a, char *err)
+int pr_cmd_shoot(const pr_config *cfg, const shoot_args *a, char *err)
 {
 	pr_csv *in = NULL;
 	pr_sim *sim = NULL;
@@ -205,3 +205,24 @@ done:
 	pr_csv_free(in);
 	return rc;
 }
+
+static int shoot_main(const pr_config *cfg, const void *opts, char *err)
+{
+	return pr_cmd_shoot(cfg, opts, err);
+}
+
+static const cli_opt shoot_opts[] = {
+	CLI_COMMON_C, CLI_OPT("i", CLI_STR, shoot_args, input), CLI_OPT("o", CLI_STR, shoot_args, output),
+	CLI_COMMON_SET, CLI_OPT("trace", CLI_STR, shoot_args, trace),
+	CLI_OPT("keep", CLI_FLAG, shoot_args, keep), CLI_END
+};
+
+const cli_command cli_shoot = {
+	"shoot",
+	"poolreps shoot [-c FILE] [-i IN.csv] [-o OUT.csv] [--trace TRACE.csv] [--keep]\n"
+	"  One shot per input row. Input columns x0,y0,x1,y1,...,vx,vy. Output columns\n"
+	"  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events.\n"
+	"  --keep copies the input columns in front; the final positions are then\n"
+	"  final_x0,final_y0,...",
+	shoot_opts, sizeof(shoot_args), "table.,sim.,reward.", CLI_OPS_NONE, 0, NULL, shoot_main
+};

@@ -18,10 +18,17 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "poolreps/cmd.h"
 #include "poolreps/csvio.h"
 #include "poolreps/reps.h"
-#include "cmd_util.h"
+#include "cli.h"
+
+/* The options of `poolreps reps` (its table: cli_reps below). */
+typedef struct {
+	const char *input, *output, *ret, *features, *base, *summary;
+	double epsilon; /* --epsilon, used when epsilon_set */
+	int epsilon_set;
+	char *note;     /* a remark (the KL bound unreachable) printed after a success */
+} reps_args;
 
 static int write_weights(pr_csvw *w, const pr_reps_result *r)
 {
@@ -65,7 +72,7 @@ typedef struct {
 } arrays;
 
 /* The REPS problem of table in: returns, base weights and features. */
-static int read_problem(const pr_cmd_args *a, const pr_csv *in, pr_reps_problem *pb, arrays *m,
+static int read_problem(const reps_args *a, const pr_csv *in, pr_reps_problem *pb, arrays *m,
                         char *err)
 {
 	int rcol, bcol = -1, d = 0, j, rc;
@@ -94,7 +101,7 @@ static int read_problem(const pr_cmd_args *a, const pr_csv *in, pr_reps_problem 
 	return PR_OK;
 }
 
-int pr_cmd_reps(const pr_config *cfg, const pr_cmd_args *a, char *err)
+static int pr_cmd_reps(const pr_config *cfg, const reps_args *a, char *err)
 {
 	pr_reps_opts o = cfg->reps;
 	pr_reps_problem pb = { 0 };
@@ -145,3 +152,40 @@ done:
 	free(m.phi);
 	return rc;
 }
+
+static int reps_main(const pr_config *cfg, const void *opts, char *err)
+{
+	return pr_cmd_reps(cfg, opts, err);
+}
+
+/* --epsilon E: a number in (0, 1e6] */
+static const char *parse_epsilon(const char *arg, void *target)
+{
+	double *v = target;
+	char *end;
+
+	*v = strtod(arg, &end);
+	return end == arg || *end || !(*v > 0) || *v > 1e6 ? "a number > 0 and <= 1e6" : NULL;
+}
+
+static const cli_opt reps_opts[] = {
+	CLI_COMMON_C, CLI_OPT("i", CLI_STR, reps_args, input), CLI_OPT("o", CLI_STR, reps_args, output),
+	CLI_COMMON_SET, CLI_OPT("return", CLI_STR, reps_args, ret),
+	CLI_OPT("features", CLI_STR, reps_args, features), CLI_OPT("base", CLI_STR, reps_args, base),
+	CLI_OPT_NUMBER("epsilon", reps_args, epsilon, epsilon_set, parse_epsilon),
+	CLI_OPT("summary", CLI_STR, reps_args, summary), CLI_GIVEN(CLI_NOTE, reps_args, note), CLI_END
+};
+
+const cli_command cli_reps = {
+	"reps",
+	"poolreps reps --return COL --features LIST [--base COL] [--epsilon E]\n"
+	"              [--summary FILE] [-i IN.csv] [-o OUT.csv]\n"
+	"  REPS weights p for every input row; LIST is a comma list of columns or a\n"
+	"  prefix ending in '*'. --summary writes one row eta,dual,kl,ess,bound,residual,\n"
+	"  iterations,kl_gap,residual_rel,status,rank,cond,path: the certificate; status is\n"
+	"  active (|KL - epsilon| and the relative feature residual <= 1e-9), unreachable\n"
+	"  (eta = 0: p is the eta -> 0 limit, KL < epsilon) or failed, which exits 3; rank,\n"
+	"  cond and path say what the solver did (feature directions used, condition\n"
+	"  estimate of its last Hessian, steps taken).",
+	reps_opts, sizeof(reps_args), "reps.", CLI_OPS_NONE, 0, NULL, reps_main
+};

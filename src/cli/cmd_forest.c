@@ -21,11 +21,17 @@
 
 #include <gsl/gsl_rng.h>
 
-#include "poolreps/cmd.h"
 #include "poolreps/csvio.h"
 #include "poolreps/forest.h"
-#include "cmd_util.h"
-#include "csvio_priv.h"
+#include "cli.h"
+
+/* The options of `poolreps forest` (its table: cli_forest below). */
+typedef struct {
+	const char *output, *train, *test, *target, *weight, *leaves;
+	const char *save, *load; /* --save FILE, --load FILE: a fitted forest */
+	int quiet;
+	char *note; /* the timings and the test MSE, printed after a success */
+} forest_args;
 
 static double seconds(void)
 {
@@ -101,7 +107,7 @@ static void tables_free(tables *t)
 }
 
 /* Read both tables and find the columns: every check before any fit. */
-static int read_tables(const pr_config *cfg, const pr_cmd_args *a, tables *t, char *err)
+static int read_tables(const pr_config *cfg, const forest_args *a, tables *t, char *err)
 {
 	int ncol, rc;
 	long n;
@@ -162,7 +168,7 @@ static int read_tables(const pr_config *cfg, const pr_cmd_args *a, tables *t, ch
 
 /* The forest's timings and, when the test table holds the targets, the
  * test MSE, as the command's note. */
-static void note_fit(const pr_cmd_args *a, const tables *t, const pr_forest *f, const double *P,
+static void note_fit(const forest_args *a, const tables *t, const pr_forest *f, const double *P,
                      double tfit, double tpred)
 {
 	long nt = pr_csv_nrows(t->te);
@@ -214,7 +220,7 @@ static int save_forest(pr_outset *set, const char *path, const pr_forest *f, con
 
 /* The predictions (-o) and, with --leaves, the leaves, into a new set that
  * the caller commits; with save, the forest's file joins the set first. */
-static int write_outputs(const pr_cmd_args *a, pr_outset **set, const pr_forest *f,
+static int write_outputs(const forest_args *a, pr_outset **set, const pr_forest *f,
                          const char **nm, int save, const double *Xt, long nt, const double *P,
                          const char *test, char *err)
 {
@@ -273,7 +279,7 @@ static int read_file(const char *path, char **text, size_t *len, char *err)
 }
 
 /* --load FILE: predict the test CSV with a saved forest. */
-static int forest_loaded(const pr_cmd_args *a, char *err)
+static int forest_loaded(const forest_args *a, char *err)
 {
 	pr_forest *f = NULL;
 	pr_csv *te = NULL;
@@ -327,7 +333,7 @@ done:
 	return rc;
 }
 
-int pr_cmd_forest(const pr_config *cfg, const pr_cmd_args *a, char *err)
+static int pr_cmd_forest(const pr_config *cfg, const forest_args *a, char *err)
 {
 	tables t = { 0 };
 	pr_forest *f = NULL;
@@ -396,3 +402,30 @@ done:
 	free(nm);
 	return rc;
 }
+
+static int forest_main(const pr_config *cfg, const void *opts, char *err)
+{
+	return pr_cmd_forest(cfg, opts, err);
+}
+
+static const cli_opt forest_opts[] = {
+	CLI_COMMON_C, CLI_OPT("o", CLI_STR, forest_args, output), CLI_COMMON_SET, CLI_COMMON_SEED,
+	CLI_OPT("train", CLI_STR, forest_args, train), CLI_OPT("test", CLI_STR, forest_args, test),
+	CLI_OPT("target", CLI_STR, forest_args, target), CLI_OPT("weight", CLI_STR, forest_args, weight),
+	CLI_OPT("leaves", CLI_STR, forest_args, leaves), CLI_OPT("save", CLI_STR, forest_args, save),
+	CLI_OPT("load", CLI_STR, forest_args, load), CLI_GIVEN(CLI_QUIET, forest_args, quiet),
+	CLI_GIVEN(CLI_NOTE, forest_args, note), CLI_END
+};
+
+const cli_command cli_forest = {
+	"forest",
+	"poolreps forest --train FILE --test FILE --target COLS [--weight COL] [--leaves FILE]\n"
+	"                [--save FOREST] [-o OUT.csv] [-c FILE] [--set forest.key=value]...\n"
+	"poolreps forest --load FOREST --test FILE [--leaves FILE] [-o OUT.csv]\n"
+	"  --save writes the fitted forest (text, format version 1, docs/forest.md);\n"
+	"  --load predicts with a saved one instead of fitting.\n"
+	"  Fit extra trees on the training CSV (inputs = every other column), predict the\n"
+	"  test CSV: one pred_<name> column per target. --leaves writes each test row's\n"
+	"  active leaf per tree. Timings and test MSE go to stderr (not with -q).",
+	forest_opts, sizeof(forest_args), "forest.,experiment.seed", CLI_OPS_NONE, 0, NULL, forest_main
+};

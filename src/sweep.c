@@ -1,6 +1,7 @@
-/* cmd_sweep.c — `poolreps sweep` and `poolreps collect`: a grid of parameter
- * values split into self-contained jobs for a Slurm array or GNU Parallel,
- * and the jobs' outputs merged back into one table over the grid.
+/* sweep.c — what `poolreps sweep` and `poolreps collect` do (rundir.h): a
+ * grid of parameter values split into self-contained jobs for a Slurm array
+ * or GNU Parallel, and the jobs' outputs merged back into one table over the
+ * grid.
  *
  * SWEEP_DIR as `sweep` writes it (staged, published only when complete):
  *   manifest.csv        one row per job: job,point,<grid keys>,repetition,
@@ -33,10 +34,10 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "poolreps/cmd.h"
 #include "poolreps/config.h"
 #include "poolreps/csvio.h"
 #include "poolreps/exp.h"
+#include "poolreps/rundir.h"
 #include "csvio_priv.h"
 #include "exp_priv.h"
 #include "outdir.h"
@@ -211,7 +212,7 @@ static int parse_axis(const char *arg, axis *ax, const grid *g, char *err)
 	return PR_OK;
 }
 
-static int parse_grid(const pr_cmd_args *a, grid *g, char *err)
+static int parse_grid(const pr_rundir_args *a, grid *g, char *err)
 {
 	int i, rc;
 
@@ -485,8 +486,9 @@ static int sweep_point(sweep_out *s, long p, char *err)
 
 /* pr_outdir_run's work: dir is SWEEP_DIR/.partial-TAG. A failure removes
  * what this wrote below dir; pr_outdir_run removes dir itself. */
-static int sweep_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a, char *err)
+static int sweep_work(const pr_config *cfg, const char *dir, const void *arg, char *err)
 {
+	const pr_rundir_args *a = arg;
 	sweep_out s;
 	grid g;
 	char path[PR_PATHLEN], *slash;
@@ -663,7 +665,7 @@ static int not_done(const char *root, const manifest *m, long nbad, char *err)
 
 /* sweep --missing SWEEP_DIR: the lines of jobs.txt whose jobs are not
  * done, written to standard output (the command's data, like a CSV to "-"). */
-static int print_missing(const char *root, char *err)
+int pr_rundir_missing(const char *root, char *err)
 {
 	manifest m;
 	char path[PR_PATHLEN], line[3 * PR_PATHLEN]; /* a job: three paths and options */
@@ -700,14 +702,12 @@ static int print_missing(const char *root, char *err)
 	return rc;
 }
 
-int pr_cmd_sweep(const pr_config *cfg, const pr_cmd_args *a, char *err)
+int pr_rundir_sweep(const pr_config *cfg, const pr_rundir_args *a, char *err)
 {
 	const pr_experiment *e = pr_exp_find(cfg->run.name);
 	char at[PR_WHERE_LEN];
 	int rc;
 
-	if (a->missing)
-		return print_missing(a->missing, err);
 	if (!cfg->source[0])
 		return pr_err(err, PR_EINVAL, "sweep: no parameter file given (poolreps sweep CONFIG "
 		              "--grid ... -o DIR)");
@@ -726,7 +726,7 @@ int pr_cmd_sweep(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	pr_outdir_sweep_stale(a->output);
 	if ((rc = check_empty(a->output, err)))
 		return rc;
-	return pr_outdir_run(cfg, a, a->output, sweep_work, err);
+	return pr_outdir_run(cfg, &a->prov, a->output, sweep_work, a, err);
 }
 
 /* ---- collect ---- */
@@ -755,8 +755,7 @@ static int same_config(const pr_config *pt, const char *mine, const char *merged
 }
 
 typedef struct {
-	const pr_config *cfg;
-	const pr_cmd_args *a;
+	const pr_rundir_args *a;
 	const char *root;
 	const manifest *m;
 	char stage[PR_PATHLEN];
@@ -823,7 +822,7 @@ static int check_grid_value(const collector *c, long i, int j, const pr_config *
 static int collect_point(collector *c, long p, long first, long last, char *err)
 {
 	const manifest *m = c->m;
-	pr_cmd_args ma;
+	pr_rundir_args ma;
 	pr_config pt;
 	pr_exp_table *t = NULL;
 	const pr_experiment *e;
@@ -841,15 +840,12 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 			fmt(in[i - first], PR_PATHLEN, "%s/%s", c->root, pr_exp_table_str(m->t, i, m->c_out));
 	fmt(out, sizeof out, "%s/%s", c->stage, point);
 	memset(&ma, 0, sizeof ma);
-	ma.command = "merge";
 	ma.output = out;
-	ma.quiet = 1;
 	ma.ninputs = (int)(last - first);
 	ma.inputs = in;
-	ma.argc = c->a->argc;
-	ma.argv = c->a->argv;
+	ma.prov = c->a->prov;
 	if (rc == PR_OK)
-		rc = pr_cmd_merge(c->cfg, &ma, err);
+		rc = pr_rundir_merge(&ma, err);
 	fmt(mine, sizeof mine, "%s/%s/config.ini", c->root, point);
 	fmt(path, sizeof path, "%s/config.ini", out);
 	pr_config_init(&pt, pr_exp_config);
@@ -953,7 +949,7 @@ static void unstage_collect(const collector *c, char *err)
 	pr_outdir_unstage(err, c->stage, c->root);
 }
 
-int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
+int pr_rundir_collect(const pr_rundir_args *a, char *err)
 {
 	collector c;
 	manifest m;
@@ -975,7 +971,6 @@ int pr_cmd_collect(const pr_config *cfg, const pr_cmd_args *a, char *err)
 		return rc;
 	}
 	memset(&c, 0, sizeof c);
-	c.cfg = cfg;
 	c.a = a;
 	c.root = a->inputs[0];
 	c.m = &m;

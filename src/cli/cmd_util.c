@@ -2,7 +2,7 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "cmd_util.h"
+#include "cli.h"
 
 int pr_cmd_check_rows(const pr_csv *t, char *err)
 {

@@ -22,11 +22,17 @@
 
 #include <gsl/gsl_rng.h>
 
-#include "poolreps/cmd.h"
 #include "poolreps/csvio.h"
 #include "poolreps/policy.h"
-#include "cmd_util.h"
-#include "csvio_priv.h"
+#include "cli.h"
+
+/* The options of `poolreps policy` (its table: cli_policy below). */
+typedef struct {
+	const char *input, *output, *train, *state, *action, *weight, *target;
+	const char *old_mean; /* --old-mean COLS: sampling means (policy.cov_center = old) */
+	long sample;          /* --sample N, 0 = none */
+	int sample_set;
+} policy_args;
 
 static int write_header(pr_csvw *w, const pr_csv *tr, const int *sc, int ds, const int *ac,
                         int da, int sampling)
@@ -105,7 +111,7 @@ static void samples_free(samples *m)
 }
 
 /* Read the training samples and the query states: every check before the fit. */
-static int read_samples(const pr_cmd_args *a, int reward, int old, samples *m, char *err)
+static int read_samples(const policy_args *a, int reward, int old, samples *m, char *err)
 {
 	int wcol = -1, dm = 0, j, rc;
 
@@ -195,7 +201,7 @@ static int fit_and_query(const pr_config *cfg, const samples *m, long ns, double
 	return rc;
 }
 
-int pr_cmd_policy(const pr_config *cfg, const pr_cmd_args *a, char *err)
+static int pr_cmd_policy(const pr_config *cfg, const policy_args *a, char *err)
 {
 	const int reward = cfg->policy.target == PR_TARGET_REWARD_STATE;
 	const int old = cfg->policy.cov_center == PR_COV_CENTER_OLD;
@@ -255,3 +261,40 @@ done:
 	free(draws);
 	return rc;
 }
+
+static int policy_main(const pr_config *cfg, const void *opts, char *err)
+{
+	return pr_cmd_policy(cfg, opts, err);
+}
+
+/* --sample N: an integer in 1..1000000 */
+static const char *parse_sample(const char *arg, void *target)
+{
+	long *v = target;
+	char *end;
+
+	*v = strtol(arg, &end, 10);
+	return end == arg || *end || *v < 1 || *v > 1000000 ? "an integer in 1..1000000" : NULL;
+}
+
+static const cli_opt policy_opts[] = {
+	CLI_COMMON_C, CLI_OPT("i", CLI_STR, policy_args, input), CLI_OPT("o", CLI_STR, policy_args, output),
+	CLI_COMMON_SET, CLI_COMMON_SEED, CLI_OPT("train", CLI_STR, policy_args, train),
+	CLI_OPT("state", CLI_STR, policy_args, state), CLI_OPT("action", CLI_STR, policy_args, action),
+	CLI_OPT("weight", CLI_STR, policy_args, weight),
+	CLI_OPT_NUMBER("sample", policy_args, sample, sample_set, parse_sample),
+	CLI_OPT("target", CLI_STR, policy_args, target),
+	CLI_OPT("old-mean", CLI_STR, policy_args, old_mean), CLI_END
+};
+
+const cli_command cli_policy = {
+	"policy",
+	"poolreps policy --train FILE --state COLS --action COLS --weight COL [--sample N]\n"
+	"                [--target COLS] [--old-mean COLS] [-i STATES.csv] [-o OUT.csv]\n"
+	"                [--set policy.key=value]...\n"
+	"  Fit the tree-LWR Gaussian policy; write mean and covariance (and N samples)\n"
+	"  for every state row of the input. policy.target = reward_state needs --target\n"
+	"  (the training rows' final reward-ball positions); policy.cov_center = old\n"
+	"  needs --old-mean (the means of the policies that drew the training rows).",
+	policy_opts, sizeof(policy_args), "policy.,experiment.seed", CLI_OPS_NONE, 0, NULL, policy_main
+};

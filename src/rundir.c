@@ -1,6 +1,6 @@
-/* cmd_run.c — `poolreps CONFIG`, `poolreps merge` and `poolreps config`:
- * run an experiment into an output folder with its provenance (outdir.c:
- * all or nothing), and merge per-process outputs.
+/* rundir.c — what `poolreps CONFIG`, `poolreps merge` and `poolreps config`
+ * do (rundir.h): run an experiment into an output folder with its
+ * provenance (outdir.c: all or nothing), and merge per-process outputs.
  */
 #define _DEFAULT_SOURCE /* strndup */
 #include <errno.h>
@@ -9,9 +9,9 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "poolreps/cmd.h"
 #include "poolreps/csvio.h"
 #include "poolreps/exp.h"
+#include "poolreps/rundir.h"
 #include "exp_priv.h"
 #include "outdir.h"
 
@@ -21,13 +21,14 @@ static void config_text(FILE *fp, const void *cfg)
 	pr_config_write(cfg, fp);
 }
 
-int pr_cmd_config(const pr_config *cfg, const pr_cmd_args *a, char *err)
+int pr_rundir_config(const pr_config *cfg, const char *path, char *err)
 {
-	return pr_outdir_write_text(a->output, config_text, cfg, err);
+	return pr_outdir_write_text(path, config_text, cfg, err);
 }
 
-static int run_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a, char *err)
+static int run_work(const pr_config *cfg, const char *dir, const void *arg, char *err)
 {
+	const pr_rundir_args *a = arg;
 	const pr_experiment *e = pr_exp_find(cfg->run.name);
 	pr_variants variants;
 	char at[PR_WHERE_LEN];
@@ -44,7 +45,7 @@ static int run_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a,
 	return rc;
 }
 
-int pr_cmd_run(const pr_config *cfg, const pr_cmd_args *a, char *err)
+int pr_rundir_run(const pr_config *cfg, const pr_rundir_args *a, char *err)
 {
 	char dir[PR_PATHLEN];
 
@@ -55,7 +56,7 @@ int pr_cmd_run(const pr_config *cfg, const pr_cmd_args *a, char *err)
 	if (!a->output)
 		snprintf(dir, sizeof dir, "results/%s",
 		         strcmp(cfg->run.name, "figures") ? cfg->run.name : "sim");
-	return pr_outdir_run(cfg, a, dir, run_work, err);
+	return pr_outdir_run(cfg, &a->prov, dir, run_work, a, err);
 }
 
 /* ---- merge ---- */
@@ -90,7 +91,7 @@ typedef struct {
 } origin;
 
 typedef struct {
-	const pr_cmd_args *a;
+	const pr_rundir_args *a;
 	origin *o;
 	int no;
 	int nrep;          /* experiment.repetitions */
@@ -99,7 +100,7 @@ typedef struct {
 } merge_ctx;
 
 /* Input k's config.ini into c. */
-static int input_config(const pr_cmd_args *a, int k, pr_config *c, char *err)
+static int input_config(const pr_rundir_args *a, int k, pr_config *c, char *err)
 {
 	char path[PR_PATHLEN + 16];
 	struct stat st;
@@ -164,7 +165,7 @@ static int same_rows_each_repetition(const merge_ctx *m, const mrow *rows, long 
  * repetition column and write them; a repetition in two inputs is an error. */
 static int merge_csv(merge_ctx *m, const char *name, const char *outdir, char *err)
 {
-	const pr_cmd_args *a = m->a;
+	const pr_rundir_args *a = m->a;
 	pr_exp_table **t = calloc((size_t)a->ninputs, sizeof *t);
 	mrow *rows = NULL;
 	origin *o = &m->o[m->no];
@@ -312,8 +313,9 @@ static void to_source(char *err, const merge_ctx *m, const char *dir)
 	}
 }
 
-static int merge_work(const pr_config *cfg, const char *dir, const pr_cmd_args *a, char *err)
+static int merge_work(const pr_config *cfg, const char *dir, const void *arg, char *err)
 {
+	const pr_rundir_args *a = arg;
 	const pr_experiment *e = pr_exp_find(cfg->run.name);
 	pr_names raw = {NULL, 0}, other = {NULL, 0};
 	merge_ctx m = {a, NULL, 0, cfg->run.repetitions, NULL, NULL};
@@ -363,7 +365,7 @@ static int merge_work(const pr_config *cfg, const char *dir, const pr_cmd_args *
 /* Which input holds each (repetition, variant) cell of the merged run: every
  * cell by exactly one input, as one process would have written it. nv is
  * the experiment's variant count (0: it has none). */
-static int check_cells(const pr_cmd_args *a, const pr_config *cfg, int nv, char *err)
+static int check_cells(const pr_rundir_args *a, const pr_config *cfg, int nv, char *err)
 {
 	const int nc = nv > 0 ? nv : 1, nrep = cfg->run.repetitions;
 	int *held = calloc((size_t)nrep * (size_t)nc, sizeof *held);
@@ -399,7 +401,7 @@ static int check_cells(const pr_cmd_args *a, const pr_config *cfg, int nv, char 
 	return rc;
 }
 
-int pr_cmd_merge(const pr_config *cfg0, const pr_cmd_args *a, char *err)
+int pr_rundir_merge(const pr_rundir_args *a, char *err)
 {
 	static const char *const may_differ[] = {"experiment.repetition", "experiment.variant", NULL};
 	pr_config cfg, other;
@@ -408,7 +410,6 @@ int pr_cmd_merge(const pr_config *cfg0, const pr_cmd_args *a, char *err)
 	char *out, *in;
 	int rc, k, d;
 
-	(void)cfg0;
 	if (!a->output)
 		return pr_err(err, PR_EINVAL, "merge: -o DIR is required");
 	if (a->ninputs < 1)
@@ -449,5 +450,5 @@ int pr_cmd_merge(const pr_config *cfg0, const pr_cmd_args *a, char *err)
 	free(out);
 	cfg.run.repetition = -1;
 	cfg.run.variant = -1;
-	return pr_outdir_run(&cfg, a, a->output, merge_work, err);
+	return pr_outdir_run(&cfg, &a->prov, a->output, merge_work, a, err);
 }

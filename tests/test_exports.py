@@ -1,0 +1,75 @@
+"""The shared library exports its public API and nothing else.
+
+`make check` sets POOLREPS_LIB (the libpoolreps.so it built) and
+POOLREPS_STAGE (the tree `make install-lib` staged); without them the tests
+skip. The export list src/libpoolreps.map is what include/poolreps/*.h
+declare (scripts/exports.py); nm -D must show exactly those names, none of
+the command line's (pr_cmd_), and every name the Python package and the
+examples call."""
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import ROOT
+
+sys.path.insert(0, str(ROOT / "scripts"))
+import exports  # noqa: E402
+
+LIB = os.environ.get("POOLREPS_LIB")
+STAGE = os.environ.get("POOLREPS_STAGE")
+needs_lib = pytest.mark.skipif(not LIB, reason="POOLREPS_LIB not set (make check sets it)")
+
+
+def test_the_export_list_is_what_the_headers_declare():
+    p = subprocess.run([sys.executable, str(ROOT / "scripts/exports.py"), "--check"],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+
+
+def test_the_header_parser_finds_functions_and_variables_only(tmp_path):
+    h = tmp_path / "x.h"
+    h.write_text("/* pr_in_comment(void); */\n#define PR_X(a) pr_macro(a)\n"
+                 "typedef struct { int (*pr_field)(void); } pr_t;\n"
+                 "typedef int (*pr_fn_type)(int);\n"
+                 "int pr_one(int a,\n  int b);\nextern const int pr_table[];\n"
+                 "extern volatile int pr_flag;\nstruct pr_s { int pr_member; };\n")
+    assert exports.declared([h]) == {"pr_one": "x.h", "pr_table": "x.h", "pr_flag": "x.h"}
+
+
+@needs_lib
+def test_nm_shows_exactly_the_public_api():
+    p = subprocess.run([sys.executable, str(ROOT / "scripts/exports.py"), "--nm", LIB],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    syms = exports.exported(LIB)
+    assert syms == set(exports.declared())
+    assert not [s for s in syms if s.startswith("pr_cmd_")]
+    # the library's internals stay inside it
+    assert "pr_outdir_run" not in syms and "pr_csv_scan" not in syms
+
+
+@needs_lib
+def test_every_symbol_the_python_package_and_examples_use_is_exported():
+    syms = exports.exported(LIB)
+    used = set()
+    for f in sorted((ROOT / "python" / "poolreps").glob("*.py")):
+        used |= set(re.findall(r"\blib\.(pr_\w+)", f.read_text()))
+        used |= set(re.findall(r"[\"'](pr_\w+)[\"']\s*:", f.read_text()))
+    for f in sorted((ROOT / "examples").glob("*.c")):
+        used |= set(re.findall(r"\b(pr_\w+)\s*\(", f.read_text()))
+    assert used, "no library call found in python/poolreps or examples"
+    assert sorted(used - syms) == []
+
+
+@pytest.mark.skipif(not STAGE, reason="POOLREPS_STAGE not set (make check sets it)")
+def test_the_installed_headers_are_the_public_ones_without_the_command_line():
+    inc = Path(STAGE) / "usr/local/include/poolreps"
+    installed = sorted(p.name for p in inc.glob("*.h"))
+    assert installed == sorted(p.name for p in (ROOT / "include/poolreps").glob("*.h"))
+    assert "cmd.h" not in installed
+    text = "".join((inc / n).read_text() for n in installed)
+    assert "pr_cmd_" not in text
