@@ -47,6 +47,9 @@ typedef struct {
 	int policy, init, cov;  /* PR_EXP3_*, PR_EXP4_INIT index, PR_COV_* or PR_EXP4_COV_NONE */
 } pr_exp4_variant;
 
+/* The indices in names[0..n) of the comma list s (checked by its key) into
+ * out; returns their count. */
+int pr_exp4_name_indices(const char *s, const char *const *names, int n, int *out);
 /* Every variant of cfg in output order (policies, then covariances, then
  * inits); or, with experiment.variant = v >= 0, only variant v. */
 int pr_exp4_list(const pr_config *cfg, int selected, pr_exp4_variant *var, int *nvar, char *err);

@@ -1,13 +1,12 @@
-/* sim.c — the pool simulator's options, checks, reward, start states and
- * scripted shots (thesis 7.1–7.4). The two time-advance
- * schemes live in sim_event.c and sim_stepped.c. */
+/* sim.c — the pool simulator's public face (thesis 7.1–7.4): options, the
+ * simulator object, pr_sim_shoot dispatching to one of the two time-advance
+ * schemes (sim_event.c, sim_stepped.c), reward, start states and scripted
+ * shots. What both schemes share lies below them in sim_core.c. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "sim_priv.h"
-
-#define POS_SLACK 1e-12 /* m: touching balls and cushions survive rounding */
 
 void pr_sim_table_init(pr_table *t)
 {
@@ -62,31 +61,6 @@ void pr_sim_expert_opts_init(pr_expert_opts *o)
 	o->arrival_speed = 0.05;
 	o->aim = PR_GHOST_AIM_CENTRE;
 	o->aim_speed = 0.4;
-}
-
-void pr_sim_pocket_xy(const pr_table *t, int id, double xy[2])
-{
-	/* ids 0,1,2 along y = -W/2 and 3,4,5 along y = +W/2, x = -L/2, 0, +L/2 */
-	xy[0] = (id % 3 - 1) * t->length / 2;
-	xy[1] = (id < 3 ? -1 : 1) * t->width / 2;
-}
-
-int pr_sim_pocket_entry(const pr_table *t, int id, double xy[2], char *err)
-{
-	double p[2], R = t->ball_radius, rp = t->pocket_radius;
-	int corner = id % 3 != 1;
-	/* unit vector from the pocket into the table; the lines clipping the disc,
-	 * y = +-(W/2 - R) and at a corner x = +-(L/2 - R), both lie R from the
-	 * pocket centre, so the entry arc is symmetric about it */
-	double nx = corner ? sqrt(0.5) : 0, ny = corner ? sqrt(0.5) : 1;
-
-	pr_sim_pocket_xy(t, id, p);
-	xy[0] = p[0] - copysign(rp * nx, p[0]);
-	xy[1] = p[1] - copysign(rp * ny, p[1]);
-	if (!(rp > (corner ? R * sqrt(2.0) : R)))
-		return pr_err(err, PR_EINVAL, "pocket %d: its corridor is empty (table.pocket_radius %g <= %s)",
-		              id, rp, corner ? "R sqrt 2" : "R");
-	return PR_OK;
 }
 
 static int check_table(const pr_table *t, const pr_sim_opts *o, char *err)
@@ -186,105 +160,6 @@ void pr_sim_free(pr_sim *s)
 	free(s->idx);
 	free(s->scr);
 	free(s);
-}
-
-pr_sim_trace *pr_sim_trace_new(char *err)
-{
-	pr_sim_trace *tr = calloc(1, sizeof *tr);
-
-	if (!tr)
-		pr_err(err, PR_ENOMEM, "trace: out of memory");
-	return tr;
-}
-
-void pr_sim_trace_free(pr_sim_trace *tr)
-{
-	if (!tr)
-		return;
-	free(tr->rows);
-	free(tr);
-}
-
-long pr_sim_trace_len(const pr_sim_trace *tr)
-{
-	return tr->n;
-}
-
-const pr_sim_trace_row *pr_sim_trace_rows(const pr_sim_trace *tr)
-{
-	return tr->rows;
-}
-
-int pr_sim_trace_add(pr_sim_trace *tr, double t, int ball, double x, double y, double vx, double vy)
-{
-	pr_sim_trace_row *r;
-
-	if (tr->n == tr->cap) {
-		long cap = tr->cap ? 2 * tr->cap : 256;
-		r = realloc(tr->rows, (size_t)cap * sizeof *r);
-		if (!r)
-			return PR_ENOMEM;
-		tr->rows = r;
-		tr->cap = cap;
-	}
-	r = &tr->rows[tr->n++];
-	r->t = t;
-	r->ball = ball;
-	r->x = x;
-	r->y = y;
-	r->vx = vx;
-	r->vy = vy;
-	return PR_OK;
-}
-
-int pr_sim_check_state(const pr_table *t, const double *st, int n, char *err)
-{
-	double hx = t->length / 2 - t->ball_radius + POS_SLACK;
-	double hy = t->width / 2 - t->ball_radius + POS_SLACK;
-	double d2min = (2 * t->ball_radius - POS_SLACK) * (2 * t->ball_radius - POS_SLACK);
-	double r2 = t->pocket_radius * t->pocket_radius;
-	int i, j;
-
-	if (n < 1 || n > PR_SIM_MAX_BALLS)
-		return pr_err(err, PR_EINVAL, "%d balls: must be 1 to %d", n, PR_SIM_MAX_BALLS);
-	for (i = 0; i < n; ++i) {
-		double x = st[2 * i], y = st[2 * i + 1];
-		if (!isfinite(x) || !isfinite(y))
-			return pr_err(err, PR_EINVAL, "ball %d: position is not finite", i);
-		if (fabs(x) > hx || fabs(y) > hy)
-			return pr_err(err, PR_EINVAL, "ball %d: off the table: centre (%g, %g) must be at "
-			              "least R = %g from the cushions (|x| <= %g, |y| <= %g)", i, x, y,
-			              t->ball_radius, hx - POS_SLACK, hy - POS_SLACK);
-		for (j = 0; j < PR_SIM_POCKETS; ++j) {
-			double p[2], dx, dy;
-			pr_sim_pocket_xy(t, j, p);
-			dx = x - p[0];
-			dy = y - p[1];
-			if (dx * dx + dy * dy <= r2)
-				return pr_err(err, PR_EINVAL, "ball %d: inside pocket %d: centre (%g, %g) within "
-				              "%g of (%g, %g)", i, j, x, y, t->pocket_radius, p[0], p[1]);
-		}
-	}
-	for (i = 0; i < n; ++i)
-		for (j = i + 1; j < n; ++j) {
-			double dx = st[2 * j] - st[2 * i], dy = st[2 * j + 1] - st[2 * i + 1];
-			if (dx * dx + dy * dy < d2min)
-				return pr_err(err, PR_EINVAL, "balls %d and %d overlap: centre distance %g < 2R = %g",
-				              i, j, sqrt(dx * dx + dy * dy), 2 * t->ball_radius);
-		}
-	return PR_OK;
-}
-
-int pr_sim_check_action(const pr_sim_opts *o, const double a[2], char *err)
-{
-	double v;
-
-	if (!isfinite(a[0]) || !isfinite(a[1]))
-		return pr_err(err, PR_EINVAL, "action: velocity is not finite");
-	v = hypot(a[0], a[1]);
-	if (v > o->max_speed)
-		return pr_err(err, PR_EINVAL, "action: speed %g m/s exceeds sim.max_speed = %g", v, o->max_speed);
-	return PR_OK;
 }
 
 int pr_sim_shoot(pr_sim *s, const double *state, int n, const double a[2], pr_shot *res,

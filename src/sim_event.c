@@ -39,52 +39,6 @@ static void advance(const pr_sim *s, pr_sim_ball *b, double tau)
 	b->tr = tau;
 }
 
-void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy, double sp,
-                      pr_sim_hits *h)
-{
-	const double rp = s->t.pocket_radius;
-	double sy;
-	int j;
-
-	h->cushion = h->pocket = HUGE_VAL;
-	h->cid = h->pid = -1;
-	if (ux > 0) {
-		h->cushion = (s->hx - x) / ux;
-		h->cid = 1;
-	} else if (ux < 0) {
-		h->cushion = (-s->hx - x) / ux;
-		h->cid = 0;
-	}
-	sy = HUGE_VAL;
-	if (uy > 0)
-		sy = (s->hy - y) / uy;
-	else if (uy < 0)
-		sy = (-s->hy - y) / uy;
-	if (sy < h->cushion) {
-		h->cushion = sy;
-		h->cid = uy > 0 ? 3 : 2;
-	}
-	h->cushion = fmax(h->cushion, 0);
-	/* pockets: |d + u s| = rp, entering (d.u < 0); discriminant via the
-	 * Lagrange identity b^2 - a c = a rp^2 - (d x u)^2 to avoid cancellation */
-	for (j = 0; j < PR_SIM_POCKETS; ++j) {
-		double dx = x - s->px[j], dy = y - s->py[j];
-		double bq = dx * ux + dy * uy, cc, cr, disc, t;
-		if (bq >= 0)
-			continue;
-		cr = dx * uy - dy * ux;
-		disc = rp * rp * sp * sp - cr * cr;
-		if (disc < 0)
-			continue;
-		cc = dx * dx + dy * dy - rp * rp;
-		t = cc <= 0 ? 0 : cc / (-bq + sqrt(disc));
-		if (t < h->pocket) {
-			h->pocket = t;
-			h->pid = j;
-		}
-	}
-}
-
 /* The ball's own next event: stop, cushion or pocket entry. */
 static void predict_own(const pr_sim *s, pr_sim_ball *b)
 {

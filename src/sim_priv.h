@@ -1,4 +1,7 @@
-/* sim_priv.h — internals shared by sim.c, sim_event.c and sim_stepped.c. */
+/* sim_priv.h — the simulator's internals: the ball state and the
+ * simulator object, the shared core below both time-advance schemes
+ * (sim_core.c: trace, path hits), the constant law's event arithmetic
+ * (sim_event_const.c) and the two schemes the dispatcher (sim.c) calls. */
 #ifndef POOLREPS_SIM_PRIV_H
 #define POOLREPS_SIM_PRIV_H
 
@@ -42,6 +45,8 @@ struct pr_sim_trace {
 	long n, cap;
 	pr_sim_trace_row *rows;
 };
+
+/* ---- the core (sim_core.c) ---- */
 
 /* Append a row; PR_ENOMEM if the trace cannot grow. */
 int pr_sim_trace_add(pr_sim_trace *tr, double t, int ball, double x, double y,

@@ -1,0 +1,180 @@
+/* sim_core.c — what both time-advance schemes (sim_event.c, sim_stepped.c)
+ * and the dispatcher above them (sim.c) share: the pockets' positions and
+ * entries, the checks of a state and an action, the trace of a shot and
+ * where a straight path first meets a cushion or a pocket. */
+#include <math.h>
+#include <stdlib.h>
+
+#include "sim_priv.h"
+
+#define POS_SLACK 1e-12 /* m: touching balls and cushions survive rounding */
+
+void pr_sim_pocket_xy(const pr_table *t, int id, double xy[2])
+{
+	/* ids 0,1,2 along y = -W/2 and 3,4,5 along y = +W/2, x = -L/2, 0, +L/2 */
+	xy[0] = (id % 3 - 1) * t->length / 2;
+	xy[1] = (id < 3 ? -1 : 1) * t->width / 2;
+}
+
+int pr_sim_pocket_entry(const pr_table *t, int id, double xy[2], char *err)
+{
+	double p[2], R = t->ball_radius, rp = t->pocket_radius;
+	int corner = id % 3 != 1;
+	/* unit vector from the pocket into the table; the lines clipping the disc,
+	 * y = +-(W/2 - R) and at a corner x = +-(L/2 - R), both lie R from the
+	 * pocket centre, so the entry arc is symmetric about it */
+	double nx = corner ? sqrt(0.5) : 0, ny = corner ? sqrt(0.5) : 1;
+
+	pr_sim_pocket_xy(t, id, p);
+	xy[0] = p[0] - copysign(rp * nx, p[0]);
+	xy[1] = p[1] - copysign(rp * ny, p[1]);
+	if (!(rp > (corner ? R * sqrt(2.0) : R)))
+		return pr_err(err, PR_EINVAL, "pocket %d: its corridor is empty (table.pocket_radius %g <= %s)",
+		              id, rp, corner ? "R sqrt 2" : "R");
+	return PR_OK;
+}
+
+pr_sim_trace *pr_sim_trace_new(char *err)
+{
+	pr_sim_trace *tr = calloc(1, sizeof *tr);
+
+	if (!tr)
+		pr_err(err, PR_ENOMEM, "trace: out of memory");
+	return tr;
+}
+
+void pr_sim_trace_free(pr_sim_trace *tr)
+{
+	if (!tr)
+		return;
+	free(tr->rows);
+	free(tr);
+}
+
+long pr_sim_trace_len(const pr_sim_trace *tr)
+{
+	return tr->n;
+}
+
+const pr_sim_trace_row *pr_sim_trace_rows(const pr_sim_trace *tr)
+{
+	return tr->rows;
+}
+
+int pr_sim_trace_add(pr_sim_trace *tr, double t, int ball, double x, double y, double vx, double vy)
+{
+	pr_sim_trace_row *r;
+
+	if (tr->n == tr->cap) {
+		long cap = tr->cap ? 2 * tr->cap : 256;
+		r = realloc(tr->rows, (size_t)cap * sizeof *r);
+		if (!r)
+			return PR_ENOMEM;
+		tr->rows = r;
+		tr->cap = cap;
+	}
+	r = &tr->rows[tr->n++];
+	r->t = t;
+	r->ball = ball;
+	r->x = x;
+	r->y = y;
+	r->vx = vx;
+	r->vy = vy;
+	return PR_OK;
+}
+
+int pr_sim_check_state(const pr_table *t, const double *st, int n, char *err)
+{
+	double hx = t->length / 2 - t->ball_radius + POS_SLACK;
+	double hy = t->width / 2 - t->ball_radius + POS_SLACK;
+	double d2min = (2 * t->ball_radius - POS_SLACK) * (2 * t->ball_radius - POS_SLACK);
+	double r2 = t->pocket_radius * t->pocket_radius;
+	int i, j;
+
+	if (n < 1 || n > PR_SIM_MAX_BALLS)
+		return pr_err(err, PR_EINVAL, "%d balls: must be 1 to %d", n, PR_SIM_MAX_BALLS);
+	for (i = 0; i < n; ++i) {
+		double x = st[2 * i], y = st[2 * i + 1];
+		if (!isfinite(x) || !isfinite(y))
+			return pr_err(err, PR_EINVAL, "ball %d: position is not finite", i);
+		if (fabs(x) > hx || fabs(y) > hy)
+			return pr_err(err, PR_EINVAL, "ball %d: off the table: centre (%g, %g) must be at "
+			              "least R = %g from the cushions (|x| <= %g, |y| <= %g)", i, x, y,
+			              t->ball_radius, hx - POS_SLACK, hy - POS_SLACK);
+		for (j = 0; j < PR_SIM_POCKETS; ++j) {
+			double p[2], dx, dy;
+			pr_sim_pocket_xy(t, j, p);
+			dx = x - p[0];
+			dy = y - p[1];
+			if (dx * dx + dy * dy <= r2)
+				return pr_err(err, PR_EINVAL, "ball %d: inside pocket %d: centre (%g, %g) within "
+				              "%g of (%g, %g)", i, j, x, y, t->pocket_radius, p[0], p[1]);
+		}
+	}
+	for (i = 0; i < n; ++i)
+		for (j = i + 1; j < n; ++j) {
+			double dx = st[2 * j] - st[2 * i], dy = st[2 * j + 1] - st[2 * i + 1];
+			if (dx * dx + dy * dy < d2min)
+				return pr_err(err, PR_EINVAL, "balls %d and %d overlap: centre distance %g < 2R = %g",
+				              i, j, sqrt(dx * dx + dy * dy), 2 * t->ball_radius);
+		}
+	return PR_OK;
+}
+
+int pr_sim_check_action(const pr_sim_opts *o, const double a[2], char *err)
+{
+	double v;
+
+	if (!isfinite(a[0]) || !isfinite(a[1]))
+		return pr_err(err, PR_EINVAL, "action: velocity is not finite");
+	v = hypot(a[0], a[1]);
+	if (v > o->max_speed)
+		return pr_err(err, PR_EINVAL, "action: speed %g m/s exceeds sim.max_speed = %g", v, o->max_speed);
+	return PR_OK;
+}
+
+void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy, double sp,
+                      pr_sim_hits *h)
+{
+	const double rp = s->t.pocket_radius;
+	double sy;
+	int j;
+
+	h->cushion = h->pocket = HUGE_VAL;
+	h->cid = h->pid = -1;
+	if (ux > 0) {
+		h->cushion = (s->hx - x) / ux;
+		h->cid = 1;
+	} else if (ux < 0) {
+		h->cushion = (-s->hx - x) / ux;
+		h->cid = 0;
+	}
+	sy = HUGE_VAL;
+	if (uy > 0)
+		sy = (s->hy - y) / uy;
+	else if (uy < 0)
+		sy = (-s->hy - y) / uy;
+	if (sy < h->cushion) {
+		h->cushion = sy;
+		h->cid = uy > 0 ? 3 : 2;
+	}
+	h->cushion = fmax(h->cushion, 0);
+	/* pockets: |d + u s| = rp, entering (d.u < 0); discriminant via the
+	 * Lagrange identity b^2 - a c = a rp^2 - (d x u)^2 to avoid cancellation */
+	for (j = 0; j < PR_SIM_POCKETS; ++j) {
+		double dx = x - s->px[j], dy = y - s->py[j];
+		double bq = dx * ux + dy * uy, cc, cr, disc, t;
+		if (bq >= 0)
+			continue;
+		cr = dx * uy - dy * ux;
+		disc = rp * rp * sp * sp - cr * cr;
+		if (disc < 0)
+			continue;
+		cc = dx * dx + dy * dy - rp * rp;
+		t = cc <= 0 ? 0 : cc / (-bq + sqrt(disc));
+		if (t < h->pocket) {
+			h->pocket = t;
+			h->pid = j;
+		}
+	}
+}
