@@ -224,102 +224,150 @@ static int check_batch(const pr_cmaes *c, const pr_cmaes_batch *b, char *err)
 	return PR_OK;
 }
 
-int pr_cmaes_update(pr_cmaes *c, const pr_cmaes_batch *b, pr_cmaes_info *info, char *err)
+/* The strategy's learning rates from the effective sample size mueff
+ * (contextual CMA-ES: n = d_a + d_s in place of the dimension). */
+typedef struct {
+	double mueff, csig, dsig, cc, c1, cmu, chin;
+} rates;
+
+static rates learning_rates(const pr_cmaes *c, double mueff)
 {
-	const int da = c->da, nf = c->nf, n = b->n, mu = b->n / 2;
+	const int da = c->da;
 	const double ntot = da + c->ds;
-	double *adv = NULL, *d = NULL, *M = NULL, *psi = NULL, *phibar = NULL, *Wn = NULL;
-	double *Z = NULL, *Cn = NULL, *Vn = NULL, *evn = NULL, *y = NULL, *z = NULL;
-	double *pc = NULL, *ps = NULL;
-	double dsum = 0.0, d2 = 0.0, mueff, csig, dsig, cc, c1, cmu, chin, psn = 0.0, sig2, dh;
-	double sigma;
-	size_t *order = NULL;
-	pr_policy *fit = NULL;
-	pr_policy_data pd;
-	int i, j, l, hsig, flags = 0, rc;
+	rates r;
 
-	if ((rc = check_batch(c, b, err)))
-		return rc;
-	adv = malloc((size_t)n * sizeof *adv);
-	d = calloc((size_t)n, sizeof *d);
-	M = malloc((size_t)n * da * sizeof *M);
-	psi = malloc((size_t)nf * sizeof *psi);
-	phibar = calloc((size_t)nf, sizeof *phibar);
-	Wn = malloc((size_t)da * nf * sizeof *Wn);
-	Z = malloc((size_t)da * da * sizeof *Z);
-	Cn = malloc((size_t)da * da * sizeof *Cn);
-	Vn = malloc((size_t)da * da * sizeof *Vn);
-	evn = malloc((size_t)da * sizeof *evn);
-	y = malloc((size_t)da * sizeof *y);
-	z = malloc((size_t)da * sizeof *z);
-	pc = malloc((size_t)da * sizeof *pc);
-	ps = malloc((size_t)da * sizeof *ps);
-	order = malloc((size_t)n * sizeof *order);
-	if (!adv || !d || !M || !psi || !phibar || !Wn || !Z || !Cn || !Vn || !evn || !y || !z ||
-	    !pc || !ps || !order) {
-		rc = pr_err(err, PR_ENOMEM, "cmaes: out of memory");
-		goto done;
-	}
-	/* advantages and rank weights d_i: the best mu samples by R - V(s) */
-	if ((rc = advantages(b, adv))) {
-		rc = pr_err(err, rc, "cmaes: baseline regression failed");
-		goto done;
-	}
-	gsl_sort_index(order, adv, 1, (size_t)n);
+	r.mueff = mueff;
+	r.csig = (mueff + 2.0) / (ntot + mueff + 5.0);
+	r.dsig = 1.0 + 2.0 * fmax(0.0, sqrt((mueff - 1.0) / (ntot + 1.0)) - 1.0) + r.csig + log(c->ds + 1.0);
+	r.cc = (4.0 + mueff / ntot) / (ntot + 4.0 + 2.0 * mueff / ntot);
+	r.c1 = 2.0 / ((ntot + 1.3) * (ntot + 1.3) + mueff);
+	r.cmu = fmin(1.0 - r.c1, 2.0 * (mueff - 2.0 + 1.0 / mueff) / ((ntot + 2.0) * (ntot + 2.0) + mueff));
+	r.chin = sqrt((double)da) * (1.0 - 1.0 / (4.0 * da) + 1.0 / (21.0 * da * da));
+	return r;
+}
+
+/* The update's work arrays (one allocation failure frees them all). */
+typedef struct {
+	double *adv, *d, *M, *psi, *phibar, *Wn, *Z, *Cn, *Vn, *evn, *y, *z, *pc, *ps;
+	size_t *order;
+} update_work;
+
+static void work_free(update_work *w)
+{
+	free(w->adv);
+	free(w->d);
+	free(w->M);
+	free(w->psi);
+	free(w->phibar);
+	free(w->Wn);
+	free(w->Z);
+	free(w->Cn);
+	free(w->Vn);
+	free(w->evn);
+	free(w->y);
+	free(w->z);
+	free(w->pc);
+	free(w->ps);
+	free(w->order);
+}
+
+static int work_alloc(update_work *w, int n, int da, int nf)
+{
+	w->adv = malloc((size_t)n * sizeof *w->adv);
+	w->d = calloc((size_t)n, sizeof *w->d);
+	w->M = malloc((size_t)n * da * sizeof *w->M);
+	w->psi = malloc((size_t)nf * sizeof *w->psi);
+	w->phibar = calloc((size_t)nf, sizeof *w->phibar);
+	w->Wn = malloc((size_t)da * nf * sizeof *w->Wn);
+	w->Z = malloc((size_t)da * da * sizeof *w->Z);
+	w->Cn = malloc((size_t)da * da * sizeof *w->Cn);
+	w->Vn = malloc((size_t)da * da * sizeof *w->Vn);
+	w->evn = malloc((size_t)da * sizeof *w->evn);
+	w->y = malloc((size_t)da * sizeof *w->y);
+	w->z = malloc((size_t)da * sizeof *w->z);
+	w->pc = malloc((size_t)da * sizeof *w->pc);
+	w->ps = malloc((size_t)da * sizeof *w->ps);
+	w->order = malloc((size_t)n * sizeof *w->order);
+	return w->adv && w->d && w->M && w->psi && w->phibar && w->Wn && w->Z && w->Cn && w->Vn &&
+	       w->evn && w->y && w->z && w->pc && w->ps && w->order;
+}
+
+/* Rank weights d_i: log(mu + 1/2) - log(rank) for the best mu = n/2
+ * samples by advantage, 0 for the rest, summing to 1; returns mueff = 1 / sum d_i^2. */
+static double rank_weights(const update_work *w, int n)
+{
+	const int mu = n / 2;
+	double dsum = 0.0, d2 = 0.0;
+	int i;
+
+	gsl_sort_index(w->order, w->adv, 1, (size_t)n);
 	for (i = 0; i < mu; i++) {
-		d[order[n - 1 - i]] = log(mu + 0.5) - log(i + 1.0);
-		dsum += d[order[n - 1 - i]];
+		w->d[w->order[n - 1 - i]] = log(mu + 0.5) - log(i + 1.0);
+		dsum += w->d[w->order[n - 1 - i]];
 	}
 	for (i = 0; i < n; i++) {
-		d[i] /= dsum;
-		d2 += d[i] * d[i];
+		w->d[i] /= dsum;
+		d2 += w->d[i] * w->d[i];
 	}
-	mueff = 1.0 / d2;
-	csig = (mueff + 2.0) / (ntot + mueff + 5.0);
-	dsig = 1.0 + 2.0 * fmax(0.0, sqrt((mueff - 1.0) / (ntot + 1.0)) - 1.0) + csig + log(c->ds + 1.0);
-	cc = (4.0 + mueff / ntot) / (ntot + 4.0 + 2.0 * mueff / ntot);
-	c1 = 2.0 / ((ntot + 1.3) * (ntot + 1.3) + mueff);
-	cmu = fmin(1.0 - c1, 2.0 * (mueff - 2.0 + 1.0 / mueff) / ((ntot + 2.0) * (ntot + 2.0) + mueff));
-	chin = sqrt((double)da) * (1.0 - 1.0 / (4.0 * da) + 1.0 / (21.0 * da * da));
+	return 1.0 / d2;
+}
 
-	/* old means W_old psi(s_i) and the batch's mean features */
+/* Old means W_old psi(s_i) into M and the batch's mean features psi_bar. */
+static void old_means(const pr_cmaes *c, const pr_cmaes_batch *b, const update_work *w)
+{
+	const int da = c->da, nf = c->nf, n = b->n;
+	int i, j, l;
+
 	for (i = 0; i < n; i++) {
-		pr_policy_features(c->features, b->S + (size_t)i * c->ds, c->ds, psi);
+		pr_policy_features(c->features, b->S + (size_t)i * c->ds, c->ds, w->psi);
 		for (l = 0; l < nf; l++)
-			phibar[l] += psi[l] / n;
+			w->phibar[l] += w->psi[l] / n;
 		for (j = 0; j < da; j++) {
-			M[(size_t)i * da + j] = 0.0;
+			w->M[(size_t)i * da + j] = 0.0;
 			for (l = 0; l < nf; l++)
-				M[(size_t)i * da + j] += c->W[j * nf + l] * psi[l];
+				w->M[(size_t)i * da + j] += c->W[j * nf + l] * w->psi[l];
 		}
 	}
-	/* mean: weighted linear regression of x on psi(s) with the weights d;
-	 * the same fit's residual covariance around the old means is
-	 * sum_i d_i (x_i - m_i)(x_i - m_i)^T, sigma^2 times the rank-mu term */
+}
+
+/* Mean: weighted linear regression of x on psi(s) with the weights d into
+ * Wn; the same fit's residual covariance around the old means,
+ * sum_i d_i (x_i - m_i)(x_i - m_i)^T (sigma^2 times the rank-mu term), into Z. */
+static int new_mean(const pr_cmaes *c, const pr_cmaes_batch *b, const update_work *w, int *flags,
+                    char *err)
+{
+	pr_policy_data pd;
+	pr_policy *fit;
+
 	memset(&pd, 0, sizeof pd);
-	pd.n = n;
+	pd.n = b->n;
 	pd.ds = c->ds;
-	pd.da = da;
+	pd.da = c->da;
 	pd.S = b->S;
 	pd.A = b->X;
-	pd.w = d;
-	pd.M = M;
-	if (!(fit = pr_policy_linear_fit(c->features, &pd, c->lambda, 0.0, PR_COV_CENTER_OLD, &flags,
-	                                 err))) {
-		rc = PR_ENUM;
-		goto done;
-	}
-	pr_policy_linear_params(fit, Wn, Z, err);
-	sigma = c->sigma;
-	sig2 = sigma * sigma;
+	pd.w = w->d;
+	pd.M = w->M;
+	if (!(fit = pr_policy_linear_fit(c->features, &pd, c->lambda, 0.0, PR_COV_CENTER_OLD, flags, err)))
+		return PR_ENUM;
+	pr_policy_linear_params(fit, w->Wn, w->Z, err);
+	pr_policy_free(fit);
+	return PR_OK;
+}
 
-	/* y_w = (W_new - W_old) psi_bar / sigma: the mean shift at the batch's
-	 * mean context features, in units of sigma */
+/* The evolution paths from y_w = (W_new - W_old) psi_bar / sigma, the mean
+ * shift at the batch's mean context features in units of sigma, into w->ps
+ * and w->pc; returns h_sigma, *psn = |p_sigma|. */
+static int new_paths(const pr_cmaes *c, const rates *r, const update_work *w, double *psn)
+{
+	const int da = c->da, nf = c->nf;
+	double *y = w->y, *z = w->z;
+	int j, l, hsig;
+
 	for (j = 0; j < da; j++) {
 		y[j] = 0.0;
 		for (l = 0; l < nf; l++)
-			y[j] += (Wn[j * nf + l] - c->W[j * nf + l]) * phibar[l];
-		y[j] /= sigma;
+			y[j] += (w->Wn[j * nf + l] - c->W[j * nf + l]) * w->phibar[l];
+		y[j] /= c->sigma;
 	}
 	/* p_sigma <- (1 - c_sigma) p_sigma + sqrt(c_sigma (2 - c_sigma) mueff) C^(-1/2) y_w */
 	for (l = 0; l < da; l++) {
@@ -328,75 +376,97 @@ int pr_cmaes_update(pr_cmaes *c, const pr_cmaes_batch *b, pr_cmaes_info *info, c
 			z[l] += c->V[j * da + l] * y[j];
 		z[l] /= sqrt(c->ev[l]);
 	}
+	*psn = 0.0;
 	for (j = 0; j < da; j++) {
 		double v = 0.0;
 
 		for (l = 0; l < da; l++)
 			v += c->V[j * da + l] * z[l];
-		ps[j] = (1.0 - csig) * c->ps[j] + sqrt(csig * (2.0 - csig) * mueff) * v;
-		psn += ps[j] * ps[j];
+		w->ps[j] = (1.0 - r->csig) * c->ps[j] + sqrt(r->csig * (2.0 - r->csig) * r->mueff) * v;
+		*psn += w->ps[j] * w->ps[j];
 	}
-	psn = sqrt(psn);
+	*psn = sqrt(*psn);
 	/* h_sigma stalls the rank-one path while |p_sigma| is large */
-	hsig = psn / sqrt(1.0 - pow(1.0 - csig, 2.0 * (c->g + 1))) < (1.4 + 2.0 / (da + 1.0)) * chin;
+	hsig = *psn / sqrt(1.0 - pow(1.0 - r->csig, 2.0 * (c->g + 1))) < (1.4 + 2.0 / (da + 1.0)) * r->chin;
 	/* p_c <- (1 - c_c) p_c + h_sigma sqrt(c_c (2 - c_c) mueff) y_w */
 	for (j = 0; j < da; j++)
-		pc[j] = (1.0 - cc) * c->pc[j] + hsig * sqrt(cc * (2.0 - cc) * mueff) * y[j];
-	/* C <- (1 + c_1 delta(h_sigma) - c_1 - c_mu) C + c_1 p_c p_c^T
-	 *      + c_mu sum_i d_i y_i y_i^T,   y_i = (x_i - W_old psi(s_i)) / sigma,
-	 * delta(h_sigma) = (1 - h_sigma) c_c (2 - c_c): the contextual rank-mu
-	 * update around the old mean */
-	dh = (1 - hsig) * cc * (2.0 - cc);
+		w->pc[j] = (1.0 - r->cc) * c->pc[j] + hsig * sqrt(r->cc * (2.0 - r->cc) * r->mueff) * y[j];
+	return hsig;
+}
+
+/* C <- (1 + c_1 delta(h_sigma) - c_1 - c_mu) C + c_1 p_c p_c^T
+ *      + c_mu sum_i d_i y_i y_i^T,   y_i = (x_i - W_old psi(s_i)) / sigma,
+ * delta(h_sigma) = (1 - h_sigma) c_c (2 - c_c): the contextual rank-mu
+ * update around the old mean, into w->Cn. */
+static void new_covariance(const pr_cmaes *c, const rates *r, int hsig, const update_work *w)
+{
+	const int da = c->da;
+	const double sig2 = c->sigma * c->sigma, dh = (1 - hsig) * r->cc * (2.0 - r->cc);
+	int j, l;
+
 	for (j = 0; j < da; j++)
 		for (l = j; l < da; l++) {
-			double v = (1.0 + c1 * dh - c1 - cmu) * c->C[j * da + l] + c1 * pc[j] * pc[l] +
-			           cmu * 0.5 * (Z[j * da + l] + Z[l * da + j]) / sig2;
+			double v = (1.0 + r->c1 * dh - r->c1 - r->cmu) * c->C[j * da + l] +
+			           r->c1 * w->pc[j] * w->pc[l] +
+			           r->cmu * 0.5 * (w->Z[j * da + l] + w->Z[l * da + j]) / sig2;
 
-			Cn[j * da + l] = Cn[l * da + j] = v;
+			w->Cn[j * da + l] = w->Cn[l * da + j] = v;
 		}
+}
+
+int pr_cmaes_update(pr_cmaes *c, const pr_cmaes_batch *b, pr_cmaes_info *info, char *err)
+{
+	const int da = c->da, nf = c->nf;
+	update_work w;
+	rates r;
+	double psn, sigma;
+	int hsig, flags = 0, rc;
+
+	if ((rc = check_batch(c, b, err)))
+		return rc;
+	if (!work_alloc(&w, b->n, da, nf)) {
+		rc = pr_err(err, PR_ENOMEM, "cmaes: out of memory");
+		goto done;
+	}
+	/* advantages and rank weights d_i: the best mu samples by R - V(s) */
+	if ((rc = advantages(b, w.adv))) {
+		rc = pr_err(err, rc, "cmaes: baseline regression failed");
+		goto done;
+	}
+	r = learning_rates(c, rank_weights(&w, b->n));
+	old_means(c, b, &w);
+	if ((rc = new_mean(c, b, &w, &flags, err)))
+		goto done;
+	hsig = new_paths(c, &r, &w, &psn);
+	new_covariance(c, &r, hsig, &w);
 	/* sigma <- sigma exp((c_sigma / d_sigma) (|p_sigma| / E|N(0, I)| - 1)) */
-	sigma *= exp(csig / dsig * (psn / chin - 1.0));
+	sigma = c->sigma * exp(r.csig / r.dsig * (psn / r.chin - 1.0));
 	if (!(sigma > 0.0) || !isfinite(sigma)) {
 		rc = pr_err(err, PR_ENUM, "cmaes: step size became %g", sigma);
 		goto done;
 	}
-	if ((rc = decompose(da, Cn, Vn, evn))) {
+	if ((rc = decompose(da, w.Cn, w.Vn, w.evn))) {
 		rc = pr_err(err, rc, "cmaes: covariance lost positive definiteness");
 		goto done;
 	}
 	/* commit */
-	memcpy(c->W, Wn, (size_t)da * nf * sizeof *Wn);
-	memcpy(c->C, Cn, (size_t)da * da * sizeof *Cn);
-	memcpy(c->V, Vn, (size_t)da * da * sizeof *Vn);
-	memcpy(c->ev, evn, (size_t)da * sizeof *evn);
-	memcpy(c->pc, pc, (size_t)da * sizeof *pc);
-	memcpy(c->ps, ps, (size_t)da * sizeof *ps);
+	memcpy(c->W, w.Wn, (size_t)da * nf * sizeof *w.Wn);
+	memcpy(c->C, w.Cn, (size_t)da * da * sizeof *w.Cn);
+	memcpy(c->V, w.Vn, (size_t)da * da * sizeof *w.Vn);
+	memcpy(c->ev, w.evn, (size_t)da * sizeof *w.evn);
+	memcpy(c->pc, w.pc, (size_t)da * sizeof *w.pc);
+	memcpy(c->ps, w.ps, (size_t)da * sizeof *w.ps);
 	c->sigma = sigma;
 	c->g++;
 	if (info) {
-		info->mueff = mueff;
+		info->mueff = r.mueff;
 		info->sigma = sigma;
 		info->ps_norm = psn;
 		info->hsig = hsig;
 		info->flags = flags;
 	}
 done:
-	pr_policy_free(fit);
-	free(adv);
-	free(d);
-	free(M);
-	free(psi);
-	free(phibar);
-	free(Wn);
-	free(Z);
-	free(Cn);
-	free(Vn);
-	free(evn);
-	free(y);
-	free(z);
-	free(pc);
-	free(ps);
-	free(order);
+	work_free(&w);
 	return rc;
 }
 

@@ -436,6 +436,111 @@ static int set_value(pr_config *c, int i, const char *value, const char *where, 
 	return rc;
 }
 
+/* An integer key (int, long or unsigned long) from value. */
+static int set_integer(const pr_config_key *k, char *base, const char *value, const char *where,
+                       char *err)
+{
+	char *end;
+	long long x;
+
+	errno = 0;
+	x = strtoll(value, &end, 10);
+	while (*end == ' ' || *end == '\t')
+		++end;
+	if (end == value || *end || errno == ERANGE)
+		return pr_err(err, PR_EINVAL, "%s%s.%s: not an integer: '%.40s'",
+		              where, k->section, k->key, value);
+	if (!in_range(k, (double)x))
+		return range_err(k, where, value, err);
+	if (k->type == PR_KEY_INT)
+		*(int *)base = (int)x;
+	else if (k->type == PR_KEY_LONG)
+		*(long *)base = (long)x;
+	else
+		*(unsigned long *)base = (unsigned long)x;
+	return PR_OK;
+}
+
+/* A comma list of distinct names of the key's choices. */
+static int set_names(const pr_config_key *k, char *base, const char *value, const char *where,
+                     char *err)
+{
+	char item[NAMELEN];
+	const char *p = value;
+	unsigned seen = 0;
+
+	if (strlen(value) >= PR_KEY_NAMES_LEN)
+		return pr_err(err, PR_EINVAL, "%s%s.%s: list too long", where, k->section, k->key);
+	do {
+		size_t len = strcspn(p, ",");
+		int choice;
+		snprintf(item, sizeof item, "%.*s", (int)(len < NAMELEN - 1 ? len : NAMELEN - 1), p);
+		if ((choice = choice_index(k->unit, trim(item))) < 0)
+			return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' is not one of %s",
+			              where, k->section, k->key, trim(item), k->unit);
+		if (seen & 1u << choice)
+			return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' listed twice",
+			              where, k->section, k->key, trim(item));
+		seen |= 1u << choice;
+		p += len;
+	} while (*p++ == ',');
+	snprintf(base, PR_KEY_NAMES_LEN, "%s", value);
+	return PR_OK;
+}
+
+/* The target pockets: 1 to 6 distinct ids 0..5. */
+static int set_pockets(const pr_config_key *k, char *base, const char *value, const char *where,
+                       char *err)
+{
+	pr_reward_opts *r = (pr_reward_opts *)base;
+	double list[PR_LIST_MAX];
+	int i, n = parse_numbers(value, list, PR_SIM_POCKETS);
+
+	if (n < 1)
+		return pr_err(err, PR_EINVAL, "%s%s.%s: expected 1 to 6 pocket ids, got '%.40s'",
+		              where, k->section, k->key, value);
+	for (i = 0; i < n; ++i) {
+		int j;
+		if (list[i] != floor(list[i]) || list[i] < 0 || list[i] > 5)
+			return pr_err(err, PR_EINVAL, "%s%s.%s: pocket id must be 0..5, got '%.40s'",
+			              where, k->section, k->key, value);
+		for (j = 0; j < i; ++j)
+			if (list[j] == list[i])
+				return pr_err(err, PR_EINVAL, "%s%s.%s: pocket %d listed twice",
+				              where, k->section, k->key, (int)list[i]);
+		r->targets[i] = (int)list[i];
+	}
+	r->ntargets = n;
+	return PR_OK;
+}
+
+/* A comma list of 1 to PR_LIST_MAX distinct numbers in the key's range
+ * (integers for PR_KEY_ILIST). */
+static int set_list(const pr_config_key *k, char *base, const char *value, const char *where,
+                    char *err)
+{
+	pr_list *l = (pr_list *)base;
+	double list[PR_LIST_MAX];
+	int i, n = parse_numbers(value, list, PR_LIST_MAX);
+
+	if (n < 1)
+		return pr_err(err, PR_EINVAL, "%s%s.%s: expected a comma list of 1 to %d numbers, "
+		              "got '%.40s'", where, k->section, k->key, PR_LIST_MAX, value);
+	for (i = 0; i < n; ++i) {
+		int j;
+		if (!in_range(k, list[i]) || (k->type == PR_KEY_ILIST && list[i] != floor(list[i])))
+			return range_err(k, where, value, err);
+		/* a repeated setting would run twice under one name */
+		for (j = 0; j < i; ++j)
+			if (list[j] == list[i])
+				return pr_err(err, PR_EINVAL, "%s%s.%s: %.15g listed twice",
+				              where, k->section, k->key, list[i]);
+	}
+	l->n = n;
+	memcpy(l->v, list, (size_t)n * sizeof *list);
+	return PR_OK;
+}
+
 static int set_value_raw(pr_config *c, int ki, const char *value, const char *where, char *err)
 {
 	char *base, names[PR_ERRLEN];
@@ -455,26 +560,8 @@ static int set_value_raw(pr_config *c, int ki, const char *value, const char *wh
 		return PR_OK;
 	case PR_KEY_INT:
 	case PR_KEY_LONG:
-	case PR_KEY_ULONG: {
-		char *end;
-		long long x;
-		errno = 0;
-		x = strtoll(value, &end, 10);
-		while (*end == ' ' || *end == '\t')
-			++end;
-		if (end == value || *end || errno == ERANGE)
-			return pr_err(err, PR_EINVAL, "%s%s.%s: not an integer: '%.40s'",
-			              where, k->section, k->key, value);
-		if (!in_range(k, (double)x))
-			return range_err(k, where, value, err);
-		if (k->type == PR_KEY_INT)
-			*(int *)base = (int)x;
-		else if (k->type == PR_KEY_LONG)
-			*(long *)base = (long)x;
-		else
-			*(unsigned long *)base = (unsigned long)x;
-		return PR_OK;
-	}
+	case PR_KEY_ULONG:
+		return set_integer(k, base, value, where, err);
 	case PR_KEY_ENUM:
 		i = choice_index(k->unit, value);
 		if (i < 0)
@@ -491,48 +578,10 @@ static int set_value_raw(pr_config *c, int ki, const char *value, const char *wh
 		snprintf(base, sizeof c->run.name, "%s", value);
 		return PR_OK;
 	}
-	case PR_KEY_NAMES: {
-		char item[NAMELEN];
-		const char *p = value;
-		unsigned seen = 0;
-		if (strlen(value) >= PR_KEY_NAMES_LEN)
-			return pr_err(err, PR_EINVAL, "%s%s.%s: list too long", where, k->section, k->key);
-		do {
-			size_t len = strcspn(p, ",");
-			int choice;
-			snprintf(item, sizeof item, "%.*s", (int)(len < NAMELEN - 1 ? len : NAMELEN - 1), p);
-			if ((choice = choice_index(k->unit, trim(item))) < 0)
-				return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' is not one of %s",
-				              where, k->section, k->key, trim(item), k->unit);
-			if (seen & 1u << choice)
-				return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' listed twice",
-				              where, k->section, k->key, trim(item));
-			seen |= 1u << choice;
-			p += len;
-		} while (*p++ == ',');
-		snprintf(base, PR_KEY_NAMES_LEN, "%s", value);
-		return PR_OK;
-	}
-	case PR_KEY_POCKETS: {
-		pr_reward_opts *r = (pr_reward_opts *)base;
-		n = parse_numbers(value, list, PR_SIM_POCKETS);
-		if (n < 1)
-			return pr_err(err, PR_EINVAL, "%s%s.%s: expected 1 to 6 pocket ids, got '%.40s'",
-			              where, k->section, k->key, value);
-		for (i = 0; i < n; ++i) {
-			int j;
-			if (list[i] != floor(list[i]) || list[i] < 0 || list[i] > 5)
-				return pr_err(err, PR_EINVAL, "%s%s.%s: pocket id must be 0..5, got '%.40s'",
-				              where, k->section, k->key, value);
-			for (j = 0; j < i; ++j)
-				if (list[j] == list[i])
-					return pr_err(err, PR_EINVAL, "%s%s.%s: pocket %d listed twice",
-					              where, k->section, k->key, (int)list[i]);
-			r->targets[i] = (int)list[i];
-		}
-		r->ntargets = n;
-		return PR_OK;
-	}
+	case PR_KEY_NAMES:
+		return set_names(k, base, value, where, err);
+	case PR_KEY_POCKETS:
+		return set_pockets(k, base, value, where, err);
 	case PR_KEY_BOX:
 		n = parse_numbers(value, list, 4);
 		if (n != 4 || list[0] > list[1] || list[2] > list[3])
@@ -542,26 +591,8 @@ static int set_value_raw(pr_config *c, int ki, const char *value, const char *wh
 		memcpy(base, list, 4 * sizeof *list);
 		return PR_OK;
 	case PR_KEY_LIST:
-	case PR_KEY_ILIST: {
-		pr_list *l = (pr_list *)base;
-		n = parse_numbers(value, list, PR_LIST_MAX);
-		if (n < 1)
-			return pr_err(err, PR_EINVAL, "%s%s.%s: expected a comma list of 1 to %d numbers, "
-			              "got '%.40s'", where, k->section, k->key, PR_LIST_MAX, value);
-		for (i = 0; i < n; ++i) {
-			int j;
-			if (!in_range(k, list[i]) || (k->type == PR_KEY_ILIST && list[i] != floor(list[i])))
-				return range_err(k, where, value, err);
-			/* a repeated setting would run twice under one name */
-			for (j = 0; j < i; ++j)
-				if (list[j] == list[i])
-					return pr_err(err, PR_EINVAL, "%s%s.%s: %.15g listed twice",
-					              where, k->section, k->key, list[i]);
-		}
-		l->n = n;
-		memcpy(l->v, list, (size_t)n * sizeof *list);
-		return PR_OK;
-	}
+	case PR_KEY_ILIST:
+		return set_list(k, base, value, where, err);
 	}
 	return pr_err(err, PR_EINVAL, "%s%s.%s: unsupported key type", where, k->section, k->key);
 }

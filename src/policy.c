@@ -903,50 +903,28 @@ static void mom_merge(int dz, double *acc, const double *r)
 	acc[0] = W;
 }
 
-pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
-                              gsl_rng *rng, char *err)
+/* The samples as the fit keeps them: weights w-hat = w unit, states and
+ * actions relative to their weighted means (what the regressions see no
+ * longer depends on offsets), and with cov_center old each sample's
+ * residual about its own sampling mean; all[i] = i. PR_ENOMEM or PR_OK. */
+static int centred_samples(pr_policy *p, const pr_policy_data *d, double sw, double unit, int old,
+                           int *all)
 {
-	pr_policy *p;
-	const int reward = o->target == PR_TARGET_REWARD_STATE, ds = d->ds, da = d->da;
-	const size_t LM = mom_size(ds, da), LD = mom_size(da, 0);
-	const int old = o->cov_center == PR_COV_CENTER_OLD;
-	double sw, unit;
-	int *all = NULL, i, j, l;
+	const int ds = d->ds, da = d->da;
+	int i, j;
 
-	if (pr_policy_opts_check(o, err) != PR_OK || check_data(d, reward, &sw, &unit, err) != PR_OK ||
-	    check_centres(d, o->cov_center, err) != PR_OK)
-		return NULL;
-	p = policy_alloc(PR_POLICY_TREE, ds, da);
-	if (!p) {
-		pr_err(err, PR_ENOMEM, "policy: out of memory");
-		return NULL;
-	}
-	p->n = d->n;
-	/* lambda acts on the raw weights (eq. 6.6): lambda / sum w-hat is
-	 * lambda unit / (unit sum w-hat), exactly */
-	p->lambda = o->lambda * unit;
-	p->min_std = o->min_std;
-	p->covmode = o->cov;
-	p->center = o->cov_center;
 	p->X = malloc((size_t)d->n * ds * sizeof *p->X);
 	p->A = malloc((size_t)d->n * da * sizeof *p->A);
 	p->zref = calloc((size_t)(ds + da), sizeof *p->zref);
 	p->w = malloc((size_t)d->n * sizeof *p->w);
-	all = malloc((size_t)d->n * sizeof *all);
 	if (old)
 		p->D = malloc((size_t)d->n * da * sizeof *p->D);
-	if (!p->X || !p->A || !p->zref || !p->w || !all || (old && !p->D)) {
-		free(all);
-		pr_policy_free(p);
-		pr_err(err, PR_ENOMEM, "policy: out of memory");
-		return NULL;
-	}
+	if (!p->X || !p->A || !p->zref || !p->w || !all || (old && !p->D))
+		return PR_ENOMEM;
 	for (i = 0; i < d->n; i++) {
 		p->w[i] = (d->w ? d->w[i] : 1.0) * unit;
 		all[i] = i;
 	}
-	/* states and actions relative to their weighted means: what the
-	 * regressions see no longer depends on offsets */
 	for (i = 0; i < d->n; i++)
 		for (j = 0; j < ds + da; j++)
 			p->zref[j] += p->w[i] / sw * (j < ds ? d->S[(size_t)i * ds + j] : d->A[(size_t)i * da + j - ds]);
@@ -956,22 +934,19 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 		for (j = 0; j < da; j++)
 			p->A[(size_t)i * da + j] = d->A[(size_t)i * da + j] - p->zref[ds + j];
 	}
-	/* cov_center old: each sample's residual about its own sampling mean */
 	for (i = 0; old && i < d->n * da; i++)
 		p->D[i] = d->A[i] - d->M[i];
-	/* eq. 6.3: the weighted score uses the REPS weights */
-	p->forest = pr_forest_fit(&o->forest, d->S, d->n, ds, reward ? d->Y : d->A,
-	                          reward ? d->dy : da, p->w, rng, err);
-	if (!p->forest) {
-		free(all);
-		pr_policy_free(p);
-		return NULL;
-	}
-	p->M = pr_forest_ntrees(p->forest);
-	p->cap = p->M;
-	p->nl = pr_forest_nleaves(p->forest);
-	/* per leaf and overall: the moment records; per pair of leaves, the
-	 * sum of w^2 over the samples they share (eq. 6.9 needs sum w-hat^2) */
+	return PR_OK;
+}
+
+/* Per leaf and overall the moment records (and with cov_center old those
+ * of the residuals), the count of positive weights and sum w-hat^2 (eq. 6.9). */
+static int leaf_moments(pr_policy *p, const pr_policy_data *d, int old, const int *all)
+{
+	const int ds = d->ds, da = d->da;
+	const size_t LM = mom_size(ds, da), LD = mom_size(da, 0);
+	int i, l;
+
 	p->lm = malloc((size_t)p->nl * LM * sizeof *p->lm);
 	p->gm = malloc((LM + (size_t)(ds + da)) * sizeof *p->gm);
 	p->lpos = calloc((size_t)p->nl, sizeof *p->lpos);
@@ -982,12 +957,8 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 		p->gd = malloc(LD * sizeof *p->gd);
 	}
 	if (!p->lm || !p->gm || !p->lpos || ((size_t)p->nl * (size_t)p->nl <= 4u << 20 && !p->w2) ||
-	    (old && (!p->ld || !p->gd))) {
-		free(all);
-		pr_policy_free(p);
-		pr_err(err, PR_ENOMEM, "policy: out of memory");
-		return NULL;
-	}
+	    (old && (!p->ld || !p->gd)))
+		return PR_ENOMEM;
 	for (l = 0; l < p->nl; l++) {
 		const int *idx;
 		int k = pr_forest_leaf_samples(p->forest, l, &idx);
@@ -1007,32 +978,85 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
 		p->gw2 += p->w[i] * p->w[i];
 		p->gpos += p->w[i] > 0.0;
 	}
-	if (p->w2) {
-		int *lv = malloc((size_t)p->M * sizeof *lv), u, v;
+	return PR_OK;
+}
 
-		if (!lv) {
-			free(all);
-			pr_policy_free(p);
-			pr_err(err, PR_ENOMEM, "policy: out of memory");
-			return NULL;
-		}
-		for (i = 0; i < d->n; i++) {
-			double w2 = p->w[i] * p->w[i];
+/* Per pair of leaves, the sum of w-hat^2 over the samples they share
+ * (eq. 6.9), when the table fits (p->w2). */
+static int shared_weights(pr_policy *p, const pr_policy_data *d, char *err)
+{
+	int *lv, i, u, v;
 
-			if (pr_forest_active(p->forest, d->S + (size_t)i * ds, ds, lv, p->M) != p->M) {
-				free(lv);
-				free(all);
-				pr_policy_free(p);
-				pr_err(err, PR_ENUM, "policy: forest query failed");
-				return NULL;
-			}
-			for (u = 0; u < p->M; u++)
-				for (v = 0; v < p->M; v++)
-					p->w2[(size_t)lv[u] * p->nl + lv[v]] += w2;
+	if (!p->w2)
+		return PR_OK;
+	if (!(lv = malloc((size_t)p->M * sizeof *lv)))
+		return pr_err(err, PR_ENOMEM, "policy: out of memory");
+	for (i = 0; i < d->n; i++) {
+		double w2 = p->w[i] * p->w[i];
+
+		if (pr_forest_active(p->forest, d->S + (size_t)i * d->ds, d->ds, lv, p->M) != p->M) {
+			free(lv);
+			return pr_err(err, PR_ENUM, "policy: forest query failed");
 		}
-		free(lv);
+		for (u = 0; u < p->M; u++)
+			for (v = 0; v < p->M; v++)
+				p->w2[(size_t)lv[u] * p->nl + lv[v]] += w2;
 	}
+	free(lv);
+	return PR_OK;
+}
+
+pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
+                              gsl_rng *rng, char *err)
+{
+	pr_policy *p;
+	const int reward = o->target == PR_TARGET_REWARD_STATE, ds = d->ds, da = d->da;
+	const int old = o->cov_center == PR_COV_CENTER_OLD;
+	double sw, unit;
+	int *all = NULL, rc;
+
+	if (pr_policy_opts_check(o, err) != PR_OK || check_data(d, reward, &sw, &unit, err) != PR_OK ||
+	    check_centres(d, o->cov_center, err) != PR_OK)
+		return NULL;
+	p = policy_alloc(PR_POLICY_TREE, ds, da);
+	if (!p) {
+		pr_err(err, PR_ENOMEM, "policy: out of memory");
+		return NULL;
+	}
+	p->n = d->n;
+	/* lambda acts on the raw weights (eq. 6.6): lambda / sum w-hat is
+	 * lambda unit / (unit sum w-hat), exactly */
+	p->lambda = o->lambda * unit;
+	p->min_std = o->min_std;
+	p->covmode = o->cov;
+	p->center = o->cov_center;
+	all = malloc((size_t)d->n * sizeof *all);
+	if (centred_samples(p, d, sw, unit, old, all) != PR_OK) {
+		free(all);
+		pr_policy_free(p);
+		pr_err(err, PR_ENOMEM, "policy: out of memory");
+		return NULL;
+	}
+	/* eq. 6.3: the weighted score uses the REPS weights */
+	p->forest = pr_forest_fit(&o->forest, d->S, d->n, ds, reward ? d->Y : d->A,
+	                          reward ? d->dy : da, p->w, rng, err);
+	if (!p->forest) {
+		free(all);
+		pr_policy_free(p);
+		return NULL;
+	}
+	p->M = pr_forest_ntrees(p->forest);
+	p->cap = p->M;
+	p->nl = pr_forest_nleaves(p->forest);
+	if ((rc = leaf_moments(p, d, old, all)) != PR_OK)
+		pr_err(err, PR_ENOMEM, "policy: out of memory");
+	else
+		rc = shared_weights(p, d, err);
 	free(all);
+	if (rc != PR_OK) {
+		pr_policy_free(p);
+		return NULL;
+	}
 	return p;
 }
 

@@ -257,9 +257,90 @@ static void repredict(pr_sim *s, int n, const int *part, int np, double tau)
 	}
 }
 
+/* The ball whose cached event comes first (ties by type, then index), or -1. */
+static int next_event(const pr_sim *s, int n)
+{
+	const pr_sim_ball *b = s->b;
+	int i, k = -1;
+
+	for (i = 0; i < n; ++i)
+		if (b[i].etype != PR_EV_NONE && (k < 0 || earlier(b[i].et, b[i].etype, b[k].et, b[k].etype)))
+			k = i;
+	return k;
+}
+
+/* Ball k drops into pocket bk->eother at tau: traced where it crossed the
+ * capture circle, then at rest on the pocket's centre. */
+static int pocket_ball(pr_sim *s, int k, double tau, pr_sim_trace *tr)
+{
+	pr_sim_ball *bk = &s->b[k];
+	double p[2], v[2];
+
+	ball_at(s, bk, tau, p, v);
+	if (tr && pr_sim_trace_add(tr, time_of(s, tau), k, p[0], p[1], v[0], v[1]))
+		return PR_ENOMEM;
+	s->pocket[k] = bk->eother;
+	bk->x = s->px[bk->eother];
+	bk->y = s->py[bk->eother];
+	bk->ux = bk->uy = bk->sp = 0;
+	bk->st = PR_BALL_POCKETED;
+	if (tr && pr_sim_trace_add(tr, time_of(s, tau), k, bk->x, bk->y, 0, 0))
+		return PR_ENOMEM;
+	return PR_OK;
+}
+
+/* eq. 7.4: the cushion reverses the normal component, scaled by the
+ * restitution; the centre sits exactly on its line. */
+static void cushion_bounce(const pr_sim *s, pr_sim_ball *bk)
+{
+	const double kappa = s->t.restitution;
+
+	if (bk->eother < 2) {
+		bk->x = bk->eother ? s->hx : -s->hx;
+		bk->ux = -kappa * bk->ux;
+	} else {
+		bk->y = bk->eother == 3 ? s->hy : -s->hy;
+		bk->uy = -kappa * bk->uy;
+	}
+	bk->sp = hypot(bk->ux, bk->uy);
+	if (bk->sp == 0)
+		bk->st = PR_BALL_REST;
+}
+
+/* eq. 7.5-7.6: balls k and j = bk->eother collide at tau and exchange the
+ * normal components of their velocities; a contact of the cue ball with a
+ * reward ball ends the gap record. */
+static void ball_collision(pr_sim *s, gap_state *g, int k, double tau)
+{
+	pr_sim_ball *bk = &s->b[k], *bj = &s->b[bk->eother];
+	const int j = bk->eother;
+	double nx, ny, d, dv;
+
+	gap_close(s, g, j, tau);
+	advance(s, bj, tau);
+	nx = bj->x - bk->x;
+	ny = bj->y - bk->y;
+	d = hypot(nx, ny);
+	nx /= d;
+	ny /= d;
+	dv = (bj->ux - bk->ux) * nx + (bj->uy - bk->uy) * ny;
+	bk->ux += dv * nx;
+	bk->uy += dv * ny;
+	bj->ux -= dv * nx;
+	bj->uy -= dv * ny;
+	bk->sp = hypot(bk->ux, bk->uy);
+	bj->sp = hypot(bj->ux, bj->uy);
+	bk->st = bk->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
+	bj->st = bj->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
+	if ((k == 0 && j <= g->nr) || (j == 0 && k <= g->nr)) {
+		g->hit = 1;
+		g->gap = 2 * s->t.ball_radius; /* contact: gap 0 */
+	}
+}
+
 int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err)
 {
-	const double c = s->t.friction, kappa = s->t.restitution;
+	const double c = s->t.friction;
 	const double tmax = s->t.friction_law == PR_FRICTION_CONSTANT ? s->o.max_time
 	                  : -expm1(-c * s->o.max_time) / c; /* tau at sim.max_time */
 	pr_sim_ball *b = s->b;
@@ -275,18 +356,11 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 		predict_full(s, n, i, 0);
 	if (tr && trace_all(s, n, tr, 0, 0))
 		return pr_err(err, PR_ENOMEM, "trace: out of memory");
-	for (;;) {
-		int part[2], np = 1, j;
-		pr_sim_ball *bk;
+	while ((k = next_event(s, n)) >= 0) {
+		int part[2], np = 1;
+		pr_sim_ball *bk = &b[k];
 
-		k = -1;
-		for (i = 0; i < n; ++i)
-			if (b[i].etype != PR_EV_NONE &&
-			    (k < 0 || earlier(b[i].et, b[i].etype, b[k].et, b[k].etype)))
-				k = i;
-		if (k < 0)
-			break;
-		if (b[k].et > tmax) {
+		if (bk->et > tmax) {
 			tau = tmax;
 			timeout = 1;
 			break;
@@ -294,69 +368,21 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 		if (++events > s->o.max_events)
 			return pr_err(err, PR_ENUM, "shot needs more than sim.max_events = %ld events",
 			              s->o.max_events);
-		bk = &b[k];
 		tau = bk->et;
 		part[0] = k;
 		gap_close(s, &g, k, tau);
 		advance(s, bk, tau);
-		switch (bk->etype) {
-		case PR_EV_STOP:
+		if (bk->etype == PR_EV_STOP) {
 			bk->ux = bk->uy = bk->sp = 0;
 			bk->st = PR_BALL_REST;
-			break;
-		case PR_EV_POCKET: {
-			double p[2], v[2];
-			ball_at(s, bk, tau, p, v);
-			if (tr && pr_sim_trace_add(tr, time_of(s, tau), k, p[0], p[1], v[0], v[1]))
+		} else if (bk->etype == PR_EV_POCKET) {
+			if (pocket_ball(s, k, tau, tr))
 				return pr_err(err, PR_ENOMEM, "trace: out of memory");
-			s->pocket[k] = bk->eother;
-			bk->x = s->px[bk->eother];
-			bk->y = s->py[bk->eother];
-			bk->ux = bk->uy = bk->sp = 0;
-			bk->st = PR_BALL_POCKETED;
-			if (tr && pr_sim_trace_add(tr, time_of(s, tau), k, bk->x, bk->y, 0, 0))
-				return pr_err(err, PR_ENOMEM, "trace: out of memory");
-			break;
-		}
-		case PR_EV_CUSHION: /* eq. 7.4; the centre sits exactly on its line */
-			if (bk->eother < 2) {
-				bk->x = bk->eother ? s->hx : -s->hx;
-				bk->ux = -kappa * bk->ux;
-			} else {
-				bk->y = bk->eother == 3 ? s->hy : -s->hy;
-				bk->uy = -kappa * bk->uy;
-			}
-			bk->sp = hypot(bk->ux, bk->uy);
-			if (bk->sp == 0)
-				bk->st = PR_BALL_REST;
-			break;
-		default: { /* PR_EV_BALL: eq. 7.5-7.6, normal components exchanged */
-			pr_sim_ball *bj = &b[bk->eother];
-			double nx, ny, d, dv;
-			j = bk->eother;
-			part[np++] = j;
-			gap_close(s, &g, j, tau);
-			advance(s, bj, tau);
-			nx = bj->x - bk->x;
-			ny = bj->y - bk->y;
-			d = hypot(nx, ny);
-			nx /= d;
-			ny /= d;
-			dv = (bj->ux - bk->ux) * nx + (bj->uy - bk->uy) * ny;
-			bk->ux += dv * nx;
-			bk->uy += dv * ny;
-			bj->ux -= dv * nx;
-			bj->uy -= dv * ny;
-			bk->sp = hypot(bk->ux, bk->uy);
-			bj->sp = hypot(bj->ux, bj->uy);
-			bk->st = bk->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
-			bj->st = bj->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
-			if ((k == 0 && j <= g.nr) || (j == 0 && k <= g.nr)) {
-				g.hit = 1;
-				g.gap = 2 * s->t.ball_radius; /* contact: gap 0 */
-			}
-			break;
-		}
+		} else if (bk->etype == PR_EV_CUSHION) {
+			cushion_bounce(s, bk);
+		} else { /* PR_EV_BALL */
+			part[np++] = bk->eother;
+			ball_collision(s, &g, k, tau);
 		}
 		if (tr && trace_all(s, n, tr, tau, time_of(s, tau)))
 			return pr_err(err, PR_ENOMEM, "trace: out of memory");
