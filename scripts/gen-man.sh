@@ -1,7 +1,9 @@
 #!/bin/sh
 # Generate the man page from `poolreps --help` and `poolreps --help-keys`, so
 # that the man page and the help text cannot drift apart (tests/test_cli.py
-# checks that they agree).
+# checks that they agree). The help text is printed from the commands'
+# option tables (src/cli/opts.c), the same tables the parser reads, and the
+# keys from the configuration's key tables: one source for all three.
 #   scripts/gen-man.sh [POOLREPS [OUT]]    defaults: ./poolreps, docs/poolreps.1
 # OUT - writes to stdout. The page depends on the help text alone (no date,
 # no version, C locale), so the same binary always gives the same bytes.

@@ -305,7 +305,7 @@ static void hold_signals(void)
 	sigemptyset(&set);
 	for (i = 0; pr_fatal_signals[i]; ++i)
 		sigaddset(&set, pr_fatal_signals[i]);
-	sigprocmask(SIG_BLOCK, &set, NULL);
+	pthread_sigmask(SIG_BLOCK, &set, NULL);
 }
 
 /* Progress on stderr unless -q: plain lines only when asked (--progress),
@@ -325,17 +325,40 @@ static pr_progress progress_for(const cli_common *c, progress_state *prog, const
 	return p;
 }
 
+/* Hand cmd what main owns, build the configuration, call the command:
+ * its exit code. */
+static int run_command(const cli_command *cmd, const cli_common *c, const cli_given *g, void *opts,
+                       int nops, char **ops, const pr_provenance *prov, const struct timespec *t0,
+                       clock_t c0)
+{
+	char err[PR_ERRLEN] = "", note[PR_ERRLEN] = "";
+	progress_state prog;
+	pr_progress progress;
+	pr_config cfg;
+	int rc;
+
+	if ((graceful = (cmd->flags & CLI_GRACEFUL) != 0))
+		make_stop_timer();
+	progress = progress_for(c, &prog, t0);
+	cli_hand(cmd, opts, nops, ops, &progress, prov, note, c->quiet);
+	if ((rc = load_config(cmd, c, g, &cfg, err)) == PR_OK)
+		rc = cmd->fn(&cfg, opts, err);
+	hold_signals();
+	/* an error must not land at the end of an unfinished bar */
+	if (!c->quiet && prog.open)
+		fputs("\r\033[K", stderr);
+	return finish(cmd, rc, err, note, c->quiet, t0, c0);
+}
+
+/* Parse, pick the command (or print help), check its options, run it. */
 int main(int argc, char **argv)
 {
 	const cli_command *cmd = NULL;
 	cli_given g;
 	cli_common c;
-	pr_config cfg;
-	progress_state prog;
-	pr_progress progress;
 	/* getopt_long permutes argv: provenance records the order as typed */
 	pr_provenance prov = {argc, calloc((size_t)argc + 1, sizeof *argv)};
-	char err[PR_ERRLEN] = "", msg[CLI_MSGLEN] = "", note[PR_ERRLEN] = "", **ops = NULL;
+	char msg[CLI_MSGLEN] = "", **ops = NULL;
 	int help = 0, op = 0, nops = 0, code = 0, rc;
 	void *opts = NULL;
 	struct timespec t0;
@@ -365,17 +388,7 @@ int main(int argc, char **argv)
 	if (rc == 0 && !(rc = cli_apply(cmd, &g, &c, opts, msg)))
 		rc = cli_check(cmd, &c, opts, msg);
 	if (rc == 0) {
-		if ((graceful = (cmd->flags & CLI_GRACEFUL) != 0))
-			make_stop_timer();
-		progress = progress_for(&c, &prog, &t0);
-		cli_hand(cmd, opts, nops, ops, &progress, &prov, note, c.quiet);
-		if ((rc = load_config(cmd, &c, &g, &cfg, err)) == PR_OK)
-			rc = cmd->fn(&cfg, opts, err);
-		hold_signals();
-		/* an error must not land at the end of an unfinished bar */
-		if (!c.quiet && prog.open)
-			fputs("\r\033[K", stderr);
-		code = finish(cmd, rc, err, note, c.quiet, &t0, c0);
+		code = run_command(cmd, &c, &g, opts, nops, ops, &prov, &t0, c0);
 	} else if (msg[0]) {
 		/* a usage error (exit 1), or memory ran out (code says 4) */
 		fail(msg);
