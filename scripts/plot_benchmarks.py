@@ -47,6 +47,15 @@ def read_curves(path):
     return curves
 
 
+def plateau(series):
+    """The plateau the figure marks: per iteration the median over the runs
+    (cut to the shortest run), then the median of that curve's last tenth of
+    iterations. Returns (plateau, median curve). README text uses it too."""
+    n = min(len(y) for y in series)
+    med = np.median(np.array([np.asarray(y)[:n] for y in series]), axis=0)
+    return float(np.median(med[-max(1, n // 10):])), med
+
+
 def draw(axes, curves, name, colour):
     for ax, (col, _, negate) in zip(axes, PANELS):
         stack = []
@@ -55,14 +64,12 @@ def draw(axes, curves, name, colour):
             y = np.maximum(-c[col] if negate else c[col], TINY)
             ax.plot(c["samples"], y, color=colour, alpha=0.25, lw=0.7)
             stack.append(y)
-        n = min(len(y) for y in stack)
+        level, med = plateau(stack)
+        n = len(med)
         x = curves[sorted(curves)[0]]["samples"][:n]
-        med = np.median(np.array([y[:n] for y in stack]), axis=0)
         ax.plot(x, med, color=colour, lw=1.8, label=f"{name}: median of {len(stack)} runs")
-        # the plateau: the median over the last tenth of the iterations
-        plateau = float(np.median(med[-max(1, n // 10):]))
-        ax.axhline(plateau, color=colour, lw=0.8, ls=":",
-                   label=f"{name}: plateau {plateau:.3g} (median, last tenth)")
+        ax.axhline(level, color=colour, lw=0.8, ls=":",
+                   label=f"{name}: plateau {level:.3g} (median, last tenth)")
         if col == "test_error":
             std = np.median(np.array([curves[r]["mean_std"][:n] for r in sorted(curves)]), axis=0)
             ax.plot(x, np.maximum(std, TINY), color=colour, lw=1.2, ls="--",

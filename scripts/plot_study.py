@@ -4,7 +4,8 @@
     plot_study.py DATA DIR
 
 Reads DATA/exp1_mse.csv, DATA/exp2_returns.csv and DATA/manifest.csv (what
-`make study` commits in data/study/) and writes DIR/study_seeds.png and .svg:
+`make study` commits in data/study/) and writes DIR/study_seeds.png and .svg,
+the event-mode runs:
 top, Experiment 1's test MSE of each setting relative to its reference (K 10,
 M at its largest, the smallest n_min), one grey dot per seed (the mean of its
 forests) and the mean over seeds with its 95 % t interval, one y-scale for the
@@ -22,6 +23,7 @@ import numpy as np  # noqa: E402  (after figstyle: it picks the Python)
 from scipy import stats  # noqa: E402
 
 STEM = "study_seeds"
+ARM = "event"   # the physics arm drawn (the study runs Experiments 1 and 2 in three)
 
 
 def rows(data, name):
@@ -34,7 +36,8 @@ def config(data, experiment):
     checked that the units agree)."""
     cfg, unit = {}, None
     for r in rows(data, "manifest.csv"):
-        if r["experiment"] == experiment and unit in (None, r["unit"]):
+        if (r["experiment"] == experiment and r["unit"].startswith(f"{ARM}/")
+                and unit in (None, r["unit"])):
             unit = r["unit"]
             cfg[r["key"]] = r["value"]
     return cfg
@@ -55,7 +58,8 @@ def exp1_panels(axes, data):
     cfg = config(data, "exp1")
     acc = defaultdict(list)
     for r in rows(data, "exp1_mse.csv"):
-        acc[(int(r["seed"]), r["sweep"], int(r["value"]))].append(float(r["mse"]))
+        if r["arm"] == ARM:
+            acc[(int(r["seed"]), r["sweep"], int(r["value"]))].append(float(r["mse"]))
     mse = {k: np.mean(v) for k, v in acc.items()}
     seeds = sorted({k[0] for k in mse})
     lists = {s: [int(x) for x in cfg[f"exp1.{s}_list"].split(",")]
@@ -82,7 +86,7 @@ def exp2_panels(axes, data):
     top = max(int(x) for x in cfg["exp2.sizes"].split(","))
     acc = defaultdict(list)
     for r in rows(data, "exp2_returns.csv"):
-        if int(r["size"]) in (0, top):
+        if r["arm"] == ARM and int(r["size"]) in (0, top):
             acc[(int(r["seed"]), r["policy"], r["mode"])].append(float(r["mean_return"]))
     seeds = sorted({k[0] for k in acc})
     pols = [("single", "single node"), ("s_a", "s→a"), ("s_rs", "s→rs"), ("expert", "expert")]
@@ -108,7 +112,8 @@ def study_seeds(data, directory):
     low[1].sharey(low[0])
     n = exp1_panels(top, data)
     exp2_panels(low, data)
-    fig.suptitle(f"The verdict study: Experiments 1 and 2 over {n} seeds\n(grey: one seed, "
+    fig.suptitle(f"The verdict study: Experiments 1 and 2 over {n} seeds, event mode\n"
+                 "(grey: one seed, "
                  "the mean of its run's forests or repetitions; coloured: the mean over the "
                  "seeds with its 95 % t interval)", fontsize=8.5)
     return fs.save(fig, directory, STEM)

@@ -21,17 +21,7 @@ out=$1; reps=$2; docs=$3; py=$4; shift 4
 jobs=${POWER_JOBS:-2}
 export POOLREPS="${POOLREPS:-./poolreps}"
 here=$(dirname "$0")
-ARMS="event stepped stepped05"
-
-# arm NAME: the arm's own --set options
-arm() {
-	case $1 in
-	event) echo "--set sim.mode=event" ;;
-	stepped) echo "--set sim.mode=stepped --set sim.dt=0.001" ;;
-	stepped05) echo "--set sim.mode=stepped --set sim.dt=0.0005" ;;
-	esac
-}
-. "$here/study_lib.sh"
+. "$here/study_lib.sh"   # ARMS, arm, now, since, load
 # merge_arm NAME: collect the sweep OUT/runs/NAME, its one grid point into OUT/NAME
 merge_arm() {
 	"$POOLREPS" collect -q "$out/runs/$1"

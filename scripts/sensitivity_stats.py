@@ -13,8 +13,8 @@ Usage:
 Every point is Experiment 3 (data/exp3.ini) with one open choice changed.
 Its verdicts on the thesis's claims of section 7.5.2 come from the project's
 one verdict generator, scripts/verdicts.py with data/study/rules.ini: the
-same claim parts, margins, one-sided and TOST tests, 95 % t intervals and
-Holm adjustment (here over every test of a point, as verdicts.py does over
+same claim parts, margins, one-sided and TOST tests, intervals at the Holm
+levels and Holm adjustment (here over every test of a point, as verdicts.py does over
 every test of a mode), so a verdict here means what it means in
 docs/verdicts.md; the per-run quantities come from scripts/power_stats.py's
 reader of merged runs. A verdict "flips" when it differs from the reference point's:
@@ -154,22 +154,25 @@ def point_verdicts(a, rules):
     d = {"exp3": point_runs(a), "reps": len(a.reps), "iterations": a.iterations}
     if a.reps != list(range(len(a.reps))):
         raise Fail(f"{a.folder}: repetitions are not 0..{len(a.reps) - 1}", 3)
-    if a.iterations < rules["converged_at"] + 2:
+    if a.iterations < rules["converged_at"] + 3:
         # runs shorter than the rules' convergence point (QUICK=1, tests): the
-        # last two iterations are the window, the one before the settled level
-        rules = dict(rules, converged_at=max(1, a.iterations - 2), settle_block=1)
-    m = {k: v["value"] for k, v in rules["margins"].items()}
+        # last three iterations are the window of each run's trend
+        rules = dict(rules, converged_at=max(0, a.iterations - 3))
+    m = vd.mode_margins(d, rules["margins"], a.name)
     parts = vd.exp3_parts(d, a.name, m, rules)
     fam = {}
     for cid in CLAIMS:
         for p in parts[cid]:
             fam.setdefault((p["label"], p["kind"], p["a"], p["b"]), []).append(p)
     keys = list(fam)
-    adj = vd.vs.holm([fam[k][0]["p_s"] for k in keys] + [fam[k][0]["p_r"] for k in keys])
-    for k, a_s, a_r in zip(keys, adj[:len(keys)], adj[len(keys):]):
+    ps_all = [fam[k][0]["p_s"] for k in keys] + [fam[k][0]["p_r"] for k in keys]
+    adj, lvl = vd.vs.holm(ps_all), vd.vs.holm_levels(ps_all, rules["alpha"])
+    n = len(keys)
+    for i, k in enumerate(keys):
         for p in fam[k]:
-            p["adj_s"], p["adj_r"] = a_s, a_r
-            p["verdict"] = vd.vs.part_verdict(a_s, a_r, rules["alpha"])
+            p["adj_s"], p["adj_r"] = adj[i], adj[n + i]
+            p["verdict"] = vd.vs.part_verdict(adj[i], adj[n + i], rules["alpha"])
+            vd.levels(p, lvl[i], lvl[n + i])
     out = {}
     for cid in CLAIMS:
         v = vd.claim_verdict(cid, parts[cid], rules)
@@ -190,7 +193,8 @@ def study_to_csv(study_dir, out):
     claims, effects = [], []
     for a in arms:
         for cid, (v, p) in point_verdicts(a, rules).items():
-            claims.append((a.name, cid, v, f"{p['label']} {vd.ci(p)}"))
+            side = "r" if v == vd.vs.DISAGREES else "s"
+            claims.append((a.name, cid, v, f"{p['label']} {vd.ci(p, side)}"))
         b = a.ret[a.row(ps.BASELINE)]
         for q in a.policies:
             x = a.ret[a.row(q)]

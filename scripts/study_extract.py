@@ -4,18 +4,23 @@
 Usage: study_extract.py OUT DATA
 
 OUT is what scripts/study.sh writes: OUT/power/ARM (merged Experiment 3 arms),
-OUT/seeds/exp1 and OUT/seeds/exp2 (collected seed sweeps), OUT/timing.csv.
+OUT/seeds/ARM/exp1 and OUT/seeds/ARM/exp2 (collected seed sweeps per physics
+arm), OUT/timing.csv.
 DATA receives only what scripts/verdicts.py needs, each file replaced whole:
-  manifest.csv     experiment, unit (arm or seed), key, value: every unit's
-                   effective configuration and the version that ran it
+  manifest.csv     experiment, unit (arm, or arm/seed), key, value: every
+                   unit's effective configuration and the version that ran it
   exp3_runs.csv    one row per (arm, policy, repetition): last episodes' mean
                    and SD of the returns, balls in pockets 2 and 5, median cue
                    speed, mean distance of the balls not in a target pocket
   exp3_curves.csv  mean return of every iteration of every run (Fig. 7.7)
-  exp1_mse.csv     seed, forest, sweep, value, test MSE
-  exp1_map.csv     per seed: grid positions, pocketed positions (return 0),
-                   the forests' mean prediction there, RMS error elsewhere
-  exp2_returns.csv seed, repetition, size, policy, mode, mean return, pocketed share
+  exp1_mse.csv     arm, seed, forest, sweep, value, test MSE
+  exp1_map.csv     per arm and seed: grid positions, pocketed positions (return
+                   0), the forests' mean prediction there, RMS error elsewhere
+  exp2_returns.csv arm, seed, repetition, size, policy, mode, mean return,
+                   pocketed share
+  sphere_curves.csv method, repetition, iteration, samples, test return of the
+                   contextual sphere benchmark (OUT/sphere/METHOD, the README's
+                   sentence on it and the bench_sphere figure's plateau)
   timing.csv       wall and CPU seconds of each phase
 Exit codes: 1 usage, 2 missing or malformed input.
 """
@@ -112,15 +117,21 @@ def exp3(out):
     return runs, curves, manifest, cpu_s, len(curves[0]) - 3
 
 
+def arm_points(out, exp):
+    """[(arm, seed, merged folder)] of an experiment's seed sweeps, arm by arm."""
+    return [(a, seed, d) for a in ARMS
+            for seed, d in sorted(seed_points(os.path.join(out, "seeds", a, exp)).items())]
+
+
 def exp1(out):
-    points = seed_points(os.path.join(out, "seeds", "exp1"))
+    points = arm_points(out, "exp1")
     mse, maps, manifest = [], [], []
-    for seed, d in sorted(points.items()):
-        manifest += [("exp1", seed, k, v) for k, v in config_items(d)]
+    for arm, seed, d in points:
+        manifest += [("exp1", f"{arm}/{seed}", k, v) for k, v in config_items(d)]
         for r in read_rows(os.path.join(d, "exp1_mse.csv"),
                            ("repetition", "sweep", "n_min", "trees", "cuts", "mse")):
             col = {"n_min": "n_min", "trees": "trees", "cuts": "cuts"}[r["sweep"]]
-            mse.append([seed, int(r["repetition"]), r["sweep"], int(r[col]), float(r["mse"])])
+            mse.append([arm, seed, int(r["repetition"]), r["sweep"], int(r[col]), float(r["mse"])])
         pred, reward = defaultdict(list), {}
         for r in read_rows(os.path.join(d, "exp1_map.csv"), ("x1", "y1", "reward", "pred")):
             pred[(r["x1"], r["y1"])].append(float(r["pred"]))
@@ -132,24 +143,39 @@ def exp1(out):
             fail(f"{d}/exp1_map.csv: no pocketed (or no other) grid positions")
         under = sum(mean[k] for k in pocketed) / len(pocketed)
         rms = math.sqrt(sum((mean[k] - reward[k]) ** 2 for k in rest) / len(rest))
-        maps.append([seed, len(mean), len(pocketed), under, rms])
+        maps.append([arm, seed, len(mean), len(pocketed), under, rms])
     return mse, maps, manifest, points
 
 
 def exp2(out):
-    points = seed_points(os.path.join(out, "seeds", "exp2"))
+    points = arm_points(out, "exp2")
     rows, manifest = [], []
-    for seed, d in sorted(points.items()):
-        manifest += [("exp2", seed, k, v) for k, v in config_items(d)]
+    for arm, seed, d in points:
+        manifest += [("exp2", f"{arm}/{seed}", k, v) for k, v in config_items(d)]
         for r in read_rows(os.path.join(d, "exp2_returns.csv"),
                            ("repetition", "size", "policy", "mode", "mean_return", "pocketed")):
-            rows.append([seed, int(r["repetition"]), int(r["size"]), r["policy"], r["mode"],
+            rows.append([arm, seed, int(r["repetition"]), int(r["size"]), r["policy"], r["mode"],
                          float(r["mean_return"]), float(r["pocketed"])])
     return rows, manifest, points
 
 
+SPHERE = ("creps_old", "creps_new", "ccmaes")
+
+
+def sphere(out):
+    rows, manifest = [], []
+    for method in SPHERE:
+        d = os.path.join(out, "sphere", method)
+        manifest += [("sphere", method, k, v) for k, v in config_items(d)]
+        for r in read_rows(os.path.join(d, "bench_curve.csv"),
+                           ("repetition", "iteration", "samples", "test_return")):
+            rows.append([method, int(r["repetition"]), int(r["iteration"]), int(r["samples"]),
+                         float(r["test_return"])])
+    return rows, manifest
+
+
 def seed_cpu(points):
-    return cpu(f for d in points.values()
+    return cpu(f for _, _, d in points
                for f in glob.glob(os.path.join(os.path.dirname(d), "runs", "rep-*")))
 
 
@@ -161,26 +187,32 @@ def main():
     runs, curves, m3, cpu3, iters = exp3(out)
     mse, maps, m1, p1 = exp1(out)
     ret2, m2, p2 = exp2(out)
+    sph, ms = sphere(out)
     wall = {r["phase"]: r for r in read_rows(os.path.join(out, "timing.csv"),
                                              ("phase", "wall_seconds", "jobs"))}
     timing = [["exp3", float(wall["exp3"]["wall_seconds"]), cpu3, wall["exp3"]["jobs"]],
               ["exp12", float(wall["exp12"]["wall_seconds"]), seed_cpu(p1) + seed_cpu(p2),
-               wall["exp12"]["jobs"]]]
+               wall["exp12"]["jobs"]],
+              ["sphere", float(wall["sphere"]["wall_seconds"]),
+               cpu(os.path.join(out, "sphere", m) for m in SPHERE), wall["sphere"]["jobs"]]]
     os.makedirs(data, exist_ok=True)
     staged = [
         write(os.path.join(data, "manifest.csv"), ["experiment", "unit", "key", "value"],
-              m3 + m1 + m2),
+              m3 + m1 + m2 + ms),
         write(os.path.join(data, "exp3_runs.csv"),
               ["arm", "policy", "repetition", "mean_return", "sd_return", "target", "pocket2",
                "pocket5", "median_speed", "miss_distance"], runs),
         write(os.path.join(data, "exp3_curves.csv"),
               ["arm", "policy", "repetition"] + [f"i{k}" for k in range(1, iters + 1)], curves),
-        write(os.path.join(data, "exp1_mse.csv"), ["seed", "forest", "sweep", "value", "mse"],
+        write(os.path.join(data, "exp1_mse.csv"), ["arm", "seed", "forest", "sweep", "value", "mse"],
               mse),
         write(os.path.join(data, "exp1_map.csv"),
-              ["seed", "positions", "pocketed", "pred_pocketed", "rms_rest"], maps),
+              ["arm", "seed", "positions", "pocketed", "pred_pocketed", "rms_rest"], maps),
         write(os.path.join(data, "exp2_returns.csv"),
-              ["seed", "repetition", "size", "policy", "mode", "mean_return", "pocketed"], ret2),
+              ["arm", "seed", "repetition", "size", "policy", "mode", "mean_return",
+               "pocketed"], ret2),
+        write(os.path.join(data, "sphere_curves.csv"),
+              ["method", "repetition", "iteration", "samples", "test_return"], sph),
         write(os.path.join(data, "timing.csv"), ["phase", "wall_seconds", "cpu_seconds", "jobs"],
               timing),
     ]

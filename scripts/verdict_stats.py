@@ -11,6 +11,7 @@ Estimates (a mean difference with its standard error and degrees of freedom):
     e = paired(a, b)           # mean of a[k] - b[k]: runs paired by repetition
     e = welch(a, b)            # mean(a) - mean(b), independent samples (Welch)
     e.est, e.se, e.df, e.n     # the estimate, its standard error, df, sample size
+    e = trend(y)               # least-squares change across y (slope x (len - 1))
     lo, hi = interval(e)       # 95 % t interval: est -+ t(0.975, df) * se
 
 Tests (each returns a p-value; small p supports the alternative named):
@@ -20,9 +21,16 @@ Tests (each returns a p-value; small p supports the alternative named):
     p_tost(e, low, high)       # H1: low < mean < high (two one-sided tests: the larger p)
     p_outside(e, low, high)    # H1: mean < low or mean > high (2 x the smaller one-sided p)
 
+Counts (k of n units with a property; exact binomial, Clopper-Pearson):
+
+    p_binom_greater(k, n, c)   # H1: share > c  (P(X >= k) when the share is c)
+    p_binom_less(k, n, c)      # H1: share < c  (P(X <= k))
+    lo, hi = clopper_pearson(k, n, level)   # the shares neither test rejects
+
 Multiplicity and verdicts:
 
     holm(ps)                   # Holm-adjusted p-values, same order as ps
+    holm_levels(ps, alpha)     # the level each hypothesis was judged at
     part_verdict(p_support, p_refute, alpha=0.05)   # 'agrees' / 'disagrees' / 'undecided'
     all_of(verdicts), at_least(verdicts, k)          # combine the parts of a claim
 
@@ -83,6 +91,22 @@ def welch(a, b):
     return Estimate(float(a.mean() - b.mean()), math.sqrt(se2), float(df), len(a) + len(b))
 
 
+def trend(y):
+    """The least-squares line through y against 0, 1, ..., n - 1: its change
+    from the first to the last point, slope x (n - 1), with the standard error
+    from the residuals about the line (df = n - 2)."""
+    v = _values(y, "trend")
+    n = len(v)
+    if n < 3:
+        raise ValueError(f"trend: needs at least 3 values (got {n})")
+    x = np.arange(n) - (n - 1) / 2
+    sxx = float(x @ x)
+    slope = float(x @ (v - v.mean())) / sxx
+    resid = v - v.mean() - slope * x
+    s2 = float(resid @ resid) / (n - 2)
+    return Estimate(slope * (n - 1), math.sqrt(s2 / sxx) * (n - 1), n - 2, n)
+
+
 def interval(e, level=LEVEL):
     """Two-sided t interval (lo, hi) of the estimate."""
     half = stats.t.ppf(0.5 + level / 2, e.df) * e.se
@@ -138,6 +162,54 @@ def holm(ps):
     out = np.empty(m)
     out[order] = adj
     return [float(x) for x in out]
+
+
+def holm_levels(ps, alpha=ALPHA):
+    """The level Holm's step-down procedure judged each p-value at: the k-th
+    smallest against alpha / (m - k + 1) until the first that fails; that one
+    and every larger p against the level of the first failure. So p < level
+    exactly when holm(ps) < alpha, and a confidence bound at 1 - level gives
+    the same decision as the adjusted p-value. Same order as ps."""
+    p = np.asarray(ps, float)
+    holm(p)  # the same validation
+    m = len(p)
+    order = np.argsort(p, kind="stable")
+    levels = alpha / (m - np.arange(m))
+    fails = np.nonzero(p[order] >= levels)[0]
+    if len(fails):
+        levels[fails[0]:] = levels[fails[0]]
+    out = np.empty(m)
+    out[order] = levels
+    return [float(x) for x in out]
+
+
+def _count(k, n):
+    if not (isinstance(k, (int, np.integer)) and isinstance(n, (int, np.integer))
+            and 0 <= k <= n and n > 0):
+        raise ValueError(f"binomial: need integers 0 <= k <= n, n > 0 (got {k}, {n})")
+
+
+def p_binom_greater(k, n, c):
+    """Exact one-sided p of H0: share <= c against H1: share > c."""
+    _count(k, n)
+    return float(stats.binom.sf(k - 1, n, c))
+
+
+def p_binom_less(k, n, c):
+    """Exact one-sided p of H0: share >= c against H1: share < c."""
+    _count(k, n)
+    return float(stats.binom.cdf(k, n, c))
+
+
+def clopper_pearson(k, n, level=LEVEL):
+    """Two-sided Clopper-Pearson interval of a share k / n: each end the
+    one-sided bound at (1 + level) / 2, from the beta quantiles, so that
+    p_binom_greater(k, n, c) < (1 - level) / 2 exactly when c < lo."""
+    _count(k, n)
+    a = (1 - level) / 2
+    lo = 0.0 if k == 0 else float(stats.beta.ppf(a, k, n - k + 1))
+    hi = 1.0 if k == n else float(stats.beta.isf(a, k + 1, n - k))
+    return lo, hi
 
 
 def part_verdict(p_support, p_refute, alpha=ALPHA):

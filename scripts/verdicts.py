@@ -6,8 +6,10 @@ Usage: verdicts.py DATA [--check] [--docs DIR] [--readme FILE]
 DATA holds rules.ini (the rules, stated before the numbers) and the compact
 results scripts/study_extract.py wrote (`make study`). Writes DIR/verdicts.md
 (default docs/), DIR/verdicts_report.html (the report page's claims section),
-DIR/figures/study_seeds.png and .svg (scripts/plot_study.py) and the README's
-table between <!-- verdicts:begin --> and <!-- verdicts:end -->;
+DIR/figures/study_seeds.png and .svg (scripts/plot_study.py), the README's
+table between <!-- verdicts:begin --> and <!-- verdicts:end --> and its
+sentence on the sphere benchmark between <!-- sphere:begin --> and
+<!-- sphere:end -->;
 all or nothing, only once every input has been read and checked. With
 --check nothing is written: exit 1 when a file differs from what DATA gives.
 Exit codes: 1 usage or a difference (--check), 2 missing or malformed input,
@@ -25,6 +27,7 @@ from collections import defaultdict
 
 import numpy as np
 
+import plot_benchmarks
 import plot_study
 import verdict_stats as vs
 
@@ -32,15 +35,20 @@ MODES = ("event", "stepped", "stepped05")
 MODE_LABEL = {"event": "event", "stepped": "stepped, dt 1 ms", "stepped05": "stepped, dt 0.5 ms"}
 MODE_SIM = {"event": ("event", None), "stepped": ("stepped", 0.001),
             "stepped05": ("stepped", 0.0005)}
-VARYING = {"exp3": ("sim.mode", "sim.dt"), "exp1": ("experiment.seed",),
-           "exp2": ("experiment.seed",)}
+VARYING = {"exp3": ("sim.mode", "sim.dt"), "sphere": ("policy.cov_center", "bench.method"), "exp1": ("experiment.seed", "sim.mode", "sim.dt"),
+           "exp2": ("experiment.seed", "sim.mode", "sim.dt")}
 CLAIM_IDS = ("cuts", "trees", "nmin", "map", "short", "single", "rs", "none_better", "best",
              "worst", "even", "fewest", "converged")
 TREES = ("nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a")
 THESIS = TREES + ("baseline",)
 FILES = ("manifest.csv", "exp3_runs.csv", "exp3_curves.csv", "exp1_mse.csv", "exp1_map.csv",
-         "exp2_returns.csv", "timing.csv")
+         "exp2_returns.csv", "sphere_curves.csv", "timing.csv")
 BEGIN, END = "<!-- verdicts:begin -->", "<!-- verdicts:end -->"
+SPHERE_BEGIN, SPHERE_END = "<!-- sphere:begin -->", "<!-- sphere:end -->"
+# the sphere benchmark's runs: (method, its poolreps settings)
+SPHERE = {"creps_old": {"policy.cov_center": "old", "bench.method": "creps"},
+          "creps_new": {"policy.cov_center": "new", "bench.method": "creps"},
+          "ccmaes": {"bench.method": "ccmaes"}}
 
 
 class Fail(Exception):
@@ -65,7 +73,7 @@ def read_rules(path):
         st = cfg["study"]
         rules["alpha"] = st.getfloat("alpha")
         rules["converged_at"] = st.getint("converged_at")
-        rules["settle_block"] = st.getint("settle_block")
+        rules["run_alpha"] = st.getfloat("run_alpha")
         rules["many"] = st.getint("many")
         m = cfg["margins"]
         for k in m:
@@ -130,12 +138,29 @@ def read_manifest(path):
     for mode in MODES:
         if mode not in arms:
             raise Fail(f"{path}: no Experiment 3 arm {mode}", 3)
-        sim, dt = MODE_SIM[mode]
-        if arms[mode].get("sim.mode") != sim or (dt and float(arms[mode]["sim.dt"]) != dt):
-            raise Fail(f"{path}: arm {mode} has sim.mode = {arms[mode].get('sim.mode')}, "
-                       f"sim.dt = {arms[mode].get('sim.dt')}", 3)
     if set(arms) != set(MODES):
         raise Fail(f"{path}: unknown Experiment 3 arm {sorted(set(arms) - set(MODES))[0]}", 3)
+    for exp in ("exp1", "exp2"):
+        have = {u.split("/")[0] for u in units[exp]}
+        if have != set(MODES):
+            raise Fail(f"{path}: {exp} has arms {', '.join(sorted(have))}, not "
+                       f"{', '.join(MODES)}", 3)
+    for method, want in SPHERE.items():
+        cfg = units["sphere"].get(method)
+        if cfg is None:
+            raise Fail(f"{path}: no sphere benchmark run {method}", 3)
+        for k, v in want.items():
+            if cfg.get(k) != v:
+                raise Fail(f"{path}: sphere {method} has {k} = {cfg.get(k)}, not {v}", 3)
+    for exp, us in units.items():
+        if exp == "sphere":
+            continue
+        for unit, cfg in us.items():
+            mode = unit.split("/")[0]
+            sim, dt = MODE_SIM.get(mode, (None, None))
+            if cfg.get("sim.mode") != sim or (dt and float(cfg.get("sim.dt", "nan")) != dt):
+                raise Fail(f"{path}: {exp} {unit} has sim.mode = {cfg.get('sim.mode')}, "
+                           f"sim.dt = {cfg.get('sim.dt')}", 3)
     return units
 
 
@@ -173,13 +198,18 @@ def load(data):
     d["final"] = int(c3["exp3.final_episodes"])
     d["exp1"], d["exp1_map"] = read_exp1(p("exp1_mse.csv"), p("exp1_map.csv"), units["exp1"])
     d["exp2"] = read_exp2(p("exp2_returns.csv"), units["exp2"])
-    d["seeds"] = sorted(int(s) for s in units["exp1"])
-    if sorted(int(s) for s in units["exp2"]) != d["seeds"]:
-        raise Fail(f"{p('manifest.csv')}: Experiments 1 and 2 ran different seeds", 3)
+    seeds = {e: {(u.split("/")[0], int(u.split("/")[1])) for u in units[e]}
+             for e in ("exp1", "exp2")}
+    d["seeds"] = sorted({s for _, s in seeds["exp1"]})
+    if seeds["exp1"] != seeds["exp2"] or seeds["exp1"] != {(a, s) for a in MODES
+                                                             for s in d["seeds"]}:
+        raise Fail(f"{p('manifest.csv')}: Experiments 1 and 2 ran different seeds "
+                   "(or not the same seeds in every arm)", 3)
     d["per_seed"] = int(next(iter(units["exp1"].values()))["experiment.repetitions"])
+    d["sphere"] = read_sphere(p("sphere_curves.csv"), units["sphere"])
     d["timing"] = {r["phase"]: r for r in read_csv(p("timing.csv"),
                                                    ("phase", "wall_seconds", "cpu_seconds"))}
-    for ph in ("exp3", "exp12"):
+    for ph in ("exp3", "exp12", "sphere"):
         if ph not in d["timing"]:
             raise Fail(f"{p('timing.csv')}: no row for phase {ph}", 3)
     d["version"] = c3.get("version", "?")
@@ -209,94 +239,146 @@ def read_exp3(runs_path, curves_path, want, iters):
     return runs
 
 
+def unit_keys(units):
+    """{(arm, seed): configuration} of Experiment 1's or 2's manifest units."""
+    return {(u.split("/")[0], int(u.split("/")[1])): cfg for u, cfg in units.items()}
+
+
 def read_exp1(mse_path, map_path, units):
-    seeds = {int(s): cfg for s, cfg in units.items()}
+    seeds = unit_keys(units)
     mse = {}
-    for line, r in enumerate(read_csv(mse_path, ("seed", "forest", "sweep", "value", "mse")), 2):
-        key = (number(mse_path, line, r, "seed", int), number(mse_path, line, r, "forest", int),
-               r["sweep"], number(mse_path, line, r, "value", int))
+    for line, r in enumerate(read_csv(mse_path, ("arm", "seed", "forest", "sweep", "value",
+                                                 "mse")), 2):
+        key = (r["arm"], number(mse_path, line, r, "seed", int),
+               number(mse_path, line, r, "forest", int), r["sweep"],
+               number(mse_path, line, r, "value", int))
         mse[key] = number(mse_path, line, r, "mse")
     want = set()
-    for s, cfg in seeds.items():
+    for (a, s), cfg in seeds.items():
         for sweep, key in (("n_min", "exp1.n_min_list"), ("trees", "exp1.trees_list"),
                            ("cuts", "exp1.cuts_list")):
-            want |= {(s, f, sweep, v) for f in range(int(cfg["experiment.repetitions"]))
+            want |= {(a, s, f, sweep, v) for f in range(int(cfg["experiment.repetitions"]))
                      for v in int_list(cfg, key)}
     expect_all(mse_path, set(mse), want,
-               lambda k: f"seed {k[0]} forest {k[1]} {k[2]} = {k[3]}")
+               lambda k: f"arm {k[0]} seed {k[1]} forest {k[2]} {k[3]} = {k[4]}")
     maps = {}
-    for line, r in enumerate(read_csv(map_path, ("seed", "pred_pocketed", "rms_rest")), 2):
-        maps[number(map_path, line, r, "seed", int)] = (number(map_path, line, r, "pred_pocketed"),
-                                                        number(map_path, line, r, "rms_rest"))
-    expect_all(map_path, set(maps), set(seeds), lambda k: f"seed {k}")
+    for line, r in enumerate(read_csv(map_path, ("arm", "seed", "pred_pocketed", "rms_rest")),
+                             2):
+        maps[(r["arm"], number(map_path, line, r, "seed", int))] = (
+            number(map_path, line, r, "pred_pocketed"), number(map_path, line, r, "rms_rest"))
+    expect_all(map_path, set(maps), set(seeds), lambda k: f"arm {k[0]} seed {k[1]}")
     return mse, maps
 
 
 def read_exp2(path, units):
-    seeds = {int(s): cfg for s, cfg in units.items()}
+    seeds = unit_keys(units)
     ret = {}
-    for line, r in enumerate(read_csv(path, ("seed", "repetition", "size", "policy", "mode",
-                                             "mean_return")), 2):
-        key = (number(path, line, r, "seed", int), number(path, line, r, "repetition", int),
-               number(path, line, r, "size", int), r["policy"], r["mode"])
+    for line, r in enumerate(read_csv(path, ("arm", "seed", "repetition", "size", "policy",
+                                             "mode", "mean_return")), 2):
+        key = (r["arm"], number(path, line, r, "seed", int),
+               number(path, line, r, "repetition", int), number(path, line, r, "size", int),
+               r["policy"], r["mode"])
         ret[key] = number(path, line, r, "mean_return")
     want = set()
-    for s, cfg in seeds.items():
+    for (a, s), cfg in seeds.items():
         n = max(int_list(cfg, "exp2.sizes"))
         for rep in range(int(cfg["experiment.repetitions"])):
-            want.add((s, rep, 0, "expert", "mean"))
-            want |= {(s, rep, n, q, m) for q in ("single", "s_a", "s_rs")
+            want.add((a, s, rep, 0, "expert", "mean"))
+            want |= {(a, s, rep, n, q, m) for q in ("single", "s_a", "s_rs")
                      for m in ("mean", "sample")}
-    what = lambda k: f"seed {k[0]} repetition {k[1]} size {k[2]} {k[3]} {k[4]}"  # noqa: E731
+    what = lambda k: f"arm {k[0]} seed {k[1]} repetition {k[2]} size {k[3]} {k[4]} {k[5]}"  # noqa: E731,E501
     missing = sorted(want - set(ret))
     if missing:
         raise Fail(f"{path}: no row for {what(missing[0])}", 3)
-    extra = sorted({k[0] for k in ret} - set(seeds))
+    extra = sorted({k[:2] for k in ret} - set(seeds))
     if extra:
-        raise Fail(f"{path}: rows for seed {extra[0]}, which the manifest does not have", 3)
+        raise Fail(f"{path}: rows for arm {extra[0][0]} seed {extra[0][1]}, which the manifest "
+                   "does not have", 3)
     return ret
+
+
+def read_sphere(path, units):
+    """{method: [test returns of each repetition, by iteration]}, every
+    repetition and iteration the manifest's configuration names."""
+    vals = {}
+    for line, r in enumerate(read_csv(path, ("method", "repetition", "iteration",
+                                             "test_return")), 2):
+        key = (r["method"], number(path, line, r, "repetition", int),
+               number(path, line, r, "iteration", int))
+        vals[key] = number(path, line, r, "test_return")
+    want = {(m, rep, it) for m in SPHERE
+            for rep in range(int(units[m]["experiment.repetitions"]))
+            for it in range(int(units[m]["bench.iterations"]))}
+    expect_all(path, set(vals), want,
+               lambda k: f"method {k[0]} repetition {k[1]} iteration {k[2]}")
+    return {m: [np.array([vals[(m, rep, it)] for it in range(int(units[m]["bench.iterations"]))])
+                for rep in range(int(units[m]["experiment.repetitions"]))] for m in SPHERE}
 
 
 # ---------------------------------------------------------------- parts
 
 def make_part(label, e, kind, a, b=None, unit="m"):
-    """One claim part: the estimate e, its 95 % interval and the raw p-values
-    of the support (kind 'gt': mean > a, 'lt': mean < a, 'in': a < mean < b)
-    and of its complement."""
-    lo, hi = vs.interval(e)
+    """One claim part: the estimate e and the raw p-values of the support
+    (kind 'gt': mean > a, 'lt': mean < a, 'in': a < mean < b) and of its
+    complement. Its intervals come once the Holm levels are known (levels)."""
     if kind == "gt":
         p_s, p_r = vs.p_greater(e, a), vs.p_less(e, a)
     elif kind == "lt":
         p_s, p_r = vs.p_less(e, a), vs.p_greater(e, a)
     else:
         p_s, p_r = vs.p_tost(e, a, b), vs.p_outside(e, a, b)
-    return {"label": label, "est": e.est, "lo": lo, "hi": hi, "n": e.n, "kind": kind,
-            "a": a, "b": b, "p_s": p_s, "p_r": p_r, "unit": unit, "group": ""}
+    return {"label": label, "est": e.est, "n": e.n, "kind": kind, "a": a, "b": b,
+            "p_s": p_s, "p_r": p_r, "unit": unit, "group": "",
+            "ci": lambda level: vs.interval(e, level)}
 
 
 def share_part(label, num, den, low, high):
-    """nrvr_rs's pocket-2 share in (low, high): TOST on mean(num - c den).
-    Without a pocketed ball there is no share: the part is undecided (p 1)."""
+    """nrvr_rs's pocket-2 share in (low, high): TOST on mean(num - c den),
+    the interval Fieller's. Without a pocketed ball there is no share: the
+    part is undecided (p 1)."""
+    part = {"label": label, "n": len(num), "kind": "in", "a": low, "b": high,
+            "unit": "share", "group": ""}
     if not np.sum(den) > 0:
-        return {"label": label + " (no ball in a target pocket)", "est": math.nan,
-                "lo": math.nan, "hi": math.nan, "n": len(num), "kind": "in", "a": low,
-                "b": high, "p_s": 1.0, "p_r": 1.0, "unit": "share", "group": ""}
-    r, lo, hi = vs.fieller(num, den)
+        return part | {"label": label + " (no ball in a target pocket)", "est": math.nan,
+                       "p_s": 1.0, "p_r": 1.0, "ci": lambda level: (math.nan, math.nan)}
     est = lambda c: vs.share_estimate(num, den, c)  # noqa: E731
     p_s = max(vs.p_greater(est(low)), vs.p_less(est(high)))
     p_r = min(1.0, 2 * min(vs.p_less(est(low)), vs.p_greater(est(high))))
-    return {"label": label, "est": r, "lo": lo, "hi": hi, "n": len(num), "kind": "in",
-            "a": low, "b": high, "p_s": p_s, "p_r": p_r, "unit": "share", "group": ""}
+    return part | {"est": float(np.sum(num) / np.sum(den)), "p_s": p_s, "p_r": p_r,
+                   "ci": lambda level: vs.fieller(num, den, level)[1:]}
 
 
-def exp1_parts(d, m):
-    """Experiment 1: per seed the forests' mean MSE of a setting relative to a
-    reference setting, minus 1."""
+def count_part(label, k, n, bound):
+    """The share k / n of units with a property is below bound: exact binomial
+    tests, Clopper-Pearson intervals."""
+    return {"label": label, "est": k / n, "n": n, "k": k, "kind": "lt", "a": bound,
+            "b": None, "p_s": vs.p_binom_less(k, n, bound),
+            "p_r": vs.p_binom_greater(k, n, bound), "unit": "count", "group": "",
+            "ci": lambda level: vs.clopper_pearson(k, n, level)}
+
+
+def levels(p, lvl_s, lvl_r):
+    """The part's two intervals at the levels its support and refutation were
+    judged at after Holm: the support's at 1 - 2 lvl_s (two one-sided bounds
+    at 1 - lvl_s: the part agrees exactly when it lies in the claim's region),
+    the refutation's at 1 - 2 lvl_r, or 1 - lvl_r for the two-sided 'outside'
+    refutation of an equivalence band (it disagrees exactly when this interval
+    lies outside the claim's region)."""
+    two_sided = p["kind"] == "in" and math.isfinite(p["a"])
+    p["level_s"] = 1 - 2 * lvl_s
+    p["level_r"] = 1 - (lvl_r if two_sided else 2 * lvl_r)
+    p["lo"], p["hi"] = p["ci"](p["level_s"])
+    p["lo_r"], p["hi_r"] = p["ci"](p["level_r"])
+
+
+def exp1_parts(d, m, arm):
+    """Experiment 1 in one physics arm: per seed the forests' mean MSE of a
+    setting relative to a reference setting, minus 1."""
     seeds = d["seeds"]
     cfg = next(iter(d["units"]["exp1"].values()))
     forests = range(int(cfg["experiment.repetitions"]))
-    mean = {(s, sw, v): np.mean([d["exp1"][(s, f, sw, v)] for f in forests])
-            for (s, _, sw, v) in d["exp1"]}
+    mean = {(s, sw, v): np.mean([d["exp1"][(arm, s, f, sw, v)] for f in forests])
+            for (a, s, _, sw, v) in d["exp1"] if a == arm}
 
     def rel(sweep, v, ref):
         return vs.one_sample([mean[(s, sweep, v)] / mean[(s, sweep, ref)] - 1 for s in seeds])
@@ -326,22 +408,23 @@ def exp1_parts(d, m):
                               unit="rel") for n in ns if n not in (lo_n, hi_n)]
     out["nmin"] += [make_part(f"n_min {hi_n} − n_min {n}", rel("n_min", hi_n, n), "gt", 0,
                               unit="rel") for n in ns if n not in (lo_n, hi_n)]
-    gap = vs.one_sample([-d["exp1_map"][s][0] - d["exp1_map"][s][1] for s in seeds])
+    gap = vs.one_sample([-d["exp1_map"][(arm, s)][0] - d["exp1_map"][(arm, s)][1]
+                         for s in seeds])
     out["map"].append(make_part("underestimate at pocketed positions − RMS error elsewhere",
                                 gap, "gt", 0))
     return out
 
 
-def exp2_parts(d, m):
-    """Experiment 2 at its largest training set: per seed the mean over the
-    run's repetitions."""
+def exp2_parts(d, m, arm):
+    """Experiment 2 in one physics arm at its largest training set: per seed
+    the mean over the run's repetitions."""
     seeds = d["seeds"]
     cfg = next(iter(d["units"]["exp2"].values()))
     n = max(int_list(cfg, "exp2.sizes"))
     reps = range(int(cfg["experiment.repetitions"]))
 
     def per_seed(size, policy, mode):
-        return np.array([np.mean([d["exp2"][(s, r, size, policy, mode)] for r in reps])
+        return np.array([np.mean([d["exp2"][(arm, s, r, size, policy, mode)] for r in reps])
                          for s in seeds])
 
     expert = per_seed(0, "expert", "mean")
@@ -358,7 +441,7 @@ def exp2_parts(d, m):
         out["rs"].append(make_part(f"s→rs − s→a ({mode} actions)",
                                    vs.paired(per_seed(n, "s_rs", mode), per_seed(n, "s_a", mode)),
                                    "gt", 0))
-    return out, n
+    return out
 
 
 def exp3_parts(d, arm, m, rules):
@@ -387,19 +470,14 @@ def exp3_parts(d, arm, m, rules):
     out["fewest"] = [make_part(f"balls in target pockets, {q} − baseline",
                                vs.paired(x(q, "target"), x(base, "target")), "gt", 0, unit="n")
                      for q in TREES]
-    k0, blk = rules["converged_at"], rules["settle_block"]
+    k0 = rules["converged_at"]
     for q in THESIS:
-        curves = np.stack([d["exp3"][(arm, q, r)]["curve"] for r in reps])
-        its = np.arange(k0 + 1, d["iterations"] + 1)
-        win = curves[:, k0:]
-        slope = np.polyfit(its, win.T, 1)[0] * (its[-1] - its[0])
-        settle = win.mean(axis=1) - curves[:, k0 - blk:k0].mean(axis=1)
-        p = make_part(f"{q}: trend over iterations {its[0]}–{its[-1]}", vs.one_sample(slope),
-                      "in", -m["flat"], m["flat"])
-        s = make_part(f"{q}: window − iterations {k0 - blk + 1}–{k0}", vs.one_sample(settle),
-                      "lt", m["flat"])
-        p["group"] = s["group"] = "converged"
-        out["converged"] += [p, s]
+        moving = [run_moving(d["exp3"][(arm, q, r)]["curve"][k0:], m["flat"], rules["run_alpha"])
+                  for r in reps]
+        p = count_part(f"{q}: share of runs still moving after iteration {k0}", sum(moving),
+                       len(moving), m["unsettled"])
+        p["group"] = "converged"
+        out["converged"].append(p)
     for q in THESIS:
         p = make_part(f"hand-crafted − {q}", vs.paired(ret["handcrafted"], ret[q]), "gt",
                       m["considerable"])
@@ -408,28 +486,40 @@ def exp3_parts(d, arm, m, rules):
     return out
 
 
-def mode_of(cfg):
-    for mode, (sim, dt) in MODE_SIM.items():
-        if cfg["sim.mode"] == sim and (dt is None or float(cfg["sim.dt"]) == dt):
-            return mode
-    raise Fail(f"manifest.csv: sim.mode {cfg['sim.mode']}, dt {cfg['sim.dt']} is no mode", 3)
+def run_moving(y, flat, alpha):
+    """A run is still moving when its own trend over y lies beyond +flat or
+    beyond -flat by a one-sided t test at alpha."""
+    e = vs.trend(y)
+    return vs.p_greater(e, flat) < alpha or vs.p_less(e, -flat) < alpha
+
+
+def task_gap(d, mode):
+    """The task's scale in a mode: mean return of the hand-crafted policy minus
+    the one-node baseline's, over the repetitions."""
+    reps = range(d["reps"])
+    h = np.mean([d["exp3"][(mode, "handcrafted", r)]["mean_return"] for r in reps])
+    b = np.mean([d["exp3"][(mode, "baseline", r)]["mean_return"] for r in reps])
+    return float(h - b)
+
+
+def mode_margins(d, margins, mode):
+    """The margins' values in a mode: those given as a share of the task's
+    scale ('gap') in metres of that mode."""
+    return {k: v["value"] * (task_gap(d, mode) if v["unit"] == "gap" else 1)
+            for k, v in margins.items()}
 
 
 def compute(d, rules, margins):
-    """{(claim, mode): [part]} with Holm-adjusted p-values per mode (the family:
-    every part of every claim judged in that mode, support and refutation)."""
-    m = {k: v["value"] for k, v in margins.items()}
+    """{(claim, mode): [part]} with Holm-adjusted p-values per mode. The family
+    is the same in every mode: every support and refutation of every part of
+    the 13 claims (Experiments 1 to 3 all ran in each mode)."""
     parts = defaultdict(list)
-    m1 = mode_of(next(iter(d["units"]["exp1"].values())))
-    m2 = mode_of(next(iter(d["units"]["exp2"].values())))
-    for cid, ps in exp1_parts(d, m).items():
-        parts[(cid, m1)] = ps
-    e2, _ = exp2_parts(d, m)
-    for cid, ps in e2.items():
-        parts[(cid, m2)] = ps
     for arm in MODES:
-        for cid, ps in exp3_parts(d, arm, m, rules).items():
-            parts[(cid, arm)] = ps
+        m = mode_margins(d, margins, arm)
+        for gen in (exp1_parts(d, m, arm), exp2_parts(d, m, arm), exp3_parts(d, arm, m, rules)):
+            for cid, ps in gen.items():
+                parts[(cid, arm)] = ps
+    sizes = set()
     for mode in MODES:
         # a hypothesis two claims share (the same part) counts once
         fam = {}
@@ -438,12 +528,18 @@ def compute(d, rules, margins):
                 for p in ps:
                     fam.setdefault((p["label"], p["kind"], p["a"], p["b"]), []).append(p)
         keys = list(fam)
-        adj = vs.holm([fam[k][0]["p_s"] for k in keys] + [fam[k][0]["p_r"] for k in keys])
-        for k, a_s, a_r in zip(keys, adj[:len(keys)], adj[len(keys):]):
+        ps_all = [fam[k][0]["p_s"] for k in keys] + [fam[k][0]["p_r"] for k in keys]
+        adj, lvl = vs.holm(ps_all), vs.holm_levels(ps_all, rules["alpha"])
+        n = len(keys)
+        for i, k in enumerate(keys):
             for p in fam[k]:
-                p["adj_s"], p["adj_r"] = a_s, a_r
-                p["verdict"] = vs.part_verdict(a_s, a_r, rules["alpha"])
-                p["family"] = 2 * len(keys)
+                p["adj_s"], p["adj_r"] = adj[i], adj[n + i]
+                p["verdict"] = vs.part_verdict(adj[i], adj[n + i], rules["alpha"])
+                p["family"] = 2 * n
+                levels(p, lvl[i], lvl[n + i])
+        sizes.add((2 * n, tuple(sorted((c for c, md in parts if md == mode)))))
+    if len(sizes) != 1:
+        raise ValueError("the modes' families differ")
     return parts
 
 
@@ -490,8 +586,8 @@ def num(x, unit, signed=True):
         return "−∞" if x < 0 else "∞"
     if unit == "rel":
         s = f"{100 * x:+.1f}"
-    elif unit == "share":
-        s = f"{x:.3f}"
+    elif unit in ("share", "count"):
+        s = f"{x:.{2 if unit == 'count' else 3}f}"
     else:
         s = f"{x:+.{3 if unit == 'm' else 2}f}"
     if not signed:
@@ -499,17 +595,42 @@ def num(x, unit, signed=True):
     return s.replace("-", "−")
 
 
-UNIT = {"rel": " % of the MSE", "m": " m", "n": " balls", "ms": " m/s", "share": ""}
+UNIT = {"rel": " % of the MSE", "m": " m", "n": " balls", "ms": " m/s", "share": "",
+        "count": ""}
 
 
-def ci(p):
+def level(x):
+    """A confidence level in per cent, with the digits that tell it apart."""
+    return f"{100 * x:.{max(0, min(4, math.ceil(-math.log10(max(1 - x, 1e-9))) - 1))}f} %"
+
+
+def est(p):
     u = p["unit"]
-    return f"{num(p['est'], u)} [{num(p['lo'], u)}, {num(p['hi'], u)}]{UNIT[u]}"
+    if u == "count":
+        return f"{p['k']}/{p['n']} = {num(p['est'], u)}"
+    return f"{num(p['est'], u)}{UNIT[u]}"
+
+
+def interval_text(p, side):
+    """The interval the part's support (side 's') or refutation ('r') was
+    judged by, [lo, hi] (level)."""
+    u = p["unit"]
+    lo, hi, lvl = ((p["lo"], p["hi"], p["level_s"]) if side == "s" else
+                   (p["lo_r"], p["hi_r"], p["level_r"]))
+    return f"[{num(lo, u)}, {num(hi, u)}] ({level(lvl)})"
+
+
+def ci(p, side="s"):
+    u = p["unit"]
+    lo, hi, lvl = ((p["lo"], p["hi"], p["level_s"]) if side == "s" else
+                   (p["lo_r"], p["hi_r"], p["level_r"]))
+    head = (f"{p['k']}/{p['n']} = {num(p['est'], u)}" if u == "count" else num(p["est"], u))
+    return f"{head} [{num(lo, u)}, {num(hi, u)}]{UNIT[u]} ({level(lvl)})"
 
 
 def hyp(p):
     u = p["unit"]
-    tail = {"rel": " %", "m": " m", "n": "", "ms": " m/s", "share": ""}[u]
+    tail = {"rel": " %", "m": " m", "n": "", "ms": " m/s", "share": "", "count": ""}[u]
     if p["kind"] == "gt":
         return f"> {num(p['a'], u, False)}{tail}"
     if p["kind"] == "lt":
@@ -533,7 +654,7 @@ def deciding(ps, verdict):
     agreeing claim, the strongest refutation of a disagreeing one, else the
     first undecided part."""
     if verdict == vs.AGREES:
-        return max(ps, key=lambda p: p["adj_s"])
+        return max((p for p in ps if p["verdict"] == vs.AGREES), key=lambda p: p["adj_s"])
     if verdict == vs.DISAGREES:
         return min((p for p in ps if p["verdict"] == vs.DISAGREES), key=lambda p: p["adj_r"])
     return next(p for p in ps if p["verdict"] == vs.UNDECIDED)
@@ -544,13 +665,21 @@ def cell(parts, per, cid, mode, rules):
         return "–"
     v = per[cid][mode]
     p = deciding(parts[(cid, mode)], v)
-    return f"**{v}**: {p['label']} {ci(p)}"
+    return f"**{v}**: {p['label']} {ci(p, 'r' if v == vs.DISAGREES else 's')}"
 
 
 def units_text(d):
     return (f"Experiment 3: {d['reps']} repetitions per mode; Experiments 1 and 2: "
-            f"{len(d['seeds'])} seeds (event mode) of {d['per_seed']} forests or repetitions "
+            f"{len(d['seeds'])} seeds per mode of {d['per_seed']} forests or repetitions "
             "each")
+
+
+CI_LEGEND = ("[lo, hi] is the interval of the test that decides, at the level (in "
+             "parentheses) Holm's procedure judged that test at, not a fixed 95 %: an agreeing "
+             "part's interval lies inside the claim's region (beyond its bound, or inside its "
+             "equivalence band), a disagreeing part's refutation interval outside it, an "
+             "undecided part's interval reaches both. t intervals for means, Fieller's for "
+             "the pocket share, Clopper-Pearson for the share of moving runs.")
 
 
 def not_reproduced(d, per, comb):
@@ -592,63 +721,69 @@ def ranking(d):
         above = [q for q in TREES if vs.interval(vs.paired(ret[q], ret["baseline"]))[0] > 0]
         bits.append(f"{MODE_LABEL[mode]}: highest {top}; above the baseline "
                     f"{', '.join(above) or 'none'}")
-    return ("**Ranking of Experiment 3** (mean return of the last episodes; above the "
-            "baseline: paired 95 % interval above 0): " + "; ".join(bits) + ". The thesis "
+    return ("**Ranking of Experiment 3** (a description, not a tested part: mean return of "
+            "the last episodes; above the baseline: the paired 95 % t interval, unadjusted, "
+            "above 0): " + "; ".join(bits) + ". The thesis "
             "has nrvr_rs best, about 0.1 above the baseline.")
 
 
-def scale_ratios(d, parts, margins):
-    """Each return margin as a fraction of the hand-crafted − baseline distance per mode."""
-    gap = {}
-    for mode in MODES:
-        reps = range(d["reps"])
-        h = np.mean([d["exp3"][(mode, "handcrafted", r)]["mean_return"] for r in reps])
-        b = np.mean([d["exp3"][(mode, "baseline", r)]["mean_return"] for r in reps])
-        gap[mode] = h - b
-    return gap
+def margin_rows(d, margins):
+    """The margins table: value, why, and the value against the task's scale
+    (or, for a share of it, in metres) per mode."""
+    gap = {m: task_gap(d, m) for m in MODES}
+    rows = []
+    for k, mg in margins.items():
+        if mg["unit"] == "m":
+            scale = "; ".join(f"{mg['value'] / gap[m]:.0%} in {MODE_LABEL[m]}" for m in MODES)
+        elif mg["unit"] == "gap":
+            scale = "; ".join(f"{mg['value'] * gap[m]:.3f} m in {MODE_LABEL[m]}" for m in MODES)
+        else:
+            scale = "–"
+        value = (f"{mg['value']:g} of hand-crafted − baseline" if mg["unit"] == "gap"
+                 else f"{mg['value']:g} {mg['unit']}")
+        rows.append([f"`{k}`", value, mg["why"], scale])
+    return rows, gap
 
 
 def render_md(d, parts, per, comb, sens):
     rules = d["rules"]
-    gap = scale_ratios(d, parts, rules["margins"])
-    fams = {m: next(p["family"] for (c, md), ps in parts.items() if md == m for p in ps)
-            for m in MODES}
-    mrows = []
-    for k, mg in rules["margins"].items():
-        ratio = ("; ".join(f"{mg['value'] / gap[m]:.0%} in {MODE_LABEL[m]}" for m in MODES)
-                 if mg["unit"] == "m" else "–")
-        mrows.append([f"`{k}`", f"{mg['value']:g} {mg['unit']}", mg["why"], ratio])
+    mrows, gap = margin_rows(d, rules["margins"])
+    fam = next(p["family"] for ps in parts.values() for p in ps)
     srows = []
     for cid in CLAIM_IDS:
         c = rules["claims"][cid]
         srows.append([f"{c['section']} {c['short']}"] +
                      [cell(parts, per, cid, m, rules) for m in MODES] + [f"**{comb[cid]}**"])
-    out = [HEAD_MD.format(units=units_text(d), alpha=rules["alpha"],
-                          fams=", ".join(f"{MODE_LABEL[m]} {fams[m]}" for m in MODES))]
-    out.append(md_table(["margin", "value", "why", "as a share of hand-crafted − baseline "
-                         f"({', '.join(num(gap[m], 'm') for m in MODES)} m)"], mrows))
+    out = [HEAD_MD.format(units=units_text(d), alpha=rules["alpha"], fam=fam,
+                          run_alpha=rules["run_alpha"])]
+    out.append(md_table(["margin", "value", "why", "against the task's scale, hand-crafted − "
+                         f"baseline ({', '.join(num(gap[m], 'm') for m in MODES)} m)"], mrows))
     out.append("\n## Verdicts\n\nEach cell: the mode's verdict, then the part that decides "
                "it (the weakest support of an agreeing claim, the strongest refutation of a "
-               "disagreeing one, else the first undecided part): estimate [95 % t interval]. "
-               "The last column is the verdict common to the modes, undecided where they "
-               "differ.\n")
+               "disagreeing one, else the first undecided part): estimate [lo, hi] (level). "
+               + CI_LEGEND + " The last column is the verdict common to the modes, undecided "
+               "where they differ.\n")
     out.append(md_table(["claim"] + [MODE_LABEL[m] for m in MODES] + ["verdict"], srows))
     out.append("\n" + "\n\n".join(not_reproduced(d, per, comb)))
     out.append(f"\n![seed spread](figures/{plot_study.STEM}.png)\n\n*Figure: the seed spread "
-               "behind the Experiment 1 and 2 verdicts. Top: the test MSE of each setting "
-               "relative to its reference, one grey dot per seed (the mean of its run's "
-               "forests), the mean over the seeds with its 95 % t interval, one y-scale for "
-               "the three sweeps; the thesis's Fig. 7.4 shows one run's forests instead "
-               "(our Fig. 7.4a–c do too). Below: Experiment 2's mean return at the largest "
-               "training set per seed (the mean of its repetitions), with mean and sampled "
-               "actions on one y-scale; the thesis's Fig. 7.6 shows one run over the "
-               "training-set sizes.*")
+               "behind the Experiment 1 and 2 verdicts (event mode). Top: the test MSE of each "
+               "setting relative to its reference, one grey dot per seed (the mean of its run's "
+               "forests), the mean over the seeds with its 95 % t interval (a description, not "
+               "the Holm-level interval of the tables), one y-scale for the three sweeps; the "
+               "thesis's Fig. 7.4 shows one run's forests instead (our Fig. 7.4a–c do too). "
+               "Below: Experiment 2's mean return at the largest training set per seed (the "
+               "mean of its repetitions), with mean and sampled actions on one y-scale; the "
+               "thesis's Fig. 7.6 shows one run over the training-set sizes.*")
     out.append("\n## The claims one by one\n\nColumns: the part; its alternative hypothesis "
-               "(what the claim says); the mode; the estimate with its 95 % t interval; the "
-               "support's p-value raw and Holm-adjusted; the refutation's (the complement: "
-               "the other side of the same bound) raw and Holm-adjusted; the part's verdict.")
+               "(what the claim says); the mode; the estimate; the support's interval at the "
+               "level Holm's procedure judged the support at (it lies inside the H1 region "
+               "exactly when the support's Holm-adjusted p is below α); the support's p-value "
+               "raw and Holm-adjusted; the refutation's interval at its own Holm level (it lies "
+               "outside the H1 region exactly when the refutation's adjusted p is below α) and "
+               "p-values (the refutation is the complement: the other side of the same bound, "
+               "or outside the band); the part's verdict. " + CI_LEGEND)
     for cid in CLAIM_IDS:
-        out.append(claim_section(cid, rules, parts, per, comb))
+        out.append(claim_section(cid, rules, parts, per, comb, d))
     out.append(sens_md(sens, rules))
     out.append(time_md(d))
     return "\n".join(out) + "\n"
@@ -661,8 +796,8 @@ HEAD_MD = """# The thesis's claims, judged: rules, tests and verdicts
 
 Every verdict this project prints on the thirteen claims of the thesis's discussions
 (sections 7.3.2, 7.4.2 and 7.5.2) comes from this page's generator, over the committed
-results of one study: {units}. The rules were written into `data/study/rules.ini` before
-the study's numbers were read; `make verdicts` applies them, `make verdicts CHECK=1`
+results of one study: {units}. The rules are stated in `data/study/rules.ini`, apart from
+the numbers; `make verdicts` applies them, `make verdicts CHECK=1`
 (part of `make check`) fails when this page, the README's table or the report page's
 claims section differ from what the results give.
 
@@ -675,15 +810,26 @@ claims section differ from what the results give.
   run's forests or repetitions).
 - **Tests.** Each part has a support (the claim's statement as an alternative hypothesis)
   and a refutation (its complement at the same bound). Superiority and ordering: one-sided
-  t tests; "no considerable difference", "almost as good", "≈ 0.1 above", "almost evenly",
-  "converged": equivalence by two one-sided tests (TOST) with a stated margin; their
-  refutation: the value lies outside the band (twice the smaller one-sided p). Intervals
-  are 95 % Student-t intervals, written [lo, hi]; SD always means standard deviation.
-- **Multiplicity.** Holm's step-down adjustment over the whole family of a mode: every
-  support and every refutation p-value of every claim judged in that mode ({fams}
-  tests; a part two claims share counts once). A part **agrees** when its support's adjusted p is below α = {alpha},
-  **disagrees** when its refutation's is, and is **undecided** (not enough power to tell)
-  when neither is.
+  t tests; "no considerable difference", "almost as good", "≈ 0.1 above", "almost evenly":
+  equivalence by two one-sided tests (TOST) with a stated margin; their refutation: the
+  value lies outside the band (twice the smaller one-sided p). "Converged" is judged per
+  run: a run is still moving when its own trend after the convergence point lies beyond the
+  `flat` margin by a one-sided t test at {run_alpha}; the part is the share of a policy's
+  runs still moving, below the `unsettled` margin by an exact binomial test. SD always
+  means standard deviation.
+- **Multiplicity.** Holm's step-down adjustment over one family per mode, the same in
+  every mode: every support and every refutation p-value of every part of the 13 claims
+  ({fam} tests per mode; a part two claims share counts once). Experiments 1 and 2 ran
+  in every mode, so each mode's family holds the same claims and parts, and a piece of
+  evidence meets the same bar in every mode. A part **agrees** when its support's adjusted p
+  is below α = {alpha}, **disagrees** when its refutation's is, and is **undecided** (not
+  enough power to tell) when neither is.
+- **Intervals.** Every interval printed with a verdict is the one that decides it: at the
+  level Holm's procedure judged the test at (the k-th smallest p of the family against α
+  / (m − k + 1), until the first that fails; the later ones at that failing level), two
+  one-sided bounds at 1 − that level for a one-sided test or TOST, so the interval lies
+  in the claim's region exactly when the adjusted p is below α. The level is printed
+  beside each interval.
 - **Claims.** A claim agrees when every part agrees, disagrees when any part disagrees,
   else is undecided ("many": at least the stated number of parts). The verdict column is
   the verdict all modes share; where they differ it is undecided.
@@ -693,23 +839,41 @@ claims section differ from what the results give.
 Returns are minus the reward ball's final distance to the nearest target pocket (eq. 7.7),
 so return margins are distances in metres. The last column puts each against the task's
 scale: the distance between the one-node baseline and the hand-crafted policy (beyond the
-thesis) in the same mode; the sensitivity table below halves and doubles each margin.
+thesis) in the same mode; a margin given as a share of that distance (`flat`) is converted
+to metres per mode from the baseline and hand-crafted runs, which no part it serves tests.
+The sensitivity table below halves and doubles each margin.
 """
 
 
-def claim_section(cid, rules, parts, per, comb):
+def control_text(d, rules):
+    """The convergence rule applied to the hand-crafted policy, which no claim
+    is about: evidence that the rule can be met."""
+    k0, bits = rules["converged_at"], []
+    for mode in MODES:
+        flat = mode_margins(d, rules["margins"], mode)["flat"]
+        moving = [run_moving(d["exp3"][(mode, "handcrafted", r)]["curve"][k0:], flat,
+                             rules["run_alpha"]) for r in range(d["reps"])]
+        bits.append(f"{MODE_LABEL[mode]} {sum(moving)}/{len(moving)}")
+    return ("**Control** (not a part): the same rule on the hand-crafted policy, which no "
+            "claim is about, counts as still moving: " + "; ".join(bits) + ".")
+
+
+def claim_section(cid, rules, parts, per, comb, d):
     c = rules["claims"][cid]
     rows = []
     for mode in MODES:
         for p in parts.get((cid, mode), []):
-            rows.append([p["label"], hyp(p), MODE_LABEL[mode], ci(p), fp(p["p_s"]),
-                         fp(p["adj_s"]), fp(p["p_r"]), fp(p["adj_r"]), p["verdict"]])
+            rows.append([p["label"], hyp(p), MODE_LABEL[mode], est(p), interval_text(p, "s"),
+                         f"{fp(p['p_s'])} ({fp(p['adj_s'])})", interval_text(p, "r"),
+                         f"{fp(p['p_r'])} ({fp(p['adj_r'])})", p["verdict"]])
     verdicts = "; ".join(f"{MODE_LABEL[m]}: **{per[cid][m]}**" for m in MODES if m in per[cid])
     return (f"\n### {c['section']} {c['short']} (`{cid}`)\n\n> {c['words']}\n\n"
             f"**Reading.** {c['reading']}\n\n**Test.** {c['test']}\n\n" +
-            md_table(["part", "H1", "mode", "estimate [95 %]", "p", "p Holm", "p refute",
-                      "p refute Holm", "part"], rows) +
-            f"\n\n**Verdict**: {verdicts}; over the modes: **{comb[cid]}**.")
+            md_table(["part", "H1", "mode", "estimate", "support's interval (level)",
+                      "p (Holm)", "refutation's interval (level)", "p refute (Holm)", "part"],
+                     rows) +
+            f"\n\n**Verdict**: {verdicts}; over the modes: **{comb[cid]}**." +
+            (f"\n\n{control_text(d, rules)}" if cid == "converged" else ""))
 
 
 def sens_md(sens, rules):
@@ -717,7 +881,8 @@ def sens_md(sens, rules):
     for name, mg, (h_chg, h_comb), (d_chg, d_comb) in sens:
         fmt = lambda chg, cmb: (f"{len(chg)} ({len(cmb)} combined)" +  # noqa: E731
                                 (": " + ", ".join(sorted({c for c, _ in chg})) if chg else ""))
-        rows.append([f"`{name}` = {mg['value']:g} {mg['unit']}", fmt(h_chg, h_comb),
+        unit = "of hand-crafted − baseline" if mg["unit"] == "gap" else mg["unit"]
+        rows.append([f"`{name}` = {mg['value']:g} {unit}", fmt(h_chg, h_comb),
                      fmt(d_chg, d_comb)])
     return ("\n## Sensitivity to the margins\n\nHow many of the claim × mode verdicts (and of "
             "the combined verdicts) change when one margin is halved or doubled, the others "
@@ -734,10 +899,12 @@ def time_md(d):
             "on the sweep and collect machinery (docs/cluster.md) and writes the compact "
             "results to `data/study/`: `exp3_runs.csv` (one row per run), `exp3_curves.csv` "
             "(each run's mean return per iteration), `exp1_mse.csv`, `exp1_map.csv`, "
-            "`exp2_returns.csv` and `manifest.csv` (every unit's configuration; mixed "
-            "configurations are refused). Measured on this machine, shared with other jobs: "
-            f"Experiment 3 ({d['reps']} repetitions × 6 variants × 3 modes) {f('exp3')}; "
-            f"Experiments 1 and 2 ({len(d['seeds'])} seeds each) {f('exp12')}. "
+            "`exp2_returns.csv`, `sphere_curves.csv` (the contextual sphere benchmark behind "
+            "the README's sentence on it) and `manifest.csv` (every unit's configuration; "
+            "mixed configurations are refused). Measured on this machine, shared with other "
+            f"jobs: Experiment 3 ({d['reps']} repetitions × 6 variants × 3 modes) {f('exp3')}; "
+            f"Experiments 1 and 2 ({len(d['seeds'])} seeds each in each of the three modes) "
+            f"{f('exp12')}; the sphere benchmark (3 methods) {f('sphere')}. "
             f"Version of the runs: `{d['version']}`.")
 
 
@@ -753,10 +920,11 @@ def readme_block(d, parts, per, comb):
                      f"**{comb[cid]}**"])
     legend = (f"Generated by `make verdicts` from the committed study ({units_text(d)}; "
               "rules, tests and every part: [docs/verdicts.md](docs/verdicts.md)). Each cell: "
-              "the mode's verdict, then the part that decides it, estimate [95 % t interval]; "
-              "Holm-adjusted over every test of the mode. Verdict: common to the three modes "
-              "(event, stepped at dt 1 ms and 0.5 ms), else undecided; –: Experiments 1 and 2 "
-              "ran in event mode only.")
+              "the mode's verdict, then the part that decides it: estimate [lo, hi] (level), "
+              "Holm-adjusted over every test of the mode (the same family in every mode). " +
+              CI_LEGEND + " Verdict: common to the three modes (event, stepped at dt 1 ms and "
+              "0.5 ms), else undecided; where dt 0.5 ms differs from dt 1 ms its verdict is "
+              "named.")
     return "\n".join([BEGIN, legend, "", md_table(
         ["thesis claim", f"event, {d['reps']} reps", f"stepped (dt 1 ms), {d['reps']} reps",
          "verdict"], rows), "", "\n\n".join(not_reproduced(d, per, comb)), END])
@@ -776,23 +944,49 @@ def report_html(d, parts, per, comb):
     notes = "".join(f"<p>{esc(strip(s))}</p>" for s in not_reproduced(d, per, comb))
     return (f"<!-- generated by scripts/verdicts.py (make verdicts); do not edit -->\n"
             f"<p>The verdicts of the committed study ({esc(units_text(d))}), each with the part "
-            "that decides it: estimate [95 % t interval], Holm-adjusted over every test of the "
-            "mode. Rules and every part: docs/verdicts.md.</p>\n"
+            "that decides it: estimate [lo, hi] (level), Holm-adjusted over every test of the "
+            f"mode (the same family in every mode). {esc(CI_LEGEND)} Rules and every part: "
+            "docs/verdicts.md.</p>\n"
             f"<table><tr><th>thesis</th><th>claim</th>{head}<th>verdict</th></tr>\n" +
             "\n".join(rows) + f"\n</table>\n{notes}\n")
 
 
 # ---------------------------------------------------------------- output
 
-def splice_readme(path, block):
+def sphere_block(d):
+    """The README's sentence on the contextual sphere benchmark: each method's
+    plateau of the policy mean's test return, the statistic the bench_sphere
+    figure marks (plot_benchmarks.plateau, on the figure's values)."""
+    lv = {m: -plot_benchmarks.plateau([np.maximum(-y, plot_benchmarks.TINY)
+                                       for y in d["sphere"][m]])[0] for m in SPHERE}
+    n = len(d["sphere"]["creps_old"])
+    g = lambda x: f"{x:.3g}".replace("-", "−")  # noqa: E731
+    return (f"{SPHERE_BEGIN}\nREPS benchmarks ([docs/reps_policy.md](docs/reps_policy.md)), "
+            f"contextual sphere of Abdolmaleki et al. (IJCAI 2017, §6.1), {n} seeds, generated "
+            "by `make verdicts` from `data/study/sphere_curves.csv`: the test return (of the "
+            "policy mean on fixed test contexts) plateaus at "
+            f"{g(lv['creps_old'])} with C-REPS's covariance around the sampling mean "
+            "(`policy.cov_center = old`, the benchmarks' default, drawn in the bench_sphere "
+            f"figure), at {g(lv['creps_new'])} around the new mean; contextual CMA-ES "
+            f"(`bench.method = ccmaes`) at {g(lv['ccmaes'])}. Plateau: the median over the "
+            "seeds per iteration, then its median over the last tenth of the iterations, as the "
+            "figure marks it; the final means and the peers' numbers are in "
+            f"docs/reps_policy.md.\n{SPHERE_END}")
+
+
+def splice_readme(path, blocks):
+    """README's text with each (begin, end, block) put between its markers."""
     try:
         with open(path, encoding="utf-8") as f:
             text = f.read()
     except OSError as e:
         raise Fail(f"{path}: {e.strerror}", 2) from e
-    if text.count(BEGIN) != 1 or text.count(END) != 1 or text.index(BEGIN) > text.index(END):
-        raise Fail(f"{path}: needs one {BEGIN} and one {END} after it", 2)
-    return text[:text.index(BEGIN)] + block + text[text.index(END) + len(END):]
+    for begin, end, block in blocks:
+        if (text.count(begin) != 1 or text.count(end) != 1
+                or text.index(begin) > text.index(end)):
+            raise Fail(f"{path}: needs one {begin} and one {end} after it", 2)
+        text = text[:text.index(begin)] + block + text[text.index(end) + len(end):]
+    return text
 
 
 def outputs(data, docs, readme):
@@ -801,9 +995,9 @@ def outputs(data, docs, readme):
     rules = read_rules(os.path.join(data, "rules.ini"))
     d = load(data)
     d["rules"] = rules
-    if not rules["settle_block"] <= rules["converged_at"] <= d["iterations"] - 3:
-        raise Fail(f"{os.path.join(data, 'rules.ini')}: converged_at must leave settle_block "
-                   f"iterations before it and 3 after it in the {d['iterations']} iterations", 3)
+    if not 1 <= rules["converged_at"] <= d["iterations"] - 3:
+        raise Fail(f"{os.path.join(data, 'rules.ini')}: converged_at must leave 3 iterations "
+                   f"after it in the {d['iterations']} iterations", 3)
     try:
         parts = compute(d, rules, rules["margins"])
         per, comb = verdict_table(parts, rules)
@@ -818,7 +1012,8 @@ def outputs(data, docs, readme):
     return figs | {
         os.path.join(docs, "verdicts.md"): render_md(d, parts, per, comb, sens),
         os.path.join(docs, "verdicts_report.html"): report_html(d, parts, per, comb),
-        readme: splice_readme(readme, readme_block(d, parts, per, comb)),
+        readme: splice_readme(readme, [(BEGIN, END, readme_block(d, parts, per, comb)),
+                                       (SPHERE_BEGIN, SPHERE_END, sphere_block(d))]),
     }
 
 

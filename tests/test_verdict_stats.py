@@ -163,3 +163,72 @@ def test_verdicts():
     assert vs.combine_modes([A, A, A]) == A
     assert vs.combine_modes([A, U, A]) == U
     assert vs.combine_modes([D, D]) == D
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_trend_is_scipys_linregress(seed):
+    rng = np.random.default_rng(1000 + seed)
+    n = int(rng.integers(3, 60))
+    y = rng.normal(0, rng.uniform(0.01, 2), n) + rng.normal(0, 0.1) * np.arange(n)
+    e = vs.trend(y)
+    ref = stats.linregress(np.arange(n), y)
+    assert e.est == pytest.approx(ref.slope * (n - 1), rel=1e-9, abs=1e-12)
+    assert e.se == pytest.approx(ref.stderr * (n - 1), rel=1e-9, abs=1e-12)
+    assert e.df == n - 2
+    # the one-sided test of the slope: scipy's two-sided p of slope 0, halved
+    side = vs.p_greater(e) if ref.slope > 0 else vs.p_less(e)
+    assert side == pytest.approx(ref.pvalue / 2, rel=1e-7, abs=1e-14)
+    with pytest.raises(ValueError):
+        vs.trend([1.0, 2.0])
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_binomial_tests_and_clopper_pearson(seed):
+    rng = np.random.default_rng(2000 + seed)
+    n = int(rng.integers(1, 80))
+    k = int(rng.integers(0, n + 1))
+    c = float(rng.uniform(0.01, 0.99))
+    for alt, fn in (("greater", vs.p_binom_greater), ("less", vs.p_binom_less)):
+        ref = stats.binomtest(k, n, c, alternative=alt).pvalue
+        assert fn(k, n, c) == pytest.approx(ref, rel=1e-9, abs=1e-14)
+    level = float(rng.uniform(0.5, 0.9999))
+    ref = stats.binomtest(k, n).proportion_ci(level, method="exact")
+    lo, hi = vs.clopper_pearson(k, n, level)
+    assert (lo, hi) == pytest.approx((ref.low, ref.high), abs=1e-10)
+    # duality: the exact test rejects at (1 - level) / 2 exactly outside the interval
+    a = (1 - level) / 2
+    for bound in (lo * 0.999, lo * 1.001 + 1e-9, hi * 0.999, min(hi * 1.001, 1 - 1e-12)):
+        if 0 < bound < 1:
+            assert (vs.p_binom_greater(k, n, bound) < a) == (bound < lo)
+            assert (vs.p_binom_less(k, n, bound) < a) == (bound > hi)
+    for bad in ((-1, 5), (6, 5), (0, 0), (1.5, 3)):
+        with pytest.raises(ValueError):
+            vs.p_binom_less(*bad, 0.5)
+
+
+def holm_levels_ref(ps, alpha):
+    """Step-down by hand: reject the smallest while p < alpha / (m - rank)."""
+    m, out = len(ps), [None] * len(ps)
+    stop = None
+    for rank, i in enumerate(sorted(range(m), key=lambda j: ps[j])):
+        here = alpha / (m - rank)
+        if stop is None and not ps[i] < here:
+            stop = here
+        out[i] = here if stop is None else stop
+    return out
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_holm_levels_give_the_holm_decision(seed):
+    rng = np.random.default_rng(3000 + seed)
+    m = int(rng.integers(1, 40))
+    ps = list(rng.uniform(0, 1, m) ** rng.uniform(1, 8))
+    if m > 3:
+        ps[1] = ps[2] = ps[0]                       # ties
+    alpha = float(rng.choice([0.05, 0.1, 0.01]))
+    lv = vs.holm_levels(ps, alpha)
+    assert lv == pytest.approx(holm_levels_ref(ps, alpha), rel=1e-12)
+    adj = vs.holm(ps)
+    for p, a, level in zip(ps, adj, lv):
+        assert (p < level) == (a < alpha)
+    assert vs.holm_levels([], 0.05) == []
