@@ -8,9 +8,10 @@
  *     IEEE multiplication or division rounds their product or quotient
  *     correctly (needs FLT_EVAL_METHOD 0: no wider intermediate);
  *   - 0 <= q <= 27: w * 5^q is exact in 128 bits; the value is that times 2^q;
- *   - -27 <= q < 0: w 2^(64+s) / 5^-q (w shifted left by s to fill 64 bits)
- *     is a quotient of at least 65 bits; its remainder says exactly whether
- *     anything lies below the bits kept, so rounding to nearest-even is exact.
+ *   - -27 <= q < 0: w 2^(s+t) / 5^-q (w shifted left by s to fill 64 bits,
+ *     2^t <= 5^-q < 2^(t+1)) is a quotient of 63 or 64 bits; its remainder
+ *     says exactly whether anything lies below the bits kept, so rounding
+ *     to nearest-even is exact.
  * Everything else (more digits, a larger exponent, a zero with an
  * exponent, hex, inf, nan, a result outside the normal range) is left to
  * the caller, which then asks strtod: whatever this returns is the double
@@ -82,7 +83,7 @@ static int scale(uint64_t w, int q, double *v)
 		1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11,
 		1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 	};
-	int s;
+	int s, t;
 	u128 num;
 
 #if FLT_EVAL_METHOD == 0
@@ -97,9 +98,12 @@ static int scale(uint64_t w, int q, double *v)
 		return 0;
 	if (q >= 0)
 		return round_even((u128)w * pow5[q], 0, q, v);
+	/* w shifted to fill 64 bits, then by one bit less than 5^-q has, so that
+	 * the quotient (more than 62 bits) fits one 128 / 64 division */
 	s = __builtin_clzll(w);
-	num = (u128)(w << s) << 64;
-	return round_even(num / pow5[-q], num % pow5[-q] != 0, q - s - 64, v);
+	t = 63 - __builtin_clzll(pow5[-q]);
+	num = (u128)(w << s) << t;
+	return round_even(num / pow5[-q], num % pow5[-q] != 0, q - s - t, v);
 }
 
 /* Append the digits at *s to w (nd significant digits so far; leading
