@@ -680,19 +680,22 @@ static void feature_stats(const pr_reps_problem *pb, const int *rows, const doub
 			fs[j] = fs[j] == 0.0 || fs[j] == (double)m ? 0.0 : fmax(phat[j], 1.0 - phat[j]);
 		return;
 	}
+	/* row by row (the rows are contiguous), each column's sum still in row
+	 * order: fs first holds the correction sum q (phi - phat) */
 	for (i = 0; i < m; i++)
 		for (j = 0; j < d; j++)
 			phat[j] += q[i] * feat(pb, rows[i], j);
+	memset(fs, 0, (size_t)d * sizeof *fs);
+	for (i = 0; i < m; i++)
+		for (j = 0; j < d; j++)
+			fs[j] += q[i] * (feat(pb, rows[i], j) - phat[j]);
 	for (j = 0; j < d; j++) {
-		double c = 0.0;
-
-		for (i = 0; i < m; i++)
-			c += q[i] * (feat(pb, rows[i], j) - phat[j]);
-		phat[j] += c;
+		phat[j] += fs[j];
 		fs[j] = 0.0;
-		for (i = 0; i < m; i++)
-			fs[j] = fmax(fs[j], fabs(feat(pb, rows[i], j) - phat[j]));
 	}
+	for (i = 0; i < m; i++)
+		for (j = 0; j < d; j++)
+			fs[j] = fmax(fs[j], fabs(feat(pb, rows[i], j) - phat[j]));
 }
 
 /* Allocates the solver-coordinate arrays of P for m rows and nf free features. */
@@ -2563,8 +2566,9 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 	if (d > 0 && (pb->phi || pb->val)) {
 		/* dense features: what phat, a double, leaves of sum q phi */
 		c.corr = fs + 3 * d + 2;
-		for (j = 0; j < pb->d; j++)
-			for (c.corr[j] = 0.0, i = 0; i < m; i++)
+		memset(c.corr, 0, d * sizeof *c.corr);
+		for (i = 0; i < m; i++)
+			for (j = 0; j < pb->d; j++)
 				c.corr[j] += qs[i] * (feat(pb, rows[i], j) - phat[j]);
 	}
 	if (!standardise(pb->R, rows, qs, m, Rs, &c.rmax, &c.scale)) {
