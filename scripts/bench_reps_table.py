@@ -5,16 +5,17 @@ certificate, and max |p - p_scipy|; then the targets and the previous
 poolreps (when the CSV has it) in words made from the same numbers.
 
   bench_reps_table.py [CSV]            print the table and the summary
-  bench_reps_table.py --write [CSV]    put them into docs/benchmarks.md, between
-                                       the bench_reps markers
-  bench_reps_table.py --check [CSV]    exit 1 if docs/benchmarks.md differs"""
+  bench_reps_table.py --write [CSV]    put them into docs/benchmarks.md and
+                                       docs/choices.md, between the bench_reps
+                                       markers
+  bench_reps_table.py --check [CSV]    exit 1 if either differs"""
 import argparse
 import csv
 import os
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DOC = os.path.join(ROOT, "docs", "benchmarks.md")
+DOCS = [os.path.join(ROOT, "docs", n) for n in ("benchmarks.md", "choices.md")]
 BEGIN, END = "<!-- bench_reps:begin -->", "<!-- bench_reps:end -->"
 # problem: the ratio scipy / poolreps to reach, and the runs it is judged on
 TARGETS = {"dense140": (1.0, ["poolreps-newton"]),
@@ -63,20 +64,19 @@ def main():
     if not (a.write or a.check):
         sys.stdout.write(text)
         return 0
-    doc = open(DOC, encoding="utf-8").read()
-    i, j = doc.find(BEGIN), doc.find(END)
-    if i < 0 or j < i:
-        sys.exit(f"bench_reps_table.py: {DOC}: no {BEGIN} ... {END} block")
-    new = doc[:i + len(BEGIN)] + "\n" + text + doc[j:]
-    if a.check:
-        if new != doc:
-            sys.exit(f"bench_reps_table.py: {DOC}: the REPS table differs from {a.csv} "
+    for path in DOCS:
+        doc = open(path, encoding="utf-8").read()
+        i, j = doc.find(BEGIN), doc.find(END)
+        if i < 0 or j < i:
+            sys.exit(f"bench_reps_table.py: {path}: no {BEGIN} ... {END} block")
+        new = doc[:i + len(BEGIN)] + "\n" + text + doc[j:]
+        if a.check and new != doc:
+            sys.exit(f"bench_reps_table.py: {path}: the REPS table differs from {a.csv} "
                      "(run scripts/bench_reps_table.py --write)")
-        return 0
-    tmp = DOC + ".tmp"
-    with open(tmp, "w", encoding="utf-8") as f:
-        f.write(new)
-    os.replace(tmp, DOC)
+        if a.write:
+            with open(path + ".tmp", "w", encoding="utf-8") as f:
+                f.write(new)
+            os.replace(path + ".tmp", path)
     return 0
 
 
