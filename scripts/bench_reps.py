@@ -12,7 +12,9 @@ from (0, 0). Each timing is the median of RUNS (default 3). Writes a CSV
 row per problem and solver to --csv: problem, n, d, eps, solver, seconds,
 status, kl_gap, residual_rel, max |p - p_scipy|; the ratio scipy / poolreps
 is printed. When the Python binding loads, poolreps.reps (the same solve
-without the CSV round trip) is timed in-process too."""
+without the CSV round trip) is timed in-process too. --previous BINARY adds
+the same whole-process runs of an earlier poolreps (solver
+poolreps-newton-previous; scripts/bench_reps.sh builds one from git)."""
 import argparse
 import csv
 import os
@@ -120,6 +122,7 @@ def main():
     ap.add_argument("--runs", type=int, default=int(os.environ.get("RUNS", "3")))
     ap.add_argument("--problems", default="dense140,dense200,onehot80")
     ap.add_argument("--solvers", default="newton,nlopt")
+    ap.add_argument("--previous", help="an earlier poolreps binary, timed the same way")
     a = ap.parse_args()
     os.makedirs(os.path.dirname(a.csv), exist_ok=True)
     rows = []
@@ -144,15 +147,18 @@ def main():
                              "%.3g" % np.abs(p_b - p_ref).max()])
                 print(f"{name}: poolreps.reps in-process {t_b:.3f} s, ratio scipy/poolreps "
                       f"{t_sc / t_b:.2f}", flush=True)
-            for solver in a.solvers.split(","):
+            runs = [(s, a.poolreps, s) for s in a.solvers.split(",")]
+            if a.previous:
+                runs.append(("newton-previous", a.previous, "newton"))
+            for label, binary, solver in runs:
                 extra = ["--set", f"reps.solver={solver}"] if solver != "newton" else []
-                res = [run_poolreps(a.poolreps, path, eps, tmp, extra) for _ in range(a.runs)]
+                res = [run_poolreps(binary, path, eps, tmp, extra) for _ in range(a.runs)]
                 t_c = float(np.median([r[0] for r in res]))
                 s, p = res[-1][1], res[-1][2]
                 diff = "" if p is None else "%.3g" % np.abs(p - p_ref).max()
-                rows.append([name, len(R), phi.shape[1], eps, "poolreps-" + solver, t_c, s["status"],
+                rows.append([name, len(R), phi.shape[1], eps, "poolreps-" + label, t_c, s["status"],
                              s["kl_gap"], s["residual_rel"], diff])
-                print(f"{name}: poolreps {solver} {t_c:.3f} s, scipy trust-exact {t_sc:.3f} s, "
+                print(f"{name}: poolreps {label} {t_c:.3f} s, scipy trust-exact {t_sc:.3f} s, "
                       f"ratio scipy/poolreps {t_sc / t_c:.2f}, status {s['status']}, "
                       f"max|p - p_scipy| {diff}", flush=True)
     with open(a.csv, "w", newline="") as f:

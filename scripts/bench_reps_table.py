@@ -1,19 +1,84 @@
 #!/usr/bin/env python3
 """Markdown table of scripts/bench_reps.py's CSV (default docs/bench_reps.csv):
 per problem, each solver's seconds, the ratio scipy / it, its status and
-certificate, and max |p - p_scipy|."""
+certificate, and max |p - p_scipy|; then the targets and the previous
+poolreps (when the CSV has it) in words made from the same numbers.
+
+  bench_reps_table.py [CSV]            print the table and the summary
+  bench_reps_table.py --write [CSV]    put them into docs/benchmarks.md and
+                                       docs/choices.md, between the bench_reps
+                                       markers
+  bench_reps_table.py --check [CSV]    exit 1 if either differs"""
+import argparse
 import csv
+import os
 import sys
 
-path = sys.argv[1] if len(sys.argv) > 1 else "docs/bench_reps.csv"
-rows = list(csv.DictReader(open(path)))
-print("| problem | n | d | eps | solver | seconds | scipy / solver | status | kl_gap | residual_rel "
-      "| max abs p - p_scipy |")
-print("|---|---:|---:|---:|---|---:|---:|---|---:|---:|---:|")
-for r in rows:
-    sc = next(float(x["seconds"]) for x in rows
-              if x["problem"] == r["problem"] and x["solver"] == "scipy-trust-exact")
-    ratio = sc / float(r["seconds"])
-    print(f"| {r['problem']} | {r['n']} | {r['d']} | {float(r['eps']):g} | {r['solver']} | "
-          f"{float(r['seconds']):.3g} | {ratio:.2f} | {r['status'] or '-'} | {r['kl_gap'] or '-'} | "
-          f"{r['residual_rel'] or '-'} | {r['max_abs_p_diff'] or '-'} |")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DOCS = [os.path.join(ROOT, "docs", n) for n in ("benchmarks.md", "choices.md")]
+BEGIN, END = "<!-- bench_reps:begin -->", "<!-- bench_reps:end -->"
+# problem: the ratio scipy / poolreps to reach, and the runs it is judged on
+TARGETS = {"dense140": (1.0, ["poolreps-newton"]),
+           "dense200": (2.0, ["poolreps-newton-inprocess", "poolreps-newton"]),
+           "onehot80": (100.0, ["poolreps-newton-inprocess"])}
+RUN_WORDS = {"poolreps-newton": "whole process", "poolreps-newton-inprocess": "in process"}
+
+
+def render(rows):
+    sc = {r["problem"]: float(r["seconds"]) for r in rows if r["solver"] == "scipy-trust-exact"}
+    sec = {(r["problem"], r["solver"]): float(r["seconds"]) for r in rows}
+    out = ["| problem | n | d | eps | solver | seconds | scipy / solver | status | kl_gap | "
+           "residual_rel | max abs p - p_scipy |",
+           "|---|---:|---:|---:|---|---:|---:|---|---:|---:|---:|"]
+    for r in rows:
+        ratio = sc[r["problem"]] / float(r["seconds"])
+        out.append(f"| {r['problem']} | {r['n']} | {r['d']} | {float(r['eps']):g} | {r['solver']} | "
+                   f"{float(r['seconds']):.3g} | {ratio:.2f} | {r['status'] or '-'} | "
+                   f"{r['kl_gap'] or '-'} | {r['residual_rel'] or '-'} | {r['max_abs_p_diff'] or '-'} |")
+    goals = []
+    for prob, (target, runs) in TARGETS.items():
+        for run in runs:
+            if (prob, run) in sec:
+                ratio = sc[prob] / sec[prob, run]
+                goals.append(f"{prob} {RUN_WORDS[run]} {ratio:.2f} (target {target:g}: "
+                             f"{'met' if ratio >= target else 'not met'})")
+    out += ["", "Against the targets (scipy / poolreps Newton): " + "; ".join(goals) + "."]
+    prev = [f"{p} {sec[p, 'poolreps-newton-previous']:.3g} s → {sec[p, 'poolreps-newton']:.3g} s "
+            f"({sec[p, 'poolreps-newton-previous'] / sec[p, 'poolreps-newton']:.2f}× as fast)"
+            for p in sc if (p, "poolreps-newton-previous") in sec and (p, "poolreps-newton") in sec]
+    if prev:
+        out += ["", "Whole process against the previous poolreps in the same run: " +
+                "; ".join(prev) + "."]
+    return "\n".join(out) + "\n"
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("csv", nargs="?", default=os.path.join(ROOT, "docs", "bench_reps.csv"))
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--write", action="store_true")
+    mode.add_argument("--check", action="store_true")
+    a = ap.parse_args()
+    with open(a.csv, newline="") as f:
+        text = render(list(csv.DictReader(f)))
+    if not (a.write or a.check):
+        sys.stdout.write(text)
+        return 0
+    for path in DOCS:
+        doc = open(path, encoding="utf-8").read()
+        i, j = doc.find(BEGIN), doc.find(END)
+        if i < 0 or j < i:
+            sys.exit(f"bench_reps_table.py: {path}: no {BEGIN} ... {END} block")
+        new = doc[:i + len(BEGIN)] + "\n" + text + doc[j:]
+        if a.check and new != doc:
+            sys.exit(f"bench_reps_table.py: {path}: the REPS table differs from {a.csv} "
+                     "(run scripts/bench_reps_table.py --write)")
+        if a.write:
+            with open(path + ".tmp", "w", encoding="utf-8") as f:
+                f.write(new)
+            os.replace(path + ".tmp", path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -7,6 +7,11 @@
 
 /* Parse a finite double with optional surrounding blanks; PR_EINVAL otherwise. */
 int pr_csv_parse_double(const char *s, double *v);
+/* decimal.c: a plain decimal number at s, with at most 19 significant
+ * digits and a modest exponent, converted exactly (the bits strtod gives):
+ * 1 with *v and *end (the first byte after it) set; 0 when it must be left
+ * to strtod (any other form, or a value this does not handle). */
+int pr_decimal_parse(const char *s, const char **end, double *v);
 /* The shortest of %.15g..%.17g that reads back exactly. */
 void pr_csv_format_double(double v, char *buf, size_t n);
 
@@ -26,7 +31,11 @@ void pr_csv_format_double(double v, char *buf, size_t n);
  * stdin, shown as "<stdin>". */
 #define PR_CSV_MAX_LINE (1L << 24)
 #define PR_CSV_MAX_COLS 100000
-enum { PR_CSV_COMPLETE = 1 }; /* flag: the last line must end with a line end */
+enum {
+	PR_CSV_COMPLETE = 1,     /* flag: the last line must end with a line end */
+	PR_CSV_LIBCSV_ONLY = 2   /* flag: every line through libcsv, none split directly
+	                          * (the tests compare both ways) */
+};
 typedef int (*pr_csv_record_fn)(void *user, const char *path, long line, int n,
                                 char **fields, char *err);
 int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,

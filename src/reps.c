@@ -680,19 +680,22 @@ static void feature_stats(const pr_reps_problem *pb, const int *rows, const doub
 			fs[j] = fs[j] == 0.0 || fs[j] == (double)m ? 0.0 : fmax(phat[j], 1.0 - phat[j]);
 		return;
 	}
+	/* row by row (the rows are contiguous), each column's sum still in row
+	 * order: fs first holds the correction sum q (phi - phat) */
 	for (i = 0; i < m; i++)
 		for (j = 0; j < d; j++)
 			phat[j] += q[i] * feat(pb, rows[i], j);
+	memset(fs, 0, (size_t)d * sizeof *fs);
+	for (i = 0; i < m; i++)
+		for (j = 0; j < d; j++)
+			fs[j] += q[i] * (feat(pb, rows[i], j) - phat[j]);
 	for (j = 0; j < d; j++) {
-		double c = 0.0;
-
-		for (i = 0; i < m; i++)
-			c += q[i] * (feat(pb, rows[i], j) - phat[j]);
-		phat[j] += c;
+		phat[j] += fs[j];
 		fs[j] = 0.0;
-		for (i = 0; i < m; i++)
-			fs[j] = fmax(fs[j], fabs(feat(pb, rows[i], j) - phat[j]));
 	}
+	for (i = 0; i < m; i++)
+		for (j = 0; j < d; j++)
+			fs[j] = fmax(fs[j], fabs(feat(pb, rows[i], j) - phat[j]));
 }
 
 /* Allocates the solver-coordinate arrays of P for m rows and nf free features. */
@@ -1257,6 +1260,222 @@ static int lsq_fit(const prob *P, const int *S, int ns, const double *t, double 
 	return PR_OK;
 }
 
+/* Scratch of limit_solve (m rows, nr = nf + 1 LP rows). */
+typedef struct {
+	int *S, *Z;          /* m: the face's support; Z, then indices into S */
+	double *rr, *x, *mag, *err; /* m: reduced costs, LP vertex, |terms|, round-off */
+	double *y, *wv, *dsc, *rhs, *dy, *acol, *ylo; /* nr each, in one block from y */
+	char *sup;           /* m: row in the face's support */
+	gsl_matrix *N;       /* nr x nr: lsq_fit's normal equations */
+	int ns, nb;          /* |S|; rows of Z in the vertex's support */
+	double rmax;         /* the largest reduced cost */
+} limit_ws;
+
+static void limit_ws_free(limit_ws *s)
+{
+	gsl_matrix_free(s->N);
+	free(s->S);
+	free(s->Z);
+	free(s->rr);
+	free(s->x);
+	free(s->mag);
+	free(s->err);
+	free(s->y);
+	free(s->sup);
+}
+
+static int limit_ws_alloc(limit_ws *s, int m, int nr)
+{
+	memset(s, 0, sizeof *s);
+	s->S = malloc((size_t)m * sizeof *s->S);
+	s->Z = malloc((size_t)m * sizeof *s->Z);
+	s->rr = malloc((size_t)m * sizeof *s->rr);
+	s->x = malloc((size_t)m * sizeof *s->x);
+	s->mag = malloc((size_t)m * sizeof *s->mag);
+	s->err = malloc((size_t)m * sizeof *s->err);
+	s->y = calloc(7 * (size_t)nr, sizeof *s->y);
+	s->sup = calloc((size_t)m, 1);
+	s->N = gsl_matrix_alloc((size_t)nr, (size_t)nr);
+	if (!s->S || !s->Z || !s->rr || !s->x || !s->mag || !s->err || !s->y || !s->sup || !s->N)
+		return PR_ENOMEM;
+	s->wv = s->y + nr;
+	s->dsc = s->wv + nr;
+	s->rhs = s->dsc + nr;
+	s->dy = s->rhs + nr;
+	s->acol = s->dy + nr;
+	s->ylo = s->acol + nr;
+	return PR_OK;
+}
+
+/* The optimal face of the feature-matching LP (see limit_solve): LP duals
+ * y, reduced costs rr, Z, and the support S (s->ns rows; 0 with reason set
+ * when an LP did not solve or the face came out empty); y shifted to a
+ * strictly complementary dual when S misses part of Z. PR_OK or a status. */
+static int limit_face(const prob *P, limit_ws *s, char *reason, size_t rlen)
+{
+	const int m = P->m, nf = P->nf, nr = nf + 1;
+	double tscale = 1.0, *rr = s->rr, *y = s->y;
+	int i, k, nz = 0, rc;
+
+	/* GLPK's output is swallowed by lp_guard's hook */
+	if (nf > 0 && (rc = lp_match(P, s->x, y)) <= 0) {
+		if (rc == 0)
+			snprintf(reason, rlen, "the eta -> 0 linear programme did not solve");
+		return rc;
+	}
+	/* reduced costs; without features the face is the largest returns */
+	s->rmax = -HUGE_VAL;
+	for (i = 0; i < m; i++) {
+		rr[i] = P->R[i] - col_dot(P, i, y, &s->mag[i]);
+		tscale = fmax(tscale, s->mag[i] + fabs(P->R[i]));
+		s->rmax = fmax(s->rmax, rr[i]);
+	}
+	for (i = 0; i < m; i++)
+		if (rr[i] - s->rmax >= -1e-11 * tscale) {
+			s->Z[nz++] = i;
+			if (nf == 0 || s->x[i] > 1e-15) {
+				s->sup[i] = 1;
+				s->nb++;
+			}
+		}
+	if (s->nb < nz) {
+		double cmin = HUGE_VAL, delta = 1.0;
+
+		if ((rc = lp_support(P, s->Z, nz, s->sup, s->wv)) <= 0) {
+			if (rc == 0)
+				snprintf(reason, rlen, "the largest-support linear programme did not solve");
+			return rc;
+		}
+		/* delta: keep the rows off Z strictly below the face: the largest
+		 * smallest margin, min(delta c_min on Z \ S, rmax - rr_i + delta c_i
+		 * off Z), capped at 1 */
+		for (i = 0; i < m; i++)
+			if (s->sup[i] == 0 && rr[i] - s->rmax >= -1e-11 * tscale)
+				cmin = fmin(cmin, col_dot(P, i, s->wv, NULL));
+		for (i = 0; i < m; i++) {
+			double c = col_dot(P, i, s->wv, NULL);
+
+			if (rr[i] - s->rmax < -1e-11 * tscale && c < 0.0)
+				delta = fmin(delta, (s->rmax - rr[i]) / (cmin - c));
+		}
+		for (k = 0; k < nr; k++)
+			y[k] += delta * s->wv[k];
+	}
+	for (i = 0; i < m; i++)
+		if (s->sup[i])
+			s->S[s->ns++] = i;
+	if (s->ns == 0)
+		snprintf(reason, rlen, "the eta -> 0 face came out empty");
+	return PR_OK;
+}
+
+/* y polished so that rr = 0 on S (lsq_fit), the exact reduced costs, and
+ * the dual side of L: value, rr, th. */
+static int limit_dual(const prob *P, limit_ws *s, limit_t *L)
+{
+	const int m = P->m, nf = P->nf;
+	int i, k, st;
+
+	if (nf > 0 && (st = lsq_fit(P, s->S, s->ns, P->R, s->y, s->ylo, s->N, s->dsc, s->rhs, s->dy,
+	                            s->acol)) != PR_OK)
+		return st;
+	s->rmax = -HUGE_VAL;
+	for (i = 0; i < m; i++) {
+		s->rr[i] = rr_exact(P, i, P->R[i], s->y, s->ylo, &s->mag[i]);
+		s->rmax = fmax(s->rmax, s->rr[i]);
+	}
+	L->value = s->rmax + s->y[nf];
+	for (i = 0; i < m; i++)
+		L->rr[i] = s->rr[i] - s->rmax;
+	for (k = 0; k < nf; k++) {
+		L->th[k] = s->y[k];
+		L->value += s->y[k] * P->tg[k];
+	}
+	return PR_OK;
+}
+
+/* p_0, the maximum-entropy point of the face (theta_solve at eta = 1 on
+ * the face's problem F, R = 0), into L->p, lam and kl; *res its residual. */
+static int limit_primal(const prob *P, limit_ws *s, int max_evals, limit_t *L, double *res)
+{
+	const int m = P->m, nf = P->nf, ns = s->ns;
+	prob F;
+	work w;
+	int i, k, st;
+
+	memset(&F, 0, sizeof F);
+	memset(&w, 0, sizeof w);
+	if ((st = prob_face(&F, P, s->S, ns)) != PR_OK || (st = work_alloc(&w, F.m, F.nf, max_evals)) != PR_OK)
+		goto done;
+	if (ns == s->nb && F.nf > 0) {
+		/* the face is the vertex's support: start from the weights that fit
+		 * the vertex x best in the exponential family q exp(-psi theta),
+		 * which reaches x itself when the face is that one point */
+		for (i = 0; i < ns; i++) {
+			s->Z[i] = i;
+			s->err[i] = -log(s->x[s->S[i]] / F.q[i]); /* err is free until the certificate */
+		}
+		memset(s->wv, 0, (size_t)(nf + 1) * sizeof *s->wv);
+		if ((st = lsq_fit(&F, s->Z, ns, s->err, s->wv, NULL, s->N, s->dsc, s->rhs, s->dy,
+		                  s->acol)) != PR_OK)
+			goto done;
+		memcpy(w.pt[0].th, s->wv, (size_t)F.nf * sizeof *s->wv);
+	}
+	if ((st = theta_solve(&F, &w, 1.0, THETA_TOL)) < 0)
+		goto done;
+	st = PR_OK;
+	memset(L->p, 0, (size_t)m * sizeof *L->p);
+	memset(L->lam, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *L->lam);
+	for (k = 0; k < F.nf; k++)
+		L->lam[F.fr[k]] = w.pt[0].th[k];
+	L->kl = 0.0;
+	for (i = 0; i < F.m; i++) {
+		double pi = w.pt[0].p[i];
+
+		L->p[F.rowid[i]] = pi;
+		if (pi > 0.0)
+			L->kl += pi * log(pi / F.q[i]);
+	}
+	*res = w.pt[0].res;
+done:
+	prob_free(&F);
+	work_free(&w);
+	return st;
+}
+
+/* Certificate, for the problem whose targets are the features p_0
+ * matches, b' = A p_0 (they differ from phi_hat by p_0's residual, which
+ * the certificate reports and bounds separately). For every p feasible
+ * there, sum p_i (rmax - rr_i) = y.b' + rmax - sum p R exactly, so every
+ * optimal p satisfies sum p_i (rmax - rr_i) <= gap, the same sum for p_0
+ * (with e_i, the bound on the round-off of rr_i from rr_exact, added), and
+ * puts at most gap / (rmax - rr_i - e_i - e_max) on a row i outside S. */
+static void limit_certificate(const prob *P, limit_ws *s, limit_t *L)
+{
+	const double *rr = s->rr, rmax = s->rmax;
+	double emax = 0.0, *err = s->err;
+	int i;
+
+	L->gap = 0.0;
+	for (i = 0; i < P->m; i++) {
+		double nk = 2.0 * col_nnz(P, i) + 1.0;
+
+		err[i] = 2.0 * DBL_EPSILON * fabs(rr[i]) + 2.0 * nk * nk * DBL_EPSILON * DBL_EPSILON * s->mag[i];
+		if (rr[i] == rmax)
+			emax = fmax(emax, err[i]);
+	}
+	for (i = 0; i < P->m; i++)
+		if (L->p[i] > 0.0)
+			L->gap += L->p[i] * (rmax - rr[i] + err[i] + emax);
+	L->outside = 0.0;
+	for (i = 0; i < P->m; i++)
+		if (L->p[i] == 0.0) {
+			double margin = rmax - rr[i] - err[i] - emax;
+
+			L->outside = fmax(L->outside, margin > 0.0 ? L->gap / margin : HUGE_VAL);
+		}
+}
+
 /* The eta -> 0 limit of P (no ridge): p_0 maximises entropy relative to q
  * on the optimal face of the feature-matching LP.
  *  - LP (GLPK) -> row duals y, reduced costs rr_i = R_i - a_i.y - v <= 0
@@ -1274,184 +1493,24 @@ static int lsq_fit(const prob *P, const int *S, int ns, const double *t, double 
  * no optimal p puts more than that on a row outside S. */
 static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, size_t rlen)
 {
-	const int m = P->m, nf = P->nf, nr = nf + 1;
-	int *S = malloc((size_t)m * sizeof *S), *Z = malloc((size_t)m * sizeof *Z);
-	double *rr = malloc((size_t)m * sizeof *rr), *x = malloc((size_t)m * sizeof *x);
-	double *mag = malloc((size_t)m * sizeof *mag);
-	double *y = calloc(7 * (size_t)nr, sizeof *y), *wv, *dsc, *rhs, *dy, *acol, *ylo;
-	char *sup = calloc((size_t)m, 1);
-	gsl_matrix *N = gsl_matrix_alloc((size_t)nr, (size_t)nr);
-	prob F;
-	work w;
-	double rmax, tscale = 1.0, delta, emax, *err = malloc((size_t)m * sizeof *err);
-	int i, k, nz = 0, nb = 0, ns = 0, st = PR_OK, rc;
+	limit_ws s;
+	double res = HUGE_VAL;
+	int st;
 
-	memset(&F, 0, sizeof F);
-	memset(&w, 0, sizeof w);
 	L->ok = 0;
-	if (!S || !Z || !rr || !x || !mag || !err || !y || !sup || !N) {
-		st = PR_ENOMEM;
-		goto done;
+	if ((st = limit_ws_alloc(&s, P->m, P->nf + 1)) == PR_OK &&
+	    (st = limit_face(P, &s, reason, rlen)) == PR_OK && s.ns > 0 &&
+	    (st = limit_dual(P, &s, L)) == PR_OK &&
+	    (st = limit_primal(P, &s, max_evals, L, &res)) == PR_OK) {
+		limit_certificate(P, &s, L);
+		L->ok = res <= PR_REPS_TOL;
+		if (!L->ok)
+			snprintf(reason, rlen, "the maximum-entropy point of the eta -> 0 face did not "
+			         "converge (residual %.3g)", res);
 	}
-	wv = y + nr;
-	dsc = wv + nr;
-	rhs = dsc + nr;
-	dy = rhs + nr;
-	acol = dy + nr;
-	ylo = acol + nr;
-	/* GLPK's output is swallowed by lp_guard's hook */
-	if (nf > 0) {
-		rc = lp_match(P, x, y);
-		if (rc < 0) {
-			st = rc;
-			goto done;
-		}
-		if (rc == 0) {
-			snprintf(reason, rlen, "the eta -> 0 linear programme did not solve");
-			goto done;
-		}
-	}
-	/* reduced costs; without features the face is the largest returns */
-	rmax = -HUGE_VAL;
-	for (i = 0; i < m; i++) {
-		rr[i] = P->R[i] - col_dot(P, i, y, &mag[i]);
-		tscale = fmax(tscale, mag[i] + fabs(P->R[i]));
-		rmax = fmax(rmax, rr[i]);
-	}
-	for (i = 0; i < m; i++)
-		if (rr[i] - rmax >= -1e-11 * tscale) {
-			Z[nz++] = i;
-			if (nf == 0 || x[i] > 1e-15) {
-				sup[i] = 1;
-				nb++;
-			}
-		}
-	if (nb < nz) {
-		double cmin = HUGE_VAL;
-
-		rc = lp_support(P, Z, nz, sup, wv);
-		if (rc < 0) {
-			st = rc;
-			goto done;
-		}
-		if (rc == 0) {
-			snprintf(reason, rlen, "the largest-support linear programme did not solve");
-			goto done;
-		}
-		/* delta: keep the rows off Z strictly below the face */
-		/* delta: the largest smallest margin, min(delta c_min on Z \ S,
-		 * rmax - rr_i + delta c_i off Z), capped at 1 */
-		for (i = 0; i < m; i++)
-			if (sup[i] == 0 && rr[i] - rmax >= -1e-11 * tscale)
-				cmin = fmin(cmin, col_dot(P, i, wv, NULL));
-		delta = 1.0;
-		for (i = 0; i < m; i++) {
-			double c = col_dot(P, i, wv, NULL);
-
-			if (rr[i] - rmax < -1e-11 * tscale && c < 0.0)
-				delta = fmin(delta, (rmax - rr[i]) / (cmin - c));
-		}
-		for (k = 0; k < nr; k++)
-			y[k] += delta * wv[k];
-	}
-	for (i = 0; i < m; i++)
-		if (sup[i])
-			S[ns++] = i;
-	if (ns == 0) {
-		snprintf(reason, rlen, "the eta -> 0 face came out empty");
-		goto done;
-	}
-	if (nf > 0 && (st = lsq_fit(P, S, ns, P->R, y, ylo, N, dsc, rhs, dy, acol)) != PR_OK)
-		goto done;
-	rmax = -HUGE_VAL;
-	for (i = 0; i < m; i++) {
-		rr[i] = rr_exact(P, i, P->R[i], y, ylo, &mag[i]);
-		rmax = fmax(rmax, rr[i]);
-	}
-	L->value = rmax + y[nf];
-	for (i = 0; i < m; i++)
-		L->rr[i] = rr[i] - rmax;
-	for (k = 0; k < nf; k++) {
-		L->th[k] = y[k];
-		L->value += y[k] * P->tg[k];
-	}
-	if ((st = prob_face(&F, P, S, ns)) != PR_OK || (st = work_alloc(&w, F.m, F.nf, max_evals)) != PR_OK)
-		goto done;
-	if (ns == nb && F.nf > 0) {
-		/* the face is the vertex's support: start from the weights that fit
-		 * the vertex x best in the exponential family q exp(-psi theta),
-		 * which reaches x itself when the face is that one point */
-		for (i = 0; i < ns; i++) {
-			Z[i] = i;
-			err[i] = -log(x[S[i]] / F.q[i]); /* err is free until the certificate */
-		}
-		memset(wv, 0, (size_t)nr * sizeof *wv);
-		if ((st = lsq_fit(&F, Z, ns, err, wv, NULL, N, dsc, rhs, dy, acol)) != PR_OK)
-			goto done;
-		memcpy(w.pt[0].th, wv, (size_t)F.nf * sizeof *wv);
-	}
-	rc = theta_solve(&F, &w, 1.0, THETA_TOL);
-	if (rc < 0) {
-		st = rc;
-		goto done;
-	}
-	memset(L->p, 0, (size_t)m * sizeof *L->p);
-	memset(L->lam, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *L->lam);
-	for (k = 0; k < F.nf; k++)
-		L->lam[F.fr[k]] = w.pt[0].th[k];
-	L->kl = 0.0;
-	for (i = 0; i < F.m; i++) {
-		double pi = w.pt[0].p[i];
-
-		L->p[F.rowid[i]] = pi;
-		if (pi > 0.0)
-			L->kl += pi * log(pi / F.q[i]);
-	}
-	/* Certificate, for the problem whose targets are the features p_0
-	 * matches, b' = A p_0 (they differ from phi_hat by p_0's residual,
-	 * which the certificate reports and bounds separately). For every p
-	 * feasible there, sum p_i (rmax - rr_i) = y.b' + rmax - sum p R exactly,
-	 * so every optimal p satisfies sum p_i (rmax - rr_i) <= gap, the same
-	 * sum for p_0 (with e_i, the bound on the round-off of rr_i from
-	 * rr_exact, added), and puts at most gap / (rmax - rr_i - e_i - e_max)
-	 * on a row i outside S. */
-	L->gap = 0.0;
-	emax = 0.0;
-	for (i = 0; i < m; i++) {
-		double nk = 2.0 * col_nnz(P, i) + 1.0;
-
-		err[i] = 2.0 * DBL_EPSILON * fabs(rr[i]) + 2.0 * nk * nk * DBL_EPSILON * DBL_EPSILON * mag[i];
-		if (rr[i] == rmax)
-			emax = fmax(emax, err[i]);
-	}
-	for (i = 0; i < m; i++)
-		if (L->p[i] > 0.0)
-			L->gap += L->p[i] * (rmax - rr[i] + err[i] + emax);
-	L->outside = 0.0;
-	for (i = 0; i < m; i++)
-		if (L->p[i] == 0.0) {
-			double margin = rmax - rr[i] - err[i] - emax;
-
-			L->outside = fmax(L->outside, margin > 0.0 ? L->gap / margin : HUGE_VAL);
-		}
-	L->ok = w.pt[0].res <= PR_REPS_TOL;
-	if (!L->ok)
-		snprintf(reason, rlen, "the maximum-entropy point of the eta -> 0 face did not "
-		         "converge (residual %.3g)", w.pt[0].res);
-done:
 	/* GLPK keeps a per-thread environment: release it */
 	glp_free_env();
-	prob_free(&F);
-	work_free(&w);
-	gsl_matrix_free(N);
-	free(S);
-	free(Z);
-	free(rr);
-	free(x);
-	free(mag);
-	free(err);
-	free(y);
-	free(sup);
+	limit_ws_free(&s);
 	return st;
 }
 
@@ -1585,6 +1644,110 @@ static int consult_limit(prob *P, work *w, limit_t *L, double kl, double *thg, c
 	return V_ACTIVE;
 }
 
+/* The state of the root search on y = log eta. */
+typedef struct {
+	double y, ylo, yhi;   /* current y and the bracket of KL = eps */
+	double ygood, etagood; /* the last eta whose theta solve converged */
+	double dyold;         /* the last move of y */
+	double *thg, *bg;     /* nf: theta there and -dtheta/deta */
+	int limited, good, retries, ups;
+} search_t;
+
+/* Theta's start at eta: the first-order predictor in eta (dtheta/deta =
+ * -b stays bounded as eta -> 0), or, once the limit is known, its
+ * asymptote th + eta lam if that has the lower dual value. */
+static void search_start(const prob *P, work *w, const limit_t *L, const search_t *S, double eta)
+{
+	const int nf = P->nf;
+	int j;
+
+	if (S->good)
+		for (j = 0; j < nf; j++)
+			w->pt[0].th[j] = S->thg[j] - S->bg[j] * (eta - S->etagood);
+	if (S->limited && nf > 0) {
+		for (j = 0; j < nf; j++)
+			w->pt[1].th[j] = eta * L->lam[j];
+		eval(P, w, eta, &w->pt[1]);
+		eval(P, w, eta, &w->pt[0]);
+		if (w->pt[1].F < w->pt[0].F)
+			memcpy(w->pt[0].th, w->pt[1].th, (size_t)nf * sizeof *S->thg);
+	}
+}
+
+/* After a theta solve at eta that did not converge: 1 to go on from a new
+ * y, 0 to stop (reason and *eta_out set). */
+static int search_retreat(const prob *P, work *w, search_t *S, double eta, double *eta_out,
+                          char *reason, size_t rlen)
+{
+	if (!S->good && ++S->ups <= MAX_UPS) {
+		/* no eta has worked yet (one extreme return makes p at eta = 1
+		 * a point mass): a larger eta brings p towards q, where the
+		 * theta problem is well conditioned; bracket from there */
+		S->y += MAX_DY;
+		w->path |= PATH_UP;
+		memset(w->pt[0].th, 0, (size_t)(P->nf > 0 ? P->nf : 1) * sizeof *S->thg);
+		return 1;
+	}
+	/* theta did not converge from this start: retreat towards the last eta
+	 * that did, and come back in smaller steps */
+	if (!S->good || ++S->retries > 60) {
+		snprintf(reason, rlen, "Newton's method on theta stalled at eta = %.3g "
+		         "(feature residual %.3g)", eta, w->pt[0].res);
+		*eta_out = eta;
+		return 0;
+	}
+	S->y = 0.5 * (S->y + S->ygood);
+	return 1;
+}
+
+/* After a converged theta solve at eta with KL = kl off eps: the bracket,
+ * the eta -> 0 limit when KL stays below eps near eta_min, and the next y.
+ * 1 to go on; 0 to stop with the verdict in *st (and *eta_out, reason). */
+static int search_advance(prob *P, work *w, const pr_reps_opts *o, limit_t *L, search_t *S,
+                          double eta, double kl, int *st, double *eta_out, char *reason,
+                          size_t rlen)
+{
+	const double y = S->y, f = kl - P->eps;
+	double yt;
+
+	regress_u(P, w, eta);
+	memcpy(S->thg, w->pt[0].th, (size_t)P->nf * sizeof *S->thg);
+	memcpy(S->bg, w->v2, (size_t)P->nf * sizeof *S->bg);
+	S->ygood = y;
+	S->etagood = eta;
+	S->good = 1;
+	if (f > 0.0)
+		S->ylo = y;
+	else
+		S->yhi = y;
+	yt = kl > 0.0 && w->resvar > 0.0 ? y + (log(kl) - log(P->eps)) * kl / w->resvar : NAN;
+	if (f < 0.0 && S->ylo == -HUGE_VAL && !S->limited && !(yt >= log(o->eta_min))) {
+		if ((*st = consult_limit(P, w, L, kl, S->thg, reason, rlen)) != V_ACTIVE) {
+			if (P->rw)
+				*eta_out = eta;
+			return 0;
+		}
+		*st = V_FAILED;
+		S->limited = 1;
+	}
+	if (S->ylo > -HUGE_VAL && S->yhi < HUGE_VAL &&
+	    S->yhi - S->ylo <= 4.0 * DBL_EPSILON * fmax(1.0, fabs(y))) {
+		/* eta is pinned to round-off: the certificate judges */
+		*eta_out = eta;
+		*st = V_ACTIVE;
+		return 0;
+	}
+	yt = next_y(y, yt, S->ylo, S->yhi, S->dyold);
+	S->dyold = fabs(yt - y);
+	S->y = yt;
+	if (S->y < log(DBL_MIN) + 50.0 || S->y > 700.0) {
+		snprintf(reason, rlen, "eta left the floating-point range (KL = %.6g)", kl);
+		*eta_out = eta;
+		return 0;
+	}
+	return 1;
+}
+
 /* The root of KL(p_eta||q) = eps in y = log eta (eta in solver units), from
  * y = 0 and theta = 0: Newton on log KL, whose slope is
  * dKL/dy / KL = -ResVar_p(u|psi) / KL, safeguarded by bisection once the
@@ -1601,19 +1764,18 @@ static int consult_limit(prob *P, work *w, limit_t *L, double kl, double *thg, c
 static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *eta_out,
                   char *reason, size_t rlen)
 {
-	const double eps = P->eps, ymin = log(o->eta_min), ktol = KL_TOL * fmax(1.0, eps);
-	const int nf = P->nf;
-	double y = 0.0, ylo = -HUGE_VAL, yhi = HUGE_VAL, ygood = 0.0, etagood = 1.0, dyold = HUGE_VAL;
-	double *thg = malloc(2 * (size_t)(nf > 0 ? nf : 1) * sizeof *thg), *bg;
-	int it, j, limited = 0, good = 0, retries = 0, ups = 0, st = V_FAILED;
+	const double ktol = KL_TOL * fmax(1.0, P->eps);
+	const size_t nf1 = (size_t)(P->nf > 0 ? P->nf : 1);
+	search_t S = { 0.0, -HUGE_VAL, HUGE_VAL, 0.0, 1.0, HUGE_VAL, NULL, NULL, 0, 0, 0, 0 };
+	int it, st;
 
-	if (!thg)
+	if (!(S.thg = malloc(2 * nf1 * sizeof *S.thg)))
 		return PR_ENOMEM;
-	bg = thg + (nf > 0 ? nf : 1);
+	S.bg = S.thg + nf1;
 	snprintf(reason, rlen, "the search for eta did not converge");
 	st = joint_newton(P, w, o->eta_min, eta_out);
 	if (st != 0) {
-		free(thg);
+		free(S.thg);
 		w->path |= PATH_JOINT;
 		return st < 0 ? st : V_ACTIVE;
 	}
@@ -1621,35 +1783,21 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 	/* take over where the fast path stopped, if that is usable */
 	st = V_FAILED;
 	if (*eta_out >= o->eta_min && *eta_out < 1e300)
-		y = log(*eta_out);
+		S.y = log(*eta_out);
 	else
-		memset(w->pt[0].th, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *thg);
+		memset(w->pt[0].th, 0, nf1 * sizeof *S.thg);
 	for (it = 0; it < 400; it++) {
-		double eta = exp(y), f, kl, yt;
+		double eta = exp(S.y), kl;
 		int conv;
 
-		/* start: the first-order predictor in eta (dtheta/deta = -b stays
-		 * bounded as eta -> 0), or, once the limit is known, its
-		 * asymptote th + eta lam if that has the lower dual value */
-		if (good)
-			for (j = 0; j < nf; j++)
-				w->pt[0].th[j] = thg[j] - bg[j] * (eta - etagood);
-		if (limited && nf > 0) {
-			for (j = 0; j < nf; j++)
-				w->pt[1].th[j] = eta * L->lam[j];
-			eval(P, w, eta, &w->pt[1]);
-			eval(P, w, eta, &w->pt[0]);
-			if (w->pt[1].F < w->pt[0].F)
-				memcpy(w->pt[0].th, w->pt[1].th, (size_t)nf * sizeof *thg);
-		}
+		search_start(P, w, L, &S, eta);
 		conv = theta_solve(P, w, eta, THETA_TOL);
 		if (conv < 0) {
 			st = conv;
 			break;
 		}
 		kl = w->pt[0].kl;
-		f = kl - eps;
-		if (fabs(f) <= ktol && conv == 1) {
+		if (fabs(kl - P->eps) <= ktol && conv == 1) {
 			*eta_out = eta;
 			st = V_ACTIVE;
 			break;
@@ -1660,64 +1808,11 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 			*eta_out = eta;
 			break;
 		}
-		if (conv == 0 && !good && ++ups <= MAX_UPS) {
-			/* no eta has worked yet (one extreme return makes p at eta = 1
-			 * a point mass): a larger eta brings p towards q, where the
-			 * theta problem is well conditioned; bracket from there */
-			y += MAX_DY;
-			w->path |= PATH_UP;
-			memset(w->pt[0].th, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *thg);
-			continue;
-		}
-		if (conv == 0) {
-			/* theta did not converge from this start: retreat towards the
-			 * last eta that did, and come back in smaller steps */
-			if (!good || ++retries > 60) {
-				snprintf(reason, rlen, "Newton's method on theta stalled at eta = %.3g "
-				         "(feature residual %.3g)", eta, w->pt[0].res);
-				*eta_out = eta;
-				break;
-			}
-			y = 0.5 * (y + ygood);
-			continue;
-		}
-		regress_u(P, w, eta);
-		memcpy(thg, w->pt[0].th, (size_t)nf * sizeof *thg);
-		memcpy(bg, w->v2, (size_t)nf * sizeof *bg);
-		ygood = y;
-		etagood = eta;
-		good = 1;
-		if (f > 0.0)
-			ylo = y;
-		else
-			yhi = y;
-		yt = kl > 0.0 && w->resvar > 0.0 ? y + (log(kl) - log(eps)) * kl / w->resvar : NAN;
-		if (f < 0.0 && ylo == -HUGE_VAL && !limited && !(yt >= ymin)) {
-			if ((st = consult_limit(P, w, L, kl, thg, reason, rlen)) != V_ACTIVE) {
-				if (P->rw)
-					*eta_out = eta;
-				break;
-			}
-			st = V_FAILED;
-			limited = 1;
-		}
-		if (ylo > -HUGE_VAL && yhi < HUGE_VAL &&
-		    yhi - ylo <= 4.0 * DBL_EPSILON * fmax(1.0, fabs(y))) {
-			/* eta is pinned to round-off: the certificate judges */
-			*eta_out = eta;
-			st = V_ACTIVE;
+		if (conv == 0 ? !search_retreat(P, w, &S, eta, eta_out, reason, rlen)
+		              : !search_advance(P, w, o, L, &S, eta, kl, &st, eta_out, reason, rlen))
 			break;
-		}
-		yt = next_y(y, yt, ylo, yhi, dyold);
-		dyold = fabs(yt - y);
-		y = yt;
-		if (y < log(DBL_MIN) + 50.0 || y > 700.0) {
-			snprintf(reason, rlen, "eta left the floating-point range (KL = %.6g)", kl);
-			*eta_out = eta;
-			break;
-		}
 	}
-	free(thg);
+	free(S.thg);
 	return st;
 }
 
@@ -1950,6 +2045,47 @@ static int weights_ok(const double *p, int n)
 static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_result **out,
                  char *err);
 
+/* Dense features that are all 0 or 1 as CSR (the ones' columns, row by
+ * row): 1 with *rowptr and *col allocated, 0 when some value is neither or
+ * there are more than INT_MAX ones (nothing kept), PR_ENOMEM. One pass
+ * without branches on the values: a dense matrix of other values stops
+ * after its first row. */
+static int dense_binary(const pr_reps_problem *pb, int **rowptr, int **col)
+{
+	const size_t n = (size_t)pb->n, d = (size_t)pb->d;
+	size_t i, j, nnz = 0, cap = n * d < ((size_t)1 << 22) ? n * d : (size_t)1 << 22;
+	int *rp = malloc((n + 1) * sizeof *rp), *c = malloc(cap * sizeof *c), ok = 1, st = 1;
+
+	for (i = 0; i < n && ok && rp && c; i++) {
+		const double *r = pb->phi + i * d;
+
+		if (nnz + d > cap) {
+			int *t = realloc(c, 2 * (nnz + d) * sizeof *c);
+			if (!t)
+				break;
+			c = t;
+			cap = 2 * (nnz + d);
+		}
+		rp[i] = (int)nnz;
+		for (j = 0; j < d; j++) {
+			ok &= (r[j] == 0.0) | (r[j] == 1.0);
+			c[nnz] = (int)j;
+			nnz += r[j] == 1.0;
+		}
+		ok &= nnz <= (size_t)INT_MAX;
+	}
+	if (!ok || i < n) {
+		st = ok ? PR_ENOMEM : 0;
+		free(rp);
+		free(c);
+		return st;
+	}
+	rp[n] = (int)nnz;
+	*rowptr = rp;
+	*col = c;
+	return st;
+}
+
 /* Features that are all 0 or 1 take the one-hot (sparse, exact-count) path
  * whatever their storage, so that dense and sparse copies of one problem
  * give the same bits. */
@@ -1957,8 +2093,8 @@ int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
                   pr_reps_result **out, char *err)
 {
 	pr_reps_problem b = *pb;
-	size_t i, nnz = 0, nd;
-	int *rowptr = NULL, *col = NULL, r, j, st;
+	size_t i;
+	int *rowptr = NULL, *col = NULL, st;
 
 	if (pb->d > 0 && pb->n > 0 && !pb->phi && pb->val && pb->rowptr && pb->col &&
 	    pb->rowptr[pb->n] >= 0) {
@@ -1968,24 +2104,9 @@ int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
 			b.val = NULL;
 	}
 	if (pb->d > 0 && pb->n > 0 && pb->phi) {
-		nd = (size_t)pb->n * (size_t)pb->d;
-		for (i = 0; i < nd && (pb->phi[i] == 0.0 || pb->phi[i] == 1.0); i++)
-			nnz += pb->phi[i] == 1.0;
-		if (i == nd && nnz <= (size_t)INT_MAX) {
-			rowptr = malloc(((size_t)pb->n + 1) * sizeof *rowptr);
-			col = malloc((nnz > 0 ? nnz : 1) * sizeof *col);
-			if (!rowptr || !col) {
-				free(rowptr);
-				free(col);
-				return pr_err(err, PR_ENOMEM, "reps: out of memory");
-			}
-			for (r = 0, nnz = 0; r < pb->n; r++) {
-				rowptr[r] = (int)nnz;
-				for (j = 0; j < pb->d; j++)
-					if (pb->phi[(size_t)r * pb->d + j] == 1.0)
-						col[nnz++] = j;
-			}
-			rowptr[pb->n] = (int)nnz;
+		if ((st = dense_binary(pb, &rowptr, &col)) == PR_ENOMEM)
+			return pr_err(err, PR_ENOMEM, "reps: out of memory");
+		if (st) {
 			b.phi = NULL;
 			b.rowptr = rowptr;
 			b.col = col;
@@ -2445,8 +2566,9 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 	if (d > 0 && (pb->phi || pb->val)) {
 		/* dense features: what phat, a double, leaves of sum q phi */
 		c.corr = fs + 3 * d + 2;
-		for (j = 0; j < pb->d; j++)
-			for (c.corr[j] = 0.0, i = 0; i < m; i++)
+		memset(c.corr, 0, d * sizeof *c.corr);
+		for (i = 0; i < m; i++)
+			for (j = 0; j < pb->d; j++)
 				c.corr[j] += qs[i] * (feat(pb, rows[i], j) - phat[j]);
 	}
 	if (!standardise(pb->R, rows, qs, m, Rs, &c.rmax, &c.scale)) {

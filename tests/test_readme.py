@@ -70,6 +70,15 @@ def test_time_figures_are_the_recorded_measurements():
     assert p.returncode == 0, p.stderr
 
 
+def test_reps_benchmark_text_is_the_recorded_measurement():
+    """docs/benchmarks.md's REPS table, target verdicts and comparison with
+    the previous poolreps are what scripts/bench_reps_table.py makes of
+    docs/bench_reps.csv."""
+    p = run_cmd(["/usr/bin/env", "python3", str(ROOT / "scripts" / "bench_reps_table.py"),
+                 "--check"], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+
+
 def readme_reproduce_seconds():
     m = re.search(r"<!-- timing:reproduce -->in (\d+) s", README)
     assert m, "README has no generated reproduce time"

@@ -1,0 +1,184 @@
+/* decimal.c — exact decimal-to-double conversion for the numbers CSV files
+ * usually hold, without strtod's arbitrary-precision machinery.
+ *
+ * A decimal [+-]digits[.digits][(e|E)[+-]digits] with at most 19
+ * significant digits is the integer w < 2^64 times 10^q. Its double is
+ * found from exact integer arithmetic, so there is no hard case:
+ *   - w <= 2^53 and |q| <= 22: w and 10^|q| are exact doubles, and one
+ *     IEEE multiplication or division rounds their product or quotient
+ *     correctly (needs FLT_EVAL_METHOD 0: no wider intermediate);
+ *   - 0 <= q <= 27: w * 5^q is exact in 128 bits; the value is that times 2^q;
+ *   - -27 <= q < 0: w 2^(s+t) / 5^-q (w shifted left by s to fill 64 bits,
+ *     2^t <= 5^-q < 2^(t+1)) is a quotient of 63 or 64 bits; its remainder
+ *     says exactly whether anything lies below the bits kept, so rounding
+ *     to nearest-even is exact.
+ * Everything else (more digits, a larger exponent, a zero with an
+ * exponent, hex, inf, nan, a result outside the normal range) is left to
+ * the caller, which then asks strtod: whatever this returns is the double
+ * strtod returns for the same text (tests/test_csvio.c compares both on
+ * random and adversarial inputs).
+ */
+#include <float.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "csvio_priv.h"
+
+#if defined(__SIZEOF_INT128__) && FLT_RADIX == 2 && DBL_MANT_DIG == 53 && DBL_MAX_EXP == 1024
+__extension__ typedef unsigned __int128 u128;
+
+/* 5^k, k = 0..27 (5^27 < 2^63) */
+static const uint64_t pow5[28] = {
+	1ULL, 5ULL, 25ULL, 125ULL,
+	625ULL, 3125ULL, 15625ULL, 78125ULL,
+	390625ULL, 1953125ULL, 9765625ULL, 48828125ULL,
+	244140625ULL, 1220703125ULL, 6103515625ULL, 30517578125ULL,
+	152587890625ULL, 762939453125ULL, 3814697265625ULL, 19073486328125ULL,
+	95367431640625ULL, 476837158203125ULL, 2384185791015625ULL, 11920928955078125ULL,
+	59604644775390625ULL, 298023223876953125ULL, 1490116119384765625ULL, 7450580596923828125ULL,
+};
+
+static int bit_length(u128 x)
+{
+	uint64_t hi = (uint64_t)(x >> 64);
+
+	return hi ? 128 - __builtin_clzll(hi) : 64 - __builtin_clzll((uint64_t)x);
+}
+
+/* The double nearest (x + f) 2^e for x > 0 and 0 <= f < 1 (f > 0 iff
+ * sticky; sticky only with x >= 2^54, so that f lies below the bits kept);
+ * 0 when that is not a normal double. */
+static int round_even(u128 x, int sticky, int e, double *v)
+{
+	int sh = bit_length(x) - 54, biased;
+	uint64_t top, m, bits;
+
+	if (sh > 0) {
+		sticky |= (x & (((u128)1 << sh) - 1)) != 0;
+		top = (uint64_t)(x >> sh);
+	} else {
+		top = (uint64_t)x << -sh;
+	}
+	/* top: 53 bits of mantissa and the rounding bit */
+	m = top >> 1;
+	if ((top & 1) && (sticky || (m & 1)))
+		++m;
+	e += sh + 1;
+	if (m >> 53) {
+		m >>= 1;
+		++e;
+	}
+	biased = e + 52 + 1023;
+	if (biased < 1 || biased > 2046)
+		return 0;
+	bits = (uint64_t)biased << 52 | (m & ((1ULL << 52) - 1));
+	memcpy(v, &bits, sizeof *v);
+	return 1;
+}
+
+/* The double of w 10^q for w > 0 (see the top of the file); 0: not here. */
+static int scale(uint64_t w, int q, double *v)
+{
+	static const double p10[23] = {
+		1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11,
+		1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+	};
+	int s, t;
+	u128 num;
+
+#if FLT_EVAL_METHOD == 0
+	if (w <= (1ULL << 53) && q >= -22 && q <= 22) {
+		*v = q < 0 ? (double)w / p10[-q] : (double)w * p10[q];
+		return 1;
+	}
+#else
+	(void)p10;
+#endif
+	if (q < -27 || q > 27)
+		return 0;
+	if (q >= 0)
+		return round_even((u128)w * pow5[q], 0, q, v);
+	/* w shifted to fill 64 bits, then by one bit less than 5^-q has, so that
+	 * the quotient (more than 62 bits) fits one 128 / 64 division */
+	s = __builtin_clzll(w);
+	t = 63 - __builtin_clzll(pow5[-q]);
+	num = (u128)(w << s) << t;
+	return round_even(num / pow5[-q], num % pow5[-q] != 0, q - s - t, v);
+}
+
+/* Append the digits at *s to w (nd significant digits so far; leading
+ * zeros skipped while nd is 0); the number of digits read, or -1 past 19
+ * significant digits. */
+static int digits(const char **s, uint64_t *w, int *nd)
+{
+	const char *p = *s, *start = p;
+	uint64_t x = *w;
+	int k = *nd;
+
+	if (!k)
+		while (*p == '0')
+			++p;
+	for (; (unsigned)(*p - '0') < 10; ++p) {
+		if (++k > 19)
+			return -1;
+		x = 10 * x + (uint64_t)(*p - '0');
+	}
+	*w = x;
+	*nd = k;
+	*s = p;
+	return (int)(p - start);
+}
+
+int pr_decimal_parse(const char *s, const char **end, double *v)
+{
+	uint64_t w = 0;
+	int neg = 0, nd = 0, q = 0, nint, nfrac = 0, has_exp = 0;
+
+	if (*s == '+' || *s == '-')
+		neg = *s++ == '-';
+	if ((nint = digits(&s, &w, &nd)) < 0)
+		return 0;
+	if (*s == '.') {
+		++s;
+		if ((nfrac = digits(&s, &w, &nd)) < 0)
+			return 0;
+		q = -nfrac;
+	}
+	if (!nint && !nfrac)
+		return 0;
+	if (*s == 'e' || *s == 'E') {
+		int eneg = 0, x = 0;
+		++s;
+		if (*s == '+' || *s == '-')
+			eneg = *s++ == '-';
+		if (*s < '0' || *s > '9')
+			return 0;
+		for (; *s >= '0' && *s <= '9'; ++s)
+			if (x < 100000)
+				x = 10 * x + (*s - '0');
+		q += eneg ? -x : x;
+		has_exp = 1;
+	}
+	*end = s;
+	if (!w) {
+		if (has_exp)
+			return 0;
+		*v = neg ? -0.0 : 0.0;
+		return 1;
+	}
+	if (!scale(w, q, v))
+		return 0;
+	if (neg)
+		*v = -*v;
+	return 1;
+}
+
+#else /* no 128-bit integers or no IEEE binary64: strtod decides everything */
+int pr_decimal_parse(const char *s, const char **end, double *v)
+{
+	(void)s;
+	(void)end;
+	(void)v;
+	return 0;
+}
+#endif
