@@ -65,9 +65,14 @@ def test_live_staging_of_another_node_is_kept(first_elsewhere, second, shim, tmp
     out = base / "out"
     out.mkdir(parents=True)
     (base / "s.csv").write_bytes(SHOTS)
-    mark = tmp_path / "renames"
+    log, mark, go = tmp_path / "renames", tmp_path / "mark", tmp_path / "go"
     slow = [binary(), Q, "-o", out] + QUICK
-    e = shim_env(shim, RENAME_DELAY_MS=1500, RENAME_LOG=mark)
+    if second == "run":
+        # the second run waits for the first's publish lock: slowed, not held
+        e, mark = shim_env(shim, RENAME_DELAY_MS=1500, RENAME_LOG=log), log
+    else:
+        # held at its first move into the folder until the second has finished
+        e = shim_env(shim, RENAME_LOG=log, RENAME_MARK=mark, RENAME_HOLD=go)
     p = start(elsewhere(slow) if first_elsewhere else slow, base, e)
     try:
         assert wait_for(lambda: mark.exists(), 60), "the first run never renamed"
@@ -80,11 +85,12 @@ def test_live_staging_of_another_node_is_kept(first_elsewhere, second, shim, tmp
                            env=env(), capture_output=True, timeout=120)
         # the first's staging is still there: it has not published yet
         assert set(mine) <= set(staged(out)), (mine, staged(out))
-        assert "/.partial-" in mark.read_text() and str(out) + "/bench" not in mark.read_text()
+        assert "/.partial-" in log.read_text() and str(out) + "/bench" not in log.read_text()
         if second == "sweep_missing":
             assert r.returncode != 0 and r.stderr.count(b"\n") == 1
         else:
             assert r.returncode == 0, r.stderr
+        go.touch()
         o, err = p.communicate(timeout=120)
     finally:
         if p.poll() is None:
@@ -106,9 +112,9 @@ def test_live_temporary_file_of_another_node_is_kept(shim, tmp_path):
     (base / "s.csv").write_bytes(SHOTS)
     (base / "o.csv").write_bytes(b"old\n")
     os.chmod(base / "o.csv", 0o640)
-    mark = tmp_path / "mark"
+    mark, go = tmp_path / "mark", tmp_path / "go"
     p = start(elsewhere([binary(), "shoot", "-i", "s.csv", "-o", "o.csv"]), base,
-              shim_env(shim, RENAME_DELAY_MS=1500, RENAME_MARK=mark))
+              shim_env(shim, RENAME_MARK=mark, RENAME_HOLD=go))
     try:
         assert wait_for(lambda: mark.exists(), 60)
         tmps = staged(base)
@@ -117,6 +123,7 @@ def test_live_temporary_file_of_another_node_is_kept(shim, tmp_path):
                            capture_output=True, timeout=60)
         assert r.returncode == 0, r.stderr
         assert staged(base) == tmps
+        go.touch()
         o, err = p.communicate(timeout=60)
     finally:
         if p.poll() is None:
@@ -139,7 +146,7 @@ def test_leftover_of_a_killed_run_in_another_namespace_is_kept(shim, tmp_path):
     out.mkdir(parents=True)
     mark = tmp_path / "mark"
     p = start(elsewhere([binary(), Q, "-o", out] + QUICK), base,
-              shim_env(shim, RENAME_DELAY_MS=5000, RENAME_MARK=mark))
+              shim_env(shim, RENAME_MARK=mark, RENAME_HOLD=tmp_path / "never"))
     assert wait_for(lambda: mark.exists(), 60)
     # unshare's child is the shell, PID 1 of its namespace: the run dies with it
     for child in Path(f"/proc/{p.pid}/task/{p.pid}/children").read_text().split():

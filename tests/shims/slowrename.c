@@ -5,6 +5,10 @@
  *   RENAME_MARK=FILE      create FILE just before the first rename whose new
  *                         name does not hold "/.partial-" or "/.poolreps-tmp-"
  *                         (the first move into the user's folder)
+ *   RENAME_HOLD=FILE      with RENAME_MARK: after creating the mark, wait
+ *                         (at most 300 s) until FILE exists, then go on: the
+ *                         command is held at its commit point, staging in
+ *                         place, for exactly as long as the test needs
  *   RENAME_KILL_AT=K      before the K-th such rename (1-based) send
  *   RENAME_KILL_SIG=S     signal S (default SIGTERM) to this process
  *   RENAME_FAIL_AT=K      make the K-th such rename fail with EIO
@@ -30,6 +34,14 @@ static int staged(const char *p)
 	return strstr(p, "/.partial-") || strstr(p, ".poolreps-tmp-");
 }
 
+static void hold(const char *go)
+{
+	struct timespec ts = {0, 10000000L};
+
+	for (int i = 0; go && i < 30000 && access(go, F_OK) != 0; i++)
+		nanosleep(&ts, NULL);
+}
+
 int rename(const char *from, const char *to)
 {
 	static int (*real)(const char *, const char *);
@@ -40,6 +52,12 @@ int rename(const char *from, const char *to)
 
 	if (!real)
 		real = (int (*)(const char *, const char *))dlsym(RTLD_NEXT, "rename");
+	if (mark && count == 0 && !staged(to)) {
+		int fd = open(mark, O_WRONLY | O_CREAT, 0666);
+		if (fd >= 0)
+			close(fd);
+		hold(getenv("RENAME_HOLD"));
+	}
 	if (log) {
 		FILE *fp = fopen(log, "a");
 		if (fp) {
@@ -49,11 +67,6 @@ int rename(const char *from, const char *to)
 	}
 	if (!staged(to)) {
 		++count;
-		if (mark && count == 1) {
-			int fd = open(mark, O_WRONLY | O_CREAT, 0666);
-			if (fd >= 0)
-				close(fd);
-		}
 		if (at && atoi(at) == count)
 			kill(getpid(), sig ? atoi(sig) : SIGTERM);
 		if (fail && atoi(fail) == count) {
