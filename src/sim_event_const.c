@@ -327,7 +327,9 @@ static double line_contact(const pr_sim *s, const pr_sim_ball *m, const pr_sim_b
 	if (disc <= 0)
 		return HUGE_VAL;
 	cc = dx * dx + dy * dy - r2 * r2;
-	l = cc <= 0 ? 0 : cc / (bq + sqrt(disc));
+	if (cc <= 0) /* touching or overlapping by rounding: a contact now if approaching now */
+		return *sp * bq / norm(dx, dy) >= MIN_CLOSING ? 0 : HUGE_VAL;
+	l = cc / (bq + sqrt(disc));
 	if (l > reach(s, *sp))
 		return HUGE_VAL;
 	/* closing speed at contact: the speed there times the normal share sqrt(disc)/2R */
