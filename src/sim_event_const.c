@@ -41,16 +41,29 @@ static double norm(double x, double y)
 	return sqrt(x * x + y * y);
 }
 
+/* max(x, 0) and min(x, y) without a call to libm (GCC does not inline fmax
+ * and fmin); the same values, as none of their arguments here is a NaN or
+ * a negative zero. */
+static double nonneg(double x)
+{
+	return x > 0 ? x : 0;
+}
+
+static double least(double x, double y)
+{
+	return y < x ? y : x;
+}
+
 /* s at which a ball of speed v has travelled l (0 <= l <= v^2 / 2a). */
 static double time_for(double v, double a, double l)
 {
-	return l <= 0 ? 0 : 2 * l / (v + sqrt(fmax(0, v * v - 2 * a * l)));
+	return l <= 0 ? 0 : 2 * l / (v + sqrt(nonneg(v * v - 2 * a * l)));
 }
 
 /* Time left until a moving ball of speed v stops. */
 static double stop_in(const pr_sim *s, double v)
 {
-	return fmax(0, (v - s->t.stop_speed) / s->t.deceleration);
+	return nonneg((v - s->t.stop_speed) / s->t.deceleration);
 }
 
 /* Distance left until a moving ball of speed v stops. */
@@ -61,10 +74,17 @@ static double reach(const pr_sim *s, double v)
 	return v > vs ? (v * v - vs * vs) / (2 * s->t.deceleration) : 0;
 }
 
+/* Distance a moving ball b has travelled along its line by time t. */
+static double dist_at(const pr_sim *s, const pr_sim_ball *b, double t)
+{
+	const double sg = t - b->tr;
+
+	return b->sp * sg - 0.5 * s->t.deceleration * sg * sg;
+}
+
 void pr_sim_const_at(const pr_sim *s, const pr_sim_ball *b, double t, double p[2], double v[2])
 {
-	const double a = s->t.deceleration;
-	double sg = t - b->tr, l, f;
+	double l, f;
 
 	if (b->sp == 0) {
 		p[0] = b->x;
@@ -72,8 +92,8 @@ void pr_sim_const_at(const pr_sim *s, const pr_sim_ball *b, double t, double p[2
 		v[0] = v[1] = 0;
 		return;
 	}
-	l = b->sp * sg - 0.5 * a * sg * sg;
-	f = (b->sp - a * sg) / b->sp;
+	l = dist_at(s, b, t);
+	f = (b->sp - s->t.deceleration * (t - b->tr)) / b->sp;
 	p[0] = b->x + b->ux / b->sp * l;
 	p[1] = b->y + b->uy / b->sp * l;
 	v[0] = b->ux * f;
@@ -266,40 +286,137 @@ static double first_contact(const rel_path *q, double S)
 	return HUGE_VAL;
 }
 
-/* The relative path of bj seen from bi from time t; S, the time until the
- * first of the moving ones stops, and L, the distance both can still travel. */
+/* A ball at time t: position p, velocity v, speed sp. */
+typedef struct {
+	double p[2], v[2], sp;
+} motion;
+
+/* The relative path of bj seen from bi from time t (both balls' motions in
+ * mi, mj) and S, the time until the first of the moving ones stops. */
 static void relative(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj, double t,
-                     rel_path *q, double *S, double *L)
+                     rel_path *q, double *S, motion *mi, motion *mj)
 {
 	const double a = s->t.deceleration;
-	double pi[2], vi[2], pj[2], vj[2], si, sj, c;
+	double c;
 
-	pr_sim_const_at(s, bi, t, pi, vi);
-	pr_sim_const_at(s, bj, t, pj, vj);
-	si = norm(vi[0], vi[1]);
-	sj = norm(vj[0], vj[1]);
+	pr_sim_const_at(s, bi, t, mi->p, mi->v);
+	pr_sim_const_at(s, bj, t, mj->p, mj->v);
+	mi->sp = norm(mi->v[0], mi->v[1]);
+	mj->sp = norm(mj->v[0], mj->v[1]);
 	q->r2 = 2 * s->t.ball_radius;
-	q->D[0] = pj[0] - pi[0];
-	q->D[1] = pj[1] - pi[1];
-	q->W[0] = vj[0] - vi[0];
-	q->W[1] = vj[1] - vi[1];
+	q->D[0] = mj->p[0] - mi->p[0];
+	q->D[1] = mj->p[1] - mi->p[1];
+	q->W[0] = mj->v[0] - mi->v[0];
+	q->W[1] = mj->v[1] - mi->v[1];
 	q->H[0] = q->H[1] = 0;
 	*S = HUGE_VAL;
-	*L = 0;
-	if (bi->st == PR_BALL_MOVING && si > 0) {
-		c = 0.5 * a / si; /* acceleration -a v / |v|, halved */
-		q->H[0] += c * vi[0];
-		q->H[1] += c * vi[1];
-		*S = fmin(*S, stop_in(s, si));
-		*L += reach(s, si);
+	if (bi->st == PR_BALL_MOVING && mi->sp > 0) {
+		c = 0.5 * a / mi->sp; /* acceleration -a v / |v|, halved */
+		q->H[0] += c * mi->v[0];
+		q->H[1] += c * mi->v[1];
+		*S = least(*S, stop_in(s, mi->sp));
 	}
-	if (bj->st == PR_BALL_MOVING && sj > 0) {
-		c = 0.5 * a / sj;
-		q->H[0] -= c * vj[0];
-		q->H[1] -= c * vj[1];
-		*S = fmin(*S, stop_in(s, sj));
-		*L += reach(s, sj);
+	if (bj->st == PR_BALL_MOVING && mj->sp > 0) {
+		c = 0.5 * a / mj->sp;
+		q->H[0] -= c * mj->v[0];
+		q->H[1] -= c * mj->v[1];
+		*S = least(*S, stop_in(s, mj->sp));
 	}
+}
+
+/* ---- provable misses of two moving balls, before the quartic ----
+ *
+ * A root of the quartic later than either ball's next own event (stop,
+ * cushion or pocket) is never used: that event re-predicts every pair of
+ * the ball (sim_event.c), and so does any earlier event of it. So the
+ * quartic is skipped when the two provably do not touch on [0, T], T no
+ * earlier than that event. The tests bound the exact motion; their margins,
+ * 1e-9 of the magnitudes of the terms involved, are far above rounding, so
+ * a pair they pass over has no contact on [0, T] that first_contact could
+ * find. */
+
+/* Distance a ball of speed v travels in T (T no later than its stop). */
+static double travel(const pr_sim *s, double v, double T)
+{
+	return v * T - 0.5 * s->t.deceleration * T * T;
+}
+
+/* No earlier than the next own event of a moving ball: predict_own takes
+ * the first of its stop, the cushion line ahead and a pocket, so the first
+ * of the stop and the cushion line. */
+static double own_bound(const pr_sim *s, const motion *m)
+{
+	const double *p = m->p, *v = m->v;
+	double u = HUGE_VAL, l;
+
+	if (v[0] != 0)
+		u = ((v[0] > 0 ? s->hx : -s->hx) - p[0]) / v[0];
+	if (v[1] != 0)
+		u = least(u, ((v[1] > 0 ? s->hy : -s->hy) - p[1]) / v[1]);
+	l = u > 0 ? u * m->sp : 0; /* the path parameter of v, as a distance */
+	return l < reach(s, m->sp) ? time_for(m->sp, s->t.deceleration, l) : stop_in(s, m->sp);
+}
+
+/* Gap dn = |D| - 2R, window T, both balls' travel LT by T: (a) the gap is
+ * wider than both travel; or (b) |d| grows on all of [0, T]: g'/2 = d.d' =
+ * D.W + (|W|^2 + 2 D.H) s + 3 W.H s^2 + 2 |H|^2 s^3 is at least the line
+ * D.W + s (|W|^2 + 2 D.H + 3 min(0, W.H) T) there, which is positive at both
+ * ends (a root first_contact found there would separate, and be refused). */
+static int apart(const rel_path *q, double dn, double T, double LT)
+{
+	const double *D = q->D, *W = q->W, *H = q->H;
+	const double dw = D[0] * W[0] + D[1] * W[1], mdw = fabs(D[0] * W[0]) + fabs(D[1] * W[1]);
+	double wh, ww, dh, k1, m1;
+
+	if (dn > LT * (1 + 1e-9) + 1e-12)
+		return 1;
+	if (!(dw > 1e-9 * mdw))
+		return 0;
+	wh = W[0] * H[0] + W[1] * H[1];
+	ww = W[0] * W[0] + W[1] * W[1];
+	dh = D[0] * H[0] + D[1] * H[1];
+	k1 = ww + 2 * dh + 3 * (wh < 0 ? wh : 0) * T;
+	m1 = ww + 2 * (fabs(D[0] * H[0]) + fabs(D[1] * H[1])) + 3 * (fabs(W[0] * H[0]) + fabs(W[1] * H[1])) * T;
+	return dw + k1 * T > 1e-9 * (mdw + m1 * T);
+}
+
+/* (c) The paths miss: on [0, T], g - 4R^2 = c0 + c1 s + c2 s^2 + c3 s^3 +
+ * |H|^2 s^4 is at least the quadratic c0 + c1 s + (c2 + min(0, c3) T) s^2,
+ * whose smallest value on [0, T] is positive. */
+static int misses(const rel_path *q, double T)
+{
+	const double *D = q->D, *W = q->W, *H = q->H;
+	const double dd = D[0] * D[0] + D[1] * D[1], c0 = dd - q->r2 * q->r2;
+	const double c1 = 2 * (D[0] * W[0] + D[1] * W[1]), wh = W[0] * H[0] + W[1] * H[1];
+	const double mc2 = W[0] * W[0] + W[1] * W[1] + 2 * (fabs(D[0] * H[0]) + fabs(D[1] * H[1])) +
+	                   2 * (fabs(W[0] * H[0]) + fabs(W[1] * H[1])) * T;
+	double k2, lo;
+
+	if (!(c0 > 0))
+		return 0;
+	/* c2 + min(0, c3) T, lowered by its rounding margin */
+	k2 = W[0] * W[0] + W[1] * W[1] + 2 * (D[0] * H[0] + D[1] * H[1]) + 2 * (wh < 0 ? wh : 0) * T -
+	     1e-9 * mc2;
+	if (k2 > 0 && c1 < 0 && -c1 < 2 * k2 * T)
+		lo = c0 - c1 * c1 / (4 * k2); /* the vertex, inside (0, T) */
+	else
+		lo = least(c0, c0 + T * (c1 + k2 * T));
+	return lo > 1e-9 * (dd + q->r2 * q->r2 + fabs(c1) * T + mc2 * T * T);
+}
+
+/* Whether two moving balls provably do not touch before the first of their
+ * own next events (see above): first over [0, S] with what relative gives,
+ * then over the window T up to the first own-event bound. */
+static int no_contact(const pr_sim *s, const rel_path *q, double S, const motion *mi,
+                      const motion *mj)
+{
+	const double dn = norm(q->D[0], q->D[1]) - q->r2;
+	double T;
+
+	if (apart(q, dn, S, travel(s, mi->sp, S) + travel(s, mj->sp, S)))
+		return 1;
+	T = least(S, least(own_bound(s, mi), own_bound(s, mj)) * (1 + 1e-9) + 1e-12);
+	return apart(q, dn, T, travel(s, mi->sp, T) + travel(s, mj->sp, T)) || misses(q, T);
 }
 
 /* One ball moving (m), one at rest (o): contact when |D - e l| = 2R, D from
@@ -311,6 +428,12 @@ static double line_contact(const pr_sim *s, const pr_sim_ball *m, const pr_sim_b
 	const double r2 = 2 * s->t.ball_radius;
 	double pm[2], vm[2], ex, ey, dx, dy, bq, cr, cc, disc, l;
 
+	/* The path is the line through the reference point along u: when it
+	 * passes the other ball farther than 2R (a margin of 1e-9, far above the
+	 * rounding of the test below), that test fails; skip its work. */
+	cr = (o->x - m->x) * m->uy - (o->y - m->y) * m->ux;
+	if (fabs(cr) > r2 * m->sp * (1 + 1e-9))
+		return HUGE_VAL;
 	pr_sim_const_at(s, m, t, pm, vm);
 	*sp = norm(vm[0], vm[1]);
 	if (!(*sp > 0))
@@ -327,11 +450,13 @@ static double line_contact(const pr_sim *s, const pr_sim_ball *m, const pr_sim_b
 	if (disc <= 0)
 		return HUGE_VAL;
 	cc = dx * dx + dy * dy - r2 * r2;
-	l = cc <= 0 ? 0 : cc / (bq + sqrt(disc));
+	if (cc <= 0) /* touching or overlapping by rounding: a contact now if approaching now */
+		return *sp * bq / norm(dx, dy) >= MIN_CLOSING ? 0 : HUGE_VAL;
+	l = cc / (bq + sqrt(disc));
 	if (l > reach(s, *sp))
 		return HUGE_VAL;
 	/* closing speed at contact: the speed there times the normal share sqrt(disc)/2R */
-	if (sqrt(fmax(0, *sp * *sp - 2 * s->t.deceleration * l)) * sqrt(disc) / r2 < MIN_CLOSING)
+	if (sqrt(nonneg(*sp * *sp - 2 * s->t.deceleration * l)) * sqrt(disc) / r2 < MIN_CLOSING)
 		return HUGE_VAL;
 	return l;
 }
@@ -340,51 +465,62 @@ double pr_sim_const_pair_time(const pr_sim *s, const pr_sim_ball *bi, const pr_s
                               double t)
 {
 	rel_path q;
-	double S, L, r;
+	motion mi, mj;
+	double S, r;
 
 	if (bi->st != PR_BALL_MOVING || bj->st != PR_BALL_MOVING) {
 		const pr_sim_ball *m = bi->st == PR_BALL_MOVING ? bi : bj, *o = m == bi ? bj : bi;
 		double sp, l = line_contact(s, m, o, t, &sp);
 		return l < HUGE_VAL ? t + time_for(sp, s->t.deceleration, l) : HUGE_VAL;
 	}
-	relative(s, bi, bj, t, &q, &S, &L);
-	/* too far apart to meet: farther than both can still travel */
-	if (norm(q.D[0], q.D[1]) * (1 - 1e-9) - q.r2 > L)
+	relative(s, bi, bj, t, &q, &S, &mi, &mj);
+	if (no_contact(s, &q, S, &mi, &mj))
 		return HUGE_VAL;
 	r = first_contact(&q, S);
 	return r < HUGE_VAL ? t + r : HUGE_VAL;
 }
 
 /* One ball at rest (or both): the other's path over [t0, t] is a straight
- * segment, and the smallest distance is the point's to it. */
+ * segment, and the smallest distance is the point's to it. The segment's
+ * ends are pr_sim_const_at's, sharing its direction u / |u|. */
 static double line_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj,
                             double t0, double t)
 {
 	const pr_sim_ball *m = bi->st == PR_BALL_MOVING && bi->sp > 0 ? bi : bj, *o = m == bi ? bj : bi;
-	double p0[2], p1[2], v[2], ex, ey, len, dx, dy, u;
+	double p0[2], p1[2], ex, ey, len, dx, dy, u;
 
-	pr_sim_const_at(s, m, t0, p0, v);
-	pr_sim_const_at(s, m, t, p1, v);
+	if (m->sp == 0) {
+		p0[0] = p1[0] = m->x;
+		p0[1] = p1[1] = m->y;
+	} else {
+		const double e0 = m->ux / m->sp, e1 = m->uy / m->sp;
+		const double l0 = dist_at(s, m, t0), l1 = dist_at(s, m, t);
+		p0[0] = m->x + e0 * l0;
+		p0[1] = m->y + e1 * l0;
+		p1[0] = m->x + e0 * l1;
+		p1[1] = m->y + e1 * l1;
+	}
 	ex = p1[0] - p0[0];
 	ey = p1[1] - p0[1];
 	dx = o->x - p0[0];
 	dy = o->y - p0[1];
 	len = ex * ex + ey * ey;
-	u = len > 0 ? fmin(1, fmax(0, (dx * ex + dy * ey) / len)) : 0;
+	u = len > 0 ? fmin(1, nonneg((dx * ex + dy * ey) / len)) : 0;
 	return norm(dx - u * ex, dy - u * ey);
 }
 
 double pr_sim_const_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj,
                              double t)
 {
-	const double t0 = fmax(bi->tr, bj->tr);
+	const double t0 = bi->tr > bj->tr ? bi->tr : bj->tr;
 	rel_path q;
-	double S, L, pt[5], best = HUGE_VAL;
+	motion mi, mj;
+	double S, pt[5], best = HUGE_VAL;
 	int m, k;
 
 	if (bi->sp == 0 || bj->sp == 0 || bi->st != PR_BALL_MOVING || bj->st != PR_BALL_MOVING)
 		return line_min_dist(s, bi, bj, t0, t);
-	relative(s, bi, bj, t0, &q, &S, &L);
+	relative(s, bi, bj, t0, &q, &S, &mi, &mj);
 	q.r2 = 0;
 	m = split_points(&q, fmin(S, t - t0), pt);
 	for (k = 0; k < m; ++k)
