@@ -574,6 +574,13 @@ int pr_csv_stream_open(const char *path, pr_csv_stream **out, char *err)
 	return PR_OK;
 }
 
+int pr_csv_stream_failed(const pr_csv_stream *s, char *err)
+{
+	if (s->src.r.status)
+		snprintf(err, PR_ERRLEN, "%s", s->perr);
+	return s->src.r.status;
+}
+
 const pr_csv *pr_csv_stream_columns(const pr_csv_stream *s)
 {
 	return s->u.t;

@@ -44,6 +44,10 @@ int pr_csv_stream_open(const char *path, pr_csv_stream **out, char *err);
 const pr_csv *pr_csv_stream_columns(const pr_csv_stream *s);
 int pr_csv_stream_next(pr_csv_stream *s, const pr_csv **chunk, char *err);
 void pr_csv_stream_free(pr_csv_stream *s);
+/* The failure the reads so far found (after the rows still to hand out),
+ * or PR_OK: a caller that refuses the header may name an earlier-read bad
+ * row first, as a whole-file read would. */
+int pr_csv_stream_failed(const pr_csv_stream *s, char *err);
 
 /* Append a row of ncols values; non-finite values are refused. */
 int pr_csv_add_row(pr_csv *t, const double *row, char *err);
