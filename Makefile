@@ -109,9 +109,6 @@ FUZZ_BIN := $(patsubst tests/fuzz/%.c,$(BUILD)/%,$(wildcard tests/fuzz/fuzz_*.c)
 fuzz-bin: $(FUZZ_BIN)
 $(FUZZ_BIN): $(BUILD)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(LIB)
 	$(CC) $(ALL_CFLAGS) $(LDFLAGS) -fsanitize=fuzzer $< $(filter %.o,$^) $(LIB) $(LIBS) -o $@
-# the shoot harness drives the command line's shoot (src/cli/cmd_shoot.c)
-$(BUILD)/fuzz_shoot: $(BUILD)/cli/cmd_shoot.o
-$(BUILD)/fuzz_shoot: ALL_CFLAGS += -Isrc/cli
 
 valgrind: $(BUILD)/poolreps
 	sh scripts/valgrind.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"

@@ -362,90 +362,161 @@ static void feed(scanner *r, struct csv_parser *p, const char *s, size_t n, long
 		                   p->quoted ? " (a quote that never ends?)" : "");
 }
 
+/* The reader's state between blocks: the scanner, libcsv and the file. A
+ * streamed source (eager) takes what one read(2) returns, so that a pipe's
+ * rows are parsed as they arrive; a plain one fills whole blocks. */
+typedef struct {
+	scanner r;
+	struct csv_parser p;
+	FILE *fp;
+	char *buf;
+	long pending, linelen;
+	int std, first, last, eager, read_errno;
+} source;
+
+#define SCAN_BLOCK ((size_t)1 << 16)
+
+static int source_open(source *src, const char *path, unsigned flags, pr_csv_record_fn header,
+                       pr_csv_record_fn row, void *user, int eager, char *err)
+{
+	scanner *r = &src->r;
+	struct stat st;
+
+	memset(src, 0, sizeof *src);
+	src->std = !path || strcmp(path, "-") == 0;
+	src->first = 1;
+	src->last = '\n';
+	src->eager = eager;
+	r->path = src->std ? "<stdin>" : path;
+	r->flags = flags;
+	r->header = header;
+	r->row = row;
+	r->user = user;
+	r->err = err;
+	r->line = 1;
+	src->fp = src->std ? stdin : fopen(path, "rb");
+	if (!src->fp)
+		return pr_err(err, pr_errno_status(), "%s: cannot open: %s", path, strerror(errno));
+	if (fstat(fileno(src->fp), &st) == 0 && S_ISDIR(st.st_mode)) {
+		if (!src->std)
+			fclose(src->fp);
+		return pr_err(err, PR_EIO, "%s: is a directory, not a CSV file", r->path);
+	}
+	src->buf = malloc(SCAN_BLOCK);
+	if (!src->buf || csv_init(&src->p, CSV_APPEND_NULL | CSV_STRICT | CSV_STRICT_FINI) != 0) {
+		free(src->buf);
+		if (!src->std)
+			fclose(src->fp);
+		return pr_err(err, PR_ENOMEM, "%s: out of memory", r->path);
+	}
+	r->idle_state = src->p.pstate;
+	return PR_OK;
+}
+
+/* One read(2), retried when a signal that did not stop the command
+ * interrupted it; the first block holds at least the 3 bytes of a
+ * byte-order mark (or the whole input). 0 at the end or on an error. */
+static size_t read_eager(source *src)
+{
+	size_t n = 0;
+
+	do {
+		ssize_t k = read(fileno(src->fp), src->buf + n, SCAN_BLOCK - n);
+		if (k < 0 && errno == EINTR && !pr_interrupted)
+			continue;
+		if (k < 0)
+			src->read_errno = errno;
+		if (k <= 0)
+			break;
+		n += (size_t)k;
+	} while (src->first && n < 3);
+	return n;
+}
+
+/* Read one block and feed it, split at line ends; 0 at the end of the input. */
+static size_t source_block(source *src)
+{
+	scanner *r = &src->r;
+	size_t n = src->eager ? read_eager(src) : fread(src->buf, 1, SCAN_BLOCK, src->fp);
+	char *s = src->buf, *end = src->buf + n, *nul;
+
+	if (n == 0)
+		return 0;
+	/* a UTF-8 byte-order mark (spreadsheet exports) is not part of the header */
+	if (src->first && n >= 3 && memcmp(s, "\xEF\xBB\xBF", 3) == 0)
+		s += 3;
+	src->first = 0;
+	if ((nul = memchr(s, '\0', (size_t)(end - s)))) {
+		long line = r->line;
+		for (; s < nul; ++s)
+			line += *s == '\n';
+		r->status = pr_err(r->err, PR_EIO, "%s:%ld: NUL byte: not a text CSV file", r->path, line);
+		return n;
+	}
+	while (!r->status && s < end) {
+		char *nl = memchr(s, '\n', (size_t)(end - s));
+		size_t len = nl ? (size_t)(nl + 1 - s) : (size_t)(end - s);
+		feed(r, &src->p, s, len, &src->pending, &src->linelen);
+		if (nl && !r->status) {
+			r->line++;
+			src->linelen = 0;
+		}
+		s += len;
+	}
+	src->last = (unsigned char)end[-1];
+	return n;
+}
+
+/* After the last block: a read error, the record without a line end, an
+ * unterminated quote, no header, an incomplete file. */
+static void source_end(source *src)
+{
+	scanner *r = &src->r;
+	char *err = r->err;
+
+	if (!r->status && (src->eager ? src->read_errno != 0 : ferror(src->fp) != 0)) {
+		if (src->eager)
+			errno = src->read_errno;
+		r->status = pr_err(err, pr_errno_status(), "%s: read error: %s", r->path, strerror(errno));
+	}
+	if (src->last == '\n')
+		r->line--; /* messages at the end name the last line that has bytes */
+	if (!r->status && csv_fini(&src->p, on_field, on_record, r) != 0 && !r->status)
+		r->status = csv_error(&src->p) == CSV_ENOMEM ? pr_err(err, PR_ENOMEM, "%s: out of memory", r->path)
+		            : pr_err(err, PR_EIO, "%s:%ld: malformed CSV: unterminated quoted field",
+		                     r->path, r->line);
+	if (!r->status && !r->header_done)
+		r->status = pr_err(err, PR_EIO, "%s: empty file: no header row", r->path);
+	if (!r->status && (r->flags & PR_CSV_COMPLETE) && src->last != '\n')
+		r->status = pr_err(err, PR_EIO, "%s:%ld: the last line has no line end (incomplete file?)",
+		                   r->path, r->line);
+}
+
+static void source_close(source *src)
+{
+	csv_free(&src->p);
+	free(src->buf);
+	free(src->r.off);
+	free(src->r.ptr);
+	free(src->r.text);
+	if (!src->std)
+		fclose(src->fp);
+}
+
 int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,
                 pr_csv_record_fn row, void *user, char *err)
 {
-	struct csv_parser p;
-	scanner r;
-	FILE *fp;
-	struct stat st;
-	static const size_t block = 1 << 16;
-	char *buf;
-	size_t n;
-	long pending = 0, linelen = 0;
-	int first = 1, std = !path || strcmp(path, "-") == 0, last = '\n';
+	source src;
+	int rc = source_open(&src, path, flags, header, row, user, 0, err);
 
-	memset(&r, 0, sizeof r);
-	r.path = std ? "<stdin>" : path;
-	r.flags = flags;
-	r.header = header;
-	r.row = row;
-	r.user = user;
-	r.err = err;
-	r.line = 1;
-	fp = std ? stdin : fopen(path, "rb");
-	if (!fp)
-		return pr_err(err, pr_errno_status(), "%s: cannot open: %s", path, strerror(errno));
-	if (fstat(fileno(fp), &st) == 0 && S_ISDIR(st.st_mode)) {
-		if (!std)
-			fclose(fp);
-		return pr_err(err, PR_EIO, "%s: is a directory, not a CSV file", r.path);
-	}
-	buf = malloc(block);
-	if (!buf || csv_init(&p, CSV_APPEND_NULL | CSV_STRICT | CSV_STRICT_FINI) != 0) {
-		free(buf);
-		if (!std)
-			fclose(fp);
-		return pr_err(err, PR_ENOMEM, "%s: out of memory", r.path);
-	}
-	r.idle_state = p.pstate;
-	while (!r.status && (n = fread(buf, 1, block, fp)) > 0) {
-		char *s = buf, *end = buf + n, *nul;
-
-		/* a UTF-8 byte-order mark (spreadsheet exports) is not part of the header */
-		if (first && n >= 3 && memcmp(s, "\xEF\xBB\xBF", 3) == 0)
-			s += 3;
-		first = 0;
-		if ((nul = memchr(s, '\0', (size_t)(end - s)))) {
-			long line = r.line;
-			for (; s < nul; ++s)
-				line += *s == '\n';
-			r.status = pr_err(err, PR_EIO, "%s:%ld: NUL byte: not a text CSV file", r.path, line);
-			break;
-		}
-		while (!r.status && s < end) {
-			char *nl = memchr(s, '\n', (size_t)(end - s));
-			size_t len = nl ? (size_t)(nl + 1 - s) : (size_t)(end - s);
-			feed(&r, &p, s, len, &pending, &linelen);
-			if (nl && !r.status) {
-				r.line++;
-				linelen = 0;
-			}
-			s += len;
-		}
-		last = (unsigned char)end[-1];
-	}
-	if (!r.status && ferror(fp))
-		r.status = pr_err(err, pr_errno_status(), "%s: read error: %s", r.path, strerror(errno));
-	if (last == '\n')
-		r.line--; /* messages at the end name the last line that has bytes */
-	if (!r.status && csv_fini(&p, on_field, on_record, &r) != 0 && !r.status)
-		r.status = csv_error(&p) == CSV_ENOMEM ? pr_err(err, PR_ENOMEM, "%s: out of memory", r.path)
-		           : pr_err(err, PR_EIO, "%s:%ld: malformed CSV: unterminated quoted field",
-		                    r.path, r.line);
-	if (!r.status && !r.header_done)
-		r.status = pr_err(err, PR_EIO, "%s: empty file: no header row", r.path);
-	if (!r.status && (flags & PR_CSV_COMPLETE) && last != '\n')
-		r.status = pr_err(err, PR_EIO, "%s:%ld: the last line has no line end (incomplete file?)",
-		                  r.path, r.line);
-	csv_free(&p);
-	free(buf);
-	free(r.off);
-	free(r.ptr);
-	free(r.text);
-	if (!std)
-		fclose(fp);
-	return r.status;
+	if (rc)
+		return rc;
+	while (!src.r.status && source_block(&src) > 0)
+		;
+	source_end(&src);
+	rc = src.r.status;
+	source_close(&src);
+	return rc;
 }
 
 /* ---- numeric tables ---- */
@@ -491,6 +562,101 @@ int pr_csv_read(const char *path, pr_csv **out, char *err)
 	}
 	*out = u.t;
 	return rc;
+}
+
+/* ---- a numeric table read in chunks ----
+ *
+ * The scan of pr_csv_read, paused after every block: the rows a block
+ * completed are the chunk. A failure (a bad field, a short line, a read
+ * error) is kept until the rows before it are handed out, so a consumer sees
+ * every good row before the first bad one, in file order. */
+
+struct pr_csv_stream {
+	source src;
+	numeric u;        /* u.t: the names, then each chunk's rows */
+	int eof, handed;  /* handed: the table's rows went out as a chunk */
+	char perr[PR_ERRLEN];
+};
+
+void pr_csv_stream_free(pr_csv_stream *s)
+{
+	if (!s)
+		return;
+	source_close(&s->src);
+	free(s->u.row);
+	pr_csv_free(s->u.t);
+	free(s);
+}
+
+/* Read one more block; at the end, the checks of the end of a file. */
+static void stream_block(pr_csv_stream *s)
+{
+	if (source_block(&s->src) == 0) {
+		source_end(&s->src);
+		s->eof = 1;
+	}
+}
+
+int pr_csv_stream_open(const char *path, pr_csv_stream **out, char *err)
+{
+	pr_csv_stream *s = calloc(1, sizeof *s);
+	int rc;
+
+	*out = NULL;
+	if (!s)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	if ((rc = source_open(&s->src, path, 0, numeric_header, numeric_row, &s->u, 1, s->perr))) {
+		snprintf(err, PR_ERRLEN, "%s", s->perr);
+		free(s);
+		return rc;
+	}
+	/* u.t exists once the header was read and checked */
+	while (!s->src.r.status && !s->u.t && !s->eof)
+		stream_block(s);
+	if (!s->u.t) {
+		rc = s->src.r.status;
+		snprintf(err, PR_ERRLEN, "%s", s->perr);
+		pr_csv_stream_free(s);
+		return rc;
+	}
+	*out = s;
+	return PR_OK;
+}
+
+int pr_csv_stream_failed(const pr_csv_stream *s, char *err)
+{
+	if (s->src.r.status)
+		snprintf(err, PR_ERRLEN, "%s", s->perr);
+	return s->src.r.status;
+}
+
+const pr_csv *pr_csv_stream_columns(const pr_csv_stream *s)
+{
+	return s->u.t;
+}
+
+int pr_csv_stream_next(pr_csv_stream *s, const pr_csv **chunk, char *err)
+{
+	pr_csv *t = s->u.t;
+
+	*chunk = NULL;
+	if (s->handed)
+		t->nrows = 0;
+	s->handed = 0;
+	for (;;) {
+		if (t->nrows > 0) {
+			*chunk = t;
+			s->handed = 1;
+			return PR_OK;
+		}
+		if (s->src.r.status) {
+			snprintf(err, PR_ERRLEN, "%s", s->perr);
+			return s->src.r.status;
+		}
+		if (s->eof)
+			return PR_OK;
+		stream_block(s);
+	}
 }
 
 /* Append column j to cols[*n]: a column selected twice would give an output
@@ -904,6 +1070,16 @@ int pr_csvw_raw(pr_csvw *w, const char *s, size_t n)
 		return w->status;
 	errno = 0;
 	if (n && fwrite(s, 1, n, w->fp) != n)
+		return fail_io(w);
+	return PR_OK;
+}
+
+int pr_csvw_flush(pr_csvw *w)
+{
+	if (w->status || w->kind == W_FILE)
+		return w->status;
+	errno = 0;
+	if (fflush(w->fp) != 0)
 		return fail_io(w);
 	return PR_OK;
 }

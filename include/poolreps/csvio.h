@@ -30,6 +30,28 @@ const double *pr_csv_row(const pr_csv *t, long i);
 long pr_csv_line(const pr_csv *t, long i);
 const char *pr_csv_path(const pr_csv *t); /* "<stdin>" for stdin */
 
+/* A numeric table read in chunks, for commands that handle one row at a
+ * time: memory stays bounded whatever the number of rows. The input is read
+ * and checked as pr_csv_read does (same limits and messages). open reads
+ * through the header; pr_csv_stream_columns gives its names, count and path
+ * (use pr_csv_find, pr_csv_name, pr_csv_select on it). Each next call
+ * hands out the rows that one more read of the input completed (a pipe's
+ * rows as they arrive; from a file about 64 KiB of text), with their source
+ * lines (pr_csv_line), or *chunk = NULL at the end. The chunk is owned by the
+ * stream and valid until the next call. A failure is returned only after
+ * every row before it was handed out, so the rows are the file's good rows
+ * up to the first bad one. *out is owned by the caller (pr_csv_stream_free,
+ * NULL is a no-op). */
+typedef struct pr_csv_stream pr_csv_stream;
+int pr_csv_stream_open(const char *path, pr_csv_stream **out, char *err);
+const pr_csv *pr_csv_stream_columns(const pr_csv_stream *s);
+int pr_csv_stream_next(pr_csv_stream *s, const pr_csv **chunk, char *err);
+void pr_csv_stream_free(pr_csv_stream *s);
+/* The failure the reads so far found (after the rows still to hand out),
+ * or PR_OK: a caller that refuses the header may name an earlier-read bad
+ * row first, as a whole-file read would. */
+int pr_csv_stream_failed(const pr_csv_stream *s, char *err);
+
 /* Append a row of ncols values; non-finite values are refused. */
 int pr_csv_add_row(pr_csv *t, const double *row, char *err);
 
@@ -75,6 +97,10 @@ int pr_csvw_endrow(pr_csvw *w);
 int pr_csvw_header(pr_csvw *w, const char *names);
 /* Raw text, not CSV (parameter and provenance files). */
 int pr_csvw_raw(pr_csvw *w, const char *s, size_t n);
+/* Push the rows written so far to standard output, a FIFO or a device, so
+ * that a consumer sees them at once; a staged file keeps its buffer (it
+ * appears only when committed). Returns the sticky status. */
+int pr_csvw_flush(pr_csvw *w);
 /* The sticky status: PR_OK, PR_EIO or PR_ENUM. */
 int pr_csvw_status(const pr_csvw *w);
 /* Flush, check, rename into place, free; reports the sticky status. */

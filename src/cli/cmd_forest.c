@@ -7,8 +7,9 @@
  * the test MSE is reported. Output: one pred_<target> column per target, one
  * row per test row; --leaves FILE: columns tree0..tree{M-1}, each test row's
  * active leaf, numbered within its tree. Options come from cfg->forest and
- * the seed from cfg->run.seed. Every check runs before anything is written;
- * on an error no output file is left. The timings and the test MSE go into
+ * the seed from cfg->run.seed. The test CSV is streamed (pr_query_forest):
+ * its header is checked before the fit, its rows are predicted chunk by
+ * chunk after it; on an error no output file is left. The timings and the test MSE go into
  * a->note, which the CLI prints after a success. --save FILE writes the
  * fitted forest with its column names (pr_forest_save); --load FILE reads
  * one instead of fitting and finds its input columns in the test CSV.
@@ -23,6 +24,7 @@
 
 #include "poolreps/csvio.h"
 #include "poolreps/forest.h"
+#include "poolreps/query.h"
 #include "cli.h"
 
 /* The options of `poolreps forest` (its table: cli_forest below). */
@@ -41,69 +43,23 @@ static double seconds(void)
 	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static int write_pred(pr_csvw *w, const char *const *ynames, int dy, const double *P, long nt)
-{
-	char name[PR_CSV_MAX_FIELD + sizeof "pred_"];
-	int rc = 0;
-
-	for (int k = 0; k < dy && !rc; k++) {
-		snprintf(name, sizeof name, "pred_%s", ynames[k]);
-		rc = pr_csvw_str(w, name);
-	}
-	if (!rc)
-		rc = pr_csvw_endrow(w);
-	for (long i = 0; i < nt && !rc; i++) {
-		for (int k = 0; k < dy && !rc; k++)
-			rc = pr_csvw_num(w, P[(size_t)i * dy + k]);
-		if (!rc)
-			rc = pr_csvw_endrow(w);
-	}
-	return rc;
-}
-
-/* Each test row's active leaf per tree, as a leaf index within the tree. */
-static int write_leaves(pr_csvw *w, const pr_forest *f, const double *Xt, int dx, long nt,
-                        int *act)
-{
-	char name[32];
-	int M = pr_forest_ntrees(f), rc = 0;
-
-	for (int t = 0; t < M && !rc; t++) {
-		snprintf(name, sizeof name, "tree%d", t);
-		rc = pr_csvw_str(w, name);
-	}
-	if (!rc)
-		rc = pr_csvw_endrow(w);
-	for (long i = 0; i < nt && !rc; i++) {
-		int c = pr_forest_active(f, Xt + (size_t)i * dx, dx, act, M);
-		if (c != M)
-			return PR_EINVAL;
-		for (int t = 0; t < M && !rc; t++)
-			rc = pr_csvw_int(w, act[t] - pr_forest_tree_leaf0(f, t));
-		if (!rc)
-			rc = pr_csvw_endrow(w);
-	}
-	return rc;
-}
-
 /* The training and test tables and the columns they play. */
 typedef struct {
-	pr_csv *tr, *te;
+	pr_csv *tr;
+	pr_query *te;       /* the test rows, streamed */
 	int *tc, dy;        /* training targets */
 	int *xc, dx;        /* training inputs: every other column but the weight */
 	int wc;             /* training weight column, or -1 */
-	int *xt, *yt;       /* the inputs and targets in the test table (yt: -1 if absent) */
-	int have_y;         /* the test table holds every target */
+	const char **nm;    /* the input and target names, in the forest's order */
 } tables;
 
 static void tables_free(tables *t)
 {
 	pr_csv_free(t->tr);
-	pr_csv_free(t->te);
+	pr_query_free(t->te);
 	free(t->tc);
 	free(t->xc);
-	free(t->xt);
-	free(t->yt);
+	free(t->nm);
 }
 
 /* Read both tables and find the columns: every check before any fit. */
@@ -112,8 +68,7 @@ static int read_tables(const pr_config *cfg, const forest_args *a, tables *t, ch
 	int ncol, rc;
 	long n;
 
-	if ((rc = pr_csv_read(a->train, &t->tr, err)) || (rc = pr_csv_read(a->test, &t->te, err)) ||
-	    (rc = pr_cmd_check_rows(t->tr, err)))
+	if ((rc = pr_csv_read(a->train, &t->tr, err)) || (rc = pr_cmd_check_rows(t->tr, err)))
 		return rc;
 	n = pr_csv_nrows(t->tr);
 	ncol = pr_csv_ncols(t->tr);
@@ -138,9 +93,8 @@ static int read_tables(const pr_config *cfg, const forest_args *a, tables *t, ch
 			return pr_err(err, PR_EINVAL, "%s: column '%s' is both a target and the weight",
 			              pr_csv_path(t->tr), a->weight);
 	t->xc = malloc((size_t)ncol * sizeof *t->xc);
-	t->xt = malloc((size_t)ncol * sizeof *t->xt);
-	t->yt = malloc((size_t)ncol * sizeof *t->yt);
-	if (!t->xc || !t->xt || !t->yt)
+	t->nm = malloc((size_t)ncol * sizeof *t->nm);
+	if (!t->xc || !t->nm)
 		return pr_err(err, PR_ENOMEM, "forest: out of memory");
 	for (int j = 0; j < ncol; j++) {
 		int used = j == t->wc;
@@ -152,55 +106,23 @@ static int read_tables(const pr_config *cfg, const forest_args *a, tables *t, ch
 	if (t->dx == 0)
 		return pr_err(err, PR_EINVAL, "%s: no input columns besides the targets and weight",
 		              pr_csv_path(t->tr));
-	for (int j = 0; j < t->dx; j++) {
-		t->xt[j] = pr_csv_find(t->te, pr_csv_name(t->tr, t->xc[j]));
-		if (t->xt[j] < 0)
-			return pr_err(err, PR_EIO, "%s:1: missing input column '%s'", pr_csv_path(t->te),
-			              pr_csv_name(t->tr, t->xc[j]));
-	}
-	t->have_y = 1;
-	for (int k = 0; k < t->dy; k++) {
-		t->yt[k] = pr_csv_find(t->te, pr_csv_name(t->tr, t->tc[k]));
-		t->have_y &= t->yt[k] >= 0;
-	}
-	return PR_OK;
+	for (int j = 0; j < t->dx; j++)
+		t->nm[j] = pr_csv_name(t->tr, t->xc[j]);
+	for (int k = 0; k < t->dy; k++)
+		t->nm[t->dx + k] = pr_csv_name(t->tr, t->tc[k]);
+	return pr_query_open(a->test, t->nm, t->dx, "input", &t->te, err);
 }
 
 /* The forest's timings and, when the test table holds the targets, the
  * test MSE, as the command's note. */
-static void note_fit(const forest_args *a, const tables *t, const pr_forest *f, const double *P,
-                     double tfit, double tpred)
+static void note_fit(const forest_args *a, const pr_forest *f, const pr_query_stats *st, double tfit)
 {
-	long nt = pr_csv_nrows(t->te);
 	int len = snprintf(a->note, PR_ERRLEN, "forest: %d trees, %d leaves, fit %.3f s, predict %.3f s",
-	                   pr_forest_ntrees(f), pr_forest_nleaves(f), tfit, tpred);
-	double sse = 0;
+	                   pr_forest_ntrees(f), pr_forest_nleaves(f), tfit, st->seconds);
 
-	if (!t->have_y || nt == 0 || len <= 0 || len >= PR_ERRLEN)
+	if (!st->have_y || st->rows == 0 || len <= 0 || len >= PR_ERRLEN)
 		return;
-	for (long i = 0; i < nt; i++)
-		for (int k = 0; k < t->dy; k++) {
-			double e = P[(size_t)i * t->dy + k] - pr_csv_get(t->te, i, t->yt[k]);
-			sse += e * e;
-		}
-	snprintf(a->note + len, (size_t)(PR_ERRLEN - len), ", test MSE %.6g", sse / ((double)nt * t->dy));
-}
-
-/* The names of the training table's input and target columns, in the
- * forest's order (borrowed from the table). */
-static const char **column_names(const tables *t, char *err)
-{
-	const char **nm = malloc((size_t)(t->dx + t->dy) * sizeof *nm);
-
-	if (!nm) {
-		pr_err(err, PR_ENOMEM, "forest: out of memory");
-		return NULL;
-	}
-	for (int j = 0; j < t->dx; j++)
-		nm[j] = pr_csv_name(t->tr, t->xc[j]);
-	for (int k = 0; k < t->dy; k++)
-		nm[t->dx + k] = pr_csv_name(t->tr, t->tc[k]);
-	return nm;
+	snprintf(a->note + len, (size_t)(PR_ERRLEN - len), ", test MSE %.6g", st->mse);
 }
 
 /* --save: the forest's text into its own output of the set. */
@@ -218,32 +140,22 @@ static int save_forest(pr_outset *set, const char *path, const pr_forest *f, con
 	return rc;
 }
 
-/* The predictions (-o) and, with --leaves, the leaves, into a new set that
- * the caller commits; with save, the forest's file joins the set first. */
+/* The predictions (-o) and, with --leaves, the leaves of every test row,
+ * into a new set that the caller commits; with save, the forest's file
+ * joins the set first. */
 static int write_outputs(const forest_args *a, pr_outset **set, const pr_forest *f,
-                         const char **nm, int save, const double *Xt, long nt, const double *P,
-                         const char *test, char *err)
+                         const char **nm, int save, pr_query *te, pr_query_stats *st, char *err)
 {
-	const int dx = pr_forest_dx(f);
 	pr_csvw *pw = NULL, *lw = NULL;
-	int *act = malloc((size_t)pr_forest_ntrees(f) * sizeof *act);
 	int rc;
 
-	if (!act || !(*set = pr_outset_new(err))) {
-		free(act);
-		return act ? PR_ENOMEM : pr_err(err, PR_ENOMEM, "forest: out of memory");
-	}
+	if (!(*set = pr_outset_new(err)))
+		return PR_ENOMEM;
 	if ((rc = pr_outset_add(*set, a->output, &pw, err)) ||
 	    (a->leaves && (rc = pr_outset_add(*set, a->leaves, &lw, err))) ||
-	    (save && (rc = save_forest(*set, a->save, f, nm, err)))) {
-		free(act);
+	    (save && (rc = save_forest(*set, a->save, f, nm, err))))
 		return rc;
-	}
-	write_pred(pw, nm + dx, pr_forest_dy(f), P, nt);
-	if (lw && write_leaves(lw, f, Xt, dx, nt, act) == PR_EINVAL)
-		rc = pr_err(err, PR_ENUM, "%s: a test row reaches no leaf of some tree", test);
-	free(act);
-	return rc;
+	return pr_query_forest(te, f, nm + pr_forest_dx(f), pw, lw, st, err);
 }
 
 /* The whole of a file into memory. */
@@ -282,13 +194,12 @@ static int read_file(const char *path, char **text, size_t *len, char *err)
 static int forest_loaded(const forest_args *a, char *err)
 {
 	pr_forest *f = NULL;
-	pr_csv *te = NULL;
+	pr_query *te = NULL;
+	pr_query_stats st;
 	pr_outset *set = NULL;
 	char *text = NULL, **nm = NULL;
-	double *Xt = NULL, *P = NULL;
-	int *xt = NULL, dx = 0, rc;
 	size_t len = 0;
-	long nt = 0;
+	int rc;
 
 	if (a->train || a->target || a->weight || a->save)
 		return pr_err(err, PR_EINVAL, "forest: --load takes no --train, --target, --weight or --save");
@@ -300,36 +211,14 @@ static int forest_loaded(const forest_args *a, char *err)
 		rc = pr_out_of_memory ? PR_ENOMEM : strstr(err, "format version") ? PR_EINVAL : PR_EIO;
 		goto done;
 	}
-	dx = pr_forest_dx(f);
-	if ((rc = pr_csv_read(a->test, &te, err)))
-		goto done;
-	nt = pr_csv_nrows(te);
-	xt = malloc((size_t)dx * sizeof *xt);
-	P = malloc(((size_t)nt + 1) * (size_t)pr_forest_dy(f) * sizeof *P);
-	if (!xt || !P) {
-		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
-		goto done;
-	}
-	for (int j = 0; j < dx; j++)
-		if ((xt[j] = pr_csv_find(te, nm[j])) < 0) {
-			rc = pr_err(err, PR_EIO, "%s:1: missing input column '%s'", pr_csv_path(te), nm[j]);
-			goto done;
-		}
-	if (!(Xt = pr_cmd_matrix(te, xt, dx, err))) {
-		rc = PR_ENOMEM;
-		goto done;
-	}
-	pr_forest_predict_many(f, Xt, (int)nt, P);
-	rc = write_outputs(a, &set, f, (const char **)nm, 0, Xt, nt, P, pr_csv_path(te), err);
+	if (!(rc = pr_query_open(a->test, (const char *const *)nm, pr_forest_dx(f), "input", &te, err)))
+		rc = write_outputs(a, &set, f, (const char **)nm, 0, te, &st, err);
 done:
 	rc = pr_outset_commit(set, rc, err);
 	pr_forest_free(f);
-	pr_csv_free(te);
+	pr_query_free(te);
 	free(text);
 	free(nm);
-	free(Xt);
-	free(P);
-	free(xt);
 	return rc;
 }
 
@@ -339,11 +228,11 @@ static int pr_cmd_forest(const pr_config *cfg, const forest_args *a, char *err)
 	pr_forest *f = NULL;
 	pr_outset *set = NULL;
 	gsl_rng *rng = NULL;
-	double *X = NULL, *Y = NULL, *W = NULL, *Xt = NULL, *P = NULL;
-	const char **nm = NULL;
+	pr_query_stats st;
+	double *X = NULL, *Y = NULL, *W = NULL;
 	int rc;
-	long n, nt;
-	double t0, tfit, tpred;
+	long n;
+	double t0, tfit;
 
 	if (a->load)
 		return forest_loaded(a, err);
@@ -352,16 +241,13 @@ static int pr_cmd_forest(const pr_config *cfg, const forest_args *a, char *err)
 	if ((rc = pr_forest_opts_check(&cfg->forest, "forest", err)) || (rc = read_tables(cfg, a, &t, err)))
 		goto done;
 	n = pr_csv_nrows(t.tr);
-	nt = pr_csv_nrows(t.te);
-	if (!(X = pr_cmd_matrix(t.tr, t.xc, t.dx, err)) || !(Y = pr_cmd_matrix(t.tr, t.tc, t.dy, err)) ||
-	    !(Xt = pr_cmd_matrix(t.te, t.xt, t.dx, err))) {
+	if (!(X = pr_cmd_matrix(t.tr, t.xc, t.dx, err)) || !(Y = pr_cmd_matrix(t.tr, t.tc, t.dy, err))) {
 		rc = PR_ENOMEM;
 		goto done;
 	}
 	if (t.wc >= 0 && (rc = pr_cmd_weights(t.tr, t.wc, a->weight, "weight", &W, err)))
 		goto done;
-	P = malloc(((size_t)nt + 1) * t.dy * sizeof *P);
-	if (!P || !(rng = gsl_rng_alloc(gsl_rng_mt19937))) {
+	if (!(rng = gsl_rng_alloc(gsl_rng_mt19937))) {
 		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
 		goto done;
 	}
@@ -375,20 +261,12 @@ static int pr_cmd_forest(const pr_config *cfg, const forest_args *a, char *err)
 		rc = pr_interrupted ? PR_EINTR : PR_ENOMEM;
 		goto done;
 	}
-	t0 = seconds();
-	pr_forest_predict_many(f, Xt, (int)nt, P);
-	tpred = seconds() - t0;
-
 	/* predictions, leaves and the forest are committed together, only if
 	 * all are complete */
-	if (!(nm = column_names(&t, err))) {
-		rc = PR_ENOMEM;
-		goto done;
-	}
-	if ((rc = write_outputs(a, &set, f, nm, a->save != NULL, Xt, nt, P, pr_csv_path(t.te), err)))
+	if ((rc = write_outputs(a, &set, f, t.nm, a->save != NULL, t.te, &st, err)))
 		goto done;
 	if (!a->quiet)
-		note_fit(a, &t, f, P, tfit, tpred);
+		note_fit(a, f, &st, tfit);
 done:
 	rc = pr_outset_commit(set, rc, err);
 	pr_forest_free(f);
@@ -397,9 +275,6 @@ done:
 	free(X);
 	free(Y);
 	free(W);
-	free(Xt);
-	free(P);
-	free(nm);
 	return rc;
 }
 

@@ -1,21 +1,21 @@
 /* fuzz_shoot.c — libFuzzer harness for the `shoot` input path.
  *
- * The input is written to a temporary CSV and run through the command
- * line's pr_cmd_shoot (src/cli/cmd_shoot.c, linked in) with the default
- * configuration, output and trace to temporary files. On
+ * The input is written to a temporary CSV and run through pr_shoot_csv with
+ * the default configuration, output and trace to temporary files. On
  * success the output must read back as a CSV with one row per input row
  * (no NaN or inf can reach it: the reader refuses them); on failure the
  * error must be one line and neither output nor trace may exist. */
 #include "fuzz_common.h"
+#include "poolreps/config.h"
 #include "poolreps/csvio.h"
 #include "poolreps/exp.h"
-#include "cli.h"
+#include "poolreps/shoot.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
 	static char in[256], out[256], trace[256];
 	static pr_config cfg;
-	shoot_args a;
+	pr_shoot_files f;
 	pr_csv *ti = NULL, *to = NULL;
 	char err[PR_ERRLEN];
 
@@ -28,12 +28,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	fuzz_write_file(in, data, size);
 	unlink(out);
 	unlink(trace);
-	memset(&a, 0, sizeof a);
-	a.input = in;
-	a.output = out;
-	a.trace = size % 2 ? trace : NULL; /* half the inputs also write a trace */
+	memset(&f, 0, sizeof f);
+	f.input = in;
+	f.output = out;
+	f.trace = size % 2 ? trace : NULL; /* half the inputs also write a trace */
 	err[0] = '\0';
-	if (pr_cmd_shoot(&cfg, &a, err) != PR_OK) {
+	if (pr_shoot_csv(&cfg.table, &cfg.sim, &cfg.reward, &f, err) != PR_OK) {
 		fuzz_check_err(err, NULL);
 		if (access(out, F_OK) == 0 || access(trace, F_OK) == 0) {
 			fprintf(stderr, "fuzz harness: failed shoot left an output file: %s\n", err);
