@@ -1,9 +1,11 @@
 #!/bin/sh
 # Experiment 5 (docs/baselines.md): standard learners on Experiment 3's task.
 #   scripts/baselines.sh venv                 make BASELINES_VENV (default
-#       build/baselines/venv): the system's packages plus Stable-Baselines3
-#       (with CPU torch), cma and gymnasium from PyPI. Without network it
-#       fails with one line naming the packages and leaves nothing behind.
+#       build/baselines/venv): the system's packages plus Stable-Baselines3,
+#       cma and gymnasium from PyPI, at the versions and hashes of
+#       scripts/baselines-requirements.txt (a venv made from another list is
+#       made again). Without network it fails with one line naming the
+#       packages and leaves nothing behind.
 #   scripts/baselines.sh run OUT SEEDS        every run into OUT (runs/*.csv
 #       for the Python learners, reps/VARIANT for poolreps), skipping runs
 #       already there; then the committed CSVs (OUT/data) and the report
@@ -20,6 +22,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 venv=${BASELINES_VENV:-$root/build/baselines/venv}
 PACKAGES="stable-baselines3 cma gymnasium"
+requirements=$here/baselines-requirements.txt
 POOLREPS=${POOLREPS:-$root/poolreps}
 PYTHON=${PYTHON:-python3}
 jobs=${BASELINES_JOBS:-2}
@@ -32,7 +35,8 @@ ppo_budgets=${BASELINES_PPO_BUDGETS:-2200,22000}
 sac_budgets=${BASELINES_SAC_BUDGETS:-2200}
 
 make_venv() {
-	[ -x "$venv/bin/python" ] && "$venv/bin/python" -c 'import stable_baselines3, cma, gymnasium' 2>/dev/null && return 0
+	[ -x "$venv/bin/python" ] && cmp -s "$requirements" "$venv/requirements.txt" &&
+		"$venv/bin/python" -c 'import stable_baselines3, cma, gymnasium' 2>/dev/null && return 0
 	tmp="$venv.partial-$$"
 	parent=$(dirname "$venv")
 	made=
@@ -42,12 +46,14 @@ make_venv() {
 	trap 'rm -rf "$tmp" "$tmp.log"; [ -z "$made" ] || rmdir "$made" 2>/dev/null || :' EXIT
 	/usr/bin/python3 -m venv --system-site-packages "$tmp" >/dev/null 2>&1 ||
 		{ echo "baselines: cannot make a virtual environment (python3-venv missing?)" >&2; exit 2; }
-	if ! "$tmp/bin/pip" install -q --disable-pip-version-check $PACKAGES > "$tmp.log" 2>&1; then
+	if ! "$tmp/bin/pip" install -q --disable-pip-version-check --require-hashes \
+		-r "$requirements" > "$tmp.log" 2>&1; then
 		why=$(grep -m1 -E 'ERROR|error' "$tmp.log" | cut -c1-160)
 		echo "baselines: could not install $PACKAGES from PyPI (no network?): ${why:-pip failed}" >&2
 		exit 2
 	fi
 	rm -f "$tmp.log"
+	cp "$requirements" "$tmp/requirements.txt"
 	# venv scripts name their folder: a renamed venv needs its paths fixed
 	grep -rl "$tmp" "$tmp/bin" | xargs sed -i "s|$tmp|$venv|g"
 	rm -rf "$venv"

@@ -332,6 +332,10 @@ experiment asks how today's standard learners do on the same task: Experiment 3'
 make baselines        # venv with SB3 + pycma (PyPI), every run, data/baselines/*.csv, this file
 ```
 
+The venv's packages are pinned by version and sha256 in
+`scripts/baselines-requirements.txt` (`pip install --require-hashes`), so that two
+installs train with the same code; torch's CPU path is used (one thread per run).
+
 - **Start states**: seed k of every learner draws its n-th episode's start state from
   Experiment 3's stream of repetition k (`PocketEnv.reset(seed=1, options={'repetition':
   k})`, `experiment.seed` 1), so every learner of a seed meets the same states, and the
