@@ -368,7 +368,8 @@ def sentence(res):
     alts = len(res.points) - 1
     s = (f"against {alts} alternatives to the open choices ([docs/sensitivity.md]"
          f"(docs/sensitivity.md), {res.runs['default']['repetitions']} repetitions each, event "
-         f"mode), {len(keep)} of the {len(CLAIMS)} Experiment 3 verdicts never change")
+         f"mode), {len(keep)} of the {len(CLAIMS)} Experiment 3 verdicts never "
+         f"{'changes' if len(keep) == 1 else 'change'}")
     s += (" (" + ", ".join(f"`{c}`" for c in keep) + ")") if keep else ""
     if moved:
         s += "; " + "; ".join(f"`{c}` changes under {', '.join(by)}" for c, by in moved.items())
