@@ -81,6 +81,11 @@ poolreps: $(BUILD)/poolreps
 $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)
 	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(LIB) $(LIBS) -lcmocka -o $@
 
+# the command line's option tables and help: src/cli without its main
+CLI_TABLES_OBJ := $(filter-out $(BUILD)/cli/main.o,$(CLI_OBJ))
+$(BUILD)/tests/test_cli_opts: tests/test_cli_opts.c $(CLI_TABLES_OBJ) $(LIB) | $(BUILD)
+	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(CLI_TABLES_OBJ) $(LIB) $(LIBS) -lcmocka -o $@
+
 # the packages are probed when make starts (below); nothing is installed here.
 # pytest runs on JOBS workers (pytest-xdist) and names the 10 slowest tests;
 # the last line is the wall time of the whole check

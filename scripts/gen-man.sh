@@ -1,7 +1,8 @@
 #!/bin/sh
 # Generate the man page from `poolreps --help` and `poolreps --help-keys`, so
 # that the man page and the help text cannot drift apart (tests/test_cli.py
-# checks that they agree). The help text is printed from the commands'
+# checks that they agree, tests/test_cli_options.py that both hold every
+# option's help line). The help text is printed from the commands'
 # option tables (src/cli/opts.c), the same tables the parser reads, and the
 # keys from the configuration's key tables: one source for all three.
 #   scripts/gen-man.sh [POOLREPS [OUT]]    defaults: ./poolreps, docs/poolreps.1

@@ -5,7 +5,7 @@ event time is found as a root of a polynomial in the elapsed time s, all of
 them by numpy's companion-matrix eigenvalues (np.roots) polished by Newton
 steps, and every ball is re-predicted after every event.
 
-Physics (docs/sim.md): a moving ball of speed v slows at a constant rate a
+Physics (docs/model.md): a moving ball of speed v slows at a constant rate a
 along its direction e, p(s) = p + e (v s - a s^2 / 2), and stops when its
 speed falls to the stop speed, after s = (v - v_stop) / a. Cushions are the
 lines |x| = L/2 - R, |y| = W/2 - R (normal component times -kappa); pockets

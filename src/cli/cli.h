@@ -2,7 +2,8 @@
  * executable alone, against the public headers only).
  *
  * Each command declares its options in a table of cli_opt (name, kind,
- * where the value goes in that command's own struct) and is described by
+ * where the value goes in that command's own struct, the value's name and
+ * a help line) and is described by
  * one cli_command; main.c dispatches over them and opts.c parses, checks and
  * prints help from the same tables, so the help text (and the man page that
  * scripts/gen-man.sh makes from it) cannot drift from what is parsed.
@@ -56,21 +57,32 @@ typedef struct {
 	/* CLI_NUMBER: 0 and the value at target, or nonzero and what the value
 	 * must be ("a number > 0 and <= 1e6") */
 	const char *(*parse)(const char *arg, void *target);
+	/* --help's line: the value's name (NULL for a flag) and what the option
+	 * does (a '\n' starts a continuation line) */
+	const char *metavar, *help;
 } cli_opt;
 
-#define CLI_OPT(name, kind, type, field) { name, kind, 0, offsetof(type, field), 0, NULL }
-#define CLI_OPT_LIST(name, type, field, count) \
-	{ name, CLI_LIST, 0, offsetof(type, field), offsetof(type, count), NULL }
-#define CLI_OPT_NUMBER(name, type, field, given, parse) \
-	{ name, CLI_NUMBER, 0, offsetof(type, field), offsetof(type, given), parse }
-#define CLI_GIVEN(kind, type, field) { NULL, kind, 0, offsetof(type, field), 0, NULL }
+#define CLI_OPT(name, metavar, type, field, help) \
+	{ name, CLI_STR, 0, offsetof(type, field), 0, NULL, metavar, help }
+#define CLI_OPT_FLAG(name, type, field, help) \
+	{ name, CLI_FLAG, 0, offsetof(type, field), 0, NULL, NULL, help }
+#define CLI_OPT_LIST(name, metavar, type, field, count, help) \
+	{ name, CLI_LIST, 0, offsetof(type, field), offsetof(type, count), NULL, metavar, help }
+#define CLI_OPT_NUMBER(name, metavar, type, field, given, parse, help) \
+	{ name, CLI_NUMBER, 0, offsetof(type, field), offsetof(type, given), parse, metavar, help }
+#define CLI_GIVEN(kind, type, field) { NULL, kind, 0, offsetof(type, field), 0, NULL, NULL, NULL }
 #define CLI_GIVEN_LIST(kind, type, field, count) \
-	{ NULL, kind, 0, offsetof(type, field), offsetof(type, count), NULL }
-/* -c FILE, --set SECTION.KEY=V, --seed N, --progress */
-#define CLI_COMMON_C { "c", CLI_STR, CLI_AT_CONFIG, 0, 0, NULL }
-#define CLI_COMMON_SET { "set", CLI_LIST, CLI_AT_SET, 0, 0, NULL }
-#define CLI_COMMON_SEED { "seed", CLI_STR, CLI_AT_SEED, 0, 0, NULL }
-#define CLI_COMMON_PROGRESS { "progress", CLI_FLAG, CLI_AT_PROGRESS, 0, 0, NULL }
+	{ NULL, kind, 0, offsetof(type, field), offsetof(type, count), NULL, NULL, NULL }
+/* -c FILE, --set SECTION.KEY=V, --seed N, --progress: the same line in every
+ * table that has them and in the Common options of --help */
+#define CLI_COMMON_C { "c", CLI_STR, CLI_AT_CONFIG, 0, 0, NULL, "FILE", "parameter file (INI)" }
+#define CLI_COMMON_SET { "set", CLI_LIST, CLI_AT_SET, 0, 0, NULL, "SECTION.KEY=V", \
+	"override one parameter (repeatable)" }
+#define CLI_COMMON_SEED { "seed", CLI_STR, CLI_AT_SEED, 0, 0, NULL, "N", \
+	"master seed (experiment.seed)" }
+#define CLI_COMMON_PROGRESS { "progress", CLI_FLAG, CLI_AT_PROGRESS, 0, 0, NULL, NULL, \
+	"run: progress lines on stderr when it is no terminal\n" \
+	"(batch logs; a failure's line then follows them)" }
 
 /* How a command takes its operands (the words after its name). */
 enum cli_operands {
@@ -95,10 +107,11 @@ typedef struct {
 
 typedef struct cli_command {
 	const char *name;
-	/* the synopsis and description --help prints */
+	/* the synopsis and description --help prints (the options' lines
+	 * come from opts) */
 	const char *usage;
-	/* every option it accepts besides -h, --version, -q, in the order its
-	 * Accepts line lists them; ended by an entry of kind -1 */
+	/* every option it accepts besides -h, --version, -q, in the order --help
+	 * lists them; ended by an entry of kind -1 */
 	const cli_opt *opts;
 	size_t size;  /* of its struct */
 	/* the keys its --set may change ("sim." is section sim); NULL: every key */
@@ -110,10 +123,14 @@ typedef struct cli_command {
 	int (*fn)(const pr_config *cfg, const void *opts, char *err);
 } cli_command;
 
-#define CLI_END { NULL, -1, 0, 0, 0, NULL }
+#define CLI_END { NULL, -1, 0, 0, 0, NULL, NULL, NULL }
 
 extern const cli_command cli_run, cli_shoot, cli_forest, cli_reps, cli_policy, cli_config,
 	cli_merge, cli_sweep, cli_collect;
+/* All of them, in the order --help lists them; the first runs a parameter
+ * file (commands.c). */
+extern const cli_command *const cli_commands[];
+extern const size_t cli_ncommands;
 
 /* ---- the parser (opts.c) ---- */
 
@@ -132,7 +149,7 @@ int cli_parse(int argc, char **argv, const cli_command *const *cmds, size_t ncmd
               cli_given *g, cli_common *c, int *help, int *optind_out, int *code, char *msg);
 void cli_given_free(cli_given *g);
 /* Check that every given option applies to cmd and store it in opts. */
-int cli_apply(const cli_command *cmd, const cli_given *g, cli_common *c, void *opts, char *msg);
+int cli_apply(const cli_command *cmd, const cli_given *g, void *opts, char *msg);
 /* The checks that need the command: --set keys and --seed it reads, -q
  * against --progress, the command's own check. */
 int cli_check(const cli_command *cmd, const cli_common *c, const void *opts, char *msg);

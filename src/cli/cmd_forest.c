@@ -284,23 +284,29 @@ static int forest_main(const pr_config *cfg, const void *opts, char *err)
 }
 
 static const cli_opt forest_opts[] = {
-	CLI_COMMON_C, CLI_OPT("o", CLI_STR, forest_args, output), CLI_COMMON_SET, CLI_COMMON_SEED,
-	CLI_OPT("train", CLI_STR, forest_args, train), CLI_OPT("test", CLI_STR, forest_args, test),
-	CLI_OPT("target", CLI_STR, forest_args, target), CLI_OPT("weight", CLI_STR, forest_args, weight),
-	CLI_OPT("leaves", CLI_STR, forest_args, leaves), CLI_OPT("save", CLI_STR, forest_args, save),
-	CLI_OPT("load", CLI_STR, forest_args, load), CLI_GIVEN(CLI_QUIET, forest_args, quiet),
-	CLI_GIVEN(CLI_NOTE, forest_args, note), CLI_END
+	CLI_COMMON_C, CLI_OPT("o", "OUT.csv", forest_args, output, "the predictions (default stdout)"),
+	CLI_COMMON_SET, CLI_COMMON_SEED,
+	CLI_OPT("train", "FILE", forest_args, train, "the training CSV"),
+	CLI_OPT("test", "FILE", forest_args, test,
+	        "the rows to predict: the input columns by name\n"
+	        "(and, for the test MSE, every target)"),
+	CLI_OPT("target", "COLS", forest_args, target,
+	        "the targets: a comma list or a prefix ending in '*'"),
+	CLI_OPT("weight", "COL", forest_args, weight, "the training rows' weights (default 1)"),
+	CLI_OPT("leaves", "FILE", forest_args, leaves, "each test row's active leaf per tree"),
+	CLI_OPT("save", "FOREST", forest_args, save,
+	        "write the fitted forest (text, format version 1,\ndocs/forest.md)"),
+	CLI_OPT("load", "FOREST", forest_args, load, "predict with a saved forest instead of fitting"),
+	CLI_GIVEN(CLI_QUIET, forest_args, quiet), CLI_GIVEN(CLI_NOTE, forest_args, note), CLI_END
 };
 
 const cli_command cli_forest = {
 	"forest",
 	"poolreps forest --train FILE --test FILE --target COLS [--weight COL] [--leaves FILE]\n"
 	"                [--save FOREST] [-o OUT.csv] [-c FILE] [--set forest.key=value]...\n"
-	"poolreps forest --load FOREST --test FILE [--leaves FILE] [-o OUT.csv]\n"
-	"  --save writes the fitted forest (text, format version 1, docs/forest.md);\n"
-	"  --load predicts with a saved one instead of fitting.\n"
+	"  or:  poolreps forest --load FOREST --test FILE [--leaves FILE] [-o OUT.csv]\n"
 	"  Fit extra trees on the training CSV (inputs = every other column), predict the\n"
-	"  test CSV: one pred_<name> column per target. --leaves writes each test row's\n"
-	"  active leaf per tree. Timings and test MSE go to stderr (not with -q).",
+	"  test CSV: one pred_<name> column per target. Timings and test MSE go to stderr\n"
+	"  (not with -q).",
 	forest_opts, sizeof(forest_args), "forest.,experiment.seed", CLI_OPS_NONE, 0, NULL, forest_main
 };

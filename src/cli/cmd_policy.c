@@ -278,13 +278,24 @@ static const char *parse_sample(const char *arg, void *target)
 }
 
 static const cli_opt policy_opts[] = {
-	CLI_COMMON_C, CLI_OPT("i", CLI_STR, policy_args, input), CLI_OPT("o", CLI_STR, policy_args, output),
-	CLI_COMMON_SET, CLI_COMMON_SEED, CLI_OPT("train", CLI_STR, policy_args, train),
-	CLI_OPT("state", CLI_STR, policy_args, state), CLI_OPT("action", CLI_STR, policy_args, action),
-	CLI_OPT("weight", CLI_STR, policy_args, weight),
-	CLI_OPT_NUMBER("sample", policy_args, sample, sample_set, parse_sample),
-	CLI_OPT("target", CLI_STR, policy_args, target),
-	CLI_OPT("old-mean", CLI_STR, policy_args, old_mean), CLI_END
+	CLI_COMMON_C,
+	CLI_OPT("i", "STATES.csv", policy_args, input,
+	        "the query states, state columns by name (default stdin)"),
+	CLI_OPT("o", "OUT.csv", policy_args, output,
+	        "a row per state, N with --sample (default stdout)"),
+	CLI_COMMON_SET, CLI_COMMON_SEED,
+	CLI_OPT("train", "FILE", policy_args, train, "the weighted samples"),
+	CLI_OPT("state", "COLS", policy_args, state,
+	        "the states: a comma list or a prefix ending in '*'"),
+	CLI_OPT("action", "COLS", policy_args, action, "the actions, as --state"),
+	CLI_OPT("weight", "COL", policy_args, weight, "the samples' REPS weights (default 1)"),
+	CLI_OPT_NUMBER("sample", "N", policy_args, sample, sample_set, parse_sample,
+	               "also draw N actions per state (1..1000000)"),
+	CLI_OPT("target", "COLS", policy_args, target,
+	        "final reward-ball x,y (policy.target = reward_state)"),
+	CLI_OPT("old-mean", "COLS", policy_args, old_mean,
+	        "means that drew the rows (policy.cov_center = old)"),
+	CLI_END
 };
 
 const cli_command cli_policy = {
@@ -293,8 +304,6 @@ const cli_command cli_policy = {
 	"                [--target COLS] [--old-mean COLS] [-i STATES.csv] [-o OUT.csv]\n"
 	"                [--set policy.key=value]...\n"
 	"  Fit the tree-LWR Gaussian policy; write mean and covariance (and N samples)\n"
-	"  for every state row of the input. policy.target = reward_state needs --target\n"
-	"  (the training rows' final reward-ball positions); policy.cov_center = old\n"
-	"  needs --old-mean (the means of the policies that drew the training rows).",
+	"  for every state row of the input.",
 	policy_opts, sizeof(policy_args), "policy.,experiment.seed", CLI_OPS_NONE, 0, NULL, policy_main
 };

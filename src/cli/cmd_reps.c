@@ -169,20 +169,26 @@ static const char *parse_epsilon(const char *arg, void *target)
 }
 
 static const cli_opt reps_opts[] = {
-	CLI_COMMON_C, CLI_OPT("i", CLI_STR, reps_args, input), CLI_OPT("o", CLI_STR, reps_args, output),
-	CLI_COMMON_SET, CLI_OPT("return", CLI_STR, reps_args, ret),
-	CLI_OPT("features", CLI_STR, reps_args, features), CLI_OPT("base", CLI_STR, reps_args, base),
-	CLI_OPT_NUMBER("epsilon", reps_args, epsilon, epsilon_set, parse_epsilon),
-	CLI_OPT("summary", CLI_STR, reps_args, summary), CLI_GIVEN(CLI_NOTE, reps_args, note), CLI_END
+	CLI_COMMON_C, CLI_OPT("i", "IN.csv", reps_args, input, "the samples (default stdin)"),
+	CLI_OPT("o", "OUT.csv", reps_args, output, "column p, one row per input row (default stdout)"),
+	CLI_COMMON_SET, CLI_OPT("return", "COL", reps_args, ret, "the returns"),
+	CLI_OPT("features", "LIST", reps_args, features,
+	        "the state features: a comma list of columns or a\n"
+	        "prefix ending in '*' (none if omitted)"),
+	CLI_OPT("base", "COL", reps_args, base, "base weights q (default 1)"),
+	CLI_OPT_NUMBER("epsilon", "E", reps_args, epsilon, epsilon_set, parse_epsilon,
+	               "the KL bound, > 0 and <= 1e6 (default reps.epsilon)"),
+	CLI_OPT("summary", "FILE", reps_args, summary,
+	        "one row eta,dual,kl,ess,bound,residual,iterations,\n"
+	        "kl_gap,residual_rel,status,rank,cond,path"),
+	CLI_GIVEN(CLI_NOTE, reps_args, note), CLI_END
 };
 
 const cli_command cli_reps = {
 	"reps",
 	"poolreps reps --return COL --features LIST [--base COL] [--epsilon E]\n"
 	"              [--summary FILE] [-i IN.csv] [-o OUT.csv]\n"
-	"  REPS weights p for every input row; LIST is a comma list of columns or a\n"
-	"  prefix ending in '*'. --summary writes one row eta,dual,kl,ess,bound,residual,\n"
-	"  iterations,kl_gap,residual_rel,status,rank,cond,path: the certificate; status is\n"
+	"  REPS weights p for every input row. The summary is the certificate: status is\n"
 	"  active (|KL - epsilon| and the relative feature residual <= 1e-9), unreachable\n"
 	"  (eta = 0: p is the eta -> 0 limit, KL < epsilon) or failed, which exits 3; rank,\n"
 	"  cond and path say what the solver did (feature directions used, condition\n"

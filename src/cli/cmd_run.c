@@ -14,8 +14,10 @@ static int run_main(const pr_config *cfg, const void *opts, char *err)
 }
 
 static const cli_opt run_opts[] = {
-	CLI_COMMON_C, CLI_OPT("o", CLI_STR, pr_rundir_args, output), CLI_COMMON_SET, CLI_COMMON_SEED,
-	CLI_COMMON_PROGRESS, CLI_GIVEN(CLI_PROGRESS, pr_rundir_args, progress),
+	CLI_COMMON_C,
+	CLI_OPT("o", "DIR", pr_rundir_args, output,
+	        "the output folder (default results/<experiment.name>;\nfigures: results/sim)"),
+	CLI_COMMON_SET, CLI_COMMON_SEED, CLI_COMMON_PROGRESS, CLI_GIVEN(CLI_PROGRESS, pr_rundir_args, progress),
 	CLI_GIVEN(CLI_PROV, pr_rundir_args, prov), CLI_END
 };
 
@@ -23,7 +25,7 @@ const cli_command cli_run = {
 	"run",
 	"poolreps [run] CONFIG [-o DIR] [--set section.key=value]... [--seed N] [-q]\n"
 	"  Run the experiment a parameter file describes; write CSVs, figures' data and\n"
-	"  provenance into DIR (default: results/<experiment.name>; figures: results/sim).",
+	"  provenance into DIR.",
 	run_opts, sizeof(pr_rundir_args), NULL, CLI_OPS_CONFIG,
 	CLI_GRACEFUL | CLI_EXPERIMENT | CLI_DONE_LINE, NULL, run_main
 };
@@ -43,8 +45,8 @@ static int config_main(const pr_config *cfg, const void *opts, char *err)
 }
 
 static const cli_opt config_opts[] = {
-	CLI_COMMON_C, CLI_OPT("o", CLI_STR, config_args, output), CLI_COMMON_SET, CLI_COMMON_SEED,
-	CLI_END
+	CLI_COMMON_C, CLI_OPT("o", "FILE", config_args, output, "the INI (default stdout)"),
+	CLI_COMMON_SET, CLI_COMMON_SEED, CLI_END
 };
 
 const cli_command cli_config = {
@@ -62,7 +64,7 @@ static int merge_main(const pr_config *cfg, const void *opts, char *err)
 
 /* collect takes what merge takes but -o: the tail of this table */
 static const cli_opt merge_opts[] = {
-	CLI_OPT("o", CLI_STR, pr_rundir_args, output),
+	CLI_OPT("o", "DIR", pr_rundir_args, output, "the merged output folder"),
 	CLI_GIVEN_LIST(CLI_OPERANDS, pr_rundir_args, inputs, ninputs),
 	CLI_GIVEN(CLI_PROV, pr_rundir_args, prov), CLI_END
 };
@@ -102,9 +104,15 @@ static int sweep_main(const pr_config *cfg, const void *opts, char *err)
 }
 
 static const cli_opt sweep_opts[] = {
-	CLI_OPT("o", CLI_STR, sweep_args, r.output), CLI_COMMON_SET, CLI_COMMON_SEED,
-	CLI_OPT_LIST("grid", sweep_args, r.grid, r.ngrid), CLI_OPT("split", CLI_STR, sweep_args, r.split),
-	CLI_OPT("missing", CLI_STR, sweep_args, missing), CLI_GIVEN(CLI_PROV, sweep_args, r.prov), CLI_END
+	CLI_OPT("o", "SWEEP_DIR", sweep_args, r.output, "the folder of the jobs"),
+	CLI_COMMON_SET, CLI_COMMON_SEED,
+	CLI_OPT_LIST("grid", "SECTION.KEY=V1,V2,...", sweep_args, r.grid, r.ngrid,
+	             "a key and the values it takes (repeatable)"),
+	CLI_OPT("split", "repetition|variant|both", sweep_args, r.split,
+	        "one job per repetition (default), per variant\n(all repetitions) or per both"),
+	CLI_OPT("missing", "SWEEP_DIR", sweep_args, missing,
+	        "print the jobs that have not finished, to run again"),
+	CLI_GIVEN(CLI_PROV, sweep_args, r.prov), CLI_END
 };
 
 const cli_command cli_sweep = {
@@ -115,7 +123,7 @@ const cli_command cli_sweep = {
 	"  grid point and repetition and/or variant (exp1: setting, exp3: policy, exp4:\n"
 	"  policy, start and covariance), listed in SWEEP_DIR/jobs.txt and manifest.csv,\n"
 	"  with slurm.sbatch and parallel.sh to run them and point-N/config.ini per grid\n"
-	"  point. --missing prints the jobs that have not finished, to run again.",
+	"  point.",
 	sweep_opts, sizeof(sweep_args), NULL, CLI_OPS_SWEEP, CLI_GRACEFUL | CLI_EXPERIMENT,
 	sweep_check, sweep_main
 };

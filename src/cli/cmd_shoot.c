@@ -16,17 +16,18 @@ static int shoot_main(const pr_config *cfg, const void *opts, char *err)
 }
 
 static const cli_opt shoot_opts[] = {
-	CLI_COMMON_C, CLI_OPT("i", CLI_STR, shoot_args, input), CLI_OPT("o", CLI_STR, shoot_args, output),
-	CLI_COMMON_SET, CLI_OPT("trace", CLI_STR, shoot_args, trace),
-	CLI_OPT("keep", CLI_FLAG, shoot_args, keep), CLI_END
+	CLI_COMMON_C, CLI_OPT("i", "IN.csv", shoot_args, input, "the shots, one per row (default stdin)"),
+	CLI_OPT("o", "OUT.csv", shoot_args, output, "their outcomes (default stdout)"),
+	CLI_COMMON_SET,
+	CLI_OPT("trace", "TRACE.csv", shoot_args, trace, "every ball's path: shot,t,ball,x,y,vx,vy"),
+	CLI_OPT_FLAG("keep", shoot_args, keep, "input columns first; final positions final_x0,..."),
+	CLI_END
 };
 
 const cli_command cli_shoot = {
 	"shoot",
 	"poolreps shoot [-c FILE] [-i IN.csv] [-o OUT.csv] [--trace TRACE.csv] [--keep]\n"
 	"  One shot per input row. Input columns x0,y0,x1,y1,...,vx,vy. Output columns\n"
-	"  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events.\n"
-	"  --keep copies the input columns in front; the final positions are then\n"
-	"  final_x0,final_y0,...",
+	"  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events.",
 	shoot_opts, sizeof(shoot_args), "table.,sim.,reward.", CLI_OPS_NONE, 0, NULL, shoot_main
 };

@@ -16,13 +16,6 @@
 #include "poolreps/exp.h"
 #include "cli.h"
 
-/* In the order --help lists them; the first runs a parameter file. */
-static const cli_command *const commands[] = {
-	&cli_run, &cli_shoot, &cli_forest, &cli_reps, &cli_policy, &cli_config, &cli_merge, &cli_sweep,
-	&cli_collect
-};
-#define NCOMMANDS (sizeof commands / sizeof commands[0])
-
 /* During a run or merge, the first signal asks the loops to stop (they
  * return PR_EINTR and remove the staging folder). Otherwise, or on a second
  * signal, remove every registered temporary file and staging folder and
@@ -162,9 +155,9 @@ static const cli_command *command_named(const char *name)
 {
 	size_t j;
 
-	for (j = 0; j < NCOMMANDS; ++j)
-		if (strcmp(name, commands[j]->name) == 0)
-			return commands[j];
+	for (j = 0; j < cli_ncommands; ++j)
+		if (strcmp(name, cli_commands[j]->name) == 0)
+			return cli_commands[j];
 	return NULL;
 }
 
@@ -188,7 +181,7 @@ static int pick_command(int argc, char **argv, int *op, int *help, const cli_giv
 	if (i < argc && (*cmd = command_named(argv[i])))
 		++i;
 	else if (i < argc)
-		*cmd = commands[0];
+		*cmd = cli_commands[0];
 	if (*help)
 		return 0;
 	if (!*cmd)
@@ -372,11 +365,11 @@ int main(int argc, char **argv)
 		return pr_exit_code(PR_ENOMEM);
 	}
 	memcpy(prov.argv, argv, (size_t)argc * sizeof *argv);
-	rc = cli_parse(argc, argv, commands, NCOMMANDS, &g, &c, &help, &op, &code, msg);
+	rc = cli_parse(argc, argv, cli_commands, cli_ncommands, &g, &c, &help, &op, &code, msg);
 	if (rc == 0)
 		rc = pick_command(argc, argv, &op, &help, &g, &c, &cmd, &nops, &ops, msg);
 	if (rc == 0 && help) {
-		cli_usage(stdout, commands, NCOMMANDS, cmd);
+		cli_usage(stdout, cli_commands, cli_ncommands, cmd);
 		rc = -1;
 		code = cli_stdout_done();
 	}
@@ -385,7 +378,7 @@ int main(int argc, char **argv)
 		code = pr_exit_code(PR_ENOMEM);
 		snprintf(msg, sizeof msg, "out of memory");
 	}
-	if (rc == 0 && !(rc = cli_apply(cmd, &g, &c, opts, msg)))
+	if (rc == 0 && !(rc = cli_apply(cmd, &g, opts, msg)))
 		rc = cli_check(cmd, &c, opts, msg);
 	if (rc == 0) {
 		code = run_command(cmd, &c, &g, opts, nops, ops, &prov, &t0, c0);

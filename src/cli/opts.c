@@ -11,25 +11,25 @@
 #include "poolreps/exp.h"
 #include "cli.h"
 
-/* Options of no command: they act at once (help, help-keys, version) or
- * apply to all (-q). */
-enum { G_HELP = 1, G_HELP_KEYS, G_VERSION, G_QUIET };
-
-/* The common options' help lines: option and argument, what it does
- * (continued lines start with '\n'). */
+/* Options of no command's table: they act at once (help, help-keys,
+ * version) or apply to every command (-q). getopt returns a one-letter
+ * one's letter (its alias too), any other G_BASE + its id. */
+enum { G_QUIET = 1, G_HELP, G_HELP_KEYS, G_VERSION };
 static const struct {
-	const char *opt, *help;
-} common_help[] = {
-	{"-c FILE", "parameter file (INI)"},
-	{"--set SECTION.KEY=V", "override one parameter (repeatable)"},
-	{"--seed N", "master seed (experiment.seed)"},
-	{"-i FILE, -o FILE", "input (default stdin) and output (default stdout)"},
-	{"-q", "quiet: no progress, no summary line"},
-	{"--progress", "run: progress lines on stderr when it is no terminal\n"
-	               "(batch logs; a failure's line then follows them)"},
-	{"-h, --help", "this help; after a COMMAND, that command's usage"},
-	{"--help-keys", "every parameter key with default, unit and range"},
-	{"--version", "print the version and exit"},
+	const char *name, *alias; /* alias: the long name of a one-letter option */
+	int id;
+	const char *help;
+} globals[] = {
+	{"q", NULL, G_QUIET, "quiet: no progress, no summary line"},
+	{"h", "help", G_HELP, "this help; after a COMMAND, that command's usage"},
+	{"help-keys", NULL, G_HELP_KEYS, "every parameter key with default, unit and range"},
+	{"version", NULL, G_VERSION, "print the version and exit"},
+};
+#define NGLOBALS (sizeof globals / sizeof globals[0])
+
+/* The options main reads itself, as every table that has them declares them. */
+static const cli_opt common_opts[] = {
+	CLI_COMMON_C, CLI_COMMON_SET, CLI_COMMON_SEED, CLI_COMMON_PROGRESS, CLI_END
 };
 
 /* Every option name of every table, once (the first table's definition). */
@@ -37,9 +37,10 @@ static const struct {
 typedef struct {
 	const cli_opt *opt[MAX_OPTS];
 	int n;
-	struct option longopts[MAX_OPTS + 4];
-	char shortopts[2 * MAX_OPTS + 8];
+	struct option longopts[MAX_OPTS + 2 * NGLOBALS + 1];
+	char shortopts[2 * MAX_OPTS + NGLOBALS + 2];
 } option_set;
+#define G_BASE (256 + MAX_OPTS)
 
 static const cli_opt *find_opt(const cli_opt *opts, const char *name)
 {
@@ -57,19 +58,22 @@ static int takes_value(const cli_opt *o)
 /* getopt's tables: a long option's val is 256 + its index, a letter its own. */
 static void build_options(option_set *s, const cli_command *const *cmds, size_t ncmds)
 {
-	static const struct option globals[] = {
-		{"help", no_argument, 0, 'h'},
-		{"help-keys", no_argument, 0, 256 + MAX_OPTS + G_HELP_KEYS},
-		{"version", no_argument, 0, 256 + MAX_OPTS + G_VERSION},
-	};
 	const cli_opt *o;
 	size_t i, j;
 	int nl = 0, ns = 0;
 
 	s->n = 0;
 	s->shortopts[ns++] = ':';
-	for (j = 0; j < sizeof globals / sizeof globals[0]; ++j)
-		s->longopts[nl++] = globals[j];
+	for (j = 0; j < NGLOBALS; ++j) {
+		const char *name = globals[j].name;
+		int val = name[1] ? G_BASE + globals[j].id : name[0];
+		if (!name[1])
+			s->shortopts[ns++] = name[0];
+		if (name[1] || globals[j].alias) {
+			struct option lo = {name[1] ? name : globals[j].alias, no_argument, 0, val};
+			s->longopts[nl++] = lo;
+		}
+	}
 	for (i = 0; i < ncmds; ++i)
 		for (o = cmds[i]->opts; o->kind >= 0; ++o) {
 			int k;
@@ -91,7 +95,7 @@ static void build_options(option_set *s, const cli_command *const *cmds, size_t 
 			}
 			s->n++;
 		}
-	memcpy(s->shortopts + ns, "qh", 3);
+	s->shortopts[ns] = '\0';
 	memset(&s->longopts[nl], 0, sizeof s->longopts[nl]);
 }
 
@@ -200,8 +204,8 @@ int cli_parse(int argc, char **argv, const cli_command *const *cmds, size_t ncmd
 			*help = 1;
 		} else if (ch == 'q') {
 			c->quiet = 1;
-		} else if (ch == 256 + MAX_OPTS + G_HELP_KEYS || ch == 256 + MAX_OPTS + G_VERSION) {
-			if (ch == 256 + MAX_OPTS + G_VERSION)
+		} else if (ch == G_BASE + G_HELP_KEYS || ch == G_BASE + G_VERSION) {
+			if (ch == G_BASE + G_VERSION)
 				printf("poolreps %s\n", pr_version());
 			else
 				pr_config_help(pr_exp_config, NULL, stdout);
@@ -236,12 +240,11 @@ static void *field(void *opts, size_t at)
 	return (char *)opts + at;
 }
 
-int cli_apply(const cli_command *cmd, const cli_given *g, cli_common *c, void *opts, char *msg)
+int cli_apply(const cli_command *cmd, const cli_given *g, void *opts, char *msg)
 {
 	size_t used = 0;
 	int k, j;
 
-	(void)c;
 	for (k = 0; k < g->n; ++k) {
 		const cli_opt *o = find_opt(cmd->opts, g->opt[k]->name);
 		if (!o) {
@@ -328,6 +331,32 @@ void cli_hand(const cli_command *cmd, void *opts, int nops, char **ops, const pr
 		}
 }
 
+/* "  -o OUT.csv           what it is", its continuation lines under the
+ * help; a longer option and value put the help on the next line. */
+static void print_line(FILE *fp, const char *name, const char *alias, const char *metavar,
+                       const char *help)
+{
+	char left[64];
+	size_t n = strcspn(help, "\n");
+
+	snprintf(left, sizeof left, "%s%s%s%s%s%s", dashes(name), name, alias ? ", --" : "",
+	         alias ? alias : "", metavar ? " " : "", metavar ? metavar : "");
+	fprintf(fp, strlen(left) > 20 ? "  %s\n%23s%.*s\n" : "  %-20s %s%.*s\n", left, "", (int)n,
+	        help);
+	for (help += n; *help; help += n) {
+		n = strcspn(++help, "\n");
+		fprintf(fp, "%23s%.*s\n", "", (int)n, help);
+	}
+}
+
+/* The lines of a table's options (common: those main reads, else the others). */
+static void print_options(FILE *fp, const cli_opt *opts, int common)
+{
+	for (; opts->kind >= 0; ++opts)
+		if (opts->name && !opts->common == !common)
+			print_line(fp, opts->name, NULL, opts->metavar, opts->help);
+}
+
 /* "  Accepts: -c, -o, --set, -q, -h." from a command's table. */
 static void print_accepts(FILE *fp, const cli_command *cmd)
 {
@@ -360,15 +389,9 @@ static void print_common(FILE *fp)
 
 	fprintf(fp, "\nCommon options (a command takes those its Accepts line lists, each at\n"
 	            "most once except --set; any other is refused):\n");
-	for (i = 0; i < sizeof common_help / sizeof common_help[0]; ++i) {
-		const char *h = common_help[i].help;
-		size_t n = strcspn(h, "\n");
-		fprintf(fp, "  %-20s %.*s\n", common_help[i].opt, (int)n, h);
-		for (h += n; *h; h += n) {
-			n = strcspn(++h, "\n");
-			fprintf(fp, "%23s%.*s\n", "", (int)n, h);
-		}
-	}
+	print_options(fp, common_opts, 1);
+	for (i = 0; i < NGLOBALS; ++i)
+		print_line(fp, globals[i].name, globals[i].alias, NULL, globals[i].help);
 	fprintf(fp, "\nExit codes: 0 ok, 1 bad usage or parameter, 2 I/O or malformed CSV,\n"
 	            "  3 numerical failure, 4 out of memory, 128 + N stopped by signal N\n"
 	            "  (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT, 141 SIGPIPE, 153 SIGXFSZ).\n");
@@ -380,13 +403,15 @@ void cli_usage(FILE *fp, const cli_command *const *cmds, size_t ncmds, const cli
 
 	if (cmd) {
 		fprintf(fp, "Usage: %s\n", cmd->usage);
+		print_options(fp, cmd->opts, 0);
 		print_accepts(fp, cmd);
 		print_keys(fp, cmd);
 	} else {
 		fprintf(fp, "Usage: poolreps CONFIG | poolreps COMMAND [options] | poolreps help [COMMAND]\n"
 		            "\nCommands:\n");
 		for (i = 0; i < ncmds; ++i) {
-			fprintf(fp, "  %s\n", cmds[i]->usage);
+			fprintf(fp, "%s  %s\n", i ? "\n" : "", cmds[i]->usage);
+			print_options(fp, cmds[i]->opts, 0);
 			print_accepts(fp, cmds[i]);
 		}
 	}
