@@ -12,9 +12,11 @@ from (0, 0). Each timing is the median of RUNS (default 3). Writes a CSV
 row per problem and solver to --csv: problem, n, d, eps, solver, seconds,
 status, kl_gap, residual_rel, max |p - p_scipy|; the ratio scipy / poolreps
 is printed. When the Python binding loads, poolreps.reps (the same solve
-without the CSV round trip) is timed in-process too. --previous BINARY adds
-the same whole-process runs of an earlier poolreps (solver
-poolreps-newton-previous; scripts/bench_reps.sh builds one from git)."""
+without the CSV round trip) is timed in-process too. --previous ROOT (a
+source tree with build/rel built; scripts/bench_reps.sh builds one from
+git) adds the same runs of an earlier poolreps: whole process (solver
+poolreps-newton-previous) and in-process through its own binding and
+library, in a child process (poolreps-newton-inprocess-previous)."""
 import argparse
 import csv
 import os
@@ -99,10 +101,11 @@ def run_poolreps(binary, path, eps, tmp, extra):
     return dt, s, np.loadtxt(os.path.join(tmp, "p.csv"), skiprows=1)
 
 
-def in_process(R, phi, eps, runs):
-    """poolreps.reps (the Python binding: the solve without the CSV) or None."""
-    sys.path.insert(0, os.path.join(ROOT, "python"))
-    os.environ.setdefault("POOLREPS_LIB", os.path.join(ROOT, "build", "rel", "libpoolreps.so.0.1.0"))
+def in_process(R, phi, eps, runs, root=ROOT):
+    """poolreps.reps (the Python binding: the solve without the CSV) of the
+    tree root, or None."""
+    sys.path.insert(0, os.path.join(root, "python"))
+    os.environ.setdefault("POOLREPS_LIB", os.path.join(root, "build", "rel", "libpoolreps.so.0.1.0"))
     try:
         import poolreps
     except (ImportError, OSError):
@@ -115,6 +118,31 @@ def in_process(R, phi, eps, runs):
     return float(np.median(ts)), out["p"], out
 
 
+def in_process_previous(root, name, runs):
+    """in_process for the tree root, in a child process (its own binding and
+    library): (seconds, p, summary) or None."""
+    env = dict(os.environ, POOLREPS_LIB=os.path.join(root, "build", "rel", "libpoolreps.so.0.1.0"))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "out.npz")
+        r = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", root, "--problems", name,
+                            "--runs", str(runs), "--csv", out], env=env)
+        if r.returncode or not os.path.exists(out):
+            return None
+        z = np.load(out)
+        return float(z["seconds"]), z["p"], {k: str(z[k]) for k in ("status", "kl_gap", "residual_rel")}
+
+
+def child(a):
+    """--child ROOT: in_process of ROOT on one problem, saved to --csv (npz)."""
+    R, phi, eps = problem(a.problems)
+    res = in_process(R, phi, eps, a.runs, a.child)
+    if res is None:
+        return 1
+    np.savez(a.csv, seconds=res[0], p=res[1], status=res[2]["status"], kl_gap=res[2]["kl_gap"],
+             residual_rel=res[2]["residual_rel"])
+    return 0
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--poolreps", default=os.path.join(ROOT, "build", "rel", "poolreps"))
@@ -122,8 +150,11 @@ def main():
     ap.add_argument("--runs", type=int, default=int(os.environ.get("RUNS", "3")))
     ap.add_argument("--problems", default="dense140,dense200,onehot80")
     ap.add_argument("--solvers", default="newton,nlopt")
-    ap.add_argument("--previous", help="an earlier poolreps binary, timed the same way")
+    ap.add_argument("--previous", help="an earlier poolreps tree (build/rel built), timed the same way")
+    ap.add_argument("--child", help=argparse.SUPPRESS)
     a = ap.parse_args()
+    if a.child:
+        return child(a)
     os.makedirs(os.path.dirname(a.csv), exist_ok=True)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -139,17 +170,21 @@ def main():
                 ts.append(time.perf_counter() - t)
             t_sc = float(np.median(ts))
             rows.append([name, len(R), phi.shape[1], eps, "scipy-trust-exact", t_sc, "", "", "", ""])
-            inproc = in_process(R, phi, eps, a.runs)
-            if inproc is not None:
+            inprocs = [("newton-inprocess", in_process(R, phi, eps, a.runs))]
+            if a.previous:
+                inprocs.append(("newton-inprocess-previous", in_process_previous(a.previous, name, a.runs)))
+            for label, inproc in inprocs:
+                if inproc is None:
+                    continue
                 t_b, p_b, s_b = inproc
-                rows.append([name, len(R), phi.shape[1], eps, "poolreps-newton-inprocess", t_b,
+                rows.append([name, len(R), phi.shape[1], eps, "poolreps-" + label, t_b,
                              s_b["status"], s_b["kl_gap"], s_b["residual_rel"],
                              "%.3g" % np.abs(p_b - p_ref).max()])
-                print(f"{name}: poolreps.reps in-process {t_b:.3f} s, ratio scipy/poolreps "
+                print(f"{name}: poolreps.reps {label} {t_b:.3f} s, ratio scipy/poolreps "
                       f"{t_sc / t_b:.2f}", flush=True)
             runs = [(s, a.poolreps, s) for s in a.solvers.split(",")]
             if a.previous:
-                runs.append(("newton-previous", a.previous, "newton"))
+                runs.append(("newton-previous", os.path.join(a.previous, "build", "rel", "poolreps"), "newton"))
             for label, binary, solver in runs:
                 extra = ["--set", f"reps.solver={solver}"] if solver != "newton" else []
                 res = [run_poolreps(binary, path, eps, tmp, extra) for _ in range(a.runs)]

@@ -43,12 +43,12 @@ def render(rows):
                 goals.append(f"{prob} {RUN_WORDS[run]} {ratio:.2f} (target {target:g}: "
                              f"{'met' if ratio >= target else 'not met'})")
     out += ["", "Against the targets (scipy / poolreps Newton): " + "; ".join(goals) + "."]
-    prev = [f"{p} {sec[p, 'poolreps-newton-previous']:.3g} s → {sec[p, 'poolreps-newton']:.3g} s "
-            f"({sec[p, 'poolreps-newton-previous'] / sec[p, 'poolreps-newton']:.2f}× as fast)"
-            for p in sc if (p, "poolreps-newton-previous") in sec and (p, "poolreps-newton") in sec]
-    if prev:
-        out += ["", "Whole process against the previous poolreps in the same run: " +
-                "; ".join(prev) + "."]
+    for run, words in (("poolreps-newton", "Whole process"), ("poolreps-newton-inprocess", "In process")):
+        old = "poolreps-newton-inprocess-previous" if run.endswith("inprocess") else "poolreps-newton-previous"
+        prev = [f"{p} {sec[p, old]:.3g} s → {sec[p, run]:.3g} s ({sec[p, old] / sec[p, run]:.2f}× as fast)"
+                for p in sc if (p, old) in sec and (p, run) in sec]
+        if prev:
+            out += ["", f"{words} against the previous poolreps in the same run: " + "; ".join(prev) + "."]
     return "\n".join(out) + "\n"
 
 
