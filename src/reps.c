@@ -6,8 +6,9 @@
  * centred on phi_hat and divided by their largest deviation, one-hot
  * features as they are, less those whose constraint the others imply.
  *  1. joint_newton (the fast path): damped Newton on (eta, theta) from
- *     (1, 0); g is jointly convex, its Hessian is Cov_p([u, phi]) / eta with
- *     u = A / eta, A = R - theta^T phi.
+ *     (1, 0), or on wide dense problems from the least-squares fit at q
+ *     (dense_start); g is jointly convex, its Hessian is Cov_p([u, phi]) /
+ *     eta with u = A / eta, A = R - theta^T phi.
  *  2. search (when eta heads below eta_min or the fast path stalls): a
  *     safeguarded Newton root search on y = log eta for KL(p_eta||q) = eps,
  *     with theta_solve (Newton on theta at fixed eta, Hessian
@@ -1563,7 +1564,7 @@ static void dense_start(const prob *P, work *w, double eta_min, double *eta)
 }
 
 /* The fast path: damped Newton on (eta, theta) jointly, from eta = 1 and
- * theta = 0. g is jointly convex with Hessian Cov_p([u, psi]) / eta (plus
+ * theta = 0 (wide dense problems: from dense_start's point). g is jointly convex with Hessian Cov_p([u, psi]) / eta (plus
  * the ridge), solved through the theta block's factorisation and its Schur
  * complement ResVar_p(u | psi) / eta; Armijo steps keep eta > 0. Returns 1
  * at the root (|KL - eps| <= KL_TOL, residual <= THETA_TOL), 0 if eta heads
