@@ -8,13 +8,18 @@ dense n = 20000, d = 200, eps = 0.5; one-hot, n = 2000 with 80 features
 (4 trees of 20 leaves), eps = 0.5. scipy minimises g over (log eta, theta)
 on returns standardised as poolreps does (shift by the max, divide by the
 q-weighted standard deviation), with exact gradient and Hessian, gtol 1e-10,
-from (0, 0). Each timing is the median of RUNS (default 3). Writes a CSV
-row per problem and solver to --csv: problem, n, d, eps, solver, seconds,
-status, kl_gap, residual_rel, max |p - p_scipy|; the ratio scipy / poolreps
+from (0, 0). Each timing is the median of RUNS (default 3) rounds, every
+solver once per round. Writes a CSV row per problem and solver to --csv:
+problem, n, d, eps, solver, seconds, status, kl_gap, residual_rel,
+max |p - p_scipy|, evaluations (points at which the dual was evaluated:
+scipy's nfev, poolreps' summary `iterations`); the ratio scipy / poolreps
 is printed. When the Python binding loads, poolreps.reps (the same solve
-without the CSV round trip) is timed in-process too. --previous BINARY adds
-the same whole-process runs of an earlier poolreps (solver
-poolreps-newton-previous; scripts/bench_reps.sh builds one from git)."""
+without the CSV round trip) is timed in-process too, in a child process
+per round, after one untimed call that loads the library. --previous ROOT (a
+source tree with build/rel built; scripts/bench_reps.sh builds one from
+git) adds the same runs of an earlier poolreps: whole process (solver
+poolreps-newton-previous) and in-process through its own binding and
+library, in a child process (poolreps-newton-inprocess-previous)."""
 import argparse
 import csv
 import os
@@ -83,7 +88,7 @@ def scipy_solve(R, phi, eps):
     res = optimize.minimize(lambda x: get(x)[0], np.zeros(phi.shape[1] + 1), jac=lambda x: get(x)[1],
                             hess=lambda x: get(x)[2], method="trust-exact",
                             options={"gtol": 1e-10, "maxiter": 1000})
-    return get(res.x)[3]
+    return get(res.x)[3], res.nfev
 
 
 def run_poolreps(binary, path, eps, tmp, extra):
@@ -99,20 +104,58 @@ def run_poolreps(binary, path, eps, tmp, extra):
     return dt, s, np.loadtxt(os.path.join(tmp, "p.csv"), skiprows=1)
 
 
-def in_process(R, phi, eps, runs):
-    """poolreps.reps (the Python binding: the solve without the CSV) or None."""
-    sys.path.insert(0, os.path.join(ROOT, "python"))
-    os.environ.setdefault("POOLREPS_LIB", os.path.join(ROOT, "build", "rel", "libpoolreps.so.0.1.0"))
+def binding(root=ROOT):
+    """The poolreps module (the Python binding) of the tree root, or None."""
+    sys.path.insert(0, os.path.join(root, "python"))
+    os.environ.setdefault("POOLREPS_LIB", os.path.join(root, "build", "rel", "libpoolreps.so.0.1.0"))
     try:
         import poolreps
     except (ImportError, OSError):
         return None
-    ts = []
-    for _ in range(runs):
-        t = time.perf_counter()
-        out = poolreps.reps(R, phi, epsilon=eps)
-        ts.append(time.perf_counter() - t)
-    return float(np.median(ts)), out["p"], out
+    return poolreps
+
+
+def in_process(mod, R, phi, eps):
+    """One poolreps.reps call (the solve without the CSV): seconds, summary, p."""
+    t = time.perf_counter()
+    out = mod.reps(R, phi, epsilon=eps)
+    return time.perf_counter() - t, out, out["p"]
+
+
+def in_process_child(root, name):
+    """in_process for the tree root in a child process (its own binding and
+    library; this tree's and the previous one's alike, so that both are
+    timed in the same state of a process), or None."""
+    env = dict(os.environ, POOLREPS_LIB=os.path.join(root, "build", "rel", "libpoolreps.so.0.1.0"))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "out.npz")
+        r = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", root, "--problems", name,
+                            "--csv", out], env=env)
+        if r.returncode or not os.path.exists(out):
+            return None
+        z = np.load(out)
+        return float(z["seconds"]), {k: str(z[k]) for k in ("status", "kl_gap", "residual_rel",
+                                                            "iterations")}, z["p"]
+
+
+def child(a):
+    """--child ROOT: in_process of ROOT on one problem, saved to --csv (npz)."""
+    mod = binding(a.child)
+    if mod is None:
+        return 1
+    R, phi, eps = problem(a.problems)
+    # the first call loads the library (and whatever it loads): not timed,
+    # as in the parent, whose first call falls in the median's tails
+    in_process(mod, R, phi, eps)
+    t, s, p = in_process(mod, R, phi, eps)
+    np.savez(a.csv, seconds=t, p=p, **{k: s[k] for k in ("status", "kl_gap", "residual_rel", "iterations")})
+    return 0
+
+
+def scipy_run(R, phi, eps):
+    t = time.perf_counter()
+    p, nfev = scipy_solve(R, phi, eps)
+    return time.perf_counter() - t, {"status": "", "kl_gap": "", "residual_rel": "", "iterations": nfev}, p
 
 
 def main():
@@ -122,49 +165,59 @@ def main():
     ap.add_argument("--runs", type=int, default=int(os.environ.get("RUNS", "3")))
     ap.add_argument("--problems", default="dense140,dense200,onehot80")
     ap.add_argument("--solvers", default="newton,nlopt")
-    ap.add_argument("--previous", help="an earlier poolreps binary, timed the same way")
+    ap.add_argument("--previous", help="an earlier poolreps tree (build/rel built), timed the same way")
+    ap.add_argument("--child", help=argparse.SUPPRESS)
     a = ap.parse_args()
+    if a.child:
+        return child(a)
     os.makedirs(os.path.dirname(a.csv), exist_ok=True)
     rows = []
+    # the binding is timed in child processes; here it only has to load
+    mod = binding()
     with tempfile.TemporaryDirectory() as tmp:
         for name in a.problems.split(","):
             R, phi, eps = problem(name)
             path = os.path.join(tmp, "in.csv")
             np.savetxt(path, np.c_[R, phi], delimiter=",", fmt="%.17g", comments="",
                        header=",".join(["R"] + [f"phi{j}" for j in range(phi.shape[1])]))
-            ts = []
-            for _ in range(a.runs):
-                t = time.perf_counter()
-                p_ref = scipy_solve(R, phi, eps)
-                ts.append(time.perf_counter() - t)
-            t_sc = float(np.median(ts))
-            rows.append([name, len(R), phi.shape[1], eps, "scipy-trust-exact", t_sc, "", "", "", ""])
-            inproc = in_process(R, phi, eps, a.runs)
-            if inproc is not None:
-                t_b, p_b, s_b = inproc
-                rows.append([name, len(R), phi.shape[1], eps, "poolreps-newton-inprocess", t_b,
-                             s_b["status"], s_b["kl_gap"], s_b["residual_rel"],
-                             "%.3g" % np.abs(p_b - p_ref).max()])
-                print(f"{name}: poolreps.reps in-process {t_b:.3f} s, ratio scipy/poolreps "
-                      f"{t_sc / t_b:.2f}", flush=True)
-            runs = [(s, a.poolreps, s) for s in a.solvers.split(",")]
+            # every solver once per round, rounds interleaved: a change of
+            # the machine's load falls on all of them
+            runners = [("scipy-trust-exact", lambda: scipy_run(R, phi, eps))]
+            if mod is not None:
+                runners.append(("poolreps-newton-inprocess", lambda: in_process_child(ROOT, name)))
             if a.previous:
-                runs.append(("newton-previous", a.previous, "newton"))
-            for label, binary, solver in runs:
+                runners.append(("poolreps-newton-inprocess-previous",
+                                lambda: in_process_child(a.previous, name)))
+            for solver in a.solvers.split(","):
                 extra = ["--set", f"reps.solver={solver}"] if solver != "newton" else []
-                res = [run_poolreps(binary, path, eps, tmp, extra) for _ in range(a.runs)]
-                t_c = float(np.median([r[0] for r in res]))
-                s, p = res[-1][1], res[-1][2]
-                diff = "" if p is None else "%.3g" % np.abs(p - p_ref).max()
-                rows.append([name, len(R), phi.shape[1], eps, "poolreps-" + label, t_c, s["status"],
-                             s["kl_gap"], s["residual_rel"], diff])
-                print(f"{name}: poolreps {label} {t_c:.3f} s, scipy trust-exact {t_sc:.3f} s, "
-                      f"ratio scipy/poolreps {t_sc / t_c:.2f}, status {s['status']}, "
-                      f"max|p - p_scipy| {diff}", flush=True)
+                runners.append(("poolreps-" + solver,
+                                lambda extra=extra: run_poolreps(a.poolreps, path, eps, tmp, extra)))
+            if a.previous:
+                runners.append(("poolreps-newton-previous",
+                                lambda: run_poolreps(os.path.join(a.previous, "build", "rel", "poolreps"),
+                                                     path, eps, tmp, [])))
+            res = {label: [] for label, _ in runners}
+            for _ in range(a.runs):
+                for label, run in runners:
+                    out = run()
+                    if out is not None:
+                        res[label].append(out)
+            p_ref = res["scipy-trust-exact"][-1][2]
+            t_sc = float(np.median([r[0] for r in res["scipy-trust-exact"]]))
+            for label, _ in runners:
+                if not res[label]:
+                    continue
+                t_c = float(np.median([r[0] for r in res[label]]))
+                s, p = res[label][-1][1], res[label][-1][2]
+                diff = "" if p is None or label.startswith("scipy") else "%.3g" % np.abs(p - p_ref).max()
+                rows.append([name, len(R), phi.shape[1], eps, label, t_c, s["status"], s["kl_gap"],
+                             s["residual_rel"], diff, s.get("iterations", "")])
+                print(f"{name}: {label} {t_c:.3f} s, ratio scipy/it {t_sc / t_c:.2f}, "
+                      f"status {s['status'] or '-'}, max|p - p_scipy| {diff or '-'}", flush=True)
     with open(a.csv, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["problem", "n", "d", "eps", "solver", "seconds", "status", "kl_gap",
-                    "residual_rel", "max_abs_p_diff"])
+                    "residual_rel", "max_abs_p_diff", "evaluations"])
         w.writerows(rows)
 
 

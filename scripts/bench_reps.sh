@@ -3,15 +3,16 @@
 # Python binding) against scipy.optimize.minimize(method='trust-exact') on
 # the same REPS dual in the same run (scripts/bench_reps.py), next to the
 # previous poolreps built from git in this run (BENCH_BASE, default the
-# last commit before the fast CSV reader; BENCH_BASE=none skips it): the
-# tree from git archive in a temporary folder, removed afterwards. Table by
+# last commit before the dense path's own rank-k kernel and start;
+# BENCH_BASE=none skips it), whole process and in-process: the tree from
+# git archive in a temporary folder, removed afterwards. Table by
 # scripts/bench_reps_table.py. CSV: build/bench/reps.csv (copy it to
 # docs/bench_reps.csv, then `scripts/bench_reps_table.py --write` updates
 # docs/benchmarks.md).
 set -e
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
-BASE=${BENCH_BASE:-f6c9cd5dc4ad9684ef95f07bac9b89a45a3de521}
+BASE=${BENCH_BASE:-a20f1d88882bdafc31b35170b43db0686b45fc59}
 ${MAKE:-make} -s SAN=0 build/rel/poolreps build/rel/libpoolreps.so.0.1.0
 TMP=$(mktemp -d "${TMPDIR:-/tmp}/bench_reps.XXXXXX")
 trap 'rm -rf "$TMP"' EXIT INT TERM
@@ -19,9 +20,9 @@ PREV=
 if [ "$BASE" != none ]; then
 	mkdir "$TMP/previous"
 	git archive "$BASE" | tar -x -C "$TMP/previous"
-	${MAKE:-make} -s -C "$TMP/previous" -j2 build/rel/poolreps > "$TMP/build.log" 2>&1 ||
-		{ cat "$TMP/build.log" >&2; exit 1; }
-	PREV="--previous $TMP/previous/build/rel/poolreps"
+	${MAKE:-make} -s -C "$TMP/previous" -j2 build/rel/poolreps build/rel/libpoolreps.so.0.1.0 \
+		> "$TMP/build.log" 2>&1 || { cat "$TMP/build.log" >&2; exit 1; }
+	PREV="--previous $TMP/previous"
 fi
 "$PY" scripts/bench_reps.py --runs "${RUNS:-3}" --csv build/bench/reps.csv $PREV
 "$PY" scripts/bench_reps_table.py build/bench/reps.csv

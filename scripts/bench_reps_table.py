@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Markdown table of scripts/bench_reps.py's CSV (default docs/bench_reps.csv):
 per problem, each solver's seconds, the ratio scipy / it, its status and
-certificate, and max |p - p_scipy|; then the targets and the previous
+certificate, max |p - p_scipy| and the dual's evaluations; then the targets and the previous
 poolreps (when the CSV has it) in words made from the same numbers.
 
   bench_reps_table.py [CSV]            print the table and the summary
@@ -28,13 +28,14 @@ def render(rows):
     sc = {r["problem"]: float(r["seconds"]) for r in rows if r["solver"] == "scipy-trust-exact"}
     sec = {(r["problem"], r["solver"]): float(r["seconds"]) for r in rows}
     out = ["| problem | n | d | eps | solver | seconds | scipy / solver | status | kl_gap | "
-           "residual_rel | max abs p - p_scipy |",
-           "|---|---:|---:|---:|---|---:|---:|---|---:|---:|---:|"]
+           "residual_rel | max abs p - p_scipy | evaluations |",
+           "|---|---:|---:|---:|---|---:|---:|---|---:|---:|---:|---:|"]
     for r in rows:
         ratio = sc[r["problem"]] / float(r["seconds"])
         out.append(f"| {r['problem']} | {r['n']} | {r['d']} | {float(r['eps']):g} | {r['solver']} | "
                    f"{float(r['seconds']):.3g} | {ratio:.2f} | {r['status'] or '-'} | "
-                   f"{r['kl_gap'] or '-'} | {r['residual_rel'] or '-'} | {r['max_abs_p_diff'] or '-'} |")
+                   f"{r['kl_gap'] or '-'} | {r['residual_rel'] or '-'} | {r['max_abs_p_diff'] or '-'} | "
+                   f"{r.get('evaluations') or '-'} |")
     goals = []
     for prob, (target, runs) in TARGETS.items():
         for run in runs:
@@ -43,12 +44,12 @@ def render(rows):
                 goals.append(f"{prob} {RUN_WORDS[run]} {ratio:.2f} (target {target:g}: "
                              f"{'met' if ratio >= target else 'not met'})")
     out += ["", "Against the targets (scipy / poolreps Newton): " + "; ".join(goals) + "."]
-    prev = [f"{p} {sec[p, 'poolreps-newton-previous']:.3g} s → {sec[p, 'poolreps-newton']:.3g} s "
-            f"({sec[p, 'poolreps-newton-previous'] / sec[p, 'poolreps-newton']:.2f}× as fast)"
-            for p in sc if (p, "poolreps-newton-previous") in sec and (p, "poolreps-newton") in sec]
-    if prev:
-        out += ["", "Whole process against the previous poolreps in the same run: " +
-                "; ".join(prev) + "."]
+    for run, words in (("poolreps-newton", "Whole process"), ("poolreps-newton-inprocess", "In process")):
+        old = "poolreps-newton-inprocess-previous" if run.endswith("inprocess") else "poolreps-newton-previous"
+        prev = [f"{p} {sec[p, old]:.3g} s → {sec[p, run]:.3g} s ({sec[p, old] / sec[p, run]:.2f}× as fast)"
+                for p in sc if (p, old) in sec and (p, run) in sec]
+        if prev:
+            out += ["", f"{words} against the previous poolreps in the same run: " + "; ".join(prev) + "."]
     return "\n".join(out) + "\n"
 
 

@@ -76,6 +76,68 @@ static int round_even(u128 x, int sticky, int e, double *v)
 	return 1;
 }
 
+/* Sign of w 10^-k - M 2^F (k <= 27, M < 2^56), exactly: w against
+ * M 5^k 2^(F+k); 2 when that does not fit 128 bits. */
+static int cmp_mid(uint64_t w, int k, uint64_t M, int F)
+{
+	const u128 r = (u128)M * pow5[k];
+	const int t = F + k;
+	u128 a = w, b = r;
+
+	if (t >= 0) {
+		if (bit_length(r) + t > 127)
+			return 2;
+		b = r << t;
+	} else {
+		if (-t > 63)
+			return 2;
+		a = (u128)w << -t;
+	}
+	return (a > b) - (a < b);
+}
+
+/* w 10^-k for w > 2^53, k <= 22: the IEEE quotient (double)w / 10^k lies
+ * within two ulps of the value; the midpoints next to it, compared exactly
+ * (cmp_mid), move it to the nearest double, ties to even. 0 when that
+ * does not settle (then the division of scale decides). */
+static int near_quotient(uint64_t w, int k, const double *p10, double *v)
+{
+	double c = (double)w / p10[k];
+	int step;
+
+	for (step = 0; step < 4; step++) {
+		uint64_t bits, m;
+		int biased, E, up, lo;
+
+		memcpy(&bits, &c, sizeof bits);
+		biased = (int)(bits >> 52);
+		if (biased < 2 || biased > 2045)
+			return 0;
+		m = (bits & ((1ULL << 52) - 1)) | 1ULL << 52;
+		E = biased - 1075;
+		up = cmp_mid(w, k, 2 * m + 1, E - 1);
+		/* below a power of two the neighbour is half as far */
+		lo = m == 1ULL << 52 ? cmp_mid(w, k, 4 * m - 1, E - 2) : cmp_mid(w, k, 2 * m - 1, E - 1);
+		if (up == 2 || lo == 2)
+			return 0;
+		if (up > 0 || (up == 0 && (m & 1))) {
+			bits++;
+		} else if (lo < 0 || (lo == 0 && (m & 1))) {
+			bits--;
+		} else {
+			*v = c;
+			return 1;
+		}
+		memcpy(&c, &bits, sizeof c);
+		/* a tie settles on the even neighbour: done */
+		if (up == 0 || lo == 0) {
+			*v = c;
+			return 1;
+		}
+	}
+	return 0;
+}
+
 /* The double of w 10^q for w > 0 (see the top of the file); 0: not here. */
 static int scale(uint64_t w, int q, double *v)
 {
@@ -96,6 +158,8 @@ static int scale(uint64_t w, int q, double *v)
 #endif
 	if (q < -27 || q > 27)
 		return 0;
+	if (q < 0 && q >= -22 && near_quotient(w, -q, p10, v))
+		return 1;
 	if (q >= 0)
 		return round_even((u128)w * pow5[q], 0, q, v);
 	/* w shifted to fill 64 bits, then by one bit less than 5^-q has, so that
@@ -105,6 +169,8 @@ static int scale(uint64_t w, int q, double *v)
 	num = (u128)(w << s) << t;
 	return round_even(num / pow5[-q], num % pow5[-q] != 0, q - s - t, v);
 }
+
+#define DIGIT(c) ((unsigned)((c) - '0') < 10)
 
 /* Append the digits at *s to w (nd significant digits so far; leading
  * zeros skipped while nd is 0); the number of digits read, or -1 past 19
@@ -118,7 +184,16 @@ static int digits(const char **s, uint64_t *w, int *nd)
 	if (!k)
 		while (*p == '0')
 			++p;
-	for (; (unsigned)(*p - '0') < 10; ++p) {
+	/* four digits at a time (one multiplication on the chain through x
+	 * instead of four); each byte is read only after the one before it
+	 * was a digit, so never past the terminating NUL */
+	while (k <= 15 && DIGIT(p[0]) && DIGIT(p[1]) && DIGIT(p[2]) && DIGIT(p[3])) {
+		x = 10000 * x + (uint64_t)(1000 * (p[0] - '0') + 100 * (p[1] - '0') + 10 * (p[2] - '0') +
+		                           (p[3] - '0'));
+		k += 4;
+		p += 4;
+	}
+	for (; DIGIT(*p); ++p) {
 		if (++k > 19)
 			return -1;
 		x = 10 * x + (uint64_t)(*p - '0');

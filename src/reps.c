@@ -6,8 +6,9 @@
  * centred on phi_hat and divided by their largest deviation, one-hot
  * features as they are, less those whose constraint the others imply.
  *  1. joint_newton (the fast path): damped Newton on (eta, theta) from
- *     (1, 0); g is jointly convex, its Hessian is Cov_p([u, phi]) / eta with
- *     u = A / eta, A = R - theta^T phi.
+ *     (1, 0), or on wide dense problems from the least-squares fit at q
+ *     (dense_start); g is jointly convex, its Hessian is Cov_p([u, phi]) /
+ *     eta with u = A / eta, A = R - theta^T phi.
  *  2. search (when eta heads below eta_min or the fast path stalls): a
  *     safeguarded Newton root search on y = log eta for KL(p_eta||q) = eps,
  *     with theta_solve (Newton on theta at fixed eta, Hessian
@@ -33,16 +34,15 @@
 #include <stdio.h>
 #include <string.h>
 
-#include <dlfcn.h>
 #include <glpk.h>
 #include <nlopt.h>
-#include <pthread.h>
 #include <gsl/gsl_blas.h>
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_linalg.h>
 #include <gsl/gsl_matrix.h>
 
 #include "poolreps/reps.h"
+#include "syrk_priv.h"
 
 void pr_reps_opts_init(pr_reps_opts *o)
 {
@@ -87,11 +87,14 @@ enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCE
  * to dependent for the digits of psi (the pivots below 1e-8 of the largest
  * come from directions that only the last digits of the data hold). */
 #define COND_RETRY 1e8
-/* Dense problems with at least this many free features form Cov_p(psi) by
- * one BLAS-3 call (dsyrk on the sqrt(p)-weighted rows) instead of row by
- * row: the same sums in another order, so only problems this wide (none of
- * the thesis experiments') see other round-off. */
+/* Dense problems with at least this many free features form Cov_p(psi) as
+ * a rank-k update (pr_syrk_acc on the sqrt(p)-weighted rows) instead of
+ * row by row: other products (sqrt p dv_j sqrt p dv_k for p dv_j dv_k), so
+ * only problems this wide (none of the thesis experiments') see other
+ * round-off. */
 #define BLAS_MIN_NF 32
+/* Rows of Y per pr_syrk_acc call: 64 rows of 200 features stay in L2. */
+#define SYRK_ROWS 64
 /* Largest move of log eta per search step before the root is bracketed. */
 #define MAX_DY 5.0
 /* Moves of MAX_DY up in log eta while no eta has given a theta solution. */
@@ -155,7 +158,9 @@ typedef struct {
 	int *iscr;           /* 3 nf */
 	double *u;           /* m */
 	double varu, resvar; /* Var_p(u), ResVar_p(u | psi) at the last factorisation */
-	gsl_matrix *Y;       /* dense, nf >= BLAS_MIN_NF: m x nf, sqrt(p) (psi - psi_c) */
+	int nfp;             /* nf rounded up to PR_SYRK_W */
+	double *Y, *Hp;      /* dense, nf >= BLAS_MIN_NF (else NULL): SYRK_ROWS x nfp
+	                        rows of sqrt(p) (psi - psi_c), nfp x nfp sums */
 } work;
 
 static void work_free(work *w)
@@ -169,7 +174,8 @@ static void work_free(work *w)
 		free(w->pt[k].g);
 	}
 	gsl_matrix_free(w->H);
-	gsl_matrix_free(w->Y);
+	free(w->Y);
+	free(w->Hp);
 	free(w->dsc);
 	free(w->v1);
 	free(w->v2);
@@ -178,8 +184,9 @@ static void work_free(work *w)
 	free(w->iscr);
 }
 
-static int work_alloc(work *w, int m, int nf, int max_evals)
+static int work_alloc(work *w, const prob *P, int max_evals)
 {
+	const int m = P->m, nf = P->nf;
 	size_t a = (size_t)(nf > 0 ? nf : 1), b = (size_t)m;
 	int k;
 
@@ -200,7 +207,47 @@ static int work_alloc(work *w, int m, int nf, int max_evals)
 	w->c = calloc(a, sizeof(double));
 	w->u = calloc(b, sizeof(double));
 	w->iscr = calloc(3 * a, sizeof(int));
+	if (!P->bin && nf >= BLAS_MIN_NF) {
+		w->nfp = (nf + PR_SYRK_W - 1) / PR_SYRK_W * PR_SYRK_W;
+		/* calloc: the padding columns stay 0 */
+		w->Y = calloc((size_t)SYRK_ROWS * w->nfp, sizeof *w->Y);
+		w->Hp = malloc((size_t)w->nfp * w->nfp * sizeof *w->Hp);
+		if (!w->Y || !w->Hp)
+			return PR_ENOMEM;
+	}
 	return w->H && w->dsc && w->v1 && w->v2 && w->c && w->u && w->iscr ? PR_OK : PR_ENOMEM;
+}
+
+/* A = R - psi th, each row's sum in column order, four rows at a time (four
+ * independent chains of additions instead of one: the same bits, faster). */
+static void dense_residuals(const prob *P, const double *th, double *A)
+{
+	const int m = P->m, nf = P->nf;
+	int i = 0, j;
+
+	for (; i + 4 <= m; i += 4) {
+		const double *r0 = P->psi + (size_t)i * nf, *r1 = r0 + nf, *r2 = r1 + nf, *r3 = r2 + nf;
+		double a0 = P->R[i], a1 = P->R[i + 1], a2 = P->R[i + 2], a3 = P->R[i + 3];
+
+		for (j = 0; j < nf; j++) {
+			a0 -= r0[j] * th[j];
+			a1 -= r1[j] * th[j];
+			a2 -= r2[j] * th[j];
+			a3 -= r3[j] * th[j];
+		}
+		A[i] = a0;
+		A[i + 1] = a1;
+		A[i + 2] = a2;
+		A[i + 3] = a3;
+	}
+	for (; i < m; i++) {
+		const double *r = P->psi + (size_t)i * nf;
+		double a = P->R[i];
+
+		for (j = 0; j < nf; j++)
+			a -= r[j] * th[j];
+		A[i] = a;
+	}
 }
 
 /* The dual in solver coordinates at (eta, x->th):
@@ -214,22 +261,19 @@ static void eval(const prob *P, work *w, double eta, point *x)
 	int i, j, k;
 
 	w->evals++;
-	for (i = 0; i < m; i++) {
-		double a = P->R[i];
+	if (P->bin)
+		for (i = 0; i < m; i++) {
+			double a = P->R[i];
 
-		if (P->bin) {
 			for (k = P->rfp[i]; k < P->rfp[i + 1]; k++)
 				a -= x->th[P->rfi[k]];
-		} else {
-			const double *r = P->psi + (size_t)i * nf;
-
-			for (j = 0; j < nf; j++)
-				a -= r[j] * x->th[j];
+			x->A[i] = a;
 		}
-		x->A[i] = a;
-		if (a > amax)
-			amax = a;
-	}
+	else
+		dense_residuals(P, x->th, x->A);
+	for (i = 0; i < m; i++)
+		if (x->A[i] > amax)
+			amax = x->A[i];
 	for (i = 0; i < m; i++) {
 		double u = (x->A[i] - amax) / eta;
 
@@ -246,10 +290,11 @@ static void eval(const prob *P, work *w, double eta, point *x)
 			for (k = P->rfp[i]; k < P->rfp[i + 1]; k++)
 				x->g[P->rfi[k]] -= pi;
 		} else {
-			const double *r = P->psi + (size_t)i * nf;
+			const double *restrict r = P->psi + (size_t)i * nf;
+			double *restrict g = x->g;
 
 			for (j = 0; j < nf; j++)
-				x->g[j] -= pi * r[j];
+				g[j] -= pi * r[j];
 		}
 	}
 	x->amax = amax;
@@ -276,77 +321,43 @@ static int plain_ok(const prob *P, const point *x)
 	return 1;
 }
 
-/* OpenBLAS's Fortran dsyrk, loaded privately (RTLD_LOCAL): only this call
- * goes to OpenBLAS, and GSL keeps its own CBLAS, so nothing else changes
- * its round-off (OpenBLAS as GSL's CBLAS moves the bits of every
- * experiment). Without OpenBLAS, GSL's dsyrk. */
-typedef void (*dsyrk_fn)(const char *uplo, const char *trans, const int *n, const int *k,
-                         const double *alpha, const double *a, const int *lda,
-                         const double *beta, double *c, const int *ldc);
-static dsyrk_fn fast_dsyrk;
-static pthread_once_t fast_once = PTHREAD_ONCE_INIT;
-
-static void fast_load(void)
+/* covariances() for wide dense problems: the moments about row c, with
+ * sum p (psi - psi_c)(psi - psi_c)^T as Y^T Y, Y = diag(sqrt p) (psi -
+ * psi_c), by pr_syrk_acc on blocks of SYRK_ROWS rows of Y (padded to
+ * nfp columns; the block and w->Hp stay in cache). w->u and mu are set,
+ * H's upper triangle and w->c, w->v1 zeroed by the caller. */
+static void covariances_blas(const prob *P, work *w, const point *x, int c, double mu)
 {
-	void *h = dlopen("libopenblas.so.0", RTLD_NOW | RTLD_LOCAL);
-	void *f = h ? dlsym(h, "dsyrk_") : NULL, *t = h ? dlsym(h, "openblas_set_num_threads") : NULL;
-	void (*threads)(int);
-
-	/* one thread: OpenBLAS's split of the sums depends on its thread
-	 * count, and the bits must not (without the setter, no OpenBLAS) */
-	if (!t)
-		return;
-	/* data pointers to function pointers, as POSIX dlsym requires */
-	memcpy(&threads, &t, sizeof threads);
-	threads(1);
-	memcpy(&fast_dsyrk, &f, sizeof fast_dsyrk);
-}
-
-/* covariances() for wide dense problems: the moments about row c from
- * Y = diag(sqrt p) (psi - psi_c) by dsyrk (upper triangle of w->H). w->u
- * and mu are set, H's upper triangle and w->c, w->v1 zeroed by the caller.
- * PR_ENOMEM if Y cannot be allocated (the caller then sums row by row). */
-static int covariances_blas(const prob *P, work *w, const point *x, int c, double mu)
-{
-	const int m = P->m, nf = P->nf;
-	const double *rc = P->psi + (size_t)c * nf;
-	double *H = w->H->data, *mc = w->v1, vu = 0.0, one = 1.0, zero = 0.0;
+	const int m = P->m, nf = P->nf, nfp = w->nfp;
+	const double *restrict rc = P->psi + (size_t)c * nf;
+	double *H = w->H->data, *restrict mc = w->v1, vu = 0.0;
 	const size_t td = w->H->tda;
-	const int ldc = (int)td;
-	int i, j, k, lda;
+	int i0, i, j, k;
 
-	if (!w->Y && !(w->Y = gsl_matrix_alloc((size_t)m, (size_t)nf)))
-		return PR_ENOMEM;
-	lda = (int)w->Y->tda;
-	for (i = 0; i < m; i++) {
-		const double pi = x->p[i], du = w->u[i] - mu, sp = sqrt(pi);
-		const double *r = P->psi + (size_t)i * nf;
-		double *y = w->Y->data + (size_t)i * w->Y->tda;
+	memset(w->Hp, 0, (size_t)nfp * nfp * sizeof *w->Hp);
+	for (i0 = 0; i0 < m; i0 += SYRK_ROWS) {
+		const int mr = m - i0 < SYRK_ROWS ? m - i0 : SYRK_ROWS;
 
-		vu += pi * du * du;
-		for (j = 0; j < nf; j++) {
-			const double dv = r[j] - rc[j];
+		for (i = 0; i < mr; i++) {
+			const double pi = x->p[i0 + i], du = w->u[i0 + i] - mu, sp = sqrt(pi);
+			const double *restrict r = P->psi + (size_t)(i0 + i) * nf;
+			double *restrict y = w->Y + (size_t)i * nfp, *restrict cu = w->c;
 
-			y[j] = sp * dv;
-			mc[j] += pi * dv;
-			w->c[j] += pi * dv * du;
+			vu += pi * du * du;
+			for (j = 0; j < nf; j++) {
+				const double dv = r[j] - rc[j];
+
+				y[j] = sp * dv;
+				mc[j] += pi * dv;
+				cu[j] += pi * dv * du;
+			}
 		}
-	}
-	pthread_once(&fast_once, fast_load);
-	if (fast_dsyrk) {
-		/* column-major, Y^T is nf x m and the row-major upper triangle of
-		 * H is the column-major lower one */
-		fast_dsyrk("L", "N", &nf, &m, &one, w->Y->data, &lda, &zero, H, &ldc);
-	} else {
-		gsl_matrix_view hv = gsl_matrix_submatrix(w->H, 0, 0, (size_t)nf, (size_t)nf);
-
-		gsl_blas_dsyrk(CblasUpper, CblasTrans, 1.0, w->Y, 0.0, &hv.matrix);
+		pr_syrk_acc(w->Y, mr, nfp, w->Hp);
 	}
 	for (j = 0; j < nf; j++)
 		for (k = j; k < nf; k++)
-			H[(size_t)j * td + k] -= mc[j] * mc[k];
+			H[(size_t)j * td + k] = w->Hp[(size_t)j * nfp + k] - mc[j] * mc[k];
 	w->varu = vu;
-	return PR_OK;
 }
 
 /* Cov_p(psi) (free features) into the upper triangle of w->H, Cov_p(psi, u)
@@ -403,8 +414,10 @@ static void covariances(const prob *P, work *w, double eta, const point *x)
 		w->varu = vu;
 		return;
 	}
-	if (!P->bin && nf >= BLAS_MIN_NF && covariances_blas(P, w, x, c, mu) == PR_OK)
+	if (w->Y) {
+		covariances_blas(P, w, x, c, mu);
 		return;
+	}
 	if (P->bin)
 		for (k = P->rfp[c]; k < P->rfp[c + 1]; k++)
 			inc[P->rfi[k]] = 1;
@@ -644,16 +657,20 @@ static int find_blocks(const pr_reps_problem *pb, const int *rows, int m, int *b
 }
 
 /* Value of feature j of sample i (original data). */
-static double feat(const pr_reps_problem *pb, int i, int j)
+static double feat_sparse(const pr_reps_problem *pb, int i, int j)
 {
 	int k;
 
-	if (pb->phi)
-		return pb->phi[(size_t)i * pb->d + j];
 	for (k = pb->rowptr[i]; k < pb->rowptr[i + 1]; k++)
 		if (pb->col[k] == j)
 			return pb->val ? pb->val[k] : 1.0;
 	return 0.0;
+}
+
+/* (inline: the dense case is one load, in loops over every entry) */
+static inline double feat(const pr_reps_problem *pb, int i, int j)
+{
+	return pb->phi ? pb->phi[(size_t)i * pb->d + j] : feat_sparse(pb, i, j);
 }
 
 /* Feature summaries of the original problem over the rows with q > 0:
@@ -1405,7 +1422,7 @@ static int limit_primal(const prob *P, limit_ws *s, int max_evals, limit_t *L, d
 
 	memset(&F, 0, sizeof F);
 	memset(&w, 0, sizeof w);
-	if ((st = prob_face(&F, P, s->S, ns)) != PR_OK || (st = work_alloc(&w, F.m, F.nf, max_evals)) != PR_OK)
+	if ((st = prob_face(&F, P, s->S, ns)) != PR_OK || (st = work_alloc(&w, &F, max_evals)) != PR_OK)
 		goto done;
 	if (ns == s->nb && F.nf > 0) {
 		/* the face is the vertex's support: start from the weights that fit
@@ -1519,8 +1536,35 @@ static int limit_solve(const prob *P, int max_evals, limit_t *L, char *reason, s
 /* Solver verdicts. */
 enum { V_ACTIVE = PR_REPS_ACTIVE, V_UNREACHABLE = PR_REPS_UNREACHABLE, V_FAILED = PR_REPS_FAILED };
 
+/* joint_newton's start on wide dense problems (without ridge): theta the
+ * q-weighted least-squares fit of R on psi, the optimum's limit as eta ->
+ * infinity (where p -> q), and eta where KL's expansion there,
+ * ResVar_q(R | psi) / (2 eta^2), meets eps (not below eta_min). It costs
+ * one Hessian, at q; from (1, 0) a small eps takes about one Newton step
+ * per doubling of eta. Leaves (1, 0) if the fit has no residual. */
+static void dense_start(const prob *P, work *w, double eta_min, double *eta)
+{
+	point *x = &w->pt[0];
+	int i;
+
+	x->amax = -HUGE_VAL;
+	for (i = 0; i < P->m; i++) {
+		x->p[i] = P->q[i];
+		x->A[i] = P->R[i];
+		x->amax = fmax(x->amax, P->R[i]);
+	}
+	covariances(P, w, 1.0, x);
+	if (factor(P, w, 1.0) != PR_OK)
+		return;
+	regress_u(P, w, 1.0);
+	if (!(w->resvar > 0.0))
+		return;
+	memcpy(x->th, w->v2, (size_t)P->nf * sizeof *x->th);
+	*eta = fmax(sqrt(w->resvar / (2.0 * P->eps)), eta_min);
+}
+
 /* The fast path: damped Newton on (eta, theta) jointly, from eta = 1 and
- * theta = 0. g is jointly convex with Hessian Cov_p([u, psi]) / eta (plus
+ * theta = 0 (wide dense problems: from dense_start's point). g is jointly convex with Hessian Cov_p([u, psi]) / eta (plus
  * the ridge), solved through the theta block's factorisation and its Schur
  * complement ResVar_p(u | psi) / eta; Armijo steps keep eta > 0. Returns 1
  * at the root (|KL - eps| <= KL_TOL, residual <= THETA_TOL), 0 if eta heads
@@ -1536,6 +1580,8 @@ static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
 
 	*eta = 1.0;
 	memset(x->th, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *x->th);
+	if (w->Y && !P->rw)
+		dense_start(P, w, eta_min, eta);
 	eval(P, w, *eta, x);
 	for (it = 0; it < 50 && w->evals < w->max_evals; it++) {
 		double ge = P->eps - x->kl, cv1 = 0.0, cv2 = 0.0, schur, de, dec = 0.0, step = 1.0;
@@ -1543,6 +1589,10 @@ static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
 
 		if (pr_interrupted)
 			return PR_EINTR;
+		/* wide dense problems: the root needs no Hessian of its own (the
+		 * last step's factorisation stands for it, cond included) */
+		if (w->Y && it > 0 && fabs(ge) <= ktol && x->res <= THETA_TOL)
+			return 1;
 		covariances(P, w, *eta, x);
 		if (factor(P, w, *eta) != PR_OK)
 			return 0;
@@ -2411,7 +2461,7 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, pr_
 	int verdict, j, k, st = PR_ENOMEM;
 
 	memset(&L, 0, sizeof L);
-	if (work_alloc(&w, P->m, P->nf, c->o->max_iter) != PR_OK)
+	if (work_alloc(&w, P, c->o->max_iter) != PR_OK)
 		goto done;
 	L.p = malloc((size_t)P->m * sizeof *L.p);
 	L.th = calloc((size_t)(P->nf > 0 ? P->nf : 1), sizeof *L.th);

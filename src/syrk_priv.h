@@ -1,0 +1,17 @@
+/* syrk_priv.h — the rank-k update behind the dense REPS Hessian (reps.c). */
+#ifndef POOLREPS_SYRK_PRIV_H
+#define POOLREPS_SYRK_PRIV_H
+
+/* Width to which pr_syrk_acc's rows are padded (with zeros). */
+#define PR_SYRK_W 16
+
+/* H += Y^T Y over the mr rows of Y (row-major, nfp columns, nfp a multiple
+ * of PR_SYRK_W); H is nfp x nfp row-major and receives its upper triangle
+ * (and a few entries below the diagonal, in the tiles the diagonal
+ * crosses). Every H_jk gets y_0j y_0k, y_1j y_1k, ... added in row order,
+ * one rounded product and one rounded sum at a time: the bits of the plain
+ * triple loop, whatever vector width the CPU offers, and whatever split of
+ * the rows into calls. */
+void pr_syrk_acc(const double *Y, int mr, int nfp, double *H);
+
+#endif
