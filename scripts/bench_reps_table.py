@@ -14,9 +14,10 @@ import csv
 import os
 import sys
 
+import doc_block
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DOCS = [os.path.join(ROOT, "docs", n) for n in ("benchmarks.md", "choices.md")]
-BEGIN, END = "<!-- bench_reps:begin -->", "<!-- bench_reps:end -->"
 # problem: the ratio scipy / poolreps to reach, and the runs it is judged on
 TARGETS = {"dense140": (1.0, ["poolreps-newton"]),
            "dense200": (2.0, ["poolreps-newton-inprocess", "poolreps-newton"]),
@@ -64,6 +65,8 @@ def main():
     if not (a.write or a.check):
         sys.stdout.write(text)
         return 0
+    doc_block.update(DOCS, "bench_reps", text, a.check, "bench_reps_table.py", a.csv)
+    return 0
     for path in DOCS:
         doc = open(path, encoding="utf-8").read()
         i, j = doc.find(BEGIN), doc.find(END)

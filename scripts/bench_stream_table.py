@@ -1,23 +1,27 @@
 #!/usr/bin/env python3
-"""Markdown table of scripts/bench_stream.sh's CSV (default
-docs/bench_stream.csv): per command and row count, wall seconds, peak RSS
-and the seconds to the first result row of the streaming and the previous
-all-in-memory version, their ratios, and one sentence on the streaming
-peak at the largest row count against 1.5 times the smallest one's.
+"""Markdown of scripts/bench_stream.sh's CSV (docs/bench_stream.csv): per
+command and row count, wall seconds, peak RSS and the seconds to the first
+result row of the streaming and the previous all-in-memory version, the
+peak ratio, and one sentence on the streaming peak at the largest row
+count against 1.5 times the smallest one's; and of scripts/bench_header.sh's
+(docs/bench_header.csv): the median seconds of both versions and their ratio.
 
-  bench_stream_table.py [CSV]            print the table
-  bench_stream_table.py --write [CSV]    put it into docs/benchmarks.md and
-                                         docs/hardening.md, between the
-                                         bench_stream markers
-  bench_stream_table.py --check [CSV]    exit 1 if either differs"""
+  bench_stream_table.py [--header CSV] [CSV]    print both
+  bench_stream_table.py --write                 put them into docs/benchmarks.md
+                                                and docs/hardening.md, between
+                                                the bench_stream and
+                                                bench_header markers
+  bench_stream_table.py --check                 exit 1 if any differs"""
 import argparse
 import csv
 import os
+import statistics
 import sys
+
+import doc_block
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DOCS = [os.path.join(ROOT, "docs", n) for n in ("benchmarks.md", "hardening.md")]
-BEGIN, END = "<!-- bench_stream:begin -->", "<!-- bench_stream:end -->"
 NAMES = {"shoot": "`shoot`", "forest": "`forest --test`", "policy": "`policy -i`"}
 
 
@@ -42,31 +46,35 @@ def render(rows):
     return "\n".join(out) + "\n"
 
 
+def render_header(rows):
+    sec = {v: statistics.median(float(r["seconds"]) for r in rows if r["version"] == v)
+           for v in ("hash_set", "previous")}
+    runs = sum(r["version"] == "previous" for r in rows)
+    return (f"A header of {int(rows[0]['columns']):,} columns (`shoot -i`, which refuses the "
+            f"ball count after the header's checks), median of {runs} interleaved runs: "
+            f"{sec['hash_set']:.2f} s with the hash set, {sec['previous']:.1f} s with the previous "
+            f"pairwise comparison, {sec['previous'] / sec['hash_set']:.0f} times as long.\n")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("csv", nargs="?", default=os.path.join(ROOT, "docs", "bench_stream.csv"))
+    ap.add_argument("--header", default=os.path.join(ROOT, "docs", "bench_header.csv"))
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--write", action="store_true")
     mode.add_argument("--check", action="store_true")
     a = ap.parse_args()
-    with open(a.csv, newline="") as f:
-        text = render(list(csv.DictReader(f)))
+    blocks = []
+    for name, path, fn, docs in (("bench_stream", a.csv, render, DOCS),
+                                 ("bench_header", a.header, render_header, DOCS[:1])):
+        if os.path.exists(path) or a.write or a.check:
+            with open(path, newline="") as f:
+                blocks.append((name, path, fn(list(csv.DictReader(f))), docs))
     if not (a.write or a.check):
-        sys.stdout.write(text)
+        sys.stdout.write("\n".join(text for _, _, text, _ in blocks))
         return 0
-    for path in DOCS:
-        doc = open(path, encoding="utf-8").read()
-        i, j = doc.find(BEGIN), doc.find(END)
-        if i < 0 or j < i:
-            sys.exit(f"bench_stream_table.py: {path}: no {BEGIN} ... {END} block")
-        new = doc[:i + len(BEGIN)] + "\n" + text + doc[j:]
-        if a.check and new != doc:
-            sys.exit(f"bench_stream_table.py: {path}: the streaming table differs from {a.csv} "
-                     "(run scripts/bench_stream_table.py --write)")
-        if a.write:
-            with open(path + ".tmp", "w", encoding="utf-8") as f:
-                f.write(new)
-            os.replace(path + ".tmp", path)
+    for name, path, text, docs in blocks:
+        doc_block.update(docs, name, text, a.check, "bench_stream_table.py", path)
     return 0
 
 
