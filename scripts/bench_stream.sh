@@ -10,7 +10,9 @@
 # (forest: targets vx,vy; policy: state x0,y0, action vx,vy). CSV:
 # build/bench/stream.csv (copy it to docs/bench_stream.csv, then
 # `scripts/bench_stream_table.py --write` updates docs/benchmarks.md and
-# docs/hardening.md). SIZES overrides the row counts, CMDS the commands.
+# docs/hardening.md). SIZES overrides the row counts, CMDS the commands,
+# VERSIONS the versions (one of them: no table) and OUT the CSV, so that
+# parts can run side by side on a busy machine and be concatenated.
 set -e
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
@@ -26,7 +28,7 @@ fi
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 mkdir -p build/bench
-out=build/bench/stream.csv
+out=${OUT:-build/bench/stream.csv}
 echo "command,rows,version,seconds,peak_kib,first_row_s" > "$out"
 "$PY" scripts/shoot_rows.py 500 2 > "$tmp/tr.csv"
 for n in ${SIZES:-100000 2000000 10000000}; do
@@ -37,7 +39,7 @@ for n in ${SIZES:-100000 2000000 10000000}; do
 		forest) set -- forest --train "$tmp/tr.csv" --test "$tmp/in.csv" --target vx,vy -q ;;
 		policy) set -- policy --train "$tmp/tr.csv" --state x0,y0 --action vx,vy -i "$tmp/in.csv" -q ;;
 		esac
-		for v in streaming previous; do
+		for v in ${VERSIONS:-streaming previous}; do
 			b=build/rel/poolreps
 			[ "$v" = previous ] && b=$PREV/build/rel/poolreps
 			first=$("$PY" scripts/first_row.py /usr/bin/time -f "%e %M" -o "$tmp/t" "$b" "$@")
@@ -47,4 +49,4 @@ for n in ${SIZES:-100000 2000000 10000000}; do
 	done
 	rm -f "$tmp/in.csv"
 done
-"$PY" scripts/bench_stream_table.py "$out"
+[ -n "$VERSIONS" ] || "$PY" scripts/bench_stream_table.py "$out"
