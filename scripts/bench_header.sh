@@ -13,12 +13,8 @@ PY=${PYTHON:-python3}
 ${MAKE:-make} -s SAN=0 build/rel/poolreps
 REF=${REF:-$(git log --format=%H -1 -S name_hash -- src/csvio.c)^}
 PREV=build/prev-header
-if [ ! -x "$PREV/build/rel/poolreps" ] || [ "$(cat "$PREV/.ref" 2>/dev/null)" != "$(git rev-parse "$REF")" ]; then
-	rm -rf "$PREV" && mkdir -p "$PREV"
-	git archive "$REF" | tar -x -C "$PREV"
-	(cd "$PREV" && ${MAKE:-make} -s -j2 build/rel/poolreps >/dev/null)
-	git rev-parse "$REF" > "$PREV/.ref"
-fi
+. scripts/prev_build.sh
+prev_build "$REF" "$PREV"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 "$PY" -c "

@@ -67,20 +67,6 @@ def main():
         return 0
     doc_block.update(DOCS, "bench_reps", text, a.check, "bench_reps_table.py", a.csv)
     return 0
-    for path in DOCS:
-        doc = open(path, encoding="utf-8").read()
-        i, j = doc.find(BEGIN), doc.find(END)
-        if i < 0 or j < i:
-            sys.exit(f"bench_reps_table.py: {path}: no {BEGIN} ... {END} block")
-        new = doc[:i + len(BEGIN)] + "\n" + text + doc[j:]
-        if a.check and new != doc:
-            sys.exit(f"bench_reps_table.py: {path}: the REPS table differs from {a.csv} "
-                     "(run scripts/bench_reps_table.py --write)")
-        if a.write:
-            with open(path + ".tmp", "w", encoding="utf-8") as f:
-                f.write(new)
-            os.replace(path + ".tmp", path)
-    return 0
 
 
 if __name__ == "__main__":
