@@ -14,9 +14,10 @@ import csv
 import os
 import sys
 
+import doc_block
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DOCS = [os.path.join(ROOT, "docs", n) for n in ("benchmarks.md", "choices.md")]
-BEGIN, END = "<!-- bench_reps:begin -->", "<!-- bench_reps:end -->"
 # problem: the ratio scipy / poolreps to reach, and the runs it is judged on
 TARGETS = {"dense140": (1.0, ["poolreps-newton"]),
            "dense200": (2.0, ["poolreps-newton-inprocess", "poolreps-newton"]),
@@ -65,19 +66,7 @@ def main():
     if not (a.write or a.check):
         sys.stdout.write(text)
         return 0
-    for path in DOCS:
-        doc = open(path, encoding="utf-8").read()
-        i, j = doc.find(BEGIN), doc.find(END)
-        if i < 0 or j < i:
-            sys.exit(f"bench_reps_table.py: {path}: no {BEGIN} ... {END} block")
-        new = doc[:i + len(BEGIN)] + "\n" + text + doc[j:]
-        if a.check and new != doc:
-            sys.exit(f"bench_reps_table.py: {path}: the REPS table differs from {a.csv} "
-                     "(run scripts/bench_reps_table.py --write)")
-        if a.write:
-            with open(path + ".tmp", "w", encoding="utf-8") as f:
-                f.write(new)
-            os.replace(path + ".tmp", path)
+    doc_block.update(DOCS, "bench_reps", text, a.check, "bench_reps_table.py", a.csv)
     return 0
 
 

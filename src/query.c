@@ -1,4 +1,5 @@
-/* query.c — fitted models queried over a streamed CSV (query.h).
+/* query.c — fitted models queried over a streamed CSV (query.h): a
+ * forest's predictions, a policy's means, covariances and draws.
  *
  * Invariant: one chunk of query rows, its matrix of model inputs and its
  * results are in memory at a time; chunks are handled in file order, so
@@ -191,5 +192,127 @@ done:
 	free(yc);
 	free(act);
 	free(P);
+	return rc;
+}
+
+/* draws per pr_policy_gauss_sample call: bounds the buffer whatever --sample */
+enum { POLICY_DRAWS = 1024 };
+
+static void policy_header(const pr_query *q, const char *const *anames, int da, int sampling,
+                          pr_csvw *w)
+{
+	char name[PR_CSV_MAX_FIELD + sizeof "mean_"];
+
+	for (int j = 0; j < q->k; j++)
+		pr_csvw_str(w, q->names[j]);
+	if (sampling) {
+		pr_csvw_str(w, "sample");
+		for (int j = 0; j < da; j++)
+			pr_csvw_str(w, anames[j]);
+	}
+	for (int j = 0; j < da; j++) {
+		snprintf(name, sizeof name, "mean_%s", anames[j]);
+		pr_csvw_str(w, name);
+	}
+	for (int j = 0; j < da; j++)
+		for (int l = j; l < da; l++) {
+			snprintf(name, sizeof name, "cov_%d_%d", j, l);
+			pr_csvw_str(w, name);
+		}
+	pr_csvw_str(w, "status");
+	pr_csvw_endrow(w);
+}
+
+/* One output row: the state, [sample index and draw,] mean, covariance, status. */
+static void policy_row(pr_csvw *w, const double *s, int ds, long sample, const double *draw,
+                       const double *mean, const double *cov, int da, int status)
+{
+	for (int j = 0; j < ds; j++)
+		pr_csvw_num(w, s[j]);
+	if (draw) {
+		pr_csvw_int(w, sample);
+		for (int j = 0; j < da; j++)
+			pr_csvw_num(w, draw[j]);
+	}
+	for (int j = 0; j < da; j++)
+		pr_csvw_num(w, mean[j]);
+	for (int j = 0; j < da; j++)
+		for (int l = j; l < da; l++)
+			pr_csvw_num(w, cov[j * da + l]);
+	pr_csvw_int(w, status);
+	pr_csvw_endrow(w);
+}
+
+/* The scratch of pr_query_policy: one state's answer and a chunk of draws. */
+typedef struct {
+	pr_policy_work *ws;
+	double *mean, *cov, *draws;
+	int status;
+} policy_scratch;
+
+/* One query state s: its answer, then its ns rows in chunks of draws. A
+ * write error sticks in w: stop, the commit reports it. */
+static int policy_state(const pr_policy *p, const double *s, long ns, gsl_rng *rng,
+                        policy_scratch *b, pr_csvw *w, char *err)
+{
+	const int ds = pr_policy_ds(p), da = pr_policy_da(p);
+	int rc = pr_policy_eval(p, s, b->mean, b->cov, &b->status, b->ws, err);
+
+	if (rc || !ns) {
+		if (!rc)
+			policy_row(w, s, ds, 0, NULL, b->mean, b->cov, da, b->status);
+		return rc;
+	}
+	for (long k0 = 0; k0 < ns && !pr_csvw_status(w); k0 += POLICY_DRAWS) {
+		const long m = ns - k0 < POLICY_DRAWS ? ns - k0 : POLICY_DRAWS;
+
+		if (pr_interrupted)
+			return pr_err(err, PR_EINTR, "policy: interrupted");
+		if ((rc = pr_policy_gauss_sample(da, b->mean, b->cov, (int)m, rng, b->draws, err)))
+			return rc;
+		for (long k = 0; k < m; k++)
+			policy_row(w, s, ds, k0 + k, b->draws + (size_t)k * da, b->mean, b->cov, da,
+			           b->status);
+	}
+	return PR_OK;
+}
+
+int pr_query_policy(pr_query *q, const pr_policy *p, const char *const *anames, long ns,
+                    gsl_rng *rng, pr_csvw *w, char *err)
+{
+	const int da = pr_policy_da(p);
+	const pr_csv *chunk;
+	policy_scratch b = { 0 };
+	long n;
+	int rc = PR_OK;
+
+	b.mean = malloc((size_t)da * sizeof *b.mean);
+	b.cov = malloc((size_t)da * da * sizeof *b.cov);
+	b.draws = ns ? malloc((size_t)POLICY_DRAWS * da * sizeof *b.draws) : NULL;
+	if (!b.mean || !b.cov || (ns && !b.draws)) {
+		rc = pr_err(err, PR_ENOMEM, "policy: out of memory");
+		goto done;
+	}
+	if (!(b.ws = pr_policy_work_new(p, err))) {
+		rc = PR_ENOMEM;
+		goto done;
+	}
+	policy_header(q, anames, da, ns > 0, w);
+	while (!(rc = next_inputs(q, &chunk, &n, err)) && n > 0 && !pr_csvw_status(w)) {
+		if (pr_interrupted) {
+			rc = pr_err(err, PR_EINTR, "policy: interrupted");
+			break;
+		}
+		for (long i = 0; i < n && !rc && !pr_csvw_status(w); i++)
+			rc = policy_state(p, q->X + (size_t)i * q->k, ns, rng, &b, w, err);
+		if (rc)
+			break;
+		pr_csvw_flush(w);
+	}
+done:
+	pr_policy_work_free(b.ws);
+	free(b.mean);
+	free(b.cov);
+	free(b.draws);
 	return rc;
 }

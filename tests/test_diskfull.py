@@ -11,7 +11,7 @@ import subprocess
 import pytest
 
 from conftest import ROOT
-from test_safety import QUICK, SHOTS, TRAIN, binary, env, snapshot, changed, one_line
+from test_safety import POLICY_TRAIN, QUICK, SHOTS, TRAIN, binary, env, snapshot, changed, one_line
 
 Q = ROOT / "data" / "quadratic.ini"
 
@@ -76,6 +76,11 @@ CASES = {
     "forest": (lambda d: (d / "tr.csv").write_bytes(TRAIN), ["forest", "--train", "tr.csv", "--test", "tr.csv",
                                                            "--target", "y", "-q", "-o", "o.csv", "--leaves", "l.csv"],
                "", re.compile(r"^[ol]\.csv$")),
+    # the streamed query states and their draws (3000 rows, about 150 KiB)
+    "policy": (lambda d: (d / "p.csv").write_bytes(POLICY_TRAIN), ["policy", "--train", "p.csv", "--state", "s0",
+                                                                 "--action", "a0", "--weight", "w", "-i", "p.csv",
+                                                                 "--sample", "50", "-q", "-o", "o.csv"],
+               "", re.compile(r"^o\.csv$")),
 }
 
 

@@ -79,6 +79,15 @@ def test_reps_benchmark_text_is_the_recorded_measurement():
     assert p.returncode == 0, p.stderr
 
 
+def test_stream_benchmark_text_is_the_recorded_measurement():
+    """docs/benchmarks.md's and docs/hardening.md's streaming table and the
+    100 000-column header sentence are what scripts/bench_stream_table.py
+    makes of docs/bench_stream.csv and docs/bench_header.csv."""
+    p = run_cmd(["/usr/bin/env", "python3", str(ROOT / "scripts" / "bench_stream_table.py"),
+                 "--check"], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+
+
 def readme_reproduce_seconds():
     m = re.search(r"<!-- timing:reproduce -->in (\d+) s", README)
     assert m, "README has no generated reproduce time"

@@ -545,9 +545,12 @@ def leftovers(root):
 
 
 @pytest.mark.native
-@pytest.mark.parametrize("what", ["forest", "policy_samples", "run_exp1"])
+@pytest.mark.parametrize("what", ["forest", "policy_fit", "run_exp1"])
 def test_ulimit_v_is_out_of_memory(what, tmp_path):
-    """More than the address space allows: exit 4, one line, nothing written."""
+    """More than the address space allows: exit 4, one line, nothing written.
+    (`policy --sample N` no longer is such a case: its draws stream, see
+    test_ulimit_v_policy_samples_stream; a policy fit still needs its forest
+    whole.)"""
     import resource
     if SAN:
         pytest.skip("AddressSanitizer reserves terabytes of address space: ulimit -v cannot apply")
@@ -558,7 +561,9 @@ def test_ulimit_v_is_out_of_memory(what, tmp_path):
     args = {"forest": ["forest", "--train", "in.csv", "--test", "in.csv", "--target", "vx", "-q", "-o",
                        "old.csv", "--set", "forest.trees=10000", "--set", "forest.n_min=2",
                        "--set", "forest.n_c=1"],
-            "policy_samples": POLICY + ["-o", "old.csv", "--sample", "1000000"],
+            "policy_fit": ["policy", "--train", "in.csv", "--state", "x0,y0", "--action", "vx,vy", "-i",
+                           "in.csv", "-q", "-o", "old.csv", "--set", "policy.trees=10000",
+                           "--set", "policy.n_min=2", "--set", "policy.n_c=1"],
             # forests inside an experiment, on worker threads
             "run_exp1": [ROOT / "data" / "exp1.ini", "-q", "-o", "out", "--set", "exp1.subset=100000",
                          "--set", "exp1.train=100000", "--set", "experiment.repetitions=1",
@@ -569,6 +574,28 @@ def test_ulimit_v_is_out_of_memory(what, tmp_path):
     assert r.returncode == NOMEM, r.stderr
     one_line(r)
     assert snapshot(tmp_path) == before
+
+
+@pytest.mark.native
+def test_ulimit_v_policy_samples_stream(tmp_path):
+    """`policy --sample 1000000` under the address-space limit of the cases
+    above: it writes the million draws (a state's draws go out 1024 at a
+    time), exit 0, the output replaced whole."""
+    import resource
+    if SAN:
+        pytest.skip("AddressSanitizer reserves terabytes of address space: ulimit -v cannot apply")
+    (tmp_path / "p.csv").write_bytes(POLICY_TRAIN)
+    (tmp_path / "q.csv").write_bytes(b"s0\n0.3\n")
+    (tmp_path / "old.csv").write_bytes(b"keep\n")
+    args = POLICY[:-3] + ["-i", "q.csv", "-q", "-o", "old.csv", "--sample", "1000000"]
+    r = run(args, tmp_path, pre=limit(resource.RLIMIT_AS, 300 << 20), timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr == b""
+    out = (tmp_path / "old.csv").read_bytes()
+    assert out.startswith(b"s0,sample,a0,mean_a0,cov_0_0,status\n0.3,0,")
+    assert out.count(b"\n") == 1000001 and out.endswith(b"\n")
+    assert out.rsplit(b"\n", 2)[1].startswith(b"0.3,999999,")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.csv", "p.csv", "q.csv"]
 
 
 @pytest.mark.native

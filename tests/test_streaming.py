@@ -1,14 +1,18 @@
-"""shoot and forest --test stream: the first result row appears while the
-input is still open, memory does not grow with the row count, output bytes
-are those of the previous all-in-memory version (hashes recorded from it on
-the same seeded inputs), and a bad row late in the input changes no file."""
+"""shoot, forest --test and policy -i stream: the first result row appears
+while the input is still open, memory does not grow with the row count (nor,
+for policy --sample, with the draws), output bytes are those of the previous
+all-in-memory version (hashes recorded from it on the same seeded inputs), a
+bad row late in the input changes no file, and a signal mid-stream leaves
+every file as it was."""
 import hashlib
 import os
 import random
 import select
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -48,7 +52,10 @@ PREV = {
     "shoot_keep": "c742a33f2f769ac3d29f6946045232828a4be5c7304887cc577d688b5d150539",
     "forest_pred": "162e15a95126859630b3323ab97ff0f23a975a0e5439c72ab0a371b7573a7fb0",
     "forest_leaves": "1b2a5ee323c5a220e90bbb6023327afa25a9bc254f760d8e3360faa271ee5440",
+    "policy": "dc7ebfa87b3f13823407492d6f3690c057ff6f9f4e63aa0dad28cc718acce813",
+    "policy_sample3": "13e5edbe7f51d7ba42588bc645f40d3ec4cdd44239fbd5b879d52ced36dd76a9",
 }
+POLICY = ["policy", "--train", "tr.csv", "--state", "s0,s1", "--action", "a0,a1", "--weight", "w", "-q"]
 
 
 def test_shoot_bytes_are_the_previous_versions(tmp_path):
@@ -74,29 +81,93 @@ def test_forest_test_bytes_are_the_previous_versions(tmp_path):
     assert hashlib.sha256(r.stdout).hexdigest() == PREV["forest_leaves"]
 
 
-@pytest.mark.parametrize("cmd", ["shoot", "forest"])
-def test_first_row_before_the_input_ends(cmd, tmp_path):
+@pytest.mark.parametrize("cmd", ["policy", "policy_sample3"])
+def test_policy_bytes_are_the_previous_versions(cmd, tmp_path):
+    forest_inputs(tmp_path)
+    args = POLICY + (["--sample", "3"] if cmd == "policy_sample3" else [])
+    r = run(args + ["-i", "te.csv"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert hashlib.sha256(r.stdout).hexdigest() == PREV[cmd]
+    # the same bytes into a file, from a pipe
+    r2 = run(args + ["-o", "o.csv"], tmp_path, stdin=open(tmp_path / "te.csv", "rb"))
+    assert r2.returncode == 0, r2.stderr
+    assert (tmp_path / "o.csv").read_bytes() == r.stdout
+
+
+def streaming_command(cmd, tmp):
+    """(args reading stdin, header, one input row, output lines per row)"""
     if cmd == "shoot":
-        args, head, line = ["shoot", "-q"], b"x0,y0,x1,y1,vx,vy\n", b"-0.25,0,0.1,0,0.6,0.03\n"
-    else:
-        forest_inputs(tmp_path)
-        args, head, line = (["forest", "--train", "tr.csv", "--test", "-", "--target", "a0,a1", "-q",
-                             "--set", "forest.trees=5"], b"s0,s1,w\n", b"0.5,0.5,1\n")
+        return ["shoot", "-q"], b"x0,y0,x1,y1,vx,vy\n", b"-0.25,0,0.1,0,0.6,0.03\n", 1
+    forest_inputs(tmp)
+    if cmd == "forest":
+        return (["forest", "--train", "tr.csv", "--test", "-", "--target", "a0,a1", "-q",
+                 "--set", "forest.trees=5"], b"s0,s1,w\n", b"0.5,0.5,1\n", 1)
+    extra = ["--sample", "2"] if cmd == "policy_sample" else []
+    return POLICY + extra + ["-i", "-"], b"s1,s0\n", b"0.5,0.25\n", 2 if extra else 1
+
+
+def read_lines(p, n):
+    got = b""
+    while got.count(b"\n") < n:
+        ready, _, _ = select.select([p.stdout], [], [], 30)
+        assert ready, "no result row while the input stays open"
+        b = os.read(p.stdout.fileno(), 65536)
+        assert b, p.stderr.read()
+        got += b
+    return got
+
+
+@pytest.mark.parametrize("cmd", ["shoot", "forest", "policy", "policy_sample"])
+def test_first_row_before_the_input_ends(cmd, tmp_path):
+    args, head, line, per = streaming_command(cmd, tmp_path)
     p = subprocess.Popen([BIN] + args, cwd=tmp_path, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE)
     p.stdin.write(head + line)
     p.stdin.flush()
-    got = b""
-    while got.count(b"\n") < 2:
-        ready, _, _ = select.select([p.stdout], [], [], 30)
-        assert ready, "no result row while the input stays open"
-        got += os.read(p.stdout.fileno(), 65536)
+    got = read_lines(p, 1 + per)
     assert p.poll() is None  # still reading
     p.stdin.write(line)
     p.stdin.close()
     rest = p.stdout.read()
     assert p.wait() == 0, p.stderr.read()
-    assert (got + rest).count(b"\n") == 3
+    assert (got + rest).count(b"\n") == 1 + 2 * per
+
+
+def staged(d):
+    return [n for n in os.listdir(d) if n.startswith((".partial-", ".poolreps-tmp-"))]
+
+
+@pytest.mark.parametrize("out", ["file", "pipe"])
+@pytest.mark.parametrize("cmd", ["shoot", "forest", "policy", "policy_sample"])
+def test_signal_mid_stream_leaves_nothing(cmd, out, tmp_path):
+    """SIGTERM while the input is still open and rows have been answered:
+    exit 143 within a second, one line; a file output keeps its old bytes
+    and no temporary file remains; a pipe holds whole rows only."""
+    args, head, line, per = streaming_command(cmd, tmp_path)
+    (tmp_path / "o.csv").write_bytes(b"keep\n")
+    before = snapshot(tmp_path)
+    p = subprocess.Popen([BIN] + args + (["-o", "o.csv"] if out == "file" else []), cwd=tmp_path,
+                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdin.write(head + line * 1000)
+    p.stdin.flush()
+    if out == "pipe":
+        got = read_lines(p, 1 + 1000 * per)
+    else:
+        t0 = time.monotonic()
+        while not staged(tmp_path):  # the output is being written to its temporary file
+            assert p.poll() is None and time.monotonic() - t0 < 30, p.stderr.read()
+            time.sleep(0.01)
+        time.sleep(0.2)
+    assert p.poll() is None
+    t0 = time.monotonic()
+    p.send_signal(signal.SIGTERM)
+    rest, err = p.communicate(timeout=30)
+    assert time.monotonic() - t0 < 1.0
+    assert p.returncode == 128 + signal.SIGTERM, err
+    assert err.count(b"\n") == 1 and err.startswith(b"poolreps: interrupted"), err
+    assert snapshot(tmp_path) == before
+    if out == "pipe":
+        assert (got + rest).endswith(b"\n") and (got + rest).count(b"\n") == 1 + 1000 * per
 
 
 @pytest.mark.parametrize("out", ["file", "pipe"])
@@ -118,9 +189,28 @@ def test_bad_row_late_in_the_input(out, tmp_path):
         assert r.stdout.count(b"\n") == 50001 and r.stdout.endswith(b"\n")
 
 
-def peak_kib(tmp, n):
+@pytest.mark.parametrize("out", ["file", "pipe"])
+def test_policy_bad_row_late_in_the_input(out, tmp_path):
+    forest_inputs(tmp_path)
+    te = (tmp_path / "te.csv").read_bytes()
+    (tmp_path / "te.csv").write_bytes(te + b"0.5,nan?,0\n" + te.split(b"\n", 1)[1])
+    (tmp_path / "o.csv").write_bytes(b"keep\n")
+    before = snapshot(tmp_path)
+    r = run(POLICY + ["-i", "te.csv"] + (["-o", "o.csv"] if out == "file" else []), tmp_path)
+    assert r.returncode == 2, r.stderr  # a field that is no number: an input error, as before
+    assert r.stderr.decode().count("\n") == 1 and "te.csv:20002:" in r.stderr.decode(), r.stderr
+    assert snapshot(tmp_path) == before
+    if out == "pipe":
+        assert r.stdout.count(b"\n") == 20001 and r.stdout.endswith(b"\n")
+
+
+def peak_kib(tmp, n, cmd="shoot", samples=None):
     rows(tmp, n, 1)
-    r = subprocess.run(["/usr/bin/time", "-f", "%M", BIN, "shoot", "-i", "in.csv", "-o", "/dev/null"],
+    args = {"shoot": ["shoot", "-i", "in.csv"],
+            "forest": ["forest", "--train", "tr.csv", "--test", "in.csv", "--target", "vx,vy", "-q"],
+            "policy": ["policy", "--train", "tr.csv", "--state", "x0,y0", "--action", "vx,vy", "-i",
+                       "in.csv", "-q"] + (["--sample", str(samples)] if samples else [])}[cmd]
+    r = subprocess.run(["/usr/bin/time", "-f", "%M", BIN] + args + ["-o", "/dev/null"],
                        cwd=tmp, capture_output=True, timeout=900)
     assert r.returncode == 0, r.stderr
     (tmp / "in.csv").unlink()
@@ -129,8 +219,22 @@ def peak_kib(tmp, n):
 
 @pytest.mark.native
 @pytest.mark.slow
-def test_peak_memory_does_not_grow_with_rows(tmp_path):
+@pytest.mark.parametrize("cmd", ["shoot", "forest", "policy"])
+def test_peak_memory_does_not_grow_with_rows(cmd, tmp_path):
     if not shutil.which("/usr/bin/time") or os.environ.get("POOLREPS_WRAPPER"):
         pytest.skip("needs /usr/bin/time and the bare binary")
-    small, big = peak_kib(tmp_path, 100000), peak_kib(tmp_path, 2000000)
+    rows(tmp_path, 500, 2, "tr.csv")
+    small, big = peak_kib(tmp_path, 100000, cmd), peak_kib(tmp_path, 2000000, cmd)
+    assert big <= 1.5 * small, (small, big)
+
+
+@pytest.mark.native
+@pytest.mark.slow
+def test_policy_peak_memory_does_not_grow_with_samples(tmp_path):
+    """--sample 1000 and --sample 300000 at 2 query states: the draws go out
+    1024 at a time (all in memory, 300000 draws of 2 actions are 9.6 MB)."""
+    if not shutil.which("/usr/bin/time") or os.environ.get("POOLREPS_WRAPPER"):
+        pytest.skip("needs /usr/bin/time and the bare binary")
+    rows(tmp_path, 500, 2, "tr.csv")
+    small, big = peak_kib(tmp_path, 2, "policy", 1000), peak_kib(tmp_path, 2, "policy", 300000)
     assert big <= 1.5 * small, (small, big)

@@ -1,5 +1,5 @@
 /* query.h — a fitted model queried row by row over a CSV, streamed: the
- * predictions of `forest --test`. Memory holds
+ * predictions of `forest --test`, the answers of `policy -i`. Memory holds
  * one chunk of query rows (pr_csv_stream) whatever their number; each
  * chunk's results are pushed to a pipe before the next read.
  *
@@ -13,6 +13,7 @@
 #include "poolreps/common.h"
 #include "poolreps/csvio.h"
 #include "poolreps/forest.h"
+#include "poolreps/policy.h"
 
 typedef struct pr_query pr_query;
 
@@ -41,5 +42,16 @@ typedef struct {
  * pr_forest_predict_many over all rows. */
 int pr_query_forest(pr_query *q, const pr_forest *f, const char *const *ynames, pr_csvw *pred,
                     pr_csvw *leaves, pr_query_stats *st, char *err);
+
+/* The policy's answer at every query row to w: a header <names of the
+ * query's columns>, [sample, <anames[j]>...,] mean_<anames[j]>...,
+ * cov_<i>_<j> (0 <= i <= j < da), status, then per query row its state,
+ * pr_policy_eval's mean, covariance (upper triangle) and flags; with ns > 0,
+ * ns rows per query row, each with its sample index and one draw of
+ * pr_policy_gauss_sample from rng. Draws come in query-row order, in
+ * chunks of a fixed size, so they are the draws of one all-in-memory pass
+ * and memory depends on neither the rows nor ns. */
+int pr_query_policy(pr_query *q, const pr_policy *p, const char *const *anames, long ns,
+                    gsl_rng *rng, pr_csvw *w, char *err);
 
 #endif

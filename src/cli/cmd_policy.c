@@ -14,8 +14,9 @@
  *   <state cols>, sample (0..N-1), <action cols> (the draw), mean_..., cov_..., status
  * so the output feeds `poolreps shoot` directly. status holds the
  * PR_POLICY_* fallback bits (1 global fit, 2 pseudo-inverse, 4 mean only,
- * 8 covariance fallback, 16 min_std floor). Everything is computed before
- * anything is written.
+ * 8 covariance fallback, 16 min_std floor). Every check of the training
+ * samples and of the query header comes before the fit, the fit before
+ * anything is written; the query states then stream (pr_query_policy).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -24,6 +25,7 @@
 
 #include "poolreps/csvio.h"
 #include "poolreps/policy.h"
+#include "poolreps/query.h"
 #include "cli.h"
 
 /* The options of `poolreps policy` (its table: cli_policy below). */
@@ -34,88 +36,56 @@ typedef struct {
 	int sample_set;
 } policy_args;
 
-static int write_header(pr_csvw *w, const pr_csv *tr, const int *sc, int ds, const int *ac,
-                        int da, int sampling)
-{
-	char name[PR_CSV_MAX_FIELD + sizeof "mean_"];
-	int j, l, rc = 0;
-
-	for (j = 0; j < ds && !rc; j++)
-		rc = pr_csvw_str(w, pr_csv_name(tr, sc[j]));
-	if (sampling) {
-		if (!rc)
-			rc = pr_csvw_str(w, "sample");
-		for (j = 0; j < da && !rc; j++)
-			rc = pr_csvw_str(w, pr_csv_name(tr, ac[j]));
-	}
-	for (j = 0; j < da && !rc; j++) {
-		snprintf(name, sizeof name, "mean_%s", pr_csv_name(tr, ac[j]));
-		rc = pr_csvw_str(w, name);
-	}
-	for (j = 0; j < da && !rc; j++)
-		for (l = j; l < da && !rc; l++) {
-			snprintf(name, sizeof name, "cov_%d_%d", j, l);
-			rc = pr_csvw_str(w, name);
-		}
-	if (!rc)
-		rc = pr_csvw_str(w, "status");
-	return rc ? rc : pr_csvw_endrow(w);
-}
-
-static int write_row(pr_csvw *w, const double *s, int ds, long sample, const double *draw,
-                     const double *mean, const double *cov, int da, int status)
-{
-	int j, l, rc = 0;
-
-	for (j = 0; j < ds && !rc; j++)
-		rc = pr_csvw_num(w, s[j]);
-	if (draw) {
-		if (!rc)
-			rc = pr_csvw_int(w, sample);
-		for (j = 0; j < da && !rc; j++)
-			rc = pr_csvw_num(w, draw[j]);
-	}
-	for (j = 0; j < da && !rc; j++)
-		rc = pr_csvw_num(w, mean[j]);
-	for (j = 0; j < da && !rc; j++)
-		for (l = j; l < da && !rc; l++)
-			rc = pr_csvw_num(w, cov[j * da + l]);
-	if (!rc)
-		rc = pr_csvw_int(w, status);
-	return rc ? rc : pr_csvw_endrow(w);
-}
-
-/* The training samples and query states with their columns and arrays. */
+/* The training samples with their columns and arrays, and the query
+ * states' stream. */
 typedef struct {
-	pr_csv *tr, *in;
-	int *sc, *ac, *yc, *mc, *qc; /* states, actions, targets, sampling means in tr; states in in */
+	pr_csv *tr;
+	pr_query *in;
+	int *sc, *ac, *yc, *mc; /* states, actions, targets, sampling means in tr */
 	int ds, da, dy;
-	double *S, *A, *Y, *Mo, *wt, *Q;
+	const char **sn, **an;  /* the state and action names, borrowed from tr */
+	double *S, *A, *Y, *Mo, *wt;
 } samples;
 
 static void samples_free(samples *m)
 {
 	pr_csv_free(m->tr);
-	pr_csv_free(m->in);
+	pr_query_free(m->in);
 	free(m->sc);
 	free(m->ac);
 	free(m->yc);
 	free(m->mc);
-	free(m->qc);
+	free(m->sn);
+	free(m->an);
 	free(m->S);
 	free(m->A);
 	free(m->Y);
 	free(m->Mo);
 	free(m->wt);
-	free(m->Q);
 }
 
-/* Read the training samples and the query states: every check before the fit. */
+/* The query states' stream, its header checked: the state columns by name. */
+static int open_queries(const policy_args *a, samples *m, char *err)
+{
+	int j;
+
+	m->sn = malloc((size_t)m->ds * sizeof *m->sn);
+	m->an = malloc((size_t)m->da * sizeof *m->an);
+	if (!m->sn || !m->an)
+		return pr_err(err, PR_ENOMEM, "policy: out of memory");
+	for (j = 0; j < m->ds; j++)
+		m->sn[j] = pr_csv_name(m->tr, m->sc[j]);
+	for (j = 0; j < m->da; j++)
+		m->an[j] = pr_csv_name(m->tr, m->ac[j]);
+	return pr_query_open(a->input, m->sn, m->ds, "state", &m->in, err);
+}
+
+/* Read the training samples, open the query states: every check before the fit. */
 static int read_samples(const policy_args *a, int reward, int old, samples *m, char *err)
 {
-	int wcol = -1, dm = 0, j, rc;
+	int wcol = -1, dm = 0, rc;
 
-	if ((rc = pr_csv_read(a->train, &m->tr, err)) || (rc = pr_csv_read(a->input, &m->in, err)))
+	if ((rc = pr_csv_read(a->train, &m->tr, err)))
 		return rc;
 	if ((m->ds = pr_cmd_columns(m->tr, a->state, &m->sc, err)) < 0)
 		return m->ds;
@@ -138,35 +108,25 @@ static int read_samples(const policy_args *a, int reward, int old, samples *m, c
 		rc = pr_cmd_disjoint(m->tr, &wcol, 1, "the weight", m->ac, m->da, "an action", err);
 	if (rc)
 		return rc;
-	if ((rc = pr_cmd_check_rows(m->tr, err)))
+	if ((rc = pr_cmd_check_rows(m->tr, err)) || (rc = open_queries(a, m, err)))
 		return rc;
-	if (!(m->qc = malloc((size_t)m->ds * sizeof *m->qc)))
-		return pr_err(err, PR_ENOMEM, "policy: out of memory");
-	for (j = 0; j < m->ds; j++) {
-		m->qc[j] = pr_csv_find(m->in, pr_csv_name(m->tr, m->sc[j]));
-		if (m->qc[j] < 0)
-			return pr_err(err, PR_EIO, "%s:1: missing state column '%s'", pr_csv_path(m->in),
-			              pr_csv_name(m->tr, m->sc[j]));
-	}
 	if (!(m->S = pr_cmd_matrix(m->tr, m->sc, m->ds, err)) ||
 	    !(m->A = pr_cmd_matrix(m->tr, m->ac, m->da, err)) ||
 	    (reward && !(m->Y = pr_cmd_matrix(m->tr, m->yc, m->dy, err))) ||
-	    (old && !(m->Mo = pr_cmd_matrix(m->tr, m->mc, m->da, err))) ||
-	    !(m->Q = pr_cmd_matrix(m->in, m->qc, m->ds, err)))
+	    (old && !(m->Mo = pr_cmd_matrix(m->tr, m->mc, m->da, err))))
 		return PR_ENOMEM;
 	return pr_cmd_weights(m->tr, wcol, a->weight, "weight", &m->wt, err);
 }
 
-/* Fit the policy and query it at every state of m->in: means, covariances,
- * status and, with --sample N, N draws each. */
-static int fit_and_query(const pr_config *cfg, const samples *m, long ns, double *mean, double *cov,
-                         int *status, double *draws, char *err)
+/* Fit the policy, then stream its answer at every query state into the
+ * output (committed by the caller). */
+static int fit_and_query(const pr_config *cfg, const samples *m, long ns, pr_outset *set,
+                         const char *output, char *err)
 {
 	pr_policy_data d = { 0 };
 	pr_policy *p = NULL;
-	pr_policy_work *ws = NULL;
+	pr_csvw *w = NULL;
 	gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
-	long i, nq = pr_csv_nrows(m->in);
 	int rc = PR_OK;
 
 	if (!rng)
@@ -185,17 +145,8 @@ static int fit_and_query(const pr_config *cfg, const samples *m, long ns, double
 	 * turns it into exit 4) or a numerical failure */
 	if (!(p = pr_policy_tree_fit(&cfg->policy, &d, rng, err)))
 		rc = PR_ENUM;
-	else if (!(ws = pr_policy_work_new(p, err)))
-		rc = PR_ENOMEM;
-	for (i = 0; rc == PR_OK && i < nq; i++) {
-		const int da = m->da;
-		rc = pr_policy_eval(p, m->Q + (size_t)i * m->ds, mean + (size_t)i * da,
-		                    cov + (size_t)i * da * da, status + i, ws, err);
-		if (!rc && ns)
-			rc = pr_policy_gauss_sample(da, mean + (size_t)i * da, cov + (size_t)i * da * da,
-			                            (int)ns, rng, draws + (size_t)i * ns * da, err);
-	}
-	pr_policy_work_free(ws);
+	else if (!(rc = pr_outset_add(set, output, &w, err)))
+		rc = pr_query_policy(m->in, p, m->an, ns, rng, w, err);
 	pr_policy_free(p);
 	gsl_rng_free(rng);
 	return rc;
@@ -207,11 +158,7 @@ static int pr_cmd_policy(const pr_config *cfg, const policy_args *a, char *err)
 	const int old = cfg->policy.cov_center == PR_COV_CENTER_OLD;
 	samples m = { 0 };
 	pr_outset *set = NULL;
-	pr_csvw *w = NULL;
-	double *mean = NULL, *cov = NULL, *draws = NULL;
-	int *status = NULL, rc;
-	long i, nq, k, ns = a->sample > 0 ? a->sample : 0;
-	size_t nq1;
+	int rc;
 
 	if (!a->train || !a->state || !a->action)
 		return pr_err(err, PR_EINVAL, "policy: --train FILE, --state COLS and --action COLS are required");
@@ -225,40 +172,15 @@ static int pr_cmd_policy(const pr_config *cfg, const policy_args *a, char *err)
 		              "(the means of the policies that drew the training rows)");
 	if (!old && a->old_mean)
 		return pr_err(err, PR_EINVAL, "policy: --old-mean applies only with policy.cov_center = old");
-	if ((rc = pr_policy_opts_check(&cfg->policy, err)) ||
-	    (rc = read_samples(a, reward, old, &m, err)))
-		goto done;
-	nq = pr_csv_nrows(m.in);
-	nq1 = (size_t)(nq > 0 ? nq : 1);
-	mean = malloc(nq1 * m.da * sizeof *mean);
-	cov = malloc(nq1 * m.da * m.da * sizeof *cov);
-	status = malloc(nq1 * sizeof *status);
-	draws = ns ? malloc(nq1 * ns * m.da * sizeof *draws) : NULL;
-	if (!mean || !cov || !status || (ns && !draws)) {
-		rc = pr_err(err, PR_ENOMEM, "policy: out of memory");
-		goto done;
+	if (!(rc = pr_policy_opts_check(&cfg->policy, err)) &&
+	    !(rc = read_samples(a, reward, old, &m, err))) {
+		if (!(set = pr_outset_new(err)))
+			rc = PR_ENOMEM;
+		else
+			rc = fit_and_query(cfg, &m, a->sample > 0 ? a->sample : 0, set, a->output, err);
 	}
-	if ((rc = fit_and_query(cfg, &m, ns, mean, cov, status, draws, err)))
-		goto done;
-	if (!(set = pr_outset_new(err))) {
-		rc = PR_ENOMEM;
-		goto done;
-	}
-	if ((rc = pr_outset_add(set, a->output, &w, err)))
-		goto done;
-	write_header(w, m.tr, m.sc, m.ds, m.ac, m.da, ns > 0);
-	for (i = 0; i < nq && !pr_csvw_status(w); i++)
-		for (k = 0; k < (ns ? ns : 1); k++)
-			write_row(w, m.Q + (size_t)i * m.ds, m.ds, k,
-			          ns ? draws + ((size_t)i * ns + k) * m.da : NULL, mean + (size_t)i * m.da,
-			          cov + (size_t)i * m.da * m.da, m.da, status[i]);
-done:
 	rc = pr_outset_commit(set, rc, err);
 	samples_free(&m);
-	free(mean);
-	free(cov);
-	free(status);
-	free(draws);
 	return rc;
 }
 
