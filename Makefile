@@ -87,11 +87,22 @@ $(BUILD)/tests/test_cli_opts: tests/test_cli_opts.c $(CLI_TABLES_OBJ) $(LIB) | $
 	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(CLI_TABLES_OBJ) $(LIB) $(LIBS) -lcmocka -o $@
 
 # the packages are probed when make starts (below); nothing is installed here.
-# pytest runs on JOBS workers (pytest-xdist) and names the 10 slowest tests;
-# the last line is the wall time of the whole check
+# Everything is built first, so that the C tests and `make verdicts CHECK=1`
+# run alongside pytest (JOBS workers, pytest-xdist) without two makes
+# compiling the same objects; their output is held in build/ and printed
+# after pytest's, which names the 10 slowest tests. The last line is the
+# wall time of the whole check.
+CHECK_LOG = $(BUILD)/check
 check:
-	@t0=$$(date +%s); st=0; $(MAKE) check-c check-py || st=$$?; \
-	  $(MAKE) verdicts CHECK=1 || st=$$?; \
+	@t0=$$(date +%s); st=0; \
+	  $(MAKE) -j$(JOBS) $(TEST_BIN) $(BUILD)/poolreps $(BUILD)/tests/ref_driver $(SOLIB) || exit $$?; \
+	  mkdir -p $(CHECK_LOG); \
+	  { $(MAKE) --no-print-directory check-c > $(CHECK_LOG)/c.log 2>&1; echo $$? > $(CHECK_LOG)/c.rc; } & \
+	  { $(MAKE) --no-print-directory verdicts CHECK=1 > $(CHECK_LOG)/verdicts.log 2>&1; \
+	    echo $$? > $(CHECK_LOG)/verdicts.rc; } & \
+	  $(MAKE) check-py || st=$$?; wait; \
+	  for part in c verdicts; do echo "== make check: $$part (ran alongside pytest)"; \
+	    cat $(CHECK_LOG)/$$part.log; [ "$$(cat $(CHECK_LOG)/$$part.rc)" = 0 ] || st=1; done; \
 	  echo "make check: $$(( $$(date +%s) - t0 )) s wall"; exit $$st
 
 check-c: $(TEST_BIN)
@@ -99,7 +110,7 @@ check-c: $(TEST_BIN)
 
 # tests/ref_driver exposes library calls to the numpy reference tests
 check-py: $(BUILD)/poolreps $(BUILD)/tests/ref_driver
-	LC_ALL=C SAN=$(SAN) POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q -n $(JOBS) --durations=10 tests
+	LC_ALL=C SAN=$(SAN) POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) $(PYTHON) -m pytest -q -n $(JOBS) --dist loadgroup --durations=10 tests
 
 # the scripts build their binaries through the rules below (bench-bin, fuzz-bin)
 bench: all

@@ -44,7 +44,7 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from scipy import stats
+from scipy import special, stats
 
 AGREES, DISAGREES, UNDECIDED = "agrees", "disagrees", "undecided"
 LEVEL = 0.95
@@ -123,12 +123,14 @@ def _t(e, bound):
 
 def p_greater(e, bound=0.0):
     """One-sided p of H0: mean <= bound against H1: mean > bound."""
-    return float(stats.t.sf(_t(e, bound), e.df))
+    # stats.t.sf(x, df) is special.stdtr(df, -x) behind per-call argument
+    # checks that cost more than the function (tens of thousands of calls)
+    return float(special.stdtr(e.df, -_t(e, bound)))
 
 
 def p_less(e, bound=0.0):
     """One-sided p of H0: mean >= bound against H1: mean < bound."""
-    return float(stats.t.cdf(_t(e, bound), e.df))
+    return float(special.stdtr(e.df, _t(e, bound)))
 
 
 def p_tost(e, low, high):

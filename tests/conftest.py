@@ -32,6 +32,18 @@ def pytest_configure(config):
                             "or runs it as another user; skipped by scripts/valgrind.sh")
 
 
+def pytest_collection_modifyitems(config, items):
+    """Under pytest-xdist (`make check` runs --dist loadgroup) the tests of a
+    module that share a module- or class-scoped fixture run on one worker,
+    so that the fixture (a quick reproduction, a venv, ...) is built once
+    rather than once per worker that happens to draw one of them."""
+    for item in items:
+        info = getattr(item, "_fixtureinfo", None)
+        defs = info.name2fixturedefs.values() if info else ()
+        if any(d and d[-1].scope in ("module", "class") for d in defs):
+            item.add_marker(pytest.mark.xdist_group(item.module.__name__))
+
+
 def poolreps_path():
     """The binary under test: env POOLREPS, else ./poolreps at the top level."""
     path = os.environ.get("POOLREPS") or str(ROOT / "poolreps")

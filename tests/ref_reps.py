@@ -16,7 +16,7 @@ p = 0 where q = 0,  closest to q in KL. Here the face is found by one LP per
 candidate sample (the largest p_i on the face) and p0 by minimising the
 maximum-entropy dual on that support, again with trust-ncg.
 """
-from fractions import Fraction
+import math
 
 import numpy as np
 from scipy import optimize
@@ -30,11 +30,20 @@ def standardise(R, q):
     exact rational arithmetic and rounded once; None if the returns are equal.
     (REPS is invariant to R -> a R + b, a > 0.)"""
     on = [i for i in range(len(R)) if q[i] > 0]
-    Rf = [Fraction(float(x)) for x in R]
-    hi, lo = max(Rf[i] for i in on), min(Rf[i] for i in on)
+    Rn, _ = dyadic(R)
+    hi, lo = max(Rn[i] for i in on), min(Rn[i] for i in on)
     if hi == lo:
         return None
-    return np.array([float((r - hi) / (hi - lo)) for r in Rf])
+    # int / int is correctly rounded: one rounding of the exact quotient
+    return np.array([(r - hi) / (hi - lo) for r in Rn])
+
+
+def dyadic(xs):
+    """Integers N and a shift e with x = N / 2**e exactly for every double x
+    of xs: exact rational arithmetic on a common denominator."""
+    ratios = [float(x).as_integer_ratio() for x in xs]
+    e = max(d.bit_length() - 1 for _, d in ratios)
+    return [n << (e - d.bit_length() + 1) for n, d in ratios], e
 
 
 def prepare(R, q, phi):
@@ -53,48 +62,54 @@ def prepare(R, q, phi):
     return q, on, Rs, psi
 
 
-def basis_exact(phi, q, digits=40):
+def basis_exact(phi, q, bits=256):
     """An orthonormal basis of the column space of phi - sum q phi, with the
     weighted mean taken in exact rational arithmetic (offsets of 1e8 times
     the spread leave a double mean off by 1e-7 of it) and modified
-    Gram-Schmidt with column pivoting at `digits` significant digits
-    (mpmath): two columns that differ by 1e-10 of their spread span a
-    direction that a double-precision factorisation holds to only 1e-6.
-    Columns are scaled to unit largest magnitude; a direction is kept when
-    its remaining norm exceeds 1e-12 of the largest column norm (exact
-    dependence leaves about 1e-40)."""
-    import mpmath
+    Gram-Schmidt with column pivoting in fixed point at 2**-bits (Python
+    integers, one rounding per product): two columns that differ by 1e-10
+    of their spread span a direction that a double-precision factorisation
+    holds to only 1e-6. Columns are scaled to unit largest magnitude; a
+    direction is kept when its remaining norm exceeds 1e-12 of the largest
+    column norm (exact dependence leaves about n 2**-bits)."""
     n, d = phi.shape
     if d == 0:
         return phi
-    qf = [Fraction(float(x)) for x in q]
-    tot = sum(qf)
-    with mpmath.workdps(digits):
-        cols = []
-        for j in range(d):
-            col = [Fraction(float(x)) for x in phi[:, j]]
-            mean = sum(a * b for a, b in zip(qf, col)) / tot
-            c = [mpmath.mpf((x - mean).numerator) / (x - mean).denominator for x in col]
-            mag = max(abs(x) for x in c)
-            if mag > 0:
-                cols.append([x / mag for x in c])
-        if not cols:
-            return phi[:, :0]
-        norms = [mpmath.sqrt(mpmath.fsum(x * x for x in c)) for c in cols]
-        tol = mpmath.mpf("1e-12") * max(norms)
-        out = []
-        while cols:
-            k = max(range(len(cols)), key=lambda i: norms[i])
-            if norms[k] <= tol:
-                break
-            u = [x / norms[k] for x in cols.pop(k)]
-            norms.pop(k)
-            out.append(u)
-            for i, c in enumerate(cols):
-                dot = mpmath.fsum(a * b for a, b in zip(u, c))
-                cols[i] = [a - dot * b for a, b in zip(c, u)]
-                norms[i] = mpmath.sqrt(mpmath.fsum(x * x for x in cols[i]))
-        return np.array([[float(x) for x in u] for u in out]).T.reshape(n, len(out))
+    Q, _ = dyadic(q)
+    tot = sum(Q)
+    one = 1 << bits
+    cols = []
+    for j in range(d):
+        X, _ = dyadic(phi[:, j])
+        # x - mean is (X tot - sum Q X) over a common denominator, which the
+        # scaling to unit largest magnitude cancels
+        S = sum(a * b for a, b in zip(Q, X))
+        dev = [x * tot - S for x in X]
+        mag = max(abs(x) for x in dev)
+        if mag > 0:
+            cols.append([rdiv(x << bits, mag) for x in dev])
+    if not cols:
+        return phi[:, :0]
+    norms = [math.isqrt(sum(x * x for x in c)) for c in cols]
+    tol = max(norms) // 10**12
+    out = []
+    while cols:
+        k = max(range(len(cols)), key=lambda i: norms[i])
+        if norms[k] <= tol:
+            break
+        u = [rdiv(x << bits, norms[k]) for x in cols.pop(k)]
+        norms.pop(k)
+        out.append(u)
+        for i, c in enumerate(cols):
+            dot = sum(a * b for a, b in zip(u, c)) >> bits
+            cols[i] = [a - ((dot * b) >> bits) for a, b in zip(c, u)]
+            norms[i] = math.isqrt(sum(x * x for x in cols[i]))
+    return np.array([[x / one for x in u] for u in out]).T.reshape(n, len(out))
+
+
+def rdiv(a, b):
+    """a / b rounded to the nearest integer (b > 0)."""
+    return (2 * a + b) // (2 * b)
 
 
 def basis(psi):

@@ -48,22 +48,32 @@ def poly_roots_in(coef, lo, hi):
     if len(coef) < 2:
         return []
     d = np.polyder(coef)
+    # Newton's steps in Python floats: the same Horner sums as np.polyval,
+    # without numpy's per-call cost on scalars
+    cf, df = [float(c) for c in coef], [float(c) for c in d]
     out = []
     for r in np.roots(coef):
         if abs(r.imag) > 1e-6 * (1 + abs(r.real)):
             continue
-        x = r.real
+        x = float(r.real)
         for _ in range(50):
-            fd = np.polyval(d, x)
+            fd = horner(df, x)
             if fd == 0:
                 break
-            step = np.polyval(coef, x) / fd
+            step = horner(cf, x) / fd
             x -= step
             if abs(step) <= 1e-17 * (1 + abs(x)):
                 break
         if lo - 1e-15 <= x <= hi:
             out.append(max(x, lo))
     return sorted(out)
+
+
+def horner(coef, x):
+    y = 0.0
+    for c in coef:
+        y = y * x + c
+    return y
 
 
 class Sim:

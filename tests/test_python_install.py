@@ -99,8 +99,8 @@ def test_pip_install_finds_an_installed_library_through_pkg_config(venv):
     assert p.returncode != 0 and "OSError: poolreps: libpoolreps.so.0 not found" in p.stderr
 
 
-def build_wheel(venv, src):
-    out = venv / "wheels"
+def build_wheel(venv, src, out):
+    """pip wheel of src with the venv's pip, into the empty folder out."""
     p = run_cmd([str(venv / "env/bin/pip"), "wheel", "-q", "--no-build-isolation", "--no-deps",
                  "--no-index", "-w", str(out), str(src)],
                 capture_output=True, text=True, cwd=venv, timeout=300)
@@ -110,14 +110,13 @@ def build_wheel(venv, src):
     return wheels[0]
 
 
-def test_the_wheel_is_platform_tagged_and_runs_in_a_fresh_venv(tmp_path):
+def test_the_wheel_is_platform_tagged_and_runs_in_a_fresh_venv(venv, tmp_path):
     import sysconfig
     import zipfile
     assert LIB.exists(), "build the library first (make)"
-    builder = tmp_path / "b"
-    run_cmd([sys.executable, "-m", "venv", "--system-site-packages", str(builder / "env")],
-            check=True, capture_output=True, timeout=300)
-    whl = build_wheel(builder, source_tree(tmp_path / "src", with_library=True))
+    # built with the module's venv (what it has installed does not enter a
+    # wheel built from a source tree), installed into a fresh one
+    whl = build_wheel(venv, source_tree(tmp_path / "src", with_library=True), tmp_path / "w")
     plat = sysconfig.get_platform().replace("-", "_").replace(".", "_")
     assert whl.name == f"poolreps-0.1.0-py3-none-{plat}.whl"
     with zipfile.ZipFile(whl) as z:
@@ -152,7 +151,7 @@ def test_a_missing_runtime_library_is_named_at_import(tmp_path):
                            "libgsl27 libgslcblas0 libglpk40 libcsv3 libinih1"), last
 
 
-def test_pip_wheel_of_the_checkout_leaves_it_clean(tmp_path):
+def test_pip_wheel_of_the_checkout_leaves_it_clean(venv, tmp_path):
     if not (ROOT / ".git").exists():
         pytest.skip("not a git checkout")
 
@@ -161,8 +160,5 @@ def test_pip_wheel_of_the_checkout_leaves_it_clean(tmp_path):
                        capture_output=True, text=True, timeout=60).stdout
 
     before = status()
-    builder = tmp_path / "b"
-    run_cmd([sys.executable, "-m", "venv", "--system-site-packages", str(builder / "env")],
-            check=True, capture_output=True, timeout=300)
-    build_wheel(builder, ROOT / "python")
+    build_wheel(venv, ROOT / "python", tmp_path / "w")
     assert status() == before
