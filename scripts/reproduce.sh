@@ -56,8 +56,10 @@ tmp=$(mktemp -d "${TMPDIR:-/tmp}/poolreps-reproduce.XXXXXX")
 plotter= bg= bg_run= child=
 cleanup() {
 	exec 3>&-
-	[ -z "$bg" ] || { kill "$bg" 2>/dev/null; wait "$bg" 2>/dev/null; }
-	[ -z "$plotter" ] || { kill "$plotter" 2>/dev/null; wait "$plotter" 2>/dev/null; }
+	# (a killed process's status must not end the trap under set -e before
+	# the folder is removed, nor replace the script's own)
+	[ -z "$bg" ] || { kill "$bg" 2>/dev/null; wait "$bg" 2>/dev/null || :; }
+	[ -z "$plotter" ] || { kill "$plotter" 2>/dev/null; wait "$plotter" 2>/dev/null || :; }
 	rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -82,15 +84,16 @@ run() { # name: data/NAME.ini; QUICK=1 adds the keys of data/quick/NAME.ini
 	echo "$OUT/$dir" >&3
 }
 
-# run NAME in the background (its subshell's pid in bg). An asynchronous
-# command ignores INT, so cleanup stops it with TERM, which the subshell
-# passes on to the running poolreps.
+# run NAME in the background (its subshell's pid in bg), its stderr into
+# tmp/NAME.err (shown when it ends: no progress lines mixed with the
+# foreground run's). An asynchronous command ignores INT, so cleanup stops
+# it with TERM, which the subshell passes on to the running poolreps.
 run_bg() {
 	(
 		trap '[ -z "$child" ] || { kill "$child" 2>/dev/null; wait "$child"; }; exit 143' TERM
 		bg_run=1
 		run "$1"
-	) &
+	) 2> "$tmp/$1.err" &
 	bg=$!
 }
 
@@ -104,6 +107,7 @@ for name in figures exp1 exp2 exp3 quadratic sphere rosenbrock; do
 done
 st=0; wait "$bg" || st=$?
 bg=
+cat "$tmp/exp4.err" >&2
 [ $st = 0 ] || { echo "reproduce: exp4 failed (exit $st, see its message above)" >&2; exit 1; }
 exec 3>&-
 st=0; wait "$plotter" || st=$?
