@@ -8,10 +8,11 @@
 # QUICK=1: a smoke run at tiny sizes (CI), same code paths and scripts: the
 # keys of data/quick/<name>.ini on top of data/<name>.ini.
 # POOLREPS=path picks the binary (default ./poolreps).
-# The figures are drawn by ONE Python process (scripts/plot_all.py) that
-# takes each folder as soon as its experiment has finished, so drawing
-# overlaps the next experiment's run; timings.csv lists each run, then each
-# folder's drawing time.
+# Experiment 4, the longest, runs in the background beside the others. The
+# figures are drawn by ONE Python process (scripts/plot_all.py) that takes
+# each folder as soon as its experiment has finished, so drawing overlaps
+# the runs; timings.csv lists each run as it ends, then each folder's
+# drawing time.
 set -e
 OUT=${1:-results}
 PY=${2:-}
@@ -34,7 +35,16 @@ fi
 timed() { # step name, then the command; appends its wall time to timings.csv
 	step=$1; shift
 	t0=$(date +%s.%N)
-	"$@"
+	# in a background run (run_bg) the command is waited for, so that the
+	# TERM trap can pass the signal on to it
+	if [ -n "$bg_run" ]; then
+		"$@" &
+		child=$!
+		wait "$child"
+		child=
+	else
+		"$@"
+	fi
 	t=$(echo "$t0 $(date +%s.%N)" | awk '{ printf "%.2f", $2 - $1 }')
 	echo "$step,$t" >> "$OUT/timings.csv"
 	echo "reproduce: $step took $t s"
@@ -43,10 +53,13 @@ timed() { # step name, then the command; appends its wall time to timings.csv
 # the plotting process reads finished folders from a FIFO in a private
 # folder that is removed however this script ends
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/poolreps-reproduce.XXXXXX")
-plotter=
+plotter= bg= bg_run= child=
 cleanup() {
 	exec 3>&-
-	[ -z "$plotter" ] || { kill "$plotter" 2>/dev/null; wait "$plotter" 2>/dev/null; }
+	# (a killed process's status must not end the trap under set -e before
+	# the folder is removed, nor replace the script's own)
+	[ -z "$bg" ] || { kill "$bg" 2>/dev/null; wait "$bg" 2>/dev/null || :; }
+	[ -z "$plotter" ] || { kill "$plotter" 2>/dev/null; wait "$plotter" 2>/dev/null || :; }
 	rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -71,10 +84,31 @@ run() { # name: data/NAME.ini; QUICK=1 adds the keys of data/quick/NAME.ini
 	echo "$OUT/$dir" >&3
 }
 
-# the long Experiment 4 last: the other folders are drawn while it runs
-for name in figures exp1 exp2 exp3 quadratic sphere rosenbrock exp4; do
+# run NAME in the background (its subshell's pid in bg), its stderr into
+# tmp/NAME.err (shown when it ends: no progress lines mixed with the
+# foreground run's). An asynchronous command ignores INT, so cleanup stops
+# it with TERM, which the subshell passes on to the running poolreps.
+run_bg() {
+	(
+		trap '[ -z "$child" ] || { kill "$child" 2>/dev/null; wait "$child"; }; exit 143' TERM
+		bg_run=1
+		run "$1"
+	) 2> "$tmp/$1.err" &
+	bg=$!
+}
+
+# The long Experiment 4 first, in the background: its threads share the
+# cores with the other runs and with the drawing of their figures, so that
+# both cores stay busy until the end (the output does not depend on how the
+# threads are scheduled)
+run_bg exp4
+for name in figures exp1 exp2 exp3 quadratic sphere rosenbrock; do
 	run $name
 done
+st=0; wait "$bg" || st=$?
+bg=
+cat "$tmp/exp4.err" >&2
+[ $st = 0 ] || { echo "reproduce: exp4 failed (exit $st, see its message above)" >&2; exit 1; }
 exec 3>&-
 st=0; wait "$plotter" || st=$?
 plotter=

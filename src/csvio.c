@@ -998,18 +998,6 @@ int pr_csvw_str(pr_csvw *w, const char *s)
 	return PR_OK;
 }
 
-void pr_csv_format_double(double v, char *buf, size_t n)
-{
-	int prec;
-
-	/* shortest of %.15g..%.17g that reads back exactly */
-	for (prec = 15; prec <= 17; ++prec) {
-		snprintf(buf, n, "%.*g", prec, v);
-		if (strtod(buf, NULL) == v)
-			return;
-	}
-}
-
 int pr_csvw_num(pr_csvw *w, double v)
 {
 	char buf[40];
