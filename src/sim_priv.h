@@ -59,7 +59,8 @@ int pr_sim_trace_add(pr_sim_trace *tr, double t, int ball, double x, double y,
 /* Where a straight path from (x,y) along (ux,uy), |u| = sp, first meets a
  * cushion line (cushion 0 x = -hx, 1 x = +hx, 2 y = -hy, 3 y = +hy) and a
  * pocket's capture circle, in units of the path parameter s of
- * (x,y) + u s (HUGE_VAL and -1 if never; an entry already under way is 0). */
+ * (x,y) + u s (HUGE_VAL and -1 if never; an entry already under way is 0).
+ * A pocket that can only be entered after the cushion line is not reported. */
 typedef struct {
 	double cushion, pocket;
 	int cid, pid;
