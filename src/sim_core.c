@@ -8,6 +8,17 @@
 #include "sim_priv.h"
 
 #define POS_SLACK 1e-12 /* m: touching balls and cushions survive rounding */
+#define POCKET_MARGIN 1e-6 /* m: a pocket this far from a path's box is out of its reach */
+
+static double least(double x, double y)
+{
+	return y < x ? y : x;
+}
+
+static double most(double x, double y)
+{
+	return y > x ? y : x;
+}
 
 void pr_sim_pocket_xy(const pr_table *t, int id, double xy[2])
 {
@@ -89,7 +100,7 @@ int pr_sim_check_state(const pr_table *t, const double *st, int n, char *err)
 	double hy = t->width / 2 - t->ball_radius + POS_SLACK;
 	double d2min = (2 * t->ball_radius - POS_SLACK) * (2 * t->ball_radius - POS_SLACK);
 	double r2 = t->pocket_radius * t->pocket_radius;
-	int i, j;
+	int i, j, side;
 
 	if (n < 1 || n > PR_SIM_MAX_BALLS)
 		return pr_err(err, PR_EINVAL, "%d balls: must be 1 to %d", n, PR_SIM_MAX_BALLS);
@@ -101,14 +112,21 @@ int pr_sim_check_state(const pr_table *t, const double *st, int n, char *err)
 			return pr_err(err, PR_EINVAL, "ball %d: off the table: centre (%g, %g) must be at "
 			              "least R = %g from the cushions (|x| <= %g, |y| <= %g)", i, x, y,
 			              t->ball_radius, hx - POS_SLACK, hy - POS_SLACK);
-		for (j = 0; j < PR_SIM_POCKETS; ++j) {
-			double p[2], dx, dy;
-			pr_sim_pocket_xy(t, j, p);
-			dx = x - p[0];
-			dy = y - p[1];
-			if (dx * dx + dy * dy <= r2)
-				return pr_err(err, PR_EINVAL, "ball %d: inside pocket %d: centre (%g, %g) within "
-				              "%g of (%g, %g)", i, j, x, y, t->pocket_radius, p[0], p[1]);
+		for (side = 0; side < 2; ++side) {
+			/* a side's three pockets share their y (pr_sim_pocket_xy's): when
+			 * dy^2 alone exceeds rp^2, so does dx^2 + dy^2 for all three */
+			double dy = y - (side ? 1 : -1) * t->width / 2;
+			if (dy * dy > r2)
+				continue;
+			for (j = 3 * side; j < 3 * side + 3; ++j) {
+				double p[2], dx;
+				pr_sim_pocket_xy(t, j, p);
+				dx = x - p[0];
+				dy = y - p[1];
+				if (dx * dx + dy * dy <= r2)
+					return pr_err(err, PR_EINVAL, "ball %d: inside pocket %d: centre (%g, %g) "
+					              "within %g of (%g, %g)", i, j, x, y, t->pocket_radius, p[0], p[1]);
+			}
 		}
 	}
 	for (i = 0; i < n; ++i)
@@ -137,7 +155,7 @@ void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy,
                       pr_sim_hits *h)
 {
 	const double rp = s->t.pocket_radius;
-	double sy;
+	double sy, ex, ey, lo[2], hi[2];
 	int j;
 
 	h->cushion = h->pocket = HUGE_VAL;
@@ -159,11 +177,26 @@ void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy,
 		h->cid = uy > 0 ? 3 : 2;
 	}
 	h->cushion = fmax(h->cushion, 0);
+	/* The path ends at the cushion line: a pocket whose capture circle lies
+	 * POCKET_MARGIN outside the box around that segment can only be entered
+	 * beyond it, after the bounce, so its root (far more exact than the
+	 * margin) is not computed. */
+	ex = x + ux * h->cushion;
+	ey = y + uy * h->cushion;
+	lo[0] = least(x, ex) - rp - POCKET_MARGIN;
+	hi[0] = most(x, ex) + rp + POCKET_MARGIN;
+	lo[1] = least(y, ey) - rp - POCKET_MARGIN;
+	hi[1] = most(y, ey) + rp + POCKET_MARGIN;
 	/* pockets: |d + u s| = rp, entering (d.u < 0); discriminant via the
 	 * Lagrange identity b^2 - a c = a rp^2 - (d x u)^2 to avoid cancellation */
 	for (j = 0; j < PR_SIM_POCKETS; ++j) {
-		double dx = x - s->px[j], dy = y - s->py[j];
-		double bq = dx * ux + dy * uy, cc, cr, disc, t;
+		double dx, dy, bq, cc, cr, disc, t;
+		/* one branch, mostly taken alike, instead of four at random */
+		if (!((s->px[j] >= lo[0]) & (s->px[j] <= hi[0]) & (s->py[j] >= lo[1]) & (s->py[j] <= hi[1])))
+			continue;
+		dx = x - s->px[j];
+		dy = y - s->py[j];
+		bq = dx * ux + dy * uy;
 		if (bq >= 0)
 			continue;
 		cr = dx * uy - dy * ux;

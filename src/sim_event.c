@@ -10,9 +10,10 @@
  * |u| e^{-ct} = |u| (1 - c tau) = stop_speed. A ball can never travel farther
  * than |u|/c.
  *
- * Each ball caches the earliest event it takes part in; after an event only
- * the balls involved are re-predicted in full, the others are checked
- * against them (or re-predicted when their cached partner was involved).
+ * Each ball caches the earliest event it takes part in, and its own next
+ * event alone; after an event only the balls involved are re-predicted in
+ * full, the others are checked against them (or re-predicted, on their
+ * cached own event, when their cached partner was involved).
  * Positions are advanced lazily: a ball's (x,y,tr) change only when its
  * velocity does. Ties: pocket < stop < cushion < ball collision, then by
  * ball index.
@@ -39,7 +40,8 @@ static void advance(const pr_sim *s, pr_sim_ball *b, double tau)
 	b->tr = tau;
 }
 
-/* The ball's own next event: stop, cushion or pocket entry. */
+/* The ball's own next event: stop, cushion or pocket entry (into ot, otype,
+ * oother; it depends on the ball's state alone). */
 static void predict_own(const pr_sim *s, pr_sim_ball *b)
 {
 	const double c = s->t.friction;
@@ -51,9 +53,9 @@ static void predict_own(const pr_sim *s, pr_sim_ball *b)
 		pr_sim_const_predict_own(s, b);
 		return;
 	}
-	b->et = HUGE_VAL;
-	b->etype = PR_EV_NONE;
-	b->eother = -1;
+	b->ot = HUGE_VAL;
+	b->otype = PR_EV_NONE;
+	b->oother = -1;
 	if (b->st != PR_BALL_MOVING)
 		return;
 	/* |u| (1 - c tau) = stop_speed */
@@ -70,9 +72,9 @@ static void predict_own(const pr_sim *s, pr_sim_ball *b)
 		type = PR_EV_POCKET;
 		other = h.pid;
 	}
-	b->et = best;
-	b->etype = type;
-	b->eother = other;
+	b->ot = best;
+	b->otype = type;
+	b->oother = other;
 }
 
 /* Contact time (absolute tau) of balls i and j, both on the table, seen
@@ -112,20 +114,50 @@ static double pair_time(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_bal
 	return t;
 }
 
-/* Re-predict ball i in full: own events and every pair with it. */
-static void predict_full(pr_sim *s, int n, int i, double tau)
+/* The pair times of an event's np balls part[], once each: row[k][j] is
+ * that of part[k] and ball j, for the first done of them. pair_time is
+ * symmetric in its two balls (the relative quantities change sign
+ * exactly), so row[k][j] is also what ball j would compute against part[k]
+ * at the same tau. */
+typedef struct {
+	int part[2], np, done;
+	double *row[2];
+} event_rows;
+
+/* Pair time of balls i and j at tau, from er when already known there. */
+static double pair_once(const pr_sim *s, const event_rows *er, int i, int j, double tau)
+{
+	int k;
+
+	for (k = 0; er && k < er->done; ++k)
+		if (er->part[k] == j)
+			return er->row[k][i];
+	return pair_time(s, &s->b[i], &s->b[j], tau);
+}
+
+/* Re-predict ball i in full: its own events (again only when own is set:
+ * otherwise its state has not changed since they were), then every pair
+ * with it; row, when given, receives the pair times. */
+static void predict_full(pr_sim *s, int n, int i, double tau, int own, const event_rows *er,
+                         double *row)
 {
 	pr_sim_ball *b = s->b, *bi = &b[i];
 	int j;
 
-	predict_own(s, bi);
+	if (own)
+		predict_own(s, bi);
+	bi->et = bi->ot;
+	bi->etype = bi->otype;
+	bi->eother = bi->oother;
 	if (bi->st == PR_BALL_POCKETED)
 		return;
 	for (j = 0; j < n; ++j) {
 		double t;
 		if (j == i || b[j].st == PR_BALL_POCKETED)
 			continue;
-		t = pair_time(s, bi, &b[j], tau);
+		t = pair_once(s, er, i, j, tau);
+		if (row)
+			row[j] = t;
 		if (t < HUGE_VAL && earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
 			bi->et = t;
 			bi->etype = PR_EV_BALL;
@@ -150,7 +182,7 @@ static void gap_piece(const pr_sim *s, gap_state *g, int i, double tau)
 	if (c->st == PR_BALL_POCKETED || r->st == PR_BALL_POCKETED)
 		return;
 	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
-		g->gap = fmin(g->gap, pr_sim_const_min_dist(s, c, r, tau));
+		g->gap = fmin(g->gap, pr_sim_const_min_dist(s, c, r, tau, g->gap));
 		return;
 	}
 	t0 = fmax(c->tr, r->tr);
@@ -227,27 +259,37 @@ static double time_of(const pr_sim *s, double tau)
 }
 
 /* After an event of the np balls part[]: re-predict them in full, every
- * other ball against them (or in full if its cached partner was one). */
+ * other ball against them (or in full if its cached partner was one), each
+ * pair of an event's ball computed once. */
 static void repredict(pr_sim *s, int n, const int *part, int np, double tau)
 {
 	pr_sim_ball *b = s->b;
+	event_rows er;
 	int i, j;
 
-	for (j = 0; j < np; ++j)
-		predict_full(s, n, part[j], tau);
+	er.np = np;
+	er.done = 0;
+	for (j = 0; j < np; ++j) {
+		er.part[j] = part[j];
+		er.row[j] = s->scr + j * s->cap;
+	}
+	for (j = 0; j < np; ++j) {
+		predict_full(s, n, part[j], tau, 1, &er, er.row[j]);
+		er.done = j + 1;
+	}
 	for (i = 0; i < n; ++i) {
 		pr_sim_ball *bi = &b[i];
 		if (i == part[0] || (np == 2 && i == part[1]) || bi->st == PR_BALL_POCKETED)
 			continue;
 		if (bi->etype == PR_EV_BALL && (bi->eother == part[0] || (np == 2 && bi->eother == part[1]))) {
-			predict_full(s, n, i, tau);
+			predict_full(s, n, i, tau, 0, &er, NULL);
 			continue;
 		}
 		for (j = 0; j < np; ++j) {
 			double t;
 			if (b[part[j]].st == PR_BALL_POCKETED)
 				continue;
-			t = pair_time(s, bi, &b[part[j]], tau);
+			t = er.row[j][i];
 			if (t < HUGE_VAL && earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
 				bi->et = t;
 				bi->etype = PR_EV_BALL;
@@ -305,6 +347,8 @@ static void cushion_bounce(const pr_sim *s, pr_sim_ball *bk)
 	bk->sp = hypot(bk->ux, bk->uy);
 	if (bk->sp == 0)
 		bk->st = PR_BALL_REST;
+	if (s->t.friction_law == PR_FRICTION_CONSTANT)
+		pr_sim_const_heading(bk);
 }
 
 /* eq. 7.5-7.6: balls k and j = bk->eother collide at tau and exchange the
@@ -332,6 +376,10 @@ static void ball_collision(pr_sim *s, gap_state *g, int k, double tau)
 	bj->sp = hypot(bj->ux, bj->uy);
 	bk->st = bk->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
 	bj->st = bj->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
+	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
+		pr_sim_const_heading(bk);
+		pr_sim_const_heading(bj);
+	}
 	if ((k == 0 && j <= g->nr) || (j == 0 && k <= g->nr)) {
 		g->hit = 1;
 		g->gap = 2 * s->t.ball_radius; /* contact: gap 0 */
@@ -344,16 +392,27 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 	const double tmax = s->t.friction_law == PR_FRICTION_CONSTANT ? s->o.max_time
 	                  : -expm1(-c * s->o.max_time) / c; /* tau at sim.max_time */
 	pr_sim_ball *b = s->b;
+	event_rows start;
 	gap_state g;
 	double tau = 0;
 	long events = 0;
 	int i, k, timeout = 0;
 
+	if (s->t.friction_law == PR_FRICTION_CONSTANT)
+		for (i = 0; i < n; ++i)
+			pr_sim_const_heading(&b[i]);
 	g.nr = s->t.reward_balls;
 	g.hit = 0;
 	g.gap = HUGE_VAL;
-	for (i = 0; i < n; ++i)
-		predict_full(s, n, i, 0);
+	/* the cue ball's pair times serve the balls at rest, whose other pairs are at rest */
+	start.part[0] = 0;
+	start.np = 1;
+	start.done = 0;
+	start.row[0] = s->scr;
+	for (i = 0; i < n; ++i) {
+		predict_full(s, n, i, 0, 1, &start, i ? NULL : start.row[0]);
+		start.done = 1;
+	}
 	if (tr && trace_all(s, n, tr, 0, 0))
 		return pr_err(err, PR_ENOMEM, "trace: out of memory");
 	while ((k = next_event(s, n)) >= 0) {

@@ -94,8 +94,8 @@ void pr_sim_const_at(const pr_sim *s, const pr_sim_ball *b, double t, double p[2
 	}
 	l = dist_at(s, b, t);
 	f = (b->sp - s->t.deceleration * (t - b->tr)) / b->sp;
-	p[0] = b->x + b->ux / b->sp * l;
-	p[1] = b->y + b->uy / b->sp * l;
+	p[0] = b->x + b->ex * l;
+	p[1] = b->y + b->ey * l;
 	v[0] = b->ux * f;
 	v[1] = b->uy * f;
 }
@@ -111,6 +111,15 @@ void pr_sim_const_advance(const pr_sim *s, pr_sim_ball *b, double t)
 	b->uy = v[1];
 	b->sp = norm(v[0], v[1]);
 	b->tr = t;
+	pr_sim_const_heading(b);
+}
+
+void pr_sim_const_heading(pr_sim_ball *b)
+{
+	if (b->sp > 0) {
+		b->ex = b->ux / b->sp;
+		b->ey = b->uy / b->sp;
+	}
 }
 
 static int earlier(double t1, int k1, double t2, int k2)
@@ -125,16 +134,16 @@ void pr_sim_const_predict_own(const pr_sim *s, pr_sim_ball *b)
 	double best, lmax;
 	int type, other = -1;
 
-	b->et = HUGE_VAL;
-	b->etype = PR_EV_NONE;
-	b->eother = -1;
+	b->ot = HUGE_VAL;
+	b->otype = PR_EV_NONE;
+	b->oother = -1;
 	if (b->st != PR_BALL_MOVING)
 		return;
 	best = b->tr + stop_in(s, b->sp);
 	type = PR_EV_STOP;
 	lmax = reach(s, b->sp);
 	/* along the unit direction the path parameter is the distance l */
-	pr_sim_path_hits(s, b->x, b->y, b->ux / b->sp, b->uy / b->sp, 1, &h);
+	pr_sim_path_hits(s, b->x, b->y, b->ex, b->ey, 1, &h);
 	if (h.cid >= 0 && h.cushion <= lmax) {
 		double t = b->tr + time_for(b->sp, a, h.cushion);
 		if (earlier(t, PR_EV_CUSHION, best, type)) {
@@ -151,9 +160,9 @@ void pr_sim_const_predict_own(const pr_sim *s, pr_sim_ball *b)
 			other = h.pid;
 		}
 	}
-	b->et = best;
-	b->etype = type;
-	b->eother = other;
+	b->ot = best;
+	b->otype = type;
+	b->oother = other;
 }
 
 /* ---- two moving balls: d(s) = D + W s + H s^2 ---- */
@@ -493,7 +502,7 @@ static double line_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_sim
 		p0[0] = p1[0] = m->x;
 		p0[1] = p1[1] = m->y;
 	} else {
-		const double e0 = m->ux / m->sp, e1 = m->uy / m->sp;
+		const double e0 = m->ex, e1 = m->ey;
 		const double l0 = dist_at(s, m, t0), l1 = dist_at(s, m, t);
 		p0[0] = m->x + e0 * l0;
 		p0[1] = m->y + e1 * l0;
@@ -509,8 +518,21 @@ static double line_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_sim
 	return norm(dx - u * ex, dy - u * ey);
 }
 
+/* Whether a mover m, up to time t, provably stays farther than gap from o
+ * at rest: its line passes o farther than gap, or its reference point is
+ * farther from o than gap plus the distance it has gone; margins of 1e-9,
+ * far above rounding. */
+static int beyond(const pr_sim *s, const pr_sim_ball *m, const pr_sim_ball *o, double t,
+                  double gap)
+{
+	const double dx = o->x - m->x, dy = o->y - m->y, cr = dx * m->uy - dy * m->ux;
+	const double r = (dist_at(s, m, t) + gap) * (1 + 1e-9), g = gap * m->sp * (1 + 1e-9);
+
+	return m->sp > 0 && (cr * cr > g * g || dx * dx + dy * dy > r * r);
+}
+
 double pr_sim_const_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj,
-                             double t)
+                             double t, double gap)
 {
 	const double t0 = bi->tr > bj->tr ? bi->tr : bj->tr;
 	rel_path q;
@@ -518,8 +540,12 @@ double pr_sim_const_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_si
 	double S, pt[5], best = HUGE_VAL;
 	int m, k;
 
-	if (bi->sp == 0 || bj->sp == 0 || bi->st != PR_BALL_MOVING || bj->st != PR_BALL_MOVING)
+	if (bi->sp == 0 || bj->sp == 0 || bi->st != PR_BALL_MOVING || bj->st != PR_BALL_MOVING) {
+		const pr_sim_ball *mv = bi->st == PR_BALL_MOVING && bi->sp > 0 ? bi : bj;
+		if (gap < HUGE_VAL && beyond(s, mv, mv == bi ? bj : bi, t, gap))
+			return HUGE_VAL;
 		return line_min_dist(s, bi, bj, t0, t);
+	}
 	relative(s, bi, bj, t0, &q, &S, &mi, &mj);
 	q.r2 = 0;
 	m = split_points(&q, fmin(S, t - t0), pt);

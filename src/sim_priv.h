@@ -17,14 +17,17 @@ enum { PR_EV_POCKET = 0, PR_EV_STOP = 1, PR_EV_CUSHION = 2, PR_EV_BALL = 3, PR_E
 /* One ball. Event mode: (x,y) is the position at reference tau tr and (ux,uy)
  * the velocity rescaled to t = 0, so between events the position is
  * (x,y) + u (tau - tr) (see sim_event.c). Stepped mode: (x,y) and (ux,uy) are
- * the current position and real velocity; tr, sp and the event cache are unused. */
+ * the current position and real velocity; tr, sp and the event caches are unused. */
 typedef struct {
 	double x, y, ux, uy;
 	double tr;       /* reference tau of (x,y) */
 	double sp;       /* |u| */
+	double ex, ey;   /* constant law, event mode, sp > 0: the direction u / sp */
 	double et;       /* cached earliest event involving this ball (absolute tau) */
 	int etype;       /* PR_EV_* */
 	int eother;      /* partner ball, cushion (0..3) or pocket (0..5) */
+	double ot;       /* its own next event alone (stop, cushion, pocket): as et */
+	int otype, oother;
 	int st;          /* PR_BALL_* */
 } pr_sim_ball;
 
@@ -38,7 +41,8 @@ struct pr_sim {
 	double *final;
 	int *pocket;
 	int *idx;                /* cap ints of scratch (stepped mode) */
-	double *scr;             /* 2*cap doubles of scratch (stepped mode) */
+	double *scr;             /* 2*cap doubles of scratch (stepped mode; event mode: the
+	                            pair times of an event's balls) */
 };
 
 struct pr_sim_trace {
@@ -55,7 +59,8 @@ int pr_sim_trace_add(pr_sim_trace *tr, double t, int ball, double x, double y,
 /* Where a straight path from (x,y) along (ux,uy), |u| = sp, first meets a
  * cushion line (cushion 0 x = -hx, 1 x = +hx, 2 y = -hy, 3 y = +hy) and a
  * pocket's capture circle, in units of the path parameter s of
- * (x,y) + u s (HUGE_VAL and -1 if never; an entry already under way is 0). */
+ * (x,y) + u s (HUGE_VAL and -1 if never; an entry already under way is 0).
+ * A pocket that can only be entered after the cushion line is not reported. */
 typedef struct {
 	double cushion, pocket;
 	int cid, pid;
@@ -68,12 +73,15 @@ void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy,
  * position and velocity at its reference time tr. */
 void pr_sim_const_at(const pr_sim *s, const pr_sim_ball *b, double t, double p[2], double v[2]);
 void pr_sim_const_advance(const pr_sim *s, pr_sim_ball *b, double t);
+/* Sets b's direction (ex, ey) from its velocity, after the velocity changed. */
+void pr_sim_const_heading(pr_sim_ball *b);
 void pr_sim_const_predict_own(const pr_sim *s, pr_sim_ball *b);
 double pr_sim_const_pair_time(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj,
                               double t);
-/* Smallest centre distance of balls i and j over [max(tr_i, tr_j), t]. */
+/* Smallest centre distance of balls i and j over [max(tr_i, tr_j), t], or
+ * HUGE_VAL when one is at rest and it is provably above gap. */
 double pr_sim_const_min_dist(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj,
-                             double t);
+                             double t, double gap);
 
 /* The two time-advance schemes. They start from s->b[0..n-1] set up by
  * pr_sim_shoot (positions, cue velocity, states) and fill res except nballs,
