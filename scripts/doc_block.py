@@ -1,3 +1,4 @@
+#!/usr/bin/env python3
 """The generated blocks of the docs: text between <!-- NAME:begin --> and
 <!-- NAME:end --> that a table script writes (--write) or compares
 (--check) with what it makes of a committed CSV."""
@@ -22,3 +23,7 @@ def update(paths, name, text, check, script, source):
             with open(path + ".tmp", "w", encoding="utf-8") as f:
                 f.write(new)
             os.replace(path + ".tmp", path)
+
+
+if __name__ == "__main__":
+    print(__doc__)
