@@ -109,7 +109,11 @@ def trend(y):
 
 def interval(e, level=LEVEL):
     """Two-sided t interval (lo, hi) of the estimate."""
-    half = stats.t.ppf(0.5 + level / 2, e.df) * e.se
+    if not 0 < level < 1:
+        raise ValueError(f"interval: level must be in (0, 1) (got {level})")
+    # stats.t.ppf(q, df) is special.stdtrit(df, q) for q in (0, 1), behind the
+    # same per-call checks as stats.t.sf (see p_greater)
+    half = float(special.stdtrit(e.df, 0.5 + level / 2)) * e.se
     return e.est - half, e.est + half
 
 
