@@ -32,6 +32,7 @@ def pytest_configure(config):
                             "or runs it as another user; skipped by scripts/valgrind.sh")
 
 
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     """Under pytest-xdist (`make check` runs --dist loadgroup) the tests of a
     module that share a module- or class-scoped fixture run on one worker,
