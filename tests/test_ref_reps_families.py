@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import ref_reps
-from reps_families import FAMILIES, make_family
+from reps_families import FAMILIES, WIDE, make_family
 from test_ref_reps import run_c
 
 NSEEDS = 100
@@ -27,6 +27,17 @@ NSEEDS = 100
 @pytest.mark.parametrize("kind", FAMILIES)
 @pytest.mark.parametrize("seed", range(NSEEDS))
 def test_family_against_reference(tmp_path, kind, seed):
+    check_against_reference(tmp_path, kind, seed)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_wide_dense_path_against_reference(tmp_path, seed):
+    """The dense path of 32 or more free features with n > d (its rank-k
+    Hessian kernel and least-squares start), same tolerances."""
+    check_against_reference(tmp_path, WIDE, seed)
+
+
+def check_against_reference(tmp_path, kind, seed):
     R, q, phi, eps = make_family(kind, seed)
     qq = np.ones(len(R)) if q is None else q
     p, s = run_c(tmp_path, R, q, phi, eps)
