@@ -181,8 +181,8 @@ void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy,
 	 * POCKET_MARGIN outside the box around that segment can only be entered
 	 * beyond it, after the bounce, so its root (far more exact than the
 	 * margin) is not computed. */
-	ex = x + ux * h->cushion;
-	ey = y + uy * h->cushion;
+	ex = ux != 0 ? x + ux * h->cushion : x;  /* no 0 * inf: the cushion may be HUGE_VAL */
+	ey = uy != 0 ? y + uy * h->cushion : y;
 	lo[0] = least(x, ex) - rp - POCKET_MARGIN;
 	hi[0] = most(x, ex) + rp + POCKET_MARGIN;
 	lo[1] = least(y, ey) - rp - POCKET_MARGIN;
