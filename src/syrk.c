@@ -18,13 +18,10 @@ typedef double v8d __attribute__((vector_size(64)));
 #define TJ 8  /* rows of H per tile */
 #define TK 16 /* columns of H per tile: two vectors */
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define CLONES
-#endif
-
-CLONES void pr_syrk_acc(const double *Y, int mr, int nfp, double *H)
+/* Inlined into one wrapper per instruction set below, so each copy is
+ * compiled for its own vector width. */
+static inline __attribute__((always_inline)) void
+syrk_tiles(const double *Y, int mr, int nfp, double *H)
 {
 	int j0, k0, a, i;
 
@@ -47,4 +44,44 @@ CLONES void pr_syrk_acc(const double *Y, int mr, int nfp, double *H)
 			for (a = 0; a < TJ; a++)
 				memcpy(H + (size_t)(j0 + a) * nfp + k0, acc[a], sizeof acc[a]);
 		}
+}
+
+typedef void syrk_fn(const double *, int, int, double *);
+
+static void syrk_default(const double *Y, int mr, int nfp, double *H)
+{
+	syrk_tiles(Y, mr, nfp, H);
+}
+
+static syrk_fn *syrk_impl = syrk_default;
+
+/* The dispatch is by hand rather than through target_clones, whose resolver
+ * some compilers (clang 14) emit only for callers in the same file. */
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+__attribute__((target("avx2"))) static void
+syrk_avx2(const double *Y, int mr, int nfp, double *H)
+{
+	syrk_tiles(Y, mr, nfp, H);
+}
+
+__attribute__((target("avx512f"))) static void
+syrk_avx512(const double *Y, int mr, int nfp, double *H)
+{
+	syrk_tiles(Y, mr, nfp, H);
+}
+
+/* chosen once when the library loads, before any thread can call it */
+__attribute__((constructor)) static void syrk_choose(void)
+{
+	__builtin_cpu_init();
+	if (__builtin_cpu_supports("avx512f"))
+		syrk_impl = syrk_avx512;
+	else if (__builtin_cpu_supports("avx2"))
+		syrk_impl = syrk_avx2;
+}
+#endif
+
+void pr_syrk_acc(const double *Y, int mr, int nfp, double *H)
+{
+	syrk_impl(Y, mr, nfp, H);
 }
