@@ -4,8 +4,8 @@
 # the same REPS dual in the same run (scripts/bench_reps.py), next to the
 # previous poolreps built from git in this run (BENCH_BASE, default the
 # last commit before the dense path's own rank-k kernel and start;
-# BENCH_BASE=none skips it), whole process and in-process: the tree from
-# git archive in a temporary folder, removed afterwards. Table by
+# BENCH_BASE=none skips it), whole process and in-process: built by
+# scripts/prev_build.sh in a temporary folder, removed afterwards. Table by
 # scripts/bench_reps_table.py. CSV: build/bench/reps.csv (copy it to
 # docs/bench_reps.csv, then `scripts/bench_reps_table.py --write` updates
 # docs/benchmarks.md).
@@ -18,10 +18,8 @@ TMP=$(mktemp -d "${TMPDIR:-/tmp}/bench_reps.XXXXXX")
 trap 'rm -rf "$TMP"' EXIT INT TERM
 PREV=
 if [ "$BASE" != none ]; then
-	mkdir "$TMP/previous"
-	git archive "$BASE" | tar -x -C "$TMP/previous"
-	${MAKE:-make} -s -C "$TMP/previous" -j2 build/rel/poolreps build/rel/libpoolreps.so.0.1.0 \
-		> "$TMP/build.log" 2>&1 || { cat "$TMP/build.log" >&2; exit 1; }
+	. scripts/prev_build.sh
+	prev_build "$BASE" "$TMP/previous" build/rel/libpoolreps.so.0.1.0
 	PREV="--previous $TMP/previous"
 fi
 "$PY" scripts/bench_reps.py --runs "${RUNS:-3}" --csv build/bench/reps.csv $PREV

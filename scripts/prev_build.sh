@@ -1,12 +1,17 @@
 # prev_build.sh — sourced by the benches that measure a previous version:
-# prev_build REF DIR builds poolreps at git revision REF into
-# DIR/build/rel/poolreps from `git archive`, unless DIR already holds that
-# revision's build (DIR/.ref).
+# prev_build REF DIR [TARGET...] builds poolreps (and the make TARGETs, as
+# paths under DIR) at git revision REF into DIR/build/rel from `git
+# archive`, unless DIR already holds that revision's build of them (DIR/.ref).
 prev_build() {
-	if [ ! -x "$2/build/rel/poolreps" ] || [ "$(cat "$2/.ref" 2>/dev/null)" != "$(git rev-parse "$1")" ]; then
-		rm -rf "$2" && mkdir -p "$2"
-		git archive "$1" | tar -x -C "$2"
-		(cd "$2" && ${MAKE:-make} -s -j2 build/rel/poolreps >/dev/null)
-		git rev-parse "$1" > "$2/.ref"
+	ref=$1 dir=$2
+	shift 2
+	set -- build/rel/poolreps "$@"
+	have=1
+	for t in "$@"; do [ -e "$dir/$t" ] || have=; done
+	if [ -z "$have" ] || [ "$(cat "$dir/.ref" 2>/dev/null)" != "$(git rev-parse "$ref")" ]; then
+		rm -rf "$dir" && mkdir -p "$dir"
+		git archive "$ref" | tar -x -C "$dir"
+		(cd "$dir" && ${MAKE:-make} -s -j2 "$@" >/dev/null)
+		git rev-parse "$ref" > "$dir/.ref"
 	fi
 }
