@@ -114,7 +114,6 @@ struct pr_policy {
 	double *X, *A;      /* n x ds, n x da: states and actions minus zref */
 	double *zref;       /* ds + da: the weighted means of the states and actions */
 	double *w;          /* n REPS weights */
-	double *wm;         /* n: w / M, a sample's weight per active leaf (eq. 6.4) */
 	double *lm;         /* nl moment records (mom_*): each leaf's samples */
 	double *gm;         /* one moment record: all samples */
 	double *D;          /* n x da: a_i - m_i, m_i the mean of the policy that
@@ -163,8 +162,7 @@ static int eig_alloc(eig *e, int k)
 struct pr_policy_work {
 	int n, ds, da, cap;
 	double *what;     /* n: eq. 6.4 weights (residual covariance, no pair table) */
-	int *touched;     /* n + 1: the samples with what > 0 (and a slot the
-	                     branch-free walk may write past them) */
+	int *touched;     /* n: the samples with what > 0 */
 	int *leaves;      /* cap active leaves */
 	double *mom;      /* one moment record */
 	double *dmom;     /* one moment record of a - m (cov_center old) */
@@ -220,7 +218,7 @@ static pr_policy_work *work_new(int n, int ds, int da, int cap, char *err)
 	w->da = da;
 	w->cap = cap;
 	w->what = calloc((size_t)(n > 0 ? n : 1), sizeof *w->what);
-	w->touched = calloc((size_t)(n > 0 ? n : 0) + 1, sizeof *w->touched);
+	w->touched = calloc((size_t)(n > 0 ? n : 1), sizeof *w->touched);
 	w->leaves = calloc((size_t)(cap > 0 ? cap : 1), sizeof *w->leaves);
 	w->mom = calloc(mom_size(ds, da) + k + a, sizeof *w->mom); /* + mom_merge's scratch */
 	w->dmom = calloc(mom_size(da, 0) + a, sizeof *w->dmom);
@@ -424,7 +422,6 @@ void pr_policy_free(pr_policy *p)
 	free(p->A);
 	free(p->zref);
 	free(p->w);
-	free(p->wm);
 	free(p->lm);
 	free(p->gm);
 	free(p->D);
@@ -951,7 +948,6 @@ static int leaf_moments(pr_policy *p, const pr_policy_data *d, int old, const in
 	int i, l;
 
 	p->lm = malloc((size_t)p->nl * LM * sizeof *p->lm);
-	p->wm = malloc((size_t)d->n * sizeof *p->wm);
 	p->gm = malloc((LM + (size_t)(ds + da)) * sizeof *p->gm);
 	p->lpos = calloc((size_t)p->nl, sizeof *p->lpos);
 	if ((size_t)p->nl * (size_t)p->nl <= 4u << 20)
@@ -960,11 +956,9 @@ static int leaf_moments(pr_policy *p, const pr_policy_data *d, int old, const in
 		p->ld = malloc((size_t)p->nl * LD * sizeof *p->ld);
 		p->gd = malloc(LD * sizeof *p->gd);
 	}
-	if (!p->lm || !p->wm || !p->gm || !p->lpos || ((size_t)p->nl * (size_t)p->nl <= 4u << 20 && !p->w2) ||
+	if (!p->lm || !p->gm || !p->lpos || ((size_t)p->nl * (size_t)p->nl <= 4u << 20 && !p->w2) ||
 	    (old && (!p->ld || !p->gd)))
 		return PR_ENOMEM;
-	for (i = 0; i < d->n; i++)
-		p->wm[i] = p->w[i] / p->M;
 	for (l = 0; l < p->nl; l++) {
 		const int *idx;
 		int k = pr_forest_leaf_samples(p->forest, l, &idx);
@@ -1070,24 +1064,17 @@ pr_policy *pr_policy_tree_fit(const pr_policy_opts *o, const pr_policy_data *d,
  * by walking the samples of the active leaves; returns their count. */
 static int walk_weights(const pr_policy *p, const int *leaves, int nl, pr_policy_work *ws)
 {
-	const double *wm = p->wm;
-	double *what = ws->what;
-	int *touched = ws->touched;
 	int t, i, nt = 0;
 
 	for (t = 0; t < nl; t++) {
 		const int *idx;
 		int m = pr_forest_leaf_samples(p->forest, leaves[t], &idx);
 
-		/* w_i/M times the number of active leaves shared with s; a sample
-		 * is listed on its first positive share (branch-free: the slot
-		 * past the list is written and kept only then) */
+		/* w_i/M times the number of active leaves shared with s */
 		for (i = 0; i < m; i++) {
-			const int k = idx[i];
-
-			touched[nt] = k;
-			nt += (what[k] == 0.0) & (wm[k] > 0.0);
-			what[k] += wm[k];
+			if (ws->what[idx[i]] == 0.0 && p->w[idx[i]] > 0.0)
+				ws->touched[nt++] = idx[i];
+			ws->what[idx[i]] += p->w[idx[i]] / p->M;
 		}
 	}
 	return nt;
