@@ -416,15 +416,16 @@ static int varies(const double *y, int m)
 	return 0;
 }
 
-/* x if the mask is all ones, else -0.0: the exact additive identity (s +
- * -0.0 == s for every s, signed zeros included), so a sum of picked terms
- * is bit for bit the sum of its own terms in order. */
+/* x if the mask is all ones, else +0.0. Added to a sum that starts at +0.0
+ * it changes nothing: such a sum is never -0.0 (only -0.0 + -0.0 is), and
+ * s + 0.0 == s for every other s, so a sum of picked terms is bit for bit
+ * the sum of its own terms in order. */
 static inline double pick(double x, uint64_t mask)
 {
 	uint64_t u;
 
 	memcpy(&u, &x, sizeof u);
-	u = (u & mask) | (~mask & 0x8000000000000000ULL);
+	u &= mask;
 	memcpy(&x, &u, sizeof x);
 	return x;
 }
