@@ -416,32 +416,72 @@ static int varies(const double *y, int m)
 	return 0;
 }
 
-/* General case: left and right weight sums and sums of w * (y - mean), both
- * accumulated, so a light child's sums carry no cancellation error. */
-static int scan_gen(builder *b, const double *x, const double *w, int m, double t,
-                    double *wl, double *wr)
+/* x if the mask is all ones, else +0.0. Added to a sum that starts at +0.0
+ * it changes nothing: such a sum is never -0.0 (only -0.0 + -0.0 is), and
+ * s + 0.0 == s for every other s, so a sum of picked terms is bit for bit
+ * the sum of its own terms in order. */
+static inline double pick(double x, uint64_t mask)
 {
-	int dy = b->dy, nl = 0;
-	double a = 0, c = 0;
+	uint64_t u;
 
-	for (int k = 0; k < dy; k++)
-		b->sl[k] = b->sr[k] = 0;
+	memcpy(&u, &x, sizeof u);
+	u &= mask;
+	memcpy(&x, &u, sizeof x);
+	return x;
+}
+
+/* One pass of scan_gen over the kw (a constant when inlined) outputs from
+ * column k0 of wyc (rows dy apart), into sl[k0..], sr[k0..]. Branch-free,
+ * with the sums in registers: the side of x[j] < t mispredicts half the
+ * time on a random test, and sums behind b->sl might alias wyc. */
+static inline int scan_gen_w(const double *restrict wyc, int dy, int k0, int kw,
+                             const double *restrict x, const double *restrict w, int m,
+                             double t, double *sl, double *sr, double *wl, double *wr)
+{
+	lanes4 l = { { 0 } }, r = { { 0 } };
+	double a = 0, c = 0;
+	int nl = 0;
+
 	for (int j = 0; j < m; j++) {
-		const double *v = b->wyc + (size_t)j * dy;
-		double wj = w ? w[j] : 1.0;
-		if (x[j] < t) {
-			nl++;
-			a += wj;
-			for (int k = 0; k < dy; k++)
-				b->sl[k] += v[k];
-		} else {
-			c += wj;
-			for (int k = 0; k < dy; k++)
-				b->sr[k] += v[k];
+		const double *v = wyc + (size_t)j * dy + k0;
+		const int left = x[j] < t;
+		const uint64_t mk = -(uint64_t)left;
+		const double wj = w ? w[j] : 1.0;
+
+		nl += left;
+		a += pick(wj, mk);
+		c += pick(wj, ~mk);
+		for (int k = 0; k < kw; k++) {
+			l.v[k] += pick(v[k], mk);
+			r.v[k] += pick(v[k], ~mk);
 		}
+	}
+	for (int k = 0; k < kw; k++) {
+		sl[k0 + k] = l.v[k];
+		sr[k0 + k] = r.v[k];
 	}
 	*wl = a;
 	*wr = c;
+	return nl;
+}
+
+/* General case: left and right weight sums and sums of w * (y - mean), both
+ * accumulated, so a light child's sums carry no cancellation error. Outputs
+ * four at a time (each pass gives the same counts and weight sums). */
+static int scan_gen(builder *b, const double *x, const double *w, int m, double t,
+                    double *wl, double *wr)
+{
+	const int dy = b->dy;
+	int nl = 0;
+
+	for (int k0 = 0; k0 < dy; k0 += 4) {
+		switch (dy - k0) {
+		case 1: nl = scan_gen_w(b->wyc, dy, k0, 1, x, w, m, t, b->sl, b->sr, wl, wr); break;
+		case 2: nl = scan_gen_w(b->wyc, dy, k0, 2, x, w, m, t, b->sl, b->sr, wl, wr); break;
+		case 3: nl = scan_gen_w(b->wyc, dy, k0, 3, x, w, m, t, b->sl, b->sr, wl, wr); break;
+		default: nl = scan_gen_w(b->wyc, dy, k0, 4, x, w, m, t, b->sl, b->sr, wl, wr); break;
+		}
+	}
 	return nl;
 }
 

@@ -1088,6 +1088,40 @@ static void unwalk(pr_policy_work *ws, int nt)
 		ws->what[ws->touched[k]] = 0.0;
 }
 
+/* The residual covariance's sums: sum w and (upper triangle) sum w r r^T
+ * into C over the n samples ix[k] (k when ix is NULL) with w = wv[ix[k]] >
+ * 0, r = a - mu_a - B^T (x - mu_x). Inlined with constant ds and da (the
+ * learning tasks' 2 and 2) on local C and r, the sums stay in registers:
+ * none of the pointers alias. */
+static inline double resid_sums(int ds, int da, int n, const int *restrict ix,
+                                const double *restrict wv, const double *restrict X,
+                                const double *restrict A, const double *restrict mu,
+                                const double *restrict B, double *restrict r,
+                                double *restrict C)
+{
+	double wt = 0.0;
+	int i, j, k, l;
+
+	for (k = 0; k < n; k++) {
+		const int ii = ix ? ix[k] : k;
+		const double wi = wv[ii];
+		const double *x = X + (size_t)ii * ds, *a = A + (size_t)ii * da;
+
+		if (!(wi > 0.0))
+			continue;
+		wt += wi;
+		for (j = 0; j < da; j++) {
+			r[j] = a[j] - mu[ds + j];
+			for (i = 0; i < ds; i++)
+				r[j] -= B[i * da + j] * (x[i] - mu[i]);
+		}
+		for (j = 0; j < da; j++)
+			for (l = j; l < da; l++)
+				C[j * da + l] += wi * r[j] * r[l];
+	}
+	return wt;
+}
+
 /* Locally weighted regression eq. 6.6-6.9 at state s from the pooled
  * moments rec of the weights w-hat (tot = sum w-hat, s2n = sum w-hat^2 /
  * tot^2), in centred, standardised coordinates:
@@ -1110,7 +1144,7 @@ static int lwr(const pr_policy *p, const double *rec, const double *drec, double
 	const int ds = p->ds, da = p->da, dz = ds + da;
 	const double *mu = rec + 1, *S = rec + 1 + dz;
 	double *C = ws->cov, *B = ws->B, *r = ws->z;
-	int j, l, i, k, flags;
+	int j, l, flags;
 
 	/* slope_solve takes the centred sums: the factor 1/W of the moments per
 	 * unit weight cancels in the standardised solve */
@@ -1137,25 +1171,19 @@ static int lwr(const pr_policy *p, const double *rec, const double *drec, double
 			for (l = j; l < da; l++)
 				C[j * da + l] = Sd[j * da + l] / drec[0] + dbar[j] * dbar[l];
 	} else if (p->covmode == PR_COV_RESIDUAL && !(flags & PR_POLICY_MEANONLY)) {
-		int n = global ? p->n : nt;
-		double wt = 0.0;
+		const int *ix = global ? NULL : ws->touched;
+		const double *wv = global ? p->w : ws->what;
+		const int n = global ? p->n : nt;
+		double wt;
 
-		for (k = 0; k < n; k++) {
-			const int ii = global ? k : ws->touched[k];
-			const double wi = global ? p->w[ii] : ws->what[ii];
-			const double *x = p->X + (size_t)ii * ds, *a = p->A + (size_t)ii * da;
+		if (ds == 2 && da == 2) {
+			/* local sums: scalarised into registers once inlined */
+			double c4[4] = { 0 }, r2[2];
 
-			if (!(wi > 0.0))
-				continue;
-			wt += wi;
-			for (j = 0; j < da; j++) {
-				r[j] = a[j] - mu[ds + j];
-				for (i = 0; i < ds; i++)
-					r[j] -= B[i * da + j] * (x[i] - mu[i]);
-			}
-			for (j = 0; j < da; j++)
-				for (l = j; l < da; l++)
-					C[j * da + l] += wi * r[j] * r[l];
+			wt = resid_sums(2, 2, n, ix, wv, p->X, p->A, mu, B, r2, c4);
+			memcpy(C, c4, sizeof c4);
+		} else {
+			wt = resid_sums(ds, da, n, ix, wv, p->X, p->A, mu, B, r, C);
 		}
 		for (j = 0; j < da; j++)
 			for (l = j; l < da; l++)

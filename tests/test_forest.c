@@ -748,6 +748,57 @@ static void test_save_load(void **state)
 	}
 }
 
+/* An output constant in every node has SSE 0 and takes no part in the score
+ * (nor in the other outputs' leaf means): six outputs of which only 1 and 4
+ * vary (one in each block of four the weighted scan takes at a time) grow
+ * exactly the forest of those two alone, weighted or not, sum or relative. */
+static void test_constant_outputs_drop_out(void **state)
+{
+	enum { N = 150, DX = 3 };
+	static double X[N * DX], Y1[N], Y6[N * 6], Y2[N * 2], W[N];
+	const double c[6] = { 0.25, 0, -3, 7, 0, 1e3 };
+
+	(void)state;
+	random_data(N, DX, X, Y1, 31);
+	for (int i = 0; i < N; i++) {
+		for (int k = 0; k < 6; k++)
+			Y6[6 * i + k] = c[k];
+		Y6[6 * i + 1] = Y2[2 * i] = Y1[i];
+		Y6[6 * i + 4] = Y2[2 * i + 1] = cos(5 * X[DX * i + 1]) * (1 + i % 3);
+		W[i] = 0.25 + (i * 7 % 11);
+	}
+	for (int v = 0; v < 4; v++) {
+		pr_forest_opts o = opts(4, 6, 12, 2);
+		const double *w = v & 1 ? W : NULL;
+		pr_forest *f, *g;
+
+		o.outputs = v & 2 ? PR_OUTPUTS_RELATIVE : PR_OUTPUTS_SUM;
+		f = fit(&o, X, N, DX, Y6, 6, w, 9);
+		g = fit(&o, X, N, DX, Y2, 2, w, 9);
+		assert_int_equal(pr_forest_nnodes(f), pr_forest_nnodes(g));
+		assert_int_equal(pr_forest_nleaves(f), pr_forest_nleaves(g));
+		assert_true(pr_forest_nleaves(f) > 4 * 4);
+		for (int k = 0; k < pr_forest_nnodes(f); k++) {
+			int df, dg, rf, rg;
+			double tf, tg;
+
+			assert_int_equal(pr_forest_node(f, k, &df, &tf, &rf), PR_OK);
+			assert_int_equal(pr_forest_node(g, k, &dg, &tg, &rg), PR_OK);
+			assert_int_equal(df, dg);
+			assert_int_equal(rf, rg);
+			assert_true(tf == tg);
+		}
+		for (int l = 0; l < pr_forest_nleaves(f); l++) {
+			const double *mf = pr_forest_leaf_mean(f, l), *mg = pr_forest_leaf_mean(g, l);
+
+			assert_true(mf[1] == mg[0] && mf[4] == mg[1]);
+			assert_true(mf[0] == c[0]);  /* 0.25 w sums exactly */
+		}
+		pr_forest_free(f);
+		pr_forest_free(g);
+	}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -767,6 +818,7 @@ int main(void)
 		cmocka_unit_test(test_outputs_sum_and_relative),
 		cmocka_unit_test(test_bad_input),
 		cmocka_unit_test(test_save_load),
+		cmocka_unit_test(test_constant_outputs_drop_out),
 	};
 
 	gsl_set_error_handler_off();
