@@ -37,12 +37,17 @@ def pytest_collection_modifyitems(config, items):
     """Under pytest-xdist (`make check` runs --dist loadgroup) the tests of a
     module that share a module- or class-scoped fixture run on one worker,
     so that the fixture (a quick reproduction, a venv, ...) is built once
-    rather than once per worker that happens to draw one of them."""
+    rather than once per worker that happens to draw one of them. Those
+    groups and the tests marked slow are handed out first, so that the
+    workers share the many short tests at the end instead of one worker
+    starting a long one when the other has little left."""
     for item in items:
         info = getattr(item, "_fixtureinfo", None)
         defs = info.name2fixturedefs.values() if info else ()
         if any(d and d[-1].scope in ("module", "class") for d in defs):
             item.add_marker(pytest.mark.xdist_group(item.module.__name__))
+    items.sort(key=lambda item: not (item.get_closest_marker("slow") or
+                                     item.get_closest_marker("xdist_group")))
 
 
 def poolreps_path():

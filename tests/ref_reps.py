@@ -75,36 +75,39 @@ def basis_exact(phi, q, bits=256):
     n, d = phi.shape
     if d == 0:
         return phi
-    Q, _ = dyadic(q)
+    # object arrays of Python integers: exact, numpy only loops over them
+    Q = np.array(dyadic(q)[0], dtype=object)
     tot = sum(Q)
     one = 1 << bits
     cols = []
     for j in range(d):
-        X, _ = dyadic(phi[:, j])
+        X = np.array(dyadic(phi[:, j])[0], dtype=object)
         # x - mean is (X tot - sum Q X) over a common denominator, which the
         # scaling to unit largest magnitude cancels
-        S = sum(a * b for a, b in zip(Q, X))
-        dev = [x * tot - S for x in X]
+        dev = X * tot - Q @ X
         mag = max(abs(x) for x in dev)
         if mag > 0:
-            cols.append([rdiv(x << bits, mag) for x in dev])
+            cols.append(rdiv(dev << bits, mag))
     if not cols:
         return phi[:, :0]
-    norms = [math.isqrt(sum(x * x for x in c)) for c in cols]
+    C = np.array(cols, dtype=object).reshape(len(cols), n)
+    norms = [math.isqrt(x) for x in (C * C).sum(axis=1)]
     tol = max(norms) // 10**12
     out = []
-    while cols:
-        k = max(range(len(cols)), key=lambda i: norms[i])
+    while len(C):
+        k = max(range(len(C)), key=lambda i: norms[i])
         if norms[k] <= tol:
             break
-        u = [rdiv(x << bits, norms[k]) for x in cols.pop(k)]
-        norms.pop(k)
+        u = rdiv(C[k] << bits, norms[k])
+        C, norms = np.delete(C, k, axis=0), norms[:k] + norms[k + 1:]
         out.append(u)
-        for i, c in enumerate(cols):
-            dot = sum(a * b for a, b in zip(u, c)) >> bits
-            cols[i] = [a - ((dot * b) >> bits) for a, b in zip(c, u)]
-            norms[i] = math.isqrt(sum(x * x for x in cols[i]))
-    return np.array([[x / one for x in u] for u in out]).T.reshape(n, len(out))
+        if len(C):
+            dot = (C @ u) >> bits
+            C = C - ((dot[:, None] * u[None, :]) >> bits)
+            norms = [math.isqrt(x) for x in (C * C).sum(axis=1)]
+    if not out:
+        return phi[:, :0]
+    return (np.array(out, dtype=object) / one).astype(float).T.reshape(n, len(out))
 
 
 def rdiv(a, b):
@@ -153,18 +156,34 @@ def dual_terms(y, th, R, lq, psi, eps):
     return g, grad, H, p, kl
 
 
+def last_of(fn):
+    """fn(x) remembered for the last x: the solvers ask for the value,
+    gradient and Hessian at one point in three calls."""
+    last = {}
+
+    def at(x):
+        key = np.asarray(x, float).tobytes()
+        if key not in last:
+            last.clear()
+            last[key] = fn(x)
+        return tuple(v.copy() if isinstance(v, np.ndarray) else v for v in last[key])
+    return at
+
+
 def dual_solve(R, lq, psi, eps):
     """Minimise the dual (eq. 3.8) over (log eta, theta) from (0, 0)."""
     d = psi.shape[1]
 
+    terms = last_of(lambda x: dual_terms(x[0], x[1:], R, lq, psi, eps))
+
     def f(x):
-        return dual_terms(x[0], x[1:], R, lq, psi, eps)[0]
+        return terms(x)[0]
 
     def jac(x):
-        return dual_terms(x[0], x[1:], R, lq, psi, eps)[1]
+        return terms(x)[1]
 
     def hess(x):
-        return dual_terms(x[0], x[1:], R, lq, psi, eps)[2]
+        return terms(x)[2]
 
     x = optimize.minimize(f, np.zeros(d + 1), jac=jac, hess=hess, method="trust-ncg",
                           options={"gtol": 1e-13, "maxiter": 500}).x
@@ -204,18 +223,24 @@ def lp_limit(R, q, psi):
     cand = set(np.where(rc <= 1e-9 * (1 + np.abs(R).max()))[0])
     # every optimal p vanishes where rc > 0: the face is the feasible set on cand
     bounds = [(0, None) if j in cand else (0, 0) for j in range(n)]
-    support = []
+    support, seen = [], {j for j in cand if lp.x[j] > 1e-6}
     for i in sorted(cand):
-        c = np.zeros(n)
-        c[i] = -1.0
-        r = optimize.linprog(c, A_eq=Aeq, b_eq=beq, bounds=bounds, method="highs", options=HIGHS)
-        if r.status == 0 and -r.fun > 1e-9:
-            support.append(i)
+        # a point of the face with p_i clearly above 1e-9 already shows that
+        # the largest p_i exceeds it: no LP needed for i
+        if i not in seen:
+            c = np.zeros(n)
+            c[i] = -1.0
+            r = optimize.linprog(c, A_eq=Aeq, b_eq=beq, bounds=bounds, method="highs", options=HIGHS)
+            if not (r.status == 0 and -r.fun > 1e-9):
+                continue
+            seen |= {j for j in cand if r.x[j] > 1e-6}
+        support.append(i)
     S = np.array(support)
     qs, ps = q[S] / q[S].sum(), basis(psi[S])
     lqs = np.log(qs)
     d = ps.shape[1]
 
+    @last_of
     def terms(lam):
         z = lqs - ps @ lam
         lz = logsumexp(z)

@@ -39,20 +39,48 @@ class Ball:
 def poly_roots_in(coef, lo, hi):
     """Real roots of the polynomial coef (highest power first) in [lo, hi],
     each polished by Newton steps, sorted."""
-    coef = np.array(coef, dtype=float)
-    scale = np.max(np.abs(coef))
-    if scale == 0:
-        return []
-    nz = np.nonzero(np.abs(coef) > 1e-300)[0]
-    coef = coef[nz[0]:]
-    if len(coef) < 2:
-        return []
-    d = np.polyder(coef)
-    # Newton's steps in Python floats: the same Horner sums as np.polyval,
-    # without numpy's per-call cost on scalars
-    cf, df = [float(c) for c in coef], [float(c) for c in d]
+    return poly_roots_many([coef], lo, hi)[0]
+
+
+def poly_roots_many(coefs, lo, hi):
+    """poly_roots_in for each polynomial of coefs: np.roots's companion
+    matrices (leading coefficients below 1e-300 dropped, trailing zeros
+    roots at 0), those of one size to np.linalg.eigvals in one call."""
+    polys, by_size = [], {}
+    for k, coef in enumerate(coefs):
+        cf = [float(c) for c in coef]
+        if max(abs(c) for c in cf) == 0:
+            polys.append(None)
+            continue
+        cf = cf[next(i for i, c in enumerate(cf) if abs(c) > 1e-300):]
+        if len(cf) < 2:
+            polys.append(None)
+            continue
+        m = len(cf)
+        while cf[m - 1] == 0:
+            m -= 1
+        polys.append((cf, len(cf) - m))
+        if m > 1:
+            A = np.diag(np.ones(m - 2), -1)
+            A[0, :] = -np.array(cf[1:m]) / cf[0]
+            by_size.setdefault(m, []).append((k, A))
+    eig = {}
+    for group in by_size.values():
+        for (k, _), w in zip(group, np.linalg.eigvals(np.array([A for _, A in group]))):
+            eig[k] = list(w)
+    return [[] if pc is None else polish(pc[0], eig.get(k, []) + [0.0] * pc[1], lo, hi)
+            for k, pc in enumerate(polys)]
+
+
+def polish(cf, roots, lo, hi):
+    """The real ones of roots (of the polynomial cf) polished by Newton steps
+    in Python floats (the same Horner sums as np.polyval), those in [lo, hi]
+    sorted."""
+    n = len(cf) - 1
+    df = [c * (n - i) for i, c in enumerate(cf[:-1])]
     out = []
-    for r in np.roots(coef):
+    for r in roots:
+        r = complex(r)
         if abs(r.imag) > 1e-6 * (1 + abs(r.real)):
             continue
         x = float(r.real)
@@ -104,16 +132,17 @@ class Sim:
                 roots = poly_roots_in([0.5 * acc[axis], b.v[axis], b.p[axis] - sign * lim], 0, S)
                 if roots:
                     ev.append((roots[0], CUSHION, cid))
-        for j, (px, py) in enumerate(self.pk):
-            d = b.p - np.array([px, py])
-            # |d + v s + acc s^2/2|^2 = rp^2, entering
-            A, B, C = 0.5 * acc, b.v, d
-            coef = [A @ A, 2 * A @ B, B @ B + 2 * A @ C, 2 * B @ C, C @ C - self.rp ** 2]
+        A, B = 0.5 * acc, b.v
+        Cs = [b.p - np.array(pk) for pk in self.pk]
+        # |C + v s + acc s^2/2|^2 = rp^2, entering (the six quartics solved together)
+        roots = poly_roots_many([[A @ A, 2 * A @ B, B @ B + 2 * A @ C, 2 * B @ C, C @ C - self.rp ** 2]
+                                 for C in Cs], 0, S)
+        for j, C in enumerate(Cs):
             if C @ C <= self.rp ** 2:
                 if C @ B < 0:
                     ev.append((0.0, POCKET, j))
                 continue
-            for r in poly_roots_in(coef, 0, S):
+            for r in roots[j]:
                 dd = C + B * r + A * r * r
                 if dd @ (B + 2 * A * r) < 0:
                     ev.append((r, POCKET, j))

@@ -68,8 +68,9 @@ def test_live_staging_of_another_node_is_kept(first_elsewhere, second, shim, tmp
     log, mark, go = tmp_path / "renames", tmp_path / "mark", tmp_path / "go"
     slow = [binary(), Q, "-o", out] + QUICK
     if second == "run":
-        # the second run waits for the first's publish lock: slowed, not held
-        e, mark = shim_env(shim, RENAME_DELAY_MS=1500, RENAME_LOG=log), log
+        # the second run takes the folder's publish lock: the first is held
+        # in its work (after its first rename inside its staging), unlocked
+        e = shim_env(shim, RENAME_LOG=log, RENAME_MARK=mark, RENAME_HOLD=go, RENAME_MARK_FIRST=1)
     else:
         # held at its first move into the folder until the second has finished
         e = shim_env(shim, RENAME_LOG=log, RENAME_MARK=mark, RENAME_HOLD=go)

@@ -280,8 +280,13 @@ def check_interval(cell, want, scale, where):
     assert close(m.group(1), lo, scale) and close(m.group(2), hi, scale), (where, cell, want)
 
 
-def test_every_part_recomputed():
-    want = oracle()
+@pytest.fixture(scope="module")
+def want():
+    """The oracle, computed once for the tests that read it (none changes it)."""
+    return oracle()
+
+
+def test_every_part_recomputed(want):
     got, _ = page_parts()
     assert set(got) == set(want)
     for mode in want:
@@ -310,11 +315,10 @@ def region(h1):
     return nums[0] * scale, nums[1] * scale
 
 
-def test_decision_matches_interval():
+def test_decision_matches_interval(want):
     """The printed interval gives the part's verdict: the support's lies in
     the H1 region exactly when the part agrees, the refutation's lies outside
     it exactly when the part disagrees (oracle intervals at Holm's levels)."""
-    want = oracle()
     h1 = page_h1()
     seen = set()
     for mode in want:
@@ -343,17 +347,15 @@ def page_h1():
     return out
 
 
-def test_families_are_the_same_in_every_mode():
+def test_families_are_the_same_in_every_mode(want):
     _, text = page_parts()
     m = re.search(r"\((\d+) tests per mode", text)
     assert m, "the family's size is not stated"
-    want = oracle()
     sizes = {2 * len(o) for o in want.values()}
     assert sizes == {int(m.group(1))}, sizes
 
 
-def test_claim_verdicts_follow_their_parts():
-    want = oracle()
+def test_claim_verdicts_follow_their_parts(want):
     _, text = page_parts()
     R = rules()
     many = int(R["study"]["many"])

@@ -9,6 +9,10 @@
  *                         (at most 300 s) until FILE exists, then go on: the
  *                         command is held at its commit point, staging in
  *                         place, for exactly as long as the test needs
+ *   RENAME_MARK_FIRST=1   with RENAME_MARK: create the mark (and hold) right
+ *                         after the first rename of all, a move inside the
+ *                         staging folder: the command is held in its work,
+ *                         before it locks the folder to publish
  *   RENAME_KILL_AT=K      before the K-th such rename (1-based) send
  *   RENAME_KILL_SIG=S     signal S (default SIGTERM) to this process
  *   RENAME_FAIL_AT=K      make the K-th such rename fail with EIO
@@ -42,21 +46,29 @@ static void hold(const char *go)
 		nanosleep(&ts, NULL);
 }
 
+static void put_mark(const char *mark)
+{
+	int fd = open(mark, O_WRONLY | O_CREAT, 0666);
+
+	if (fd >= 0)
+		close(fd);
+	hold(getenv("RENAME_HOLD"));
+}
+
 int rename(const char *from, const char *to)
 {
 	static int (*real)(const char *, const char *);
-	static int count;
+	static int count, marked;
+	int rc;
 	const char *log = getenv("RENAME_LOG"), *delay = getenv("RENAME_DELAY_MS");
 	const char *mark = getenv("RENAME_MARK"), *at = getenv("RENAME_KILL_AT");
 	const char *sig = getenv("RENAME_KILL_SIG"), *fail = getenv("RENAME_FAIL_AT");
 
 	if (!real)
 		real = (int (*)(const char *, const char *))dlsym(RTLD_NEXT, "rename");
-	if (mark && count == 0 && !staged(to)) {
-		int fd = open(mark, O_WRONLY | O_CREAT, 0666);
-		if (fd >= 0)
-			close(fd);
-		hold(getenv("RENAME_HOLD"));
+	if (mark && !marked && !getenv("RENAME_MARK_FIRST") && count == 0 && !staged(to)) {
+		marked = 1;
+		put_mark(mark);
 	}
 	if (log) {
 		FILE *fp = fopen(log, "a");
@@ -78,7 +90,12 @@ int rename(const char *from, const char *to)
 		struct timespec ts = {atoi(delay) / 1000, (long)(atoi(delay) % 1000) * 1000000L};
 		nanosleep(&ts, NULL);
 	}
-	return real(from, to);
+	rc = real(from, to);
+	if (mark && !marked && getenv("RENAME_MARK_FIRST")) {
+		marked = 1;
+		put_mark(mark);
+	}
+	return rc;
 }
 
 int flock(int fd, int op)
