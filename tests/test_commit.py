@@ -225,20 +225,22 @@ def test_failed_move_alone_leaves_everything(cmd, shim, tmp_path):
 
 @pytest.mark.native
 @pytest.mark.parametrize("cmd", ["shoot", "run", "collect"])
-def test_signal_from_outside_during_slow_renames(cmd, shim, tmp_path):
-    """Renames slowed to 300 ms each; SIGTERM sent when the first move
-    starts: the command still ends complete, exit 0."""
+def test_signal_from_outside_during_the_moves(cmd, shim, tmp_path):
+    """SIGTERM sent while the command is held at its first move into place
+    (the shim waits there until the test lets it go; kill(2) has queued the
+    signal before it returns): the command still ends complete, exit 0."""
     setup, args = COMMANDS[cmd]
     want = expected(shim, tmp_path, setup, args)
     base, d = case_dirs(tmp_path / "x", setup)
-    mark = tmp_path / "mark"
+    mark, go = tmp_path / "mark", tmp_path / "go"
     p = subprocess.Popen([binary()] + [str(a) for a in args], cwd=d, stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, env=shim_env(shim, RENAME_DELAY_MS=300, RENAME_MARK=mark))
+                         stderr=subprocess.PIPE, env=shim_env(shim, RENAME_MARK=mark, RENAME_HOLD=go))
     t0 = time.monotonic()
     while not mark.exists():
         assert p.poll() is None and time.monotonic() - t0 < 60, "no move into place"
         time.sleep(0.01)
     p.send_signal(signal.SIGTERM)
+    go.touch()
     out, err = p.communicate(timeout=60)
     assert p.returncode == 0, err
     assert err.count(b"\n") == 1 and b"SIGTERM arrived after the outputs were complete" in err, err

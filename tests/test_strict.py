@@ -9,6 +9,16 @@ import pytest
 from conftest import ROOT
 from test_safety import QUICK, run, snapshot, changed, one_line
 
+
+@pytest.fixture
+def cwd(tmp_path):
+    """The command's folder, inside the test's own: the snapshot of its
+    parent sees anything the command leaves beside it, and nothing of the
+    other tests' folders."""
+    d = tmp_path / "cwd"
+    d.mkdir()
+    return d
+
 LIMIT = 4094  # docs/hardening.md: a parameter-file line
 
 
@@ -20,17 +30,17 @@ def ini_line(n, end):
 
 @pytest.mark.parametrize("end", [b"\n", b"\r\n", b""], ids=["lf", "crlf", "no_end"])
 @pytest.mark.parametrize("n,ok", [(LIMIT - 1, True), (LIMIT, True), (LIMIT + 1, False), (LIMIT + 2, False)])
-def test_ini_line_limit_is_exact(n, ok, end, tmp_path):
-    (tmp_path / "l.ini").write_bytes(ini_line(n, end))
-    before = snapshot(tmp_path.parent)
-    r = run(["config", "-c", "l.ini"], tmp_path)
+def test_ini_line_limit_is_exact(n, ok, end, cwd):
+    (cwd / "l.ini").write_bytes(ini_line(n, end))
+    before = snapshot(cwd.parent)
+    r = run(["config", "-c", "l.ini"], cwd)
     if ok:
         assert r.returncode == 0, r.stderr
         assert b"balls = 3\n" in r.stdout
     else:
         assert r.returncode == 1
         assert one_line(r) == f"poolreps: l.ini:2: line longer than {LIMIT} bytes\n"
-    assert snapshot(tmp_path.parent) == before
+    assert snapshot(cwd.parent) == before
 
 
 def test_ini_comment_line_at_the_limit(tmp_path):
@@ -43,13 +53,13 @@ SECTION_JUNK = [b"[table] junk", b"[table]junk", b"[table] ]", b"[ table ] x = 1
 
 
 @pytest.mark.parametrize("line", SECTION_JUNK, ids=range(len(SECTION_JUNK)))
-def test_section_with_trailing_text_is_refused(line, tmp_path):
-    (tmp_path / "j.ini").write_bytes(line + b"\nballs = 3\n")
-    before = snapshot(tmp_path.parent)
-    r = run(["config", "-c", "j.ini"], tmp_path)
+def test_section_with_trailing_text_is_refused(line, cwd):
+    (cwd / "j.ini").write_bytes(line + b"\nballs = 3\n")
+    before = snapshot(cwd.parent)
+    r = run(["config", "-c", "j.ini"], cwd)
     assert r.returncode == 1, r.stderr
     assert one_line(r).startswith("poolreps: j.ini:1: [table]: unexpected text after the ']'")
-    assert snapshot(tmp_path.parent) == before
+    assert snapshot(cwd.parent) == before
 
 
 @pytest.mark.parametrize("line", [b"[table]", b"[table]   ", b"[table] ; a comment", b"[ table ];c"])
@@ -72,13 +82,13 @@ GRID_TWICE = [
 
 
 @pytest.mark.parametrize("grid,needle", GRID_TWICE, ids=range(len(GRID_TWICE)))
-def test_sweep_grid_refuses_the_same_key_or_value_twice(grid, needle, tmp_path):
-    before = snapshot(tmp_path.parent)
-    r = run(["sweep", ROOT / "data" / "quadratic.ini", "-o", "sw"] + grid + QUICK, tmp_path)
+def test_sweep_grid_refuses_the_same_key_or_value_twice(grid, needle, cwd):
+    before = snapshot(cwd.parent)
+    r = run(["sweep", ROOT / "data" / "quadratic.ini", "-o", "sw"] + grid + QUICK, cwd)
     assert r.returncode == 1, r.stderr
     msg = one_line(r)
     assert needle in msg and msg.startswith("poolreps: --grid bench."), msg
-    assert snapshot(tmp_path.parent) == before, changed(before, snapshot(tmp_path.parent))
+    assert snapshot(cwd.parent) == before, changed(before, snapshot(cwd.parent))
 
 
 def test_sweep_grid_blank_spelling_names_the_key_plainly(tmp_path):

@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from conftest import ROOT, poolreps_path, run_poolreps, run_cmd
+from test_commit import shim, shim_env  # noqa: F401  (the fixture)
 
 # tiny settings (each run well under 3 s), 3 repetitions so that order can vary
 SWEEPS = {
@@ -368,31 +369,30 @@ def test_grid_points_are_the_direct_runs_in_any_job_order(tmp_path):
     assert_summary_is_the_points_summaries(tmp_path / "s", keys, "exp1_summary.csv")
 
 
-def kill_while_running(line, out):
-    """Start one job and SIGKILL it once its run has begun writing into out:
-    True when it was killed, False when it finished first."""
-    words = shlex.split(line)
-    p = subprocess.Popen(words, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                         env=dict(os.environ, LC_ALL="C"))
+def kill_while_held(line, shim, tmp):
+    """Run one job held in its work by the rename shim (after its first
+    rename, inside its staging folder: the run has begun writing but has
+    published nothing) and SIGKILL it there."""
+    mark, go = tmp / "held", tmp / "never-released"
+    p = subprocess.Popen(shlex.split(line), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         env=shim_env(shim, LC_ALL="C", RENAME_MARK=mark, RENAME_HOLD=go,
+                                      RENAME_MARK_FIRST=1))
     try:
-        started = wait_for(lambda: p.poll() is not None or
-                           (out.is_dir() and any(out.glob(".partial-*"))), 60)
+        held = wait_for(lambda: p.poll() is not None or mark.exists(), 60) and p.poll() is None
         p.send_signal(signal.SIGKILL)
     finally:
         p.kill()
         p.wait()
-    assert started
-    return p.returncode == -signal.SIGKILL
+    assert held, "the job ended before its first rename"
 
 
 @pytest.mark.slow
-def test_collect_names_killed_and_missing_jobs_and_missing_resubmits_them(tmp_path):
+def test_collect_names_killed_and_missing_jobs_and_missing_resubmits_them(tmp_path, shim):
     """One job killed on purpose (SIGKILL: its partial folder stays), one
     never run: collect refuses, naming both; --missing prints exactly their
     lines; after running those, the result is complete and identical."""
     sweep = tmp_path / "s"
-    # 400 iterations: a job must run long enough to be caught (0.1-0.5 s)
-    man, jobs = make_sweep(ROOT / "data" / "exp3.ini", sweep, EXP3_TINY + ["exp3.iterations=400"],
+    man, jobs = make_sweep(ROOT / "data" / "exp3.ini", sweep, EXP3_TINY,
                            ["value.n_min=12,20"], split="both")
     # nrvr_rs jobs (the slowest): repetition 1 of point 0, repetition 0 of point 1
     killed, never = (next(j for j, m in enumerate(man) if (m["point"], m["repetition"],
@@ -400,12 +400,7 @@ def test_collect_names_killed_and_missing_jobs_and_missing_resubmits_them(tmp_pa
                      for key in (("0", "1", "nrvr_rs"), ("1", "0", "nrvr_rs")))
     run_jobs(jobs, [j for j in range(len(jobs)) if j not in (killed, never)])
     out = sweep / man[killed]["output"]
-    for _ in range(5):   # on a loaded machine the job may finish before the kill
-        if kill_while_running(jobs[killed], out):
-            break
-        shutil.rmtree(out)
-    else:
-        pytest.fail("the job always finished before it could be killed")
+    kill_while_held(jobs[killed], shim, tmp_path)
     assert out.is_dir() and not (out / "provenance.txt").exists()
     before = {p: p.read_bytes() for p in sweep.rglob("*") if p.is_file()}
     r = run_poolreps(["collect", sweep])
