@@ -79,6 +79,15 @@ def test_reps_benchmark_text_is_the_recorded_measurement():
     assert p.returncode == 0, p.stderr
 
 
+def test_exp4_benchmark_text_is_the_recorded_measurement():
+    """docs/benchmarks.md's Experiment 4 CPU sentence (this poolreps against
+    the previous one) is what scripts/bench_exp4_table.py makes of
+    docs/bench_exp4.csv."""
+    p = run_cmd(["/usr/bin/env", "python3", str(ROOT / "scripts" / "bench_exp4_table.py"),
+                 "--check"], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+
+
 def test_stream_benchmark_text_is_the_recorded_measurement():
     """docs/benchmarks.md's and docs/hardening.md's streaming table and the
     100 000-column header sentence are what scripts/bench_stream_table.py
