@@ -31,7 +31,7 @@ NICE="nice -n 10"
 # Experiment 3's budget, 10x and 25x; SAC and PPO by default only where
 # they finish on a shared 2-core machine (docs/baselines.md says which ran)
 budgets=${BASELINES_BUDGETS:-2200,22000,55000}
-ppo_budgets=${BASELINES_PPO_BUDGETS:-2200,22000}
+ppo_budgets=${BASELINES_PPO_BUDGETS:-2200,22000,55000}
 sac_budgets=${BASELINES_SAC_BUDGETS:-2200}
 
 make_venv() {

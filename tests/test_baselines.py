@@ -157,3 +157,38 @@ def test_docs_baselines_md_is_what_the_committed_csvs_give(tmp_path):
     br.report(ROOT / "data/baselines", tmp_path / "docs", readme)
     assert (tmp_path / "docs/baselines.md").read_text() == (ROOT / "docs/baselines.md").read_text()
     assert readme.read_text() == (ROOT / "README.md").read_text()
+
+
+def fake_run(out, learner, seed, budgets, shift):
+    """One run file as scripts/baselines.py writes it, with made-up returns."""
+    rows = []
+    for b in budgets:
+        rows.append([learner, seed, "curve", b, -1 + shift + 0.001 * seed, "", "", ""])
+        rows.append([learner, seed, "budget", b, -1 + shift + 0.001 * seed, -0.9, 2.5 * b, 2.0 * b])
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    write_rows(out / "runs" / f"{learner}_s{seed}_b{'_'.join(map(str, budgets))}.csv",
+               ["learner", "seed", "kind", "episodes", "last500_mean", "deterministic_mean",
+                "wall_s", "cpu_s"], rows)
+    (out / "budgets.txt").write_text("300,600\n")
+
+
+def test_merge_replaces_one_learner_as_a_full_collect_would(tmp_path):
+    """A learner run apart (here ppo, at a longer budget) merged into the data
+    gives the bytes a collect of every run together gives; the other learners'
+    rows stay; budgets that differ are refused."""
+    full, old, apart = tmp_path / "full", tmp_path / "old", tmp_path / "apart"
+    for s in range(3):
+        for o in (full, old):
+            fake_run(o, "cma_linear", s, [300, 600], 0.0)
+            fake_run(o, "sac", s, [300], 0.1)
+        fake_run(old, "ppo", s, [300], 0.2)
+        fake_run(full, "ppo", s, [300, 600], 0.3)
+        fake_run(apart, "ppo", s, [300, 600], 0.3)
+    br.collect(full, tmp_path / "want")
+    br.collect(old, tmp_path / "got")
+    br.merge(apart, tmp_path / "got")
+    for f in ("runs.csv", "curve.csv", "timing.csv", "budgets.txt"):
+        assert (tmp_path / "got" / f).read_bytes() == (tmp_path / "want" / f).read_bytes(), f
+    (apart / "budgets.txt").write_text("300\n")
+    with pytest.raises(SystemExit, match="differs"):
+        br.merge(apart, tmp_path / "got")
