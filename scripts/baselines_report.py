@@ -399,7 +399,7 @@ installs train with the same code; torch's CPU path is used (one thread per run)
   `sim.max_speed` (`normalize_actions=True`).
 - **Budgets**: Experiment 3's 2,200 episodes, 10× and 25× that. On a shared 2-core
   machine the SB3 learners, whose SAC takes a gradient step at every step, ran up to
-  {reached} episodes (`BASELINES_SAC_BUDGETS`,
+  {reached} episodes (`BASELINES_SAC_BUDGETS`, `BASELINES_SAC_TUNED_BUDGETS` and
   `BASELINES_PPO_BUDGETS` set them); the tables give each learner's seed count as run.
 - **Tuned settings** (one per SB3 learner, chosen before any run, not searched): a smaller
   network (64-64) and learning rate 1e-3; PPO also updates every 200 episodes
