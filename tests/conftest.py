@@ -19,6 +19,7 @@ import csv
 import os
 import shlex
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -136,3 +137,14 @@ def owner_tag(pid):
     ns = os.stat("/proc/self/ns/pid").st_ino
     boot = Path("/proc/sys/kernel/random/boot_id").read_text().replace("-", "").strip()[:12]
     return f"{pid}-{start}-{ns}-{boot}"
+
+
+def wait_for(pred, timeout, step=0.02):
+    """Poll pred every step seconds until it holds (True) or timeout
+    seconds have passed (False)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if pred():
+            return True
+        time.sleep(step)
+    return False

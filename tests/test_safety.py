@@ -28,7 +28,7 @@ from typing import Callable, Optional
 
 import pytest
 
-from conftest import ROOT, owner_tag, poolreps_path, run_cmd
+from conftest import ROOT, owner_tag, poolreps_path, run_cmd, wait_for
 
 OK, USAGE, IO, NUM, NOMEM = 0, 1, 2, 3, 4
 SAN = os.environ.get("SAN") == "1"
@@ -651,15 +651,6 @@ def long_shoot(tmp_path):
     (tmp_path / "old.csv").write_bytes(b"keep\n")
     return ["shoot", "-i", "s.csv", "-o", "old.csv", "--trace", "t.csv", "--set",
             "sim.mode=stepped", "--set", "sim.trace_dt=0.001"]
-
-
-def wait_for(pred, timeout):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if pred():
-            return True
-        time.sleep(0.02)
-    return False
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT,

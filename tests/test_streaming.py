@@ -17,6 +17,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import wait_for
+
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "build" / "rel" / "poolreps"))
 PY = os.environ.get("PYTHON", sys.executable)
@@ -134,8 +136,8 @@ def test_first_row_before_the_input_ends(cmd, tmp_path):
 
 
 def syscall_of(pid):
-    """The first field of /proc/PID/syscall: the number of the system call
-    the process sleeps in ("running" while it runs)."""
+    """The fields of /proc/PID/syscall: the number of the system call the
+    process sleeps in and its arguments ("running" while it runs)."""
     with open("/proc/%d/syscall" % pid) as f:
         return f.read().split()
 
@@ -150,16 +152,12 @@ def read_call():
     except OSError:
         pytest.skip("no cat to learn the number of read(2) from")
     try:
-        t0 = time.monotonic()
-        while True:
-            try:
-                f = syscall_of(cat.pid)
-            except OSError:
-                pytest.skip("/proc/PID/syscall is not readable here")
-            if f[0] not in ("running", "-1") and len(f) > 1:
-                return f[:2]
-            assert time.monotonic() - t0 < 30
-            time.sleep(0.005)
+        try:
+            syscall_of(cat.pid)
+        except OSError:
+            pytest.skip("/proc/PID/syscall is not readable here")
+        assert wait_for(lambda: syscall_of(cat.pid)[0] not in ("running", "-1"), 30, 0.005)
+        return syscall_of(cat.pid)[:2]
     finally:
         cat.stdin.close()
         cat.wait()
@@ -170,10 +168,8 @@ def wait_for_input(p, call):
     answered and written. Under valgrind a signal that lands while a write(2)
     is being completed makes valgrind run that write again (the last buffer
     appears twice), so the signal must come when the command is idle."""
-    t0 = time.monotonic()
-    while syscall_of(p.pid)[:2] != call:
-        assert p.poll() is None and time.monotonic() - t0 < 30
-        time.sleep(0.005)
+    assert wait_for(lambda: p.poll() is not None or syscall_of(p.pid)[:2] == call, 30, 0.005)
+    assert p.poll() is None, p.stderr.read()
 
 
 def staged(d):

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT, poolreps_path, run_poolreps, run_cmd
+from conftest import ROOT, poolreps_path, run_poolreps, run_cmd, wait_for
 from test_commit import shim, shim_env  # noqa: F401  (the fixture)
 
 # tiny settings (each run well under 3 s), 3 repetitions so that order can vary
@@ -130,15 +130,6 @@ def test_provenance_records_the_command_as_typed(poolreps, tmp_path):
                        "sim.mode=event", "--set", "reward.miss_penalty=10"], cwd=ROOT)
     saved = poolreps(["config", "-c", out / "config.ini"])
     assert saved.returncode == 0 and saved.stdout == direct.stdout
-
-
-def wait_for(pred, timeout):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if pred():
-            return True
-        time.sleep(0.05)
-    return False
 
 
 @pytest.mark.slow
