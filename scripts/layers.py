@@ -8,15 +8,18 @@ For every .c file under src/ (src/cli included) the functions it defines
 (an identifier followed by '(' that another file defines and this one does
 not). A circle is a set of files that reach each other through calls
 (a strongly connected component of more than one file); --check exits 1 if
-there is one, or if a file outside src/cli includes a header of src/cli or
-src/cli includes a private header. Without --check the layers are printed
-bottom up: each file above every file it calls."""
+there is one, if a file outside src/cli includes a header of src/cli or
+src/cli includes a private header, or if a function is longer than
+MAX_LINES (from its first unindented line to its closing brace). Without
+--check the layers are printed bottom up: each file above every file it
+calls."""
 import pathlib
 import re
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SRC = ROOT / "src"
+MAX_LINES = 120
 KEYWORDS = {"if", "for", "while", "switch", "return", "sizeof", "do", "else", "case",
             "defined", "_Static_assert", "offsetof"}
 
@@ -129,6 +132,29 @@ def layers(files, calls):
     return floor
 
 
+def function_lengths(text):
+    """(lines, first line) of every function of a C file in the project's
+    style: the body opens with '{' and closes with '}' alone at column 0;
+    the function starts at the last unindented line before the '{' (its
+    return type or name; continued parameters are indented)."""
+    lines, out, start = text.split("\n"), [], None
+    for i, line in enumerate(lines):
+        if line == "{" and i > 0:
+            j = i - 1
+            while j > 0 and lines[j][:1] in (" ", "\t"):
+                j -= 1
+            start = j
+        elif line == "}" and start is not None:
+            out.append((i - start + 1, lines[start]))
+            start = None
+    return out
+
+
+def long_functions(files):
+    return [f"{name(f)}: {head.strip()} is {n} lines (more than {MAX_LINES})"
+            for f in files for n, head in function_lengths(f.read_text()) if n > MAX_LINES]
+
+
 def include_problems(files):
     bad = []
     for f in files:
@@ -148,7 +174,7 @@ def name(f):
 def main(argv):
     files, defs, calls = scan()
     circles = [c for c in components(files, calls) if len(c) > 1]
-    bad = include_problems(files)
+    bad = include_problems(files) + long_functions(files)
     if "--check" in argv:
         for c in circles:
             pairs = [f"{name(a)} -> {name(b)} ({', '.join(sorted(calls[a][b])[:3])})"

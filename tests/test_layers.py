@@ -32,36 +32,15 @@ def test_the_analysis_finds_a_circle_and_ignores_statics(tmp_path):
         [["a.c", "b.c", "c.c"]]
 
 
-MAX_LINES = 120
-
-
-def function_lengths(text):
-    """(lines, first line) of every function of a C file in the project's
-    style: the body opens with '{' and closes with '}' alone at column 0;
-    the function starts at the last unindented line before the '{' (its
-    return type or name; continued parameters are indented)."""
-    lines, out, start = text.split("\n"), [], None
-    for i, line in enumerate(lines):
-        if line == "{" and i > 0:
-            j = i - 1
-            while j > 0 and lines[j][:1] in (" ", "\t"):
-                j -= 1
-            start = j
-        elif line == "}" and start is not None:
-            out.append((i - start + 1, lines[start]))
-            start = None
-    return out
-
-
 def test_no_function_in_src_is_over_120_lines():
-    long = [(n, f"{p.relative_to(ROOT)}: {head}") for p in sorted((ROOT / "src").rglob("*.c"))
-            for n, head in function_lengths(p.read_text()) if n > MAX_LINES]
-    assert not long, long
-    assert sum(len(function_lengths(p.read_text())) for p in (ROOT / "src").rglob("*.c")) > 500
+    files = sorted((ROOT / "src").rglob("*.c"))
+    assert layers.MAX_LINES == 120 and not layers.long_functions(files)
+    assert sum(len(layers.function_lengths(p.read_text())) for p in files) > 500
 
 
 def test_the_length_count_sees_a_long_function():
-    body = "".join("\tx += %d;\n" % k for k in range(MAX_LINES - 3))
+    body = "".join("\tx += %d;\n" % k for k in range(layers.MAX_LINES - 3))
     text = ("static int f(int a,\n             int b)\n{\n" + body + "}\n"
             "int g(void)\n{\n\treturn 0;\n}\n")
-    assert function_lengths(text) == [(MAX_LINES + 1, "static int f(int a,"), (4, "int g(void)")]
+    assert layers.function_lengths(text) == [(layers.MAX_LINES + 1, "static int f(int a,"),
+                                             (4, "int g(void)")]
