@@ -19,6 +19,7 @@ are Holm-adjusted together.
 import csv
 import math
 import sys
+import tempfile
 from collections import defaultdict
 from pathlib import Path
 
@@ -78,6 +79,18 @@ def reps_rows(folder, learner, budgets, every, timing):
     return runs, curve
 
 
+def row_order(name):
+    """The order of the rows of a committed CSV (collect's, and merge's):
+    runs by (learner, budget, seed), curve by (learner, seed, episodes),
+    timing the Python learners by name, then the poolreps learners."""
+    reps = list(REPS_DIRS.values())
+    if name == "timing.csv":
+        return lambda r: (r[0] in reps, reps.index(r[0]) if r[0] in reps else 0, r[0])
+    if name == "runs.csv":
+        return lambda r: (r[0], int(r[2]), int(r[1]))
+    return lambda r: (r[0], int(r[1]), int(r[2]))
+
+
 def collect(out, data):
     out, data = Path(out), Path(data)
     budgets = [int(b) for b in (out / "budgets.txt").read_text().strip().split(",")]
@@ -110,8 +123,8 @@ def collect(out, data):
             r, c = reps_rows(out / "reps" / d, learner, budgets, every or 1100, timing)
             runs += r
             curve += c
-    runs.sort(key=lambda r: (r[0], r[2], r[1]))
-    curve.sort(key=lambda r: (r[0], r[1], r[2]))
+    runs.sort(key=row_order("runs.csv"))
+    curve.sort(key=row_order("curve.csv"))
     write(data / "runs.csv", ["learner", "seed", "budget", "last500_mean", "deterministic_mean",
                               "wall_s", "cpu_s"], runs)
     write(data / "curve.csv", ["learner", "seed", "episodes", "last500_mean"], curve)
@@ -120,20 +133,7 @@ def collect(out, data):
     (data / "budgets.txt").write_text(",".join(map(str, budgets)) + "\n")
 
 
-def row_order(name):
-    """collect's order: runs and curve by (learner, budget, seed) and
-    (learner, seed, episodes); timing the Python learners by name, then the
-    poolreps learners."""
-    reps = list(REPS_DIRS.values())
-    if name == "timing.csv":
-        return lambda r: (r[0] in reps, reps.index(r[0]) if r[0] in reps else 0, r[0])
-    if name == "runs.csv":
-        return lambda r: (r[0], int(r[2]), int(r[1]))
-    return lambda r: (r[0], int(r[1]), int(r[2]))
-
-
 def merge(out, data):
-    import tempfile
     out, data = Path(out), Path(data)
     mine = (data / "budgets.txt").read_text().strip()
     theirs = (out / "budgets.txt").read_text().strip()
