@@ -190,5 +190,7 @@ def test_merge_replaces_one_learner_as_a_full_collect_would(tmp_path):
     for f in ("runs.csv", "curve.csv", "timing.csv", "budgets.txt"):
         assert (tmp_path / "got" / f).read_bytes() == (tmp_path / "want" / f).read_bytes(), f
     (apart / "budgets.txt").write_text("300\n")
+    before = {p.name: p.read_bytes() for p in (tmp_path / "got").iterdir()}
     with pytest.raises(SystemExit, match="differs"):
         br.merge(apart, tmp_path / "got")
+    assert {p.name: p.read_bytes() for p in (tmp_path / "got").iterdir()} == before
