@@ -175,24 +175,32 @@ void pr_cleanup_remove_file(const char *path)
 	pthread_mutex_unlock(&tracked_mu);
 }
 
+/* The handler never sees an entry half written: the signals wait. */
 void pr_cleanup_set_dir(const char *staging, const char *dir, size_t keep)
 {
 	int k = nstaging < MAX_STAGING ? nstaging : MAX_STAGING - 1;
+	sigset_t old;
 
+	pr_cleanup_hold(&old);
 	snprintf(created_dir[k], sizeof created_dir[k], "%s", dir);
 	created_keep[k] = keep;
 	snprintf(staging_dir[k], sizeof staging_dir[k], "%s", staging);
 	nstaging = k + 1;
+	pr_cleanup_release(&old);
 }
 
 void pr_cleanup_clear_dir(void)
 {
+	sigset_t old;
+
+	pr_cleanup_hold(&old);
 	if (nstaging > 0) {
 		int k = nstaging - 1;
 		nstaging = k;
 		staging_dir[k][0] = '\0';
 		created_dir[k][0] = '\0';
 	}
+	pr_cleanup_release(&old);
 }
 
 struct dirent64_raw {

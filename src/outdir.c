@@ -354,6 +354,7 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 		memset(&p[s].old, 0, sizeof p[s].old);
 		p[s].had = NULL;
 		p[s].fd = -1;
+		p[s].made = 0;
 	}
 	for (s = 0; s < n && rc == PR_OK; ++s) {
 		if ((rc = pr_outdir_list(p[s].staging, &p[s].now, err)))
@@ -373,6 +374,11 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 			rc = pr_err(err, PR_EINTR, "interrupted (signal %d) before publishing: %s left as it was",
 			            (int)pr_interrupted, p[0].dir);
 	}
+	for (s = 0; s < n && rc == PR_OK; ++s)
+		if (p[s].make && mkdir(p[s].dir, 0777) == 0)
+			p[s].made = 1;
+		else if (p[s].make && errno != EEXIST)
+			rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", p[s].dir, strerror(errno));
 	for (s = 0; s < n && rc == PR_OK; ++s)
 		for (i = 0; i < p[s].now.n && rc == PR_OK; ++i) {
 			snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].now.name[i]);
@@ -413,6 +419,9 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 			    snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].old.name[i]) < (int)sizeof to &&
 			    lstat(to, &st) == 0 && S_ISREG(st.st_mode))
 				unlink(to);
+	for (s = 0; s < n && rc != PR_OK; ++s)
+		if (p[s].made)
+			rmdir(p[s].dir);
 	if (held)
 		pr_commit_end(&mask, rc, p[0].dir);
 	for (s = 0; s < n; ++s) {
@@ -595,14 +604,20 @@ int pr_outdir_run(const pr_config *cfg, const pr_provenance *prov, const char *d
 	char staging[PR_PATHLEN];
 	struct timespec t0;
 	pr_names old = {NULL, 0};
+	sigset_t held;
 	size_t keep;
 	int rc, i, published = 0;
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
-	if ((rc = mkdir_p(dir, &keep, err)))
-		return rc;
 	if (snprintf(staging, sizeof staging, "%s/.partial-%s", dir, pr_owner_tag()) >= (int)sizeof staging)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", dir);
+	/* a signal between a mkdir and its registration would strand the folder */
+	pr_cleanup_hold(&held);
+	if ((rc = mkdir_p(dir, &keep, err)) == PR_OK)
+		pr_cleanup_set_dir(staging, dir, keep);
+	pr_cleanup_release(&held);
+	if (rc)
+		return rc;
 	pr_outdir_sweep_stale(dir);
 	pr_remove_tree(staging);
 	/* a record poolreps did not write is refused before any work */
@@ -615,23 +630,20 @@ int pr_outdir_run(const pr_config *cfg, const pr_provenance *prov, const char *d
 			rc = refuse_link(path, err);
 	}
 	pr_names_free(&old);
-	if (rc != PR_OK) {
-		remove_created(dir, keep);
-		return rc;
-	}
-	if (mkdir(staging, 0777) != 0) {
+	if (rc == PR_OK && mkdir(staging, 0777) != 0)
 		rc = pr_err(err, pr_errno_status(), "%s: cannot write into the folder: %s", dir, strerror(errno));
+	if (rc != PR_OK) {
+		pr_cleanup_clear_dir();
 		remove_created(dir, keep);
 		return rc;
 	}
-	pr_cleanup_set_dir(staging, dir, keep);
 	rc = work(cfg, staging, arg, err);
 	if (rc == PR_OK)
 		rc = pr_outdir_write_config(cfg, staging, err);
 	if (rc == PR_OK)
 		rc = write_provenance(cfg, prov, staging, seconds_since(&t0), err);
 	if (rc == PR_OK && !pr_interrupted) {
-		pr_outdir_pub pub = {staging, dir, 1, 1, {NULL, 0}, {NULL, 0}, NULL, -1};
+		pr_outdir_pub pub = {staging, dir, 1, 1, 0, {NULL, 0}, {NULL, 0}, NULL, -1, 0};
 		rc = pr_outdir_publish(&pub, 1, err);
 		published = rc == PR_OK;
 	}

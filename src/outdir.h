@@ -50,14 +50,17 @@ void pr_outdir_shell_word(FILE *fp, const char *arg);
  * write where a file must go is refused before anything moves. When owns,
  * dir is a run's folder: the files its earlier run listed in provenance.txt
  * and this one did not write are removed once all are in place. With lock,
- * the moves into dir are serialised with a lock on it. */
+ * the moves into dir are serialised with a lock on it. With make, a missing
+ * dir is created inside the commit (the fatal signals blocked) and removed
+ * again if the commit fails: a signal never strands it. */
 typedef struct {
 	const char *staging, *dir;
 	int owns;
 	int lock;           /* take the lock on dir (one lock can stand for all) */
+	int make;
 	pr_names now, old;  /* filled and freed by pr_outdir_publish */
 	char *had;
-	int fd;
+	int fd, made;
 } pr_outdir_pub;
 int pr_outdir_publish(pr_outdir_pub *p, int n, char *err);
 /* Messages name the file where it was going to be, not a staging folder

@@ -886,10 +886,10 @@ static int publish_collected(const collector *c, char *err)
 {
 	const long np = c->m->npoints;
 	pr_outdir_pub *pub = calloc((size_t)np + 1, sizeof *pub);
-	char *made = calloc((size_t)np + 1, 1), point[64], path[PR_PATHLEN];
+	char point[64], path[PR_PATHLEN];
 	struct stat st;
 	long p;
-	int rc = pub && made ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
+	int rc = pub ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
 
 	for (p = 0; rc == PR_OK && p <= np; ++p) {
 		point_name(point, sizeof point, p, np);
@@ -901,29 +901,22 @@ static int publish_collected(const collector *c, char *err)
 		if (p < np)
 			fmt(path, sizeof path, "%s/%s/merged", c->root, point);
 		pub[p].dir = p < np ? strdup(path) : c->root;
-		pub[p].owns = p < np;
+		pub[p].owns = pub[p].make = p < np;
 		/* one lock on SWEEP_DIR serialises collects of one sweep */
 		pub[p].lock = p == np;
 		if (!pub[p].staging || !pub[p].dir)
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
 		else if (p < np && stat(path, &st) == 0 && !S_ISDIR(st.st_mode))
 			rc = pr_err(err, PR_EIO, "%s: exists and is not a folder", path);
-		else if (p < np && mkdir(path, 0777) == 0)
-			made[p] = 1;
-		else if (p < np && errno != EEXIST)
-			rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", path, strerror(errno));
 	}
 	if (rc == PR_OK)
 		rc = pr_outdir_publish(pub, (int)np + 1, err);
 	for (p = 0; pub && p <= np; ++p) {
-		if (rc != PR_OK && made && made[p])
-			rmdir(pub[p].dir);
 		free((char *)pub[p].staging);
 		if (p < np)
 			free((char *)pub[p].dir);
 	}
 	free(pub);
-	free(made);
 	return rc;
 }
 
@@ -980,9 +973,10 @@ int pr_rundir_collect(const pr_rundir_args *a, char *err)
 	pr_outdir_sweep_stale(c.root);
 	pr_remove_tree(c.stage);
 	fmt(path, sizeof path, "%s/summary", c.stage);
+	/* registered first: a signal right after the mkdir finds it */
+	pr_cleanup_set_dir(c.stage, c.root, strlen(c.root));
 	if (mkdir(c.stage, 0777) != 0 || mkdir(path, 0777) != 0)
 		rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", c.stage, strerror(errno));
-	pr_cleanup_set_dir(c.stage, c.root, strlen(c.root));
 	fmt(path, sizeof path, "%s/summary/sweep_summary.csv", c.stage);
 	if (rc == PR_OK && !(c.w = pr_csvw_open(path, err)))
 		rc = PR_EIO;

@@ -267,3 +267,59 @@ def test_signal_before_the_commit_still_changes_nothing(shim, tmp_path):
     assert p.returncode == 128 + signal.SIGTERM, err
     assert err.count(b"\n") == 1 and b"left as" in err, err
     assert snapshot(base) == before, changed(before, snapshot(base))
+
+
+# ---- a signal right after a folder is made, before the command has told its handler ----
+
+def run_new_setup(d):
+    pass
+
+
+MKDIR_COMMANDS = {
+    "run_new": (run_new_setup, [ROOT / "data" / "quadratic.ini", "-o", "new/a/out"] + QUICK),
+    "run_old": (run_setup, [ROOT / "data" / "quadratic.ini", "-o", "out"] + QUICK),
+    "merge_new": (merge_setup, ["merge", "r0", "r1", "-o", "new/m", "-q"]),
+    "sweep_new": (run_new_setup, ["sweep", ROOT / "data" / "quadratic.ini", "--grid", "bench.samples=20,30",
+                                  "-o", "new/sw"] + QUICK),
+    "collect": (sweep_setup, ["collect", "sw", "-q"]),
+}
+
+
+def mkdirs(so, base, setup, args):
+    """The folders the command makes (a dry run in a scratch copy)."""
+    d = base / "count"
+    d.mkdir()
+    setup(d)
+    log = base / "mkdirs.log"
+    r = run_in(d, args, shim_env(so, MKDIR_LOG=log))
+    assert r.returncode == 0, r.stderr
+    n = len(log.read_text().splitlines()) if log.exists() else 0
+    shutil.rmtree(d)
+    if log.exists():
+        log.unlink()
+    return n
+
+
+@pytest.mark.native
+@pytest.mark.parametrize("sigs", [(signal.SIGTERM,), (signal.SIGTERM, signal.SIGINT)], ids=["TERM", "TERM_INT"])
+@pytest.mark.parametrize("cmd", list(MKDIR_COMMANDS))
+def test_signal_after_each_mkdir(cmd, sigs, shim, tmp_path):
+    """One signal, or a second one back to back (the handler then cleans up
+    at once), right after the K-th folder the command makes, for every K:
+    either the command completed (exit 0, the outputs of a run without a
+    signal) or it exits 128+N with one line and every path is as it was."""
+    setup, args = MKDIR_COMMANDS[cmd]
+    n = mkdirs(shim, tmp_path, setup, args)
+    assert n >= 1
+    want = expected(shim, tmp_path, setup, args)
+    for k in range(1, n + 1):
+        base, d = case_dirs(tmp_path / f"k{k}", setup)
+        before, before_parent = snapshot(d), snapshot(base)
+        r = run_in(d, args, shim_env(shim, MKDIR_KILL_AT=k, MKDIR_KILL_SIGS=",".join(str(int(s)) for s in sigs)))
+        check_one_line(r)
+        if r.returncode == 0:
+            assert strip(snapshot(d)) == want, k
+            continue
+        assert r.returncode in [128 + s for s in sigs], (k, r.stderr)
+        assert snapshot(d) == before, (k, changed(before, snapshot(d)))
+        assert snapshot(base) == before_parent, k

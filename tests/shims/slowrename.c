@@ -1,4 +1,4 @@
-/* slowrename.c — an LD_PRELOAD shim over rename(2) and flock(2) that opens the commit
+/* slowrename.c — an LD_PRELOAD shim over rename(2), flock(2) and mkdir(2) that opens the commit
  * window of a command for the tests (tests/test_commit.py):
  *   RENAME_LOG=FILE       append "old new" of every rename to FILE
  *   RENAME_DELAY_MS=N     sleep N ms before every rename
@@ -19,6 +19,11 @@
  *   FLOCK_DIR_EBADF=1     flock(2) on a folder fails with EBADF, as on NFS,
  *                         where flock is emulated by byte-range locks that
  *                         need a file open for writing
+ *   MKDIR_LOG=FILE        append the path of every successful mkdir(2)
+ *   MKDIR_KILL_AT=K       right after the K-th successful mkdir (1-based)
+ *   MKDIR_KILL_SIGS=S,..  send these signals (default SIGTERM), back to
+ *                         back, to this process: the window between making
+ *                         a folder and registering it for clean-up
  * Only the test builds it; it is not part of the library. */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -110,4 +115,43 @@ int flock(int fd, int op)
 		return -1;
 	}
 	return real(fd, op);
+}
+
+static void send_listed(const char *sigs)
+{
+	char *end;
+
+	if (!sigs) {
+		kill(getpid(), SIGTERM);
+		return;
+	}
+	for (const char *p = sigs; *p; p = *end ? end + 1 : end) {
+		long s = strtol(p, &end, 10);
+		if (end == p)
+			break;
+		kill(getpid(), (int)s);
+	}
+}
+
+int mkdir(const char *path, mode_t mode)
+{
+	static int (*real)(const char *, mode_t);
+	static int count;
+	const char *log = getenv("MKDIR_LOG"), *at = getenv("MKDIR_KILL_AT");
+	int rc;
+
+	if (!real)
+		real = (int (*)(const char *, mode_t))dlsym(RTLD_NEXT, "mkdir");
+	if ((rc = real(path, mode)) != 0)
+		return rc;
+	if (log) {
+		FILE *fp = fopen(log, "a");
+		if (fp) {
+			fprintf(fp, "%s\n", path);
+			fclose(fp);
+		}
+	}
+	if (at && atoi(at) == ++count)
+		send_listed(getenv("MKDIR_KILL_SIGS"));
+	return 0;
 }
