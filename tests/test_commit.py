@@ -51,18 +51,24 @@ def run_in(cwd, args, e, timeout=120):
                           env=e, timeout=timeout)
 
 
-def moves(so, base, setup, args):
-    """How many renames into the user's folders the command makes (a dry
-    run in a scratch copy)."""
+def dry_log(so, base, setup, args, var):
+    """The lines the shim logs through env var in a dry run (a scratch copy)."""
     d = base / "count"
     d.mkdir()
     setup(d)
-    log = base / "renames.log"
-    r = run_in(d, args, shim_env(so, RENAME_LOG=log))
+    log = base / "shim.log"
+    r = run_in(d, args, shim_env(so, **{var: log}))
     assert r.returncode == 0, r.stderr
-    lines = log.read_text().splitlines()
+    lines = log.read_text().splitlines() if log.exists() else []
     shutil.rmtree(d)
-    log.unlink()
+    if log.exists():
+        log.unlink()
+    return lines
+
+
+def moves(so, base, setup, args):
+    """How many renames into the user's folders the command makes."""
+    lines = dry_log(so, base, setup, args, "RENAME_LOG")
     return sum(1 for ln in lines if "/.partial-" not in ln.split(" ")[1]
                and ".poolreps-tmp-" not in ln.split(" ")[1])
 
@@ -285,21 +291,6 @@ MKDIR_COMMANDS = {
 }
 
 
-def mkdirs(so, base, setup, args):
-    """The folders the command makes (a dry run in a scratch copy)."""
-    d = base / "count"
-    d.mkdir()
-    setup(d)
-    log = base / "mkdirs.log"
-    r = run_in(d, args, shim_env(so, MKDIR_LOG=log))
-    assert r.returncode == 0, r.stderr
-    n = len(log.read_text().splitlines()) if log.exists() else 0
-    shutil.rmtree(d)
-    if log.exists():
-        log.unlink()
-    return n
-
-
 @pytest.mark.native
 @pytest.mark.parametrize("sigs", [(signal.SIGTERM,), (signal.SIGTERM, signal.SIGINT)], ids=["TERM", "TERM_INT"])
 @pytest.mark.parametrize("cmd", list(MKDIR_COMMANDS))
@@ -309,7 +300,7 @@ def test_signal_after_each_mkdir(cmd, sigs, shim, tmp_path):
     either the command completed (exit 0, the outputs of a run without a
     signal) or it exits 128+N with one line and every path is as it was."""
     setup, args = MKDIR_COMMANDS[cmd]
-    n = mkdirs(shim, tmp_path, setup, args)
+    n = len(dry_log(shim, tmp_path, setup, args, "MKDIR_LOG"))
     assert n >= 1
     want = expected(shim, tmp_path, setup, args)
     for k in range(1, n + 1):
