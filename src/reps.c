@@ -69,6 +69,8 @@ const char *pr_reps_status_name(int status)
 /* A residual that stops falling counts as converged below this (well inside
  * the certificate's PR_REPS_TOL; the certificate checks it again). */
 #define FLOOR_TOL 1e-10
+/* Newton steps on theta without halving the residual that count as a stall. */
+#define STALL_STEPS 50
 /* Shift added to the Jacobi-scaled covariance (unit diagonal) before its
  * Cholesky factorisation: it bounds steps along exactly dependent feature
  * directions, which leave p unchanged. */
@@ -151,6 +153,9 @@ typedef struct {
 typedef struct {
 	int evals, max_evals;
 	int path;            /* PATH_* steps the solve took */
+	int stalled;         /* theta_solve or the search met its STALL_STEPS rule */
+	int bail;            /* apply that rule: a stall ends the search, and
+	                        the reduced basis is tried next */
 	point pt[2];         /* current and trial */
 	gsl_matrix *H;       /* nf x nf */
 	double *dsc;         /* nf: Jacobi scaling 1/sqrt(H_jj), 0 = frozen */
@@ -567,6 +572,22 @@ static void regress_u(const prob *P, work *w, double eta)
 	w->resvar = fmax(w->varu - s, 0.0);
 }
 
+/* (max L_jj / min L_jj)^2 over the rows psd_factor did not freeze. */
+static double hess_cond(const work *w, int nf)
+{
+	double lo = HUGE_VAL, hi = 0.0;
+	int j;
+
+	for (j = 0; j < nf; j++)
+		if (w->dsc[j] > 0.0) {
+			double l = gsl_matrix_get(w->H, (size_t)j, (size_t)j);
+
+			lo = fmin(lo, l);
+			hi = fmax(hi, l);
+		}
+	return hi > 0.0 && lo > 0.0 ? (hi / lo) * (hi / lo) : 1.0;
+}
+
 /* Newton's method on theta at fixed eta, from w->pt[0].th. Leaves pt[0]
  * evaluated at the last accepted theta. Returns 1 if res <= tol, or if the
  * residual stopped falling at its round-off floor below FLOOR_TOL, with H
@@ -575,8 +596,8 @@ static void regress_u(const prob *P, work *w, double eta)
 static int theta_solve(const prob *P, work *w, double eta, double tol)
 {
 	point *x = &w->pt[0], *t = &w->pt[1], tmp;
-	double best = HUGE_VAL;
-	int j, k, since = 0, tiny = 0;
+	double best = HUGE_VAL, ref = HUGE_VAL;
+	int j, k, since = 0, tiny = 0, slow = 0;
 
 	eval(P, w, eta, x);
 	for (;;) {
@@ -601,6 +622,16 @@ static int theta_solve(const prob *P, work *w, double eta, double tol)
 			since = 0;
 		}
 		best = fmin(best, x->res);
+		/* Newton that does not halve the residual in STALL_STEPS steps has
+		 * stalled on features too close to dependent for their digits: when
+		 * the reduced basis can take over (bail), the evaluations are its */
+		if (x->res < 0.5 * ref) {
+			ref = x->res;
+			slow = 0;
+		} else if (w->bail && ++slow >= STALL_STEPS) {
+			w->stalled = 1;
+			return 0;
+		}
 		if (w->evals >= w->max_evals)
 			return 0;
 		hsolve(P, w, x->g, w->v2);
@@ -1817,7 +1848,8 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 	const double ktol = KL_TOL * fmax(1.0, P->eps);
 	const size_t nf1 = (size_t)(P->nf > 0 ? P->nf : 1);
 	search_t S = { 0.0, -HUGE_VAL, HUGE_VAL, 0.0, 1.0, HUGE_VAL, NULL, NULL, 0, 0, 0, 0 };
-	int it, st;
+	double gap = HUGE_VAL;
+	int it, st, slow;
 
 	if (!(S.thg = malloc(2 * nf1 * sizeof *S.thg)))
 		return PR_ENOMEM;
@@ -1836,7 +1868,7 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 		S.y = log(*eta_out);
 	else
 		memset(w->pt[0].th, 0, nf1 * sizeof *S.thg);
-	for (it = 0; it < 400; it++) {
+	for (it = 0, slow = 0; it < 400; it++) {
 		double eta = exp(S.y), kl;
 		int conv;
 
@@ -1852,9 +1884,23 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 			st = V_ACTIVE;
 			break;
 		}
+		/* the same rule for the search itself: STALL_STEPS etas in a row
+		 * that do not halve |KL - eps| */
+		if (fabs(kl - P->eps) < 0.5 * gap) {
+			gap = fabs(kl - P->eps);
+			slow = 0;
+		} else if (w->bail && ++slow >= STALL_STEPS) {
+			w->stalled = 1;
+		}
 		if (w->evals >= w->max_evals) {
 			snprintf(reason, rlen, "reps.max_iter = %d dual evaluations used up (KL = %.6g, "
 			         "residual %.3g)", w->max_evals, kl, w->pt[0].res);
+			*eta_out = eta;
+			break;
+		}
+		if (w->stalled) {
+			snprintf(reason, rlen, "stalled at eta = %.6g on a Hessian of condition %.3g "
+			         "(KL = %.6g, residual %.3g)", eta, hess_cond(w, P->nf), kl, w->pt[0].res);
 			*eta_out = eta;
 			break;
 		}
@@ -2370,20 +2416,6 @@ done:
 }
 
 /* (max L_jj / min L_jj)^2 over the rows psd_factor did not freeze. */
-static double hess_cond(const work *w, int nf)
-{
-	double lo = HUGE_VAL, hi = 0.0;
-	int j;
-
-	for (j = 0; j < nf; j++)
-		if (w->dsc[j] > 0.0) {
-			double l = gsl_matrix_get(w->H, (size_t)j, (size_t)j);
-
-			lo = fmin(lo, l);
-			hi = fmax(hi, l);
-		}
-	return hi > 0.0 && lo > 0.0 ? (hi / lo) * (hi / lo) : 1.0;
-}
 
 static void path_name(int path, char *buf, size_t len)
 {
@@ -2451,8 +2483,10 @@ static void certify(const ctx_t *c, const limit_t *L, int verdict, int exact, pr
 
 /* One attempt: the search on P, the answer mapped back into r and
  * certified. P's features are those of P0 times T (P0->nf x P->nf) when T
- * is given (the reduced basis), else P0 = P. Returns PR_OK or an error. */
-static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, pr_reps_result *r)
+ * is given (the reduced basis), else P0 = P. With bail, a stall ends it
+ * early (*bailed set). Returns PR_OK or an error. */
+static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, int bail,
+                   int *bailed, pr_reps_result *r)
 {
 	work w;
 	limit_t L;
@@ -2463,6 +2497,7 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, pr_
 	memset(&L, 0, sizeof L);
 	if (work_alloc(&w, P, c->o->max_iter) != PR_OK)
 		goto done;
+	w.bail = bail;
 	L.p = malloc((size_t)P->m * sizeof *L.p);
 	L.th = calloc((size_t)(P->nf > 0 ? P->nf : 1), sizeof *L.th);
 	L.lam = calloc((size_t)(P->nf > 0 ? P->nf : 1), sizeof *L.lam);
@@ -2511,6 +2546,8 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, pr_
 	r->cond = hess_cond(&w, P->nf);
 	path_name(w.path | (T ? PATH_REDUCED : 0), r->path, sizeof r->path);
 	certify(c, &L, verdict, T != NULL, r);
+	if (bailed)
+		*bailed = verdict == V_FAILED && w.stalled && bail;
 done:
 	work_free(&w);
 	free(L.p);
@@ -2536,7 +2573,7 @@ static int retry_reduced(const ctx_t *c, const prob *P, pr_reps_result **r)
 	st = r2 ? prob_reduce(&Q, P, c, &T, &cond) : PR_ENOMEM;
 	if (st == PR_OK) {
 		r2->iterations = (*r)->iterations;
-		st = attempt(c, &Q, P, T, r2);
+		st = attempt(c, &Q, P, T, 0, NULL, r2);
 	}
 	if (st == PR_OK && r2->status != PR_REPS_FAILED) {
 		pr_reps_result_free(*r);
@@ -2574,6 +2611,24 @@ static void solve_constant(const ctx_t *c, pr_reps_result *r)
 	}
 }
 
+/* The attempt on P's own features, then the reduced basis if it failed or
+ * left a Hessian too ill-conditioned to trust (cond > COND_RETRY) on dense
+ * features (retry). With retry, the first attempt also gives up when it
+ * stalls (*bailed): that is where it would spend reps.max_iter in vain. */
+static int two_attempts(ctx_t *c, prob *P, int retry, int *bailed, pr_reps_result **r)
+{
+	int st;
+
+	*bailed = 0;
+	st = attempt(c, P, P, NULL, retry, bailed, *r);
+	if (st == PR_OK && ((*r)->status == PR_REPS_FAILED || (*r)->cond > COND_RETRY) && retry) {
+		/* standardise again: the search shifted P's returns */
+		standardise(c->pb->R, c->rows, P->q, c->m, P->R, &c->rmax, &c->scale);
+		st = retry_reduced(c, P, r);
+	}
+	return st;
+}
+
 static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_result **out,
                  char *err)
 {
@@ -2581,7 +2636,7 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 	prob P;
 	ctx_t c;
 	double *qn = NULL, *Rs, *qs, *phat, *fs;
-	int *rows = NULL, *fx, m = 0, i, j, st;
+	int *rows = NULL, *fx, m = 0, i, j, st, retry, bailed;
 	size_t n, d;
 
 	memset(&P, 0, sizeof P);
@@ -2631,12 +2686,16 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		st = pr_err(err, PR_ENOMEM, "reps: out of memory");
 		goto done;
 	}
-	st = attempt(&c, &P, &P, NULL, r);
-	if (st == PR_OK && (r->status == PR_REPS_FAILED || r->cond > COND_RETRY) && !P.bin &&
-	    P.nf > 0 && !P.rw) {
-		/* standardise again: the search shifted P's returns */
-		standardise(pb->R, rows, qs, m, P.R, &c.rmax, &c.scale);
-		st = retry_reduced(&c, &P, &r);
+	retry = !P.bin && P.nf > 0 && !P.rw;
+	st = two_attempts(&c, &P, retry, &bailed, &r);
+	if (st == PR_OK && bailed && r->status == PR_REPS_FAILED) {
+		/* cut short, and the reduced basis did not certify either: the
+		 * first attempt in full after all, on P built afresh */
+		prob_free(&P);
+		pr_reps_result_free(r);
+		r = result_new(pb->n, pb->d);
+		st = !r || prob_main(&P, pb, rows, qs, Rs, m, phat, fs, o->epsilon, o->ridge, fx) != PR_OK ?
+		     PR_ENOMEM : two_attempts(&c, &P, 0, &bailed, &r);
 	}
 	if (st < 0) {
 		st = pr_err(err, st, st == PR_EINTR ? "reps: interrupted" :
