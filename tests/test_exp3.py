@@ -232,13 +232,16 @@ def test_bad_parameters_fail_cleanly(tmp_path, sets, msg):
     assert not (tmp_path / "out").exists()
 
 
-def test_plot_script_writes_pngs(tiny, tmp_path):
-    p = run_cmd([PY, str(ROOT / "scripts" / "plot_exp3.py"), str(tiny)],
-                       capture_output=True, text=True, timeout=120)
+def test_plot_launcher_draws_the_figures(tiny, tmp_path):
+    """scripts/plot on an Experiment 3 folder: its dispatch to plot_exp3 and
+    the four figures, each as PNG and SVG."""
+    p = run_cmd(["sh", str(ROOT / "scripts" / "plot"), str(tiny)], capture_output=True,
+                text=True, timeout=120, env=dict(os.environ, PYTHON=PY))
     assert p.returncode == 0, p.stderr
-    for n in ("fig7_7.png", "fig7_8.png", "fig7_9.png", "fig7_10.png"):
-        data = (tiny / n).read_bytes()
-        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10000, n
+    for stem in ("fig7_7", "fig7_8", "fig7_9", "fig7_10"):
+        data = (tiny / f"{stem}.png").read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10000, stem
+        assert (tiny / f"{stem}.svg").stat().st_size > 5000, stem
 
 
 def test_uncertified_solve_stops_the_run_unless_allowed(tmp_path):

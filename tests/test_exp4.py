@@ -295,17 +295,13 @@ def test_bad_parameters_fail_cleanly(tmp_path, sets, msg):
     assert not (tmp_path / "out").exists()
 
 
-def test_plot_script_writes_figures(tiny, tmp_path):
-    p = run_cmd([PY, str(ROOT / "scripts" / "plot_exp4.py"), str(tiny)], capture_output=True,
-                text=True, timeout=120)
+def test_plot_launcher_draws_the_figures(tiny, tmp_path):
+    """scripts/plot on an Experiment 4 folder: its dispatch to plot_exp4 and
+    the four figures, each as PNG and SVG."""
+    p = run_cmd(["sh", str(ROOT / "scripts" / "plot"), str(tiny)], capture_output=True,
+                text=True, timeout=120, env=dict(os.environ, PYTHON=PY))
     assert p.returncode == 0, p.stderr
     for n in ("exp4_curves_query", "exp4_curves_residual", "exp4_final", "exp4_rates"):
         data = (tiny / f"{n}.png").read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10000, n
         assert (tiny / f"{n}.svg").stat().st_size > 10000, n
-
-
-def test_plot_dispatch_knows_exp4(tiny):
-    p = run_cmd(["sh", str(ROOT / "scripts" / "plot"), str(tiny)], capture_output=True,
-                text=True, timeout=120, env=dict(os.environ, PYTHON=PY))
-    assert p.returncode == 0, p.stderr

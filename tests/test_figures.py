@@ -78,22 +78,21 @@ def test_every_script_is_executable():
 def test_plot_writes_png_and_svg_reproducibly(sim, tmp_path):
     a, b = tmp_path / "a", tmp_path / "elsewhere" / "b"
     shutil.copytree(sim, a)
-    shutil.copytree(sim, b)
-    for d in (a, b):
-        p = plot(d)
-        assert p.returncode == 0, p.stderr
+    p = plot(a)
+    assert p.returncode == 0, p.stderr
     stems = ["fig7_1_table", "fig7_2_reward", "fig7_3_shots", "fig7_5_ghost"]
     for stem in stems:
         png, svg = (a / f"{stem}.png").read_bytes(), (a / f"{stem}.svg").read_bytes()
         assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10000, stem
         assert b"<svg" in svg[:1000] and b"<dc:date>" not in svg, stem
-        # same CSVs, same bytes, wherever the folder is
-        assert (b / f"{stem}.png").read_bytes() == png, stem
-        assert (b / f"{stem}.svg").read_bytes() == svg, stem
-    # and a second run over the same folder changes nothing
+    # drawn again elsewhere, over the figures already there: same CSVs, same
+    # bytes, wherever the folder is and whatever an earlier run left
+    shutil.copytree(a, b)
+    (b / "fig7_1_table.png").write_bytes(b"stale")
     before = {p.name: p.read_bytes() for p in a.iterdir() if p.suffix in (".png", ".svg")}
-    assert plot(a).returncode == 0
-    assert {p.name: p.read_bytes() for p in a.iterdir() if p.suffix in (".png", ".svg")} == before
+    assert len(before) == 2 * len(stems)
+    assert plot(b).returncode == 0
+    assert {p.name: p.read_bytes() for p in b.iterdir() if p.suffix in (".png", ".svg")} == before
 
 
 @needs_mpl
@@ -235,17 +234,6 @@ def test_ghost_aim_is_a_documented_key(poolreps):
 
 
 # ---- Fig. 7.10's categories and the intervals ----
-
-@pytest.mark.slow
-@needs_mpl
-def test_exp3_figures_from_a_tiny_run(tmp_path):
-    run_experiment("exp3.ini", tmp_path / "e3", EXP3_TINY)
-    p = plot(tmp_path / "e3")
-    assert p.returncode == 0, p.stderr
-    for stem in ("fig7_7", "fig7_8", "fig7_9", "fig7_10"):
-        for ext in (".png", ".svg"):
-            assert (tmp_path / "e3" / (stem + ext)).stat().st_size > 5000, stem + ext
-
 
 def test_outcome_categories_and_shares():
     pytest.importorskip("matplotlib")
