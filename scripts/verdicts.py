@@ -993,9 +993,9 @@ def splice_readme(path, blocks):
     return text
 
 
-def outputs(data, docs, readme):
-    """{path: text} of every file the verdicts go into; raises Fail before
-    anything is written."""
+def outputs(data, docs, readme, figures=True):
+    """{path: text} of every file the verdicts go into (without the figure
+    unless figures); raises Fail before anything is written."""
     rules = read_rules(os.path.join(data, "rules.ini"))
     d = load(data)
     d["rules"] = rules
@@ -1010,7 +1010,7 @@ def outputs(data, docs, readme):
         raise Fail(f"{data}: the results allow no test: {e}", 3) from e
     figs = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for path in plot_study.study_seeds(data, tmp):
+        for path in plot_study.study_seeds(data, tmp) if figures else ():
             with open(path, "rb") as f:
                 figs[os.path.join(docs, "figures", os.path.basename(path))] = f.read()
     return figs | {
@@ -1028,9 +1028,11 @@ def main():
     ap.add_argument("--check", action="store_true", help="write nothing; exit 1 on a difference")
     ap.add_argument("--docs", default=os.path.join(here, "docs"))
     ap.add_argument("--readme", default=os.path.join(here, "README.md"))
+    ap.add_argument("--no-figures", action="store_true",
+                    help="the text files only: the study figure is neither drawn nor checked")
     args = ap.parse_args()
     try:
-        out = outputs(args.data, args.docs, args.readme)
+        out = outputs(args.data, args.docs, args.readme, not args.no_figures)
     except Fail as e:
         print(f"verdicts: {e}", file=sys.stderr)
         return e.code

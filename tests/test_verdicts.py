@@ -519,16 +519,22 @@ def test_bad_study_refused_and_nothing_written(study, case, code, words):
 
 
 def test_check_sees_a_difference(study):
+    """The text outputs (--no-figures: the figure's check is that of
+    test_readme_and_report_come_from_the_generator, over the committed one)."""
     data, docs, readme = study
-    p = generate(data, docs, readme, "--check")
+    p = generate(data, docs, readme, "--check", "--no-figures")
     assert p.returncode == 1 and "differs" in p.stderr
-    assert generate(data, docs, readme).returncode == 0
-    assert generate(data, docs, readme, "--check").returncode == 0
+    assert generate(data, docs, readme, "--no-figures").returncode == 0
+    assert not (docs / "figures").exists()
+    assert generate(data, docs, readme, "--check", "--no-figures").returncode == 0
+    # without --no-figures the check misses the figure never drawn here
+    p = generate(data, docs, readme, "--check")
+    assert p.returncode == 1 and "study_seeds" in p.stderr, p.stderr
     text = readme.read_text()
     assert text.startswith("a\n<!-- verdicts:begin -->") and text.endswith("<!-- sphere:end -->\nc\n")
     assert "<!-- verdicts:end -->\nb\n<!-- sphere:begin -->\nREPS benchmarks" in text
     (docs / "verdicts.md").write_text((docs / "verdicts.md").read_text() + " ")
-    p = generate(data, docs, readme, "--check")
+    p = generate(data, docs, readme, "--check", "--no-figures")
     assert p.returncode == 1 and "verdicts.md" in p.stderr
 
 
