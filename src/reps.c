@@ -69,7 +69,8 @@ const char *pr_reps_status_name(int status)
 /* A residual that stops falling counts as converged below this (well inside
  * the certificate's PR_REPS_TOL; the certificate checks it again). */
 #define FLOOR_TOL 1e-10
-/* Newton steps on theta without halving the residual that count as a stall. */
+/* Steps without halving the residual (Newton on theta) or |KL - eps| (the
+ * eta search) that count as a stall. */
 #define STALL_STEPS 50
 /* Shift added to the Jacobi-scaled covariance (unit diagonal) before its
  * Cholesky factorisation: it bounds steps along exactly dependent feature
@@ -2414,8 +2415,6 @@ done:
 	free(t);
 	return st;
 }
-
-/* (max L_jj / min L_jj)^2 over the rows psd_factor did not freeze. */
 
 static void path_name(int path, char *buf, size_t len)
 {
