@@ -341,9 +341,11 @@ def test_no_summary_line_for_component_commands(poolreps):
     assert r.returncode == 0 and r.stderr == b""
 
 
-def run_on_terminal(args, interrupt_after=None):
+def run_on_terminal(args, interrupt_when=None):
     """Run poolreps with stderr on a pseudo-terminal; (exit code, stderr text
-    with the terminal's \r\n turned back into \n)."""
+    with the terminal's \r\n turned back into \n). interrupt_when: a regex;
+    SIGINT goes to the command once its output matches it (however slowly
+    it runs, e.g. under valgrind)."""
     pty = pytest.importorskip("pty")
     master, slave = pty.openpty()
     try:
@@ -351,9 +353,6 @@ def run_on_terminal(args, interrupt_after=None):
                              env=dict(os.environ, LC_ALL="C"))
     finally:
         os.close(slave)
-    if interrupt_after is not None:
-        time.sleep(interrupt_after)
-        p.send_signal(signal.SIGINT)
     out = b""
     try:
         while True:
@@ -364,6 +363,9 @@ def run_on_terminal(args, interrupt_after=None):
             if not chunk:
                 break
             out += chunk
+            if interrupt_when and re.search(interrupt_when, out.decode(errors="replace")):
+                p.send_signal(signal.SIGINT)
+                interrupt_when = None
     finally:
         os.close(master)
         p.stdout.close()
@@ -380,7 +382,8 @@ def test_progress_bar_on_a_terminal(tmp_path):
 
 def test_message_after_an_unfinished_bar_starts_a_line(tmp_path):
     rc, text = run_on_terminal([ROOT / "data" / "exp3.ini", "-o", tmp_path / "out",
-                                "--set", "experiment.threads=1"], interrupt_after=1.5)
+                                "--set", "experiment.threads=1"],
+                                interrupt_when=r"\r\[[# ]{30}\] +\d+% exp3 episodes, ")
     assert rc == 130, repr(text)
     assert re.search(r"\r\[[# ]{30}\] +\d+% exp3 episodes, ", text), repr(text)
     # the bar is erased (carriage return, erase line): the message is one line
