@@ -33,7 +33,7 @@ NICE="nice -n 10"
 # they finish on a shared 2-core machine (docs/baselines.md says which ran)
 budgets=${BASELINES_BUDGETS:-2200,22000,55000}
 ppo_budgets=${BASELINES_PPO_BUDGETS:-2200,22000,55000}
-sac_budgets=${BASELINES_SAC_BUDGETS:-2200}
+sac_budgets=${BASELINES_SAC_BUDGETS:-2200,22000}
 # the tuned SAC's smaller network costs a third as much per step: 10x fits
 sac_tuned_budgets=${BASELINES_SAC_TUNED_BUDGETS:-2200,22000}
 
