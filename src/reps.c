@@ -2546,7 +2546,7 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, int
 	path_name(w.path | (T ? PATH_REDUCED : 0), r->path, sizeof r->path);
 	certify(c, &L, verdict, T != NULL, r);
 	if (bailed)
-		*bailed = verdict == V_FAILED && w.stalled && bail;
+		*bailed = verdict == V_FAILED && w.stalled;
 done:
 	work_free(&w);
 	free(L.p);

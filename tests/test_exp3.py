@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 from conftest import csv_rows, run_experiment, run_cmd
+from test_figures import plot
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
-PY = os.environ.get("PYTHON") or "/usr/bin/python3"
 ENV = dict(os.environ, LC_ALL="C")
 
 POLICIES = ["nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a", "baseline", "handcrafted"]
@@ -235,8 +235,7 @@ def test_bad_parameters_fail_cleanly(tmp_path, sets, msg):
 def test_plot_launcher_draws_the_figures(tiny, tmp_path):
     """scripts/plot on an Experiment 3 folder: its dispatch to plot_exp3 and
     the four figures, each as PNG and SVG."""
-    p = run_cmd(["sh", str(ROOT / "scripts" / "plot"), str(tiny)], capture_output=True,
-                text=True, timeout=120, env=dict(os.environ, PYTHON=PY))
+    p = plot(tiny)
     assert p.returncode == 0, p.stderr
     for stem in ("fig7_7", "fig7_8", "fig7_9", "fig7_10"):
         data = (tiny / f"{stem}.png").read_bytes()

@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import csv_rows, run_cmd, run_experiment
+from test_figures import plot
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
-PY = os.environ.get("PYTHON") or "/usr/bin/python3"
 
 POLICIES = ["nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a", "baseline", "handcrafted"]
 INITS = ["scratch", "imitation", "demo", "policy"]
@@ -298,8 +298,7 @@ def test_bad_parameters_fail_cleanly(tmp_path, sets, msg):
 def test_plot_launcher_draws_the_figures(tiny, tmp_path):
     """scripts/plot on an Experiment 4 folder: its dispatch to plot_exp4 and
     the four figures, each as PNG and SVG."""
-    p = run_cmd(["sh", str(ROOT / "scripts" / "plot"), str(tiny)], capture_output=True,
-                text=True, timeout=120, env=dict(os.environ, PYTHON=PY))
+    p = plot(tiny)
     assert p.returncode == 0, p.stderr
     for n in ("exp4_curves_query", "exp4_curves_residual", "exp4_final", "exp4_rates"):
         data = (tiny / f"{n}.png").read_bytes()
