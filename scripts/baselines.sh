@@ -34,8 +34,8 @@ NICE="nice -n 10"
 budgets=${BASELINES_BUDGETS:-2200,22000,55000}
 ppo_budgets=${BASELINES_PPO_BUDGETS:-2200,22000,55000}
 sac_budgets=${BASELINES_SAC_BUDGETS:-2200,22000}
-# the tuned SAC's smaller network costs a third as much per step: 10x fits
-sac_tuned_budgets=${BASELINES_SAC_TUNED_BUDGETS:-2200,22000}
+# the tuned SAC's smaller network costs a third as much per step: 25x fits
+sac_tuned_budgets=${BASELINES_SAC_TUNED_BUDGETS:-2200,22000,55000}
 
 make_venv() {
 	[ -x "$venv/bin/python" ] && cmp -s "$requirements" "$venv/requirements.txt" &&
