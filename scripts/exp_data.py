@@ -17,6 +17,10 @@ import sys
 from collections import defaultdict
 
 SWEEP_INDEX = {"n_min": 0, "trees": 1, "cuts": 2}
+# a log-scale figure's floor, and the stem of the study's seed-spread figure:
+# the text generators use them without importing matplotlib
+TINY = 1e-300
+STUDY_SEEDS_STEM = "study_seeds"
 
 
 def read_csv(path, need=()):
@@ -114,3 +118,13 @@ def exp2_returns(directory):
 
 if __name__ == "__main__":
     print(__doc__)
+
+
+def plateau(series):
+    """The plateau a benchmark figure marks: per iteration the median over the
+    runs (cut to the shortest run), then the median of that curve's last tenth
+    of iterations. Returns (plateau, median curve). README text uses it too."""
+    import numpy as np  # here: the plot scripts import this module before figstyle
+    n = min(len(y) for y in series)
+    med = np.median(np.array([np.asarray(y)[:n] for y in series]), axis=0)
+    return float(np.median(med[-max(1, n // 10):])), med

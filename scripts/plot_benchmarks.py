@@ -32,7 +32,7 @@ METHODS = [
 ]
 NEED = ("repetition", "iteration", "samples", "mean_return", "test_return", "test_error",
         "mean_std")
-TINY = 1e-300
+TINY = exp_data.TINY
 
 
 def read_curves(path):
@@ -47,15 +47,6 @@ def read_curves(path):
     return curves
 
 
-def plateau(series):
-    """The plateau the figure marks: per iteration the median over the runs
-    (cut to the shortest run), then the median of that curve's last tenth of
-    iterations. Returns (plateau, median curve). README text uses it too."""
-    n = min(len(y) for y in series)
-    med = np.median(np.array([np.asarray(y)[:n] for y in series]), axis=0)
-    return float(np.median(med[-max(1, n // 10):])), med
-
-
 def draw(axes, curves, name, colour):
     for ax, (col, _, negate) in zip(axes, PANELS):
         stack = []
@@ -64,7 +55,7 @@ def draw(axes, curves, name, colour):
             y = np.maximum(-c[col] if negate else c[col], TINY)
             ax.plot(c["samples"], y, color=colour, alpha=0.25, lw=0.7)
             stack.append(y)
-        level, med = plateau(stack)
+        level, med = exp_data.plateau(stack)
         n = len(med)
         x = curves[sorted(curves)[0]]["samples"][:n]
         ax.plot(x, med, color=colour, lw=1.8, label=f"{name}: median of {len(stack)} runs")

@@ -18,11 +18,12 @@ import csv
 import os
 from collections import defaultdict
 
+import exp_data
 import figstyle as fs
 import numpy as np  # noqa: E402  (after figstyle: it picks the Python)
 from scipy import stats  # noqa: E402
 
-STEM = "study_seeds"
+STEM = exp_data.STUDY_SEEDS_STEM
 ARM = "event"   # the physics arm drawn (the study runs Experiments 1 and 2 in three)
 
 

@@ -27,8 +27,7 @@ from collections import defaultdict
 
 import numpy as np
 
-import plot_benchmarks
-import plot_study
+import exp_data
 import verdict_stats as vs
 
 MODES = ("event", "stepped", "stepped05")
@@ -476,8 +475,7 @@ def exp3_parts(d, arm, m, rules):
                      for q in TREES]
     k0 = rules["converged_at"]
     for q in THESIS:
-        moving = [run_moving(d["exp3"][(arm, q, r)]["curve"][k0:], m["flat"], rules["run_alpha"])
-                  for r in reps]
+        moving = [run_moving(d, (arm, q, r), k0, m["flat"], rules["run_alpha"]) for r in reps]
         p = count_part(f"{q}: share of runs still moving after iteration {k0}", sum(moving),
                        len(moving), m["unsettled"])
         p["group"] = "converged"
@@ -490,10 +488,15 @@ def exp3_parts(d, arm, m, rules):
     return out
 
 
-def run_moving(y, flat, alpha):
-    """A run is still moving when its own trend over y lies beyond +flat or
-    beyond -flat by a one-sided t test at alpha."""
-    e = vs.trend(y)
+def run_moving(d, key, k0, flat, alpha):
+    """A run is still moving when its own trend over its curve from iteration
+    k0 on lies beyond +flat or beyond -flat by a one-sided t test at alpha."""
+    # the trend does not depend on the margins: computed once, not per
+    # sensitivity variant
+    cache = d.setdefault("trends", {})
+    if (key, k0) not in cache:
+        cache[(key, k0)] = vs.trend(d["exp3"][key]["curve"][k0:])
+    e = cache[(key, k0)]
     return vs.p_greater(e, flat) < alpha or vs.p_less(e, -flat) < alpha
 
 
@@ -769,7 +772,7 @@ def render_md(d, parts, per, comb, sens):
                "where they differ.\n")
     out.append(md_table(["claim"] + [MODE_LABEL[m] for m in MODES] + ["verdict"], srows))
     out.append("\n" + "\n\n".join(not_reproduced(d, per, comb)))
-    out.append(f"\n![seed spread](figures/{plot_study.STEM}.png)\n\n*Figure: the seed spread "
+    out.append(f"\n![seed spread](figures/{exp_data.STUDY_SEEDS_STEM}.png)\n\n*Figure: the seed spread "
                "behind the Experiment 1 and 2 verdicts (event mode). Top: the test MSE of each "
                "setting relative to its reference, one grey dot per seed (the mean of its run's "
                "forests), the mean over the seeds with its 95 % t interval (a description, not "
@@ -855,8 +858,8 @@ def control_text(d, rules):
     k0, bits = rules["converged_at"], []
     for mode in MODES:
         flat = mode_margins(d, rules["margins"], mode)["flat"]
-        moving = [run_moving(d["exp3"][(mode, "handcrafted", r)]["curve"][k0:], flat,
-                             rules["run_alpha"]) for r in range(d["reps"])]
+        moving = [run_moving(d, (mode, "handcrafted", r), k0, flat, rules["run_alpha"])
+                  for r in range(d["reps"])]
         bits.append(f"{MODE_LABEL[mode]} {sum(moving)}/{len(moving)}")
     return ("**Control** (not a part): the same rule on the hand-crafted policy, which no "
             "claim is about, counts as still moving: " + "; ".join(bits) + ".")
@@ -960,9 +963,9 @@ def report_html(d, parts, per, comb):
 def sphere_block(d):
     """The README's sentence on the contextual sphere benchmark: each method's
     plateau of the policy mean's test return, the statistic the bench_sphere
-    figure marks (plot_benchmarks.plateau, on the figure's values)."""
-    lv = {m: -plot_benchmarks.plateau([np.maximum(-y, plot_benchmarks.TINY)
-                                       for y in d["sphere"][m]])[0] for m in SPHERE}
+    figure marks (exp_data.plateau, on the figure's values)."""
+    lv = {m: -exp_data.plateau([np.maximum(-y, exp_data.TINY)
+                                 for y in d["sphere"][m]])[0] for m in SPHERE}
     n = len(d["sphere"]["creps_old"])
     g = lambda x: f"{x:.3g}".replace("-", "−")  # noqa: E731
     return (f"{SPHERE_BEGIN}\nREPS benchmarks ([docs/reps_policy.md](docs/reps_policy.md)), "
@@ -1009,6 +1012,8 @@ def outputs(data, docs, readme, figures=True):
     except ValueError as e:
         raise Fail(f"{data}: the results allow no test: {e}", 3) from e
     figs = {}
+    if figures:
+        import plot_study  # here: matplotlib's import is a second per run
     with tempfile.TemporaryDirectory() as tmp:
         for path in plot_study.study_seeds(data, tmp) if figures else ():
             with open(path, "rb") as f:

@@ -44,8 +44,12 @@ def pytest_collection_modifyitems(config, items):
     starting a long one when the other has little left."""
     for item in items:
         info = getattr(item, "_fixtureinfo", None)
-        defs = info.name2fixturedefs.values() if info else ()
-        if any(d and d[-1].scope in ("module", "class") for d in defs):
+        names = info.name2fixturedefs if info else {}
+        shared = sorted(SHARED & set(names))
+        if shared:
+            # a session fixture several modules use: one group for all of them
+            item.add_marker(pytest.mark.xdist_group(shared[0]))
+        elif any(d and d[-1].scope in ("module", "class") for d in names.values()):
             item.add_marker(pytest.mark.xdist_group(item.module.__name__))
     items.sort(key=lambda item: not (item.get_closest_marker("slow") or
                                      item.get_closest_marker("xdist_group")))
@@ -106,6 +110,33 @@ def run_experiment(ini, out, sets=(), check=True, extra=()):
     if check:
         assert p.returncode == 0, p.stderr
     return p
+
+
+# session fixtures that tests of several modules share (their group, above)
+SHARED = {"quick_reproduction"}
+
+
+@pytest.fixture(scope="session")
+def quick_reproduction(tmp_path_factory):
+    """A QUICK reproduction, as `make reproduce QUICK=1` runs it, over a
+    figures folder that holds a figure of an earlier run: its folder."""
+    binary = poolreps_path()
+    if binary is None:
+        pytest.skip("no poolreps binary (set POOLREPS)")
+    py = os.environ.get("PYTHON") or "/usr/bin/python3"
+    try:
+        if run_cmd([py, "-c", "import matplotlib"], capture_output=True, timeout=60).returncode:
+            pytest.skip(f"{py} lacks matplotlib")
+    except OSError:
+        pytest.skip(f"no {py}")
+    o = tmp_path_factory.mktemp("reproduce") / "out"
+    (o / "figures").mkdir(parents=True)
+    (o / "figures" / "fig7_99_old.png").write_bytes(b"from an earlier run")
+    p = run_cmd(["sh", "scripts/reproduce.sh", str(o), py, "1"], cwd=ROOT,
+                capture_output=True, text=True, timeout=1800,
+                env=dict(os.environ, LC_ALL="C", POOLREPS=binary))
+    assert p.returncode == 0, p.stderr[-3000:]
+    return o
 
 
 def quick_sets(name):

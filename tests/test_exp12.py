@@ -1,8 +1,9 @@
 """End-to-end tests of Experiments 1 and 2 (thesis 7.3, 7.4) at a tiny scale.
 
-Run by `make check` with POOLREPS=<abs path to poolreps> and PYTHON=<python
-with matplotlib>. Each test runs the real executable on data/exp1.ini or
-data/exp2.ini with --set overrides that shrink it.
+Run by `make check` with POOLREPS=<abs path to poolreps>; their figures are
+checked in test_report.py, on the quick reproduction that draws them all. Each
+test runs the real executable on data/exp1.ini or data/exp2.ini with --set
+overrides that shrink it.
 """
 import math
 import os
@@ -13,7 +14,6 @@ from conftest import csv_rows, run_experiment, run_cmd
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
-PY = os.environ.get("PYTHON") or "/usr/bin/python3"
 ENV = dict(os.environ, LC_ALL="C")
 
 EXP1_TINY = ["exp1.train=100", "exp1.test=100", "exp1.subset=50", "exp1.test_subset=50",
@@ -201,22 +201,3 @@ def test_exp2_bad_sizes_fail_cleanly(tmp_path):
     assert not (tmp_path / "bad" / "exp2_returns.csv").exists()
 
 
-# ---- figures ----
-
-def png_ok(path):
-    b = Path(path).read_bytes()
-    return b[:8] == b"\x89PNG\r\n\x1a\n" and len(b) > 5000
-
-
-def test_plot_scripts_make_their_pngs(tmp_path):
-    run("exp1.ini", tmp_path / "e1", EXP1_TINY)
-    run("exp2.ini", tmp_path / "e2", EXP2_TINY)
-    # both folders in one launcher process (one matplotlib import)
-    p = run_cmd(["sh", str(ROOT / "scripts" / "plot"), str(tmp_path / "e1"), str(tmp_path / "e2")],
-                capture_output=True, text=True, env=dict(ENV, PYTHON=PY), timeout=120)
-    assert p.returncode == 0, p.stderr
-    for d, pngs in (("e1", ["fig7_4a_nmin.png", "fig7_4b_trees.png", "fig7_4c_cuts.png",
-                            "exp1_map.png"]),
-                    ("e2", ["fig7_6.png"])):
-        for png in pngs:
-            assert png_ok(tmp_path / d / png), png

@@ -1,8 +1,9 @@
 """End-to-end tests of Experiment 3 (thesis 7.5) at a tiny scale.
 
-Run by `make check` with POOLREPS=<abs path to poolreps> and PYTHON=<python
-with matplotlib>. Each test runs the real executable on data/exp3.ini with
---set overrides that shrink it.
+Run by `make check` with POOLREPS=<abs path to poolreps>; their figures are
+checked in test_report.py, on the quick reproduction that draws them all. Each
+test runs the real executable on data/exp3.ini with --set overrides that
+shrink it.
 """
 import math
 import os
@@ -10,7 +11,6 @@ from pathlib import Path
 
 import pytest
 from conftest import csv_rows, run_experiment, run_cmd
-from test_figures import plot
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
@@ -230,17 +230,6 @@ def test_bad_parameters_fail_cleanly(tmp_path, sets, msg):
     assert msg in p.stderr
     # a failed run leaves nothing behind, not even the folder it would have made
     assert not (tmp_path / "out").exists()
-
-
-def test_plot_launcher_draws_the_figures(tiny, tmp_path):
-    """scripts/plot on an Experiment 3 folder: its dispatch to plot_exp3 and
-    the four figures, each as PNG and SVG."""
-    p = plot(tiny)
-    assert p.returncode == 0, p.stderr
-    for stem in ("fig7_7", "fig7_8", "fig7_9", "fig7_10"):
-        data = (tiny / f"{stem}.png").read_bytes()
-        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10000, stem
-        assert (tiny / f"{stem}.svg").stat().st_size > 5000, stem
 
 
 def test_uncertified_solve_stops_the_run_unless_allowed(tmp_path):

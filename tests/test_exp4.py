@@ -1,10 +1,11 @@
 """End-to-end tests of Experiment 4 (beyond the thesis: imitation of the
 ghost-ball expert, then Experiment 3's REPS) at a tiny scale.
 
-Run by `make check` with POOLREPS=<abs path to poolreps> and PYTHON=<python
-with matplotlib>. Each test runs the real executable on data/exp4.ini with
---set overrides that shrink it; the checks recompute what they can from the
-raw CSVs with numpy (no code shared with the C).
+Run by `make check` with POOLREPS=<abs path to poolreps>; their figures are
+checked in test_report.py, on the quick reproduction that draws them all. Each
+test runs the real executable on data/exp4.ini with --set overrides that
+shrink it; the checks recompute what they can from the raw CSVs with numpy (no
+code shared with the C).
 """
 import math
 import os
@@ -13,7 +14,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import csv_rows, run_cmd, run_experiment
-from test_figures import plot
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
@@ -295,12 +295,3 @@ def test_bad_parameters_fail_cleanly(tmp_path, sets, msg):
     assert not (tmp_path / "out").exists()
 
 
-def test_plot_launcher_draws_the_figures(tiny, tmp_path):
-    """scripts/plot on an Experiment 4 folder: its dispatch to plot_exp4 and
-    the four figures, each as PNG and SVG."""
-    p = plot(tiny)
-    assert p.returncode == 0, p.stderr
-    for n in ("exp4_curves_query", "exp4_curves_residual", "exp4_final", "exp4_rates"):
-        data = (tiny / f"{n}.png").read_bytes()
-        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10000, n
-        assert (tiny / f"{n}.svg").stat().st_size > 10000, n

@@ -16,7 +16,7 @@ import shutil
 import sys
 
 import pytest
-from conftest import ROOT, poolreps_path, quick_sets, run_cmd
+from conftest import ROOT, quick_sets, run_cmd
 
 PY = os.environ.get("PYTHON") or "/usr/bin/python3"
 SCRIPTS = ROOT / "scripts"
@@ -28,30 +28,10 @@ VERDICTS = {"agrees", "disagrees", "undecided"}
 VOID = {"meta", "img", "br", "hr", "link", "input", "source", "wbr"}
 
 
-def has_matplotlib():
-    try:
-        return run_cmd([PY, "-c", "import matplotlib"], capture_output=True,
-                              timeout=60).returncode == 0
-    except OSError:
-        return False
-
-
-@pytest.fixture(scope="module")
-def out(tmp_path_factory):
-    """A QUICK reproduction, as `make reproduce QUICK=1` runs it."""
-    binary = poolreps_path()
-    if binary is None:
-        pytest.skip("no poolreps binary (set POOLREPS)")
-    if not has_matplotlib():
-        pytest.skip(f"{PY} lacks matplotlib")
-    o = tmp_path_factory.mktemp("reproduce") / "out"
-    (o / "figures").mkdir(parents=True)
-    (o / "figures" / "fig7_99_old.png").write_bytes(b"from an earlier run")
-    p = run_cmd(["sh", "scripts/reproduce.sh", str(o), PY, "1"], cwd=ROOT,
-                       capture_output=True, text=True, timeout=1800,
-                       env=dict(os.environ, LC_ALL="C", POOLREPS=binary))
-    assert p.returncode == 0, p.stderr[-3000:]
-    return o
+@pytest.fixture
+def out(quick_reproduction):
+    """The session's quick reproduction (conftest.py)."""
+    return quick_reproduction
 
 
 @pytest.mark.native
@@ -198,10 +178,30 @@ def test_report_html_structure(out):
     assert "smoke run" in (out / "report.html").read_text(encoding="utf-8")
 
 
+# each experiment's folder and the figures its plot script draws there
+# (scripts/plot_all.py's dispatch on experiment.name, as `scripts/plot` runs it)
+FOLDER_STEMS = {"sim": ["fig7_1_table", "fig7_2_reward", "fig7_3_shots", "fig7_5_ghost"],
+                "exp1": ["fig7_4a_nmin", "fig7_4b_trees", "fig7_4c_cuts", "exp1_map"],
+                "exp2": ["fig7_6"], "exp3": ["fig7_7", "fig7_8", "fig7_9", "fig7_10"],
+                "exp4": ["exp4_curves_query", "exp4_curves_residual", "exp4_final", "exp4_rates"]}
+
+
 @pytest.mark.slow
 def test_reproduce_writes_every_figure_and_clears_old_ones(out):
+    """Every figure, as PNG and SVG, in its experiment's folder (drawn there
+    by that experiment's plot script) and copied to OUT/figures; nothing else
+    there, the earlier run's figure gone."""
     names = sorted(p.name for p in (out / "figures").iterdir())
     assert names == sorted(f"{s}.{e}" for s in STEMS for e in ("png", "svg"))
+    assert sorted(sum(FOLDER_STEMS.values(), [])) == sorted(s for s in STEMS
+                                                            if not s.startswith("bench_"))
+    for folder, stems in FOLDER_STEMS.items():
+        for stem in stems:
+            png, svg = (out / folder / f"{stem}.png").read_bytes(), (out / folder / f"{stem}.svg").read_bytes()
+            assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10000, (folder, stem)
+            assert b"<svg" in svg[:1000] and len(svg) > 10000, (folder, stem)
+            assert (out / "figures" / f"{stem}.png").read_bytes() == png, stem
+            assert (out / "figures" / f"{stem}.svg").read_bytes() == svg, stem
     with open(out / "timings.csv", newline="") as f:
         steps = [r["step"] for r in csv.DictReader(f)]
     assert "exp3: run" in steps and "exp3: figures" in steps and steps[-1] == "total"
