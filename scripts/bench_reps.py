@@ -19,7 +19,8 @@ per round, after one untimed call that loads the library. --previous ROOT (a
 source tree with build/rel built; scripts/bench_reps.sh builds one from
 git) adds the same runs of an earlier poolreps: whole process (solver
 poolreps-newton-previous) and in-process through its own binding and
-library, in a child process (poolreps-newton-inprocess-previous)."""
+library, in a child process (poolreps-newton-inprocess-previous).
+poolreps-newton-threads2 is the whole process with `--threads 2`."""
 import argparse
 import csv
 import os
@@ -192,6 +193,10 @@ def main():
                 extra = ["--set", f"reps.solver={solver}"] if solver != "newton" else []
                 runners.append(("poolreps-" + solver,
                                 lambda extra=extra: run_poolreps(a.poolreps, path, eps, tmp, extra)))
+                if solver == "newton":
+                    # the dense Hessian's rank-k update split over two threads
+                    runners.append(("poolreps-newton-threads2",
+                                    lambda: run_poolreps(a.poolreps, path, eps, tmp, ["--threads", "2"])))
             if a.previous:
                 runners.append(("poolreps-newton-previous",
                                 lambda: run_poolreps(os.path.join(a.previous, "build", "rel", "poolreps"),

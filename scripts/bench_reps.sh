@@ -3,7 +3,7 @@
 # Python binding) against scipy.optimize.minimize(method='trust-exact') on
 # the same REPS dual in the same run (scripts/bench_reps.py), next to the
 # previous poolreps built from git in this run (BENCH_BASE, default the
-# last commit before the dense path's own rank-k kernel and start;
+# last commit before the AVX2 tile shape and --threads;
 # BENCH_BASE=none skips it), whole process and in-process: built by
 # scripts/prev_build.sh in a temporary folder, removed afterwards. Table by
 # scripts/bench_reps_table.py. CSV: build/bench/reps.csv (copy it to
@@ -12,7 +12,7 @@
 set -e
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
-BASE=${BENCH_BASE:-a20f1d88882bdafc31b35170b43db0686b45fc59}
+BASE=${BENCH_BASE:-3c70b8d459c5305283862cf23f218db5c37c71a7}
 ${MAKE:-make} -s SAN=0 build/rel/poolreps build/rel/libpoolreps.so.0.1.0
 TMP=$(mktemp -d "${TMPDIR:-/tmp}/bench_reps.XXXXXX")
 trap 'rm -rf "$TMP"' EXIT INT TERM

@@ -37,6 +37,8 @@
 #include <glpk.h>
 #include <nlopt.h>
 #include <gsl/gsl_blas.h>
+#include <pthread.h>
+
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_linalg.h>
 #include <gsl/gsl_matrix.h>
@@ -52,6 +54,7 @@ void pr_reps_opts_init(pr_reps_opts *o)
 	o->eta_min = 1e-2;
 	o->allow_failed = 0;
 	o->solver = PR_REPS_SOLVER_NEWTON;
+	o->threads = 1;
 }
 
 const char *pr_reps_status_name(int status)
@@ -166,7 +169,9 @@ typedef struct {
 	double varu, resvar; /* Var_p(u), ResVar_p(u | psi) at the last factorisation */
 	int nfp;             /* nf rounded up to PR_SYRK_W */
 	double *Y, *Hp;      /* dense, nf >= BLAS_MIN_NF (else NULL): SYRK_ROWS x nfp
-	                        rows of sqrt(p) (psi - psi_c), nfp x nfp sums */
+	                        rows of sqrt(p) (psi - psi_c) (all m rows when
+	                        threads > 1), nfp x nfp sums */
+	int threads;         /* threads that share the rank-k update (dense) */
 } work;
 
 static void work_free(work *w)
@@ -190,7 +195,7 @@ static void work_free(work *w)
 	free(w->iscr);
 }
 
-static int work_alloc(work *w, const prob *P, int max_evals)
+static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 {
 	const int m = P->m, nf = P->nf;
 	size_t a = (size_t)(nf > 0 ? nf : 1), b = (size_t)m;
@@ -198,6 +203,7 @@ static int work_alloc(work *w, const prob *P, int max_evals)
 
 	memset(w, 0, sizeof *w);
 	w->max_evals = max_evals;
+	w->threads = threads > 1 && m > SYRK_ROWS ? threads : 1;
 	for (k = 0; k < 2; k++) {
 		w->pt[k].th = calloc(a, sizeof(double));
 		w->pt[k].A = calloc(b, sizeof(double));
@@ -216,7 +222,7 @@ static int work_alloc(work *w, const prob *P, int max_evals)
 	if (!P->bin && nf >= BLAS_MIN_NF) {
 		w->nfp = (nf + PR_SYRK_W - 1) / PR_SYRK_W * PR_SYRK_W;
 		/* calloc: the padding columns stay 0 */
-		w->Y = calloc((size_t)SYRK_ROWS * w->nfp, sizeof *w->Y);
+		w->Y = calloc((size_t)(w->threads > 1 ? m : SYRK_ROWS) * w->nfp, sizeof *w->Y);
 		w->Hp = malloc((size_t)w->nfp * w->nfp * sizeof *w->Hp);
 		if (!w->Y || !w->Hp)
 			return PR_ENOMEM;
@@ -327,39 +333,98 @@ static int plain_ok(const prob *P, const point *x)
 	return 1;
 }
 
+/* Rows i0 .. i0 + mr - 1 of Y = diag(sqrt p) (psi - psi_c) into Y (from
+ * its row 0), their moments added to mc = sum p (psi - psi_c), w->c = sum
+ * p (psi - psi_c)(u - mu) and *vu = sum p (u - mu)^2, in row order. */
+static void fill_rows(const prob *P, work *w, const point *x, const double *rc, double mu,
+                      int i0, int mr, double *Y, double *vu)
+{
+	const int nf = P->nf, nfp = w->nfp;
+	double *restrict mc = w->v1, *restrict cu = w->c;
+	int i, j;
+
+	for (i = 0; i < mr; i++) {
+		const double pi = x->p[i0 + i], du = w->u[i0 + i] - mu, sp = sqrt(pi);
+		const double *restrict r = P->psi + (size_t)(i0 + i) * nf;
+		double *restrict y = Y + (size_t)i * nfp;
+
+		*vu += pi * du * du;
+		for (j = 0; j < nf; j++) {
+			const double dv = r[j] - rc[j];
+
+			y[j] = sp * dv;
+			mc[j] += pi * dv;
+			cu[j] += pi * dv * du;
+		}
+	}
+}
+
+/* One thread's share of H += Y^T Y over all m rows of Y: rows jlo..jhi-1
+ * of H, SYRK_ROWS rows of Y at a time (they stay in cache). */
+typedef struct {
+	const double *Y;
+	double *H;
+	int m, nfp, jlo, jhi;
+} syrk_part;
+
+static void *syrk_part_run(void *arg)
+{
+	const syrk_part *a = arg;
+	int i0;
+
+	for (i0 = 0; i0 < a->m; i0 += SYRK_ROWS)
+		pr_syrk_acc_rows(a->Y + (size_t)i0 * a->nfp, a->m - i0 < SYRK_ROWS ? a->m - i0 : SYRK_ROWS,
+		                 a->nfp, a->H, a->jlo, a->jhi);
+	return NULL;
+}
+
+/* H += Y^T Y on w->threads threads, each its own rows of H (the same bits
+ * as one thread: every entry's sum is one thread's, in row order). A
+ * thread that cannot start has its share done here. */
+static void syrk_threads(work *w, int m)
+{
+		syrk_part part[64];
+	pthread_t tid[64];
+	int started[64], t, nt = w->threads; /* <= 64: check_opts */
+
+	for (t = 0; t < nt; t++) {
+		part[t] = (syrk_part){ w->Y, w->Hp, m, w->nfp, pr_syrk_split(w->nfp, nt, t),
+		                       pr_syrk_split(w->nfp, nt, t + 1) };
+		started[t] = t > 0 && pthread_create(&tid[t], NULL, syrk_part_run, &part[t]) == 0;
+	}
+	for (t = 0; t < nt; t++)
+		if (!started[t])
+			syrk_part_run(&part[t]);
+	for (t = 1; t < nt; t++)
+		if (started[t])
+			pthread_join(tid[t], NULL);
+}
+
 /* covariances() for wide dense problems: the moments about row c, with
  * sum p (psi - psi_c)(psi - psi_c)^T as Y^T Y, Y = diag(sqrt p) (psi -
  * psi_c), by pr_syrk_acc on blocks of SYRK_ROWS rows of Y (padded to
- * nfp columns; the block and w->Hp stay in cache). w->u and mu are set,
- * H's upper triangle and w->c, w->v1 zeroed by the caller. */
+ * nfp columns; the block and w->Hp stay in cache), or with threads on all
+ * of Y at once. w->u and mu are set, H's upper triangle and w->c, w->v1
+ * zeroed by the caller. */
 static void covariances_blas(const prob *P, work *w, const point *x, int c, double mu)
 {
 	const int m = P->m, nf = P->nf, nfp = w->nfp;
-	const double *restrict rc = P->psi + (size_t)c * nf;
-	double *H = w->H->data, *restrict mc = w->v1, vu = 0.0;
+	const double *restrict rc = P->psi + (size_t)c * nf, *restrict mc = w->v1;
+	double *H = w->H->data, vu = 0.0;
 	const size_t td = w->H->tda;
-	int i0, i, j, k;
+	int i0, j, k;
 
 	memset(w->Hp, 0, (size_t)nfp * nfp * sizeof *w->Hp);
-	for (i0 = 0; i0 < m; i0 += SYRK_ROWS) {
-		const int mr = m - i0 < SYRK_ROWS ? m - i0 : SYRK_ROWS;
+	if (w->threads > 1) {
+		fill_rows(P, w, x, rc, mu, 0, m, w->Y, &vu);
+		syrk_threads(w, m);
+	} else
+		for (i0 = 0; i0 < m; i0 += SYRK_ROWS) {
+			const int mr = m - i0 < SYRK_ROWS ? m - i0 : SYRK_ROWS;
 
-		for (i = 0; i < mr; i++) {
-			const double pi = x->p[i0 + i], du = w->u[i0 + i] - mu, sp = sqrt(pi);
-			const double *restrict r = P->psi + (size_t)(i0 + i) * nf;
-			double *restrict y = w->Y + (size_t)i * nfp, *restrict cu = w->c;
-
-			vu += pi * du * du;
-			for (j = 0; j < nf; j++) {
-				const double dv = r[j] - rc[j];
-
-				y[j] = sp * dv;
-				mc[j] += pi * dv;
-				cu[j] += pi * dv * du;
-			}
+			fill_rows(P, w, x, rc, mu, i0, mr, w->Y, &vu);
+			pr_syrk_acc(w->Y, mr, nfp, w->Hp);
 		}
-		pr_syrk_acc(w->Y, mr, nfp, w->Hp);
-	}
 	for (j = 0; j < nf; j++)
 		for (k = j; k < nf; k++)
 			H[(size_t)j * td + k] = w->Hp[(size_t)j * nfp + k] - mc[j] * mc[k];
@@ -1454,7 +1519,7 @@ static int limit_primal(const prob *P, limit_ws *s, int max_evals, limit_t *L, d
 
 	memset(&F, 0, sizeof F);
 	memset(&w, 0, sizeof w);
-	if ((st = prob_face(&F, P, s->S, ns)) != PR_OK || (st = work_alloc(&w, &F, max_evals)) != PR_OK)
+	if ((st = prob_face(&F, P, s->S, ns)) != PR_OK || (st = work_alloc(&w, &F, max_evals, 1)) != PR_OK)
 		goto done;
 	if (ns == s->nb && F.nf > 0) {
 		/* the face is the vertex's support: start from the weights that fit
@@ -1995,6 +2060,8 @@ static int check_opts(const pr_reps_opts *o, char *err)
 		return pr_err(err, PR_EINVAL, "reps.max_iter: must be >= 1 (got %d)", o->max_iter);
 	if (!(o->eta_min > 0.0 && o->eta_min <= 1.0))
 		return pr_err(err, PR_EINVAL, "reps.eta_min: must be in (0, 1] (got %g)", o->eta_min);
+	if (o->threads < 1 || o->threads > 64)
+		return pr_err(err, PR_EINVAL, "reps: threads must be in 1 .. 64 (got %d)", o->threads);
 	return PR_OK;
 }
 
@@ -2494,7 +2561,7 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, int
 	int verdict, j, k, st = PR_ENOMEM;
 
 	memset(&L, 0, sizeof L);
-	if (work_alloc(&w, P, c->o->max_iter) != PR_OK)
+	if (work_alloc(&w, P, c->o->max_iter, c->o->threads) != PR_OK)
 		goto done;
 	w.bail = bail;
 	L.p = malloc((size_t)P->m * sizeof *L.p);

@@ -14,43 +14,52 @@
 #endif
 
 typedef double v8d __attribute__((vector_size(64)));
+typedef double v4d __attribute__((vector_size(32)));
 
-#define TJ 8  /* rows of H per tile */
-#define TK 16 /* columns of H per tile: two vectors */
-
-/* Inlined into one wrapper per instruction set below, so each copy is
- * compiled for its own vector width. */
-static inline __attribute__((always_inline)) void
-syrk_tiles(const double *Y, int mr, int nfp, double *H)
-{
-	int j0, k0, a, i;
-
-	for (j0 = 0; j0 < nfp; j0 += TJ)
-		for (k0 = j0 / TK * TK; k0 < nfp; k0 += TK) {
-			v8d acc[TJ][2];
-
-			for (a = 0; a < TJ; a++)
-				memcpy(acc[a], H + (size_t)(j0 + a) * nfp + k0, sizeof acc[a]);
-			for (i = 0; i < mr; i++) {
-				const double *y = Y + (size_t)i * nfp;
-				v8d b[2];
-
-				memcpy(b, y + k0, sizeof b);
-				for (a = 0; a < TJ; a++) {
-					acc[a][0] += y[j0 + a] * b[0];
-					acc[a][1] += y[j0 + a] * b[1];
-				}
-			}
-			for (a = 0; a < TJ; a++)
-				memcpy(H + (size_t)(j0 + a) * nfp + k0, acc[a], sizeof acc[a]);
-		}
+/* One tile shape per register file: TJ rows of H by two vectors of VT
+ * columns, whose 2 TJ accumulators must stay in registers. AVX-512 (32
+ * registers of 8 doubles): 8 x 16. AVX2 (16 registers of 4 doubles): 4 x 8;
+ * 8 x 16 there would need 32 registers and spills every sum to memory,
+ * a quarter of the speed. Each entry's sum is in row order either way. */
+#define SYRK_TILES(name, VT, TJ)                                                        \
+static inline __attribute__((always_inline)) void                                      \
+name(const double *Y, int mr, int nfp, double *H, int jlo, int jhi)                    \
+{                                                                                       \
+	enum { TK = 2 * (int)(sizeof(VT) / sizeof(double)) };                           \
+	int j0, k0, a, i;                                                               \
+                                                                                        \
+	for (j0 = jlo; j0 < jhi; j0 += TJ)                                              \
+		for (k0 = j0 / TK * TK; k0 < nfp; k0 += TK) {                           \
+			VT acc[TJ][2];                                                  \
+                                                                                        \
+			for (a = 0; a < TJ; a++)                                        \
+				memcpy(acc[a], H + (size_t)(j0 + a) * nfp + k0, sizeof acc[a]); \
+			for (i = 0; i < mr; i++) {                                      \
+				const double *y = Y + (size_t)i * nfp;                  \
+				VT b[2];                                                \
+                                                                                        \
+				memcpy(b, y + k0, sizeof b);                            \
+				for (a = 0; a < TJ; a++) {                              \
+					acc[a][0] += y[j0 + a] * b[0];                  \
+					acc[a][1] += y[j0 + a] * b[1];                  \
+				}                                                       \
+			}                                                               \
+			for (a = 0; a < TJ; a++)                                        \
+				memcpy(H + (size_t)(j0 + a) * nfp + k0, acc[a], sizeof acc[a]); \
+		}                                                                       \
 }
 
-typedef void syrk_fn(const double *, int, int, double *);
+/* Inlined into one wrapper per instruction set below, so each copy is
+ * compiled for its own vector width. PR_SYRK_TJ is a multiple of both
+ * tile heights. */
+SYRK_TILES(syrk_tiles8, v8d, 8)
+SYRK_TILES(syrk_tiles4, v4d, 4)
 
-static void syrk_default(const double *Y, int mr, int nfp, double *H)
+typedef void syrk_fn(const double *, int, int, double *, int, int);
+
+static void syrk_default(const double *Y, int mr, int nfp, double *H, int jlo, int jhi)
 {
-	syrk_tiles(Y, mr, nfp, H);
+	syrk_tiles4(Y, mr, nfp, H, jlo, jhi);
 }
 
 static syrk_fn *syrk_impl = syrk_default;
@@ -59,15 +68,15 @@ static syrk_fn *syrk_impl = syrk_default;
  * some compilers (clang 14) emit only for callers in the same file. */
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 __attribute__((target("avx2"))) static void
-syrk_avx2(const double *Y, int mr, int nfp, double *H)
+syrk_avx2(const double *Y, int mr, int nfp, double *H, int jlo, int jhi)
 {
-	syrk_tiles(Y, mr, nfp, H);
+	syrk_tiles4(Y, mr, nfp, H, jlo, jhi);
 }
 
 __attribute__((target("avx512f"))) static void
-syrk_avx512(const double *Y, int mr, int nfp, double *H)
+syrk_avx512(const double *Y, int mr, int nfp, double *H, int jlo, int jhi)
 {
-	syrk_tiles(Y, mr, nfp, H);
+	syrk_tiles8(Y, mr, nfp, H, jlo, jhi);
 }
 
 /* chosen once when the library loads, before any thread can call it */
@@ -83,5 +92,24 @@ __attribute__((constructor)) static void syrk_choose(void)
 
 void pr_syrk_acc(const double *Y, int mr, int nfp, double *H)
 {
-	syrk_impl(Y, mr, nfp, H);
+	syrk_impl(Y, mr, nfp, H, 0, nfp);
+}
+
+void pr_syrk_acc_rows(const double *Y, int mr, int nfp, double *H, int jlo, int jhi)
+{
+	syrk_impl(Y, mr, nfp, H, jlo, jhi);
+}
+
+int pr_syrk_split(int nfp, int parts, int t)
+{
+	double total = 0.0, want, sum = 0.0;
+	int j0;
+
+	/* the rows from j0 to j0 + PR_SYRK_TJ hold about the columns from j0 on */
+	for (j0 = 0; j0 < nfp; j0 += PR_SYRK_TJ)
+		total += nfp - j0;
+	want = total * t / parts;
+	for (j0 = 0; j0 < nfp && sum < want; j0 += PR_SYRK_TJ)
+		sum += nfp - j0;
+	return t >= parts ? nfp : j0;
 }

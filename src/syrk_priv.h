@@ -14,4 +14,16 @@
  * the rows into calls. */
 void pr_syrk_acc(const double *Y, int mr, int nfp, double *H);
 
+/* Rows of H a tile holds: pr_syrk_acc_rows's row bounds are multiples. */
+#define PR_SYRK_TJ 8
+
+/* pr_syrk_acc on rows jlo <= j < jhi of H only (multiples of PR_SYRK_TJ,
+ * or jhi = nfp): each entry gets the same sums in the same order, so
+ * threads that split H's rows between them write its bits. */
+void pr_syrk_acc_rows(const double *Y, int mr, int nfp, double *H, int jlo, int jhi);
+
+/* The first row of part t of `parts` (t = parts gives nfp) that split
+ * H's rows into runs of about equal work, each a multiple of PR_SYRK_TJ. */
+int pr_syrk_split(int nfp, int parts, int t);
+
 #endif

@@ -211,6 +211,42 @@ def test_reps_bad_input(tmp_path):
     no_files(tmp_path, "p.csv", "s.csv")
 
 
+def dense_table(path, rng, n, d):
+    """A wide dense problem (the rank-k update's path: d >= 32), with a
+    feature offset, mixed scales and heavy-tailed returns."""
+    phi = rng.normal(size=(n, d)) * 10.0 ** rng.uniform(-3, 3, size=d) + rng.choice([0, 1e4])
+    R = phi[:, :3] @ rng.normal(size=3) + rng.standard_t(2, size=n)
+    return write_rows(path, ["R"] + [f"phi{j}" for j in range(d)], np.c_[R, phi])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_reps_threads_give_the_same_bytes(tmp_path, seed):
+    """--threads splits the dense Hessian's rank-k update: weights and
+    summary byte for byte those of one thread, for any count (the rows
+    split unevenly for most of them)."""
+    rng = np.random.default_rng(900 + seed)
+    n, d = int(rng.integers(70, 400)), int(rng.integers(32, 70))
+    t = dense_table(tmp_path / "t.csv", rng, n, d)
+    eps = float(rng.choice([1e-3, 0.1, 1.0]))
+    outs = []
+    for threads in (1, 2, 3, 7):
+        ok(run(["reps", "--return", "R", "--features", "phi*", "--epsilon", eps, "--threads",
+                threads, "-i", t, "-o", f"p{threads}.csv", "--summary", f"s{threads}.csv"],
+               tmp_path))
+        outs.append(((tmp_path / f"p{threads}.csv").read_bytes(),
+                     (tmp_path / f"s{threads}.csv").read_bytes()))
+    assert all(o == outs[0] for o in outs[1:])
+    assert read_csv(tmp_path / "s1.csv")[0]["status"] in ("active", "unreachable")
+
+
+@pytest.mark.parametrize("value", ["0", "65", "1.5", "two", "-1", ""])
+def test_reps_bad_threads(tmp_path, value):
+    good = reps_table(tmp_path)
+    fails(run(["reps", "--return", "R", "--features", "phi*", "-i", good, "-o", "p.csv",
+               "--threads", value], tmp_path), "--threads")
+    no_files(tmp_path, "p.csv")
+
+
 # ---- policy --------------------------------------------------------------
 
 def policy_train(tmp_path, n=200, seed=2):

@@ -1,7 +1,9 @@
 /* test_syrk.c — pr_syrk_acc gives the bits of the plain triple loop (each
  * H_jk summed over the rows in order), on seeded random matrices of
  * several widths, rows split into calls of several sizes, and values
- * spanning many decades (where a reordered or fused sum would differ). */
+ * spanning many decades (where a reordered or fused sum would differ);
+ * so does pr_syrk_acc_rows over the row ranges pr_syrk_split gives any
+ * number of threads, which cover H's rows once, in tile multiples. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -55,10 +57,58 @@ static void test_syrk_is_the_scalar_loop(void **state)
 	gsl_rng_free(r);
 }
 
+static void test_split_rows_are_the_scalar_loop(void **state)
+{
+	static const int widths[] = {16, 48, 144, 208};
+	gsl_rng *r = gsl_rng_alloc(gsl_rng_mt19937);
+	const int m = 130;
+	size_t w;
+
+	(void)state;
+	gsl_rng_set(r, 29);
+	for (w = 0; w < sizeof widths / sizeof *widths; w++) {
+		const int nfp = widths[w];
+		double *Y = malloc((size_t)m * nfp * sizeof *Y), *H = malloc((size_t)nfp * nfp * sizeof *H);
+		double *ref = calloc((size_t)nfp * nfp, sizeof *ref);
+		int i, j, k, parts, t;
+
+		assert_true(Y && H && ref);
+		for (i = 0; i < m * nfp; i++)
+			Y[i] = (gsl_rng_uniform(r) - 0.5) * pow(10.0, 8.0 * gsl_rng_uniform(r) - 4.0);
+		for (i = 0; i < m; i++)
+			for (j = 0; j < nfp; j++)
+				for (k = j; k < nfp; k++)
+					ref[(size_t)j * nfp + k] += Y[(size_t)i * nfp + j] * Y[(size_t)i * nfp + k];
+		for (parts = 1; parts <= 7; parts++) {
+			memset(H, 0, (size_t)nfp * nfp * sizeof *H);
+			assert_int_equal(pr_syrk_split(nfp, parts, 0), 0);
+			assert_int_equal(pr_syrk_split(nfp, parts, parts), nfp);
+			for (t = 0; t < parts; t++) {
+				const int lo = pr_syrk_split(nfp, parts, t), hi = pr_syrk_split(nfp, parts, t + 1);
+
+				assert_true(lo <= hi && lo % PR_SYRK_TJ == 0 && (hi % PR_SYRK_TJ == 0 || hi == nfp));
+				/* in two calls over the rows, as a thread does in blocks */
+				pr_syrk_acc_rows(Y, 50, nfp, H, lo, hi);
+				pr_syrk_acc_rows(Y + (size_t)50 * nfp, m - 50, nfp, H, lo, hi);
+			}
+			for (j = 0; j < nfp; j++)
+				for (k = j; k < nfp; k++)
+					if (memcmp(&H[(size_t)j * nfp + k], &ref[(size_t)j * nfp + k], sizeof *H))
+						fail_msg("width %d, %d parts: H[%d][%d] = %.17g, loop %.17g", nfp, parts,
+						         j, k, H[(size_t)j * nfp + k], ref[(size_t)j * nfp + k]);
+		}
+		free(Y);
+		free(H);
+		free(ref);
+	}
+	gsl_rng_free(r);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_syrk_is_the_scalar_loop),
+		cmocka_unit_test(test_split_rows_are_the_scalar_loop),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);
 }

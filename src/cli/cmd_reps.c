@@ -27,6 +27,8 @@ typedef struct {
 	const char *input, *output, *ret, *features, *base, *summary;
 	double epsilon; /* --epsilon, used when epsilon_set */
 	int epsilon_set;
+	double threads; /* --threads, used when threads_set */
+	int threads_set;
 	char *note;     /* a remark (the KL bound unreachable) printed after a success */
 } reps_args;
 
@@ -117,6 +119,8 @@ static int pr_cmd_reps(const pr_config *cfg, const reps_args *a, char *err)
 		if (!(o.epsilon > 0.0) || !isfinite(o.epsilon))
 			return pr_err(err, PR_EINVAL, "--epsilon: must be > 0 (got %g)", o.epsilon);
 	}
+	if (a->threads_set)
+		o.threads = (int)a->threads;
 	if (!a->ret)
 		return pr_err(err, PR_EINVAL, "reps: --return COL is required");
 	if ((rc = pr_csv_read(a->input, &in, err)) || (rc = read_problem(a, in, &pb, &m, err)) ||
@@ -168,6 +172,16 @@ static const char *parse_epsilon(const char *arg, void *target)
 	return end == arg || *end || !(*v > 0) || *v > 1e6 ? "a number > 0 and <= 1e6" : NULL;
 }
 
+/* --threads N: an integer in 1 .. 64 */
+static const char *parse_threads(const char *arg, void *target)
+{
+	double *v = target;
+	char *end;
+
+	*v = strtod(arg, &end);
+	return end == arg || *end || !(*v >= 1 && *v <= 64) || *v != (int)*v ? "an integer in 1 .. 64" : NULL;
+}
+
 static const cli_opt reps_opts[] = {
 	CLI_COMMON_C, CLI_OPT("i", "IN.csv", reps_args, input, "the samples (default stdin)"),
 	CLI_OPT("o", "OUT.csv", reps_args, output, "column p, one row per input row (default stdout)"),
@@ -178,6 +192,9 @@ static const cli_opt reps_opts[] = {
 	CLI_OPT("base", "COL", reps_args, base, "base weights q (default 1)"),
 	CLI_OPT_NUMBER("epsilon", "E", reps_args, epsilon, epsilon_set, parse_epsilon,
 	               "the KL bound, > 0 and <= 1e6 (default reps.epsilon)"),
+	CLI_OPT_NUMBER("threads", "N", reps_args, threads, threads_set, parse_threads,
+	               "threads for a wide dense problem's Hessian, 1 .. 64\n"
+	               "(default 1; the same bits for any N)"),
 	CLI_OPT("summary", "FILE", reps_args, summary,
 	        "one row eta,dual,kl,ess,bound,residual,iterations,\n"
 	        "kl_gap,residual_rel,status,rank,cond,path"),
@@ -187,7 +204,7 @@ static const cli_opt reps_opts[] = {
 const cli_command cli_reps = {
 	"reps",
 	"poolreps reps --return COL --features LIST [--base COL] [--epsilon E]\n"
-	"              [--summary FILE] [-i IN.csv] [-o OUT.csv]\n"
+	"              [--threads N] [--summary FILE] [-i IN.csv] [-o OUT.csv]\n"
 	"  REPS weights p for every input row. The summary is the certificate: status is\n"
 	"  active (|KL - epsilon| and the relative feature residual <= 1e-9), unreachable\n"
 	"  (eta = 0: p is the eta -> 0 limit, KL < epsilon) or failed, which exits 3; rank,\n"
