@@ -29,6 +29,7 @@
 #include <float.h>
 #include <limits.h>
 #include <math.h>
+#include <pthread.h>
 #include <setjmp.h>
 #include <stdlib.h>
 #include <stdio.h>
@@ -37,8 +38,6 @@
 #include <glpk.h>
 #include <nlopt.h>
 #include <gsl/gsl_blas.h>
-#include <pthread.h>
-
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_linalg.h>
 #include <gsl/gsl_matrix.h>
@@ -383,7 +382,7 @@ static void *syrk_part_run(void *arg)
  * thread that cannot start has its share done here. */
 static void syrk_threads(work *w, int m)
 {
-		syrk_part part[64];
+	syrk_part part[64];
 	pthread_t tid[64];
 	int started[64], t, nt = w->threads; /* <= 64: check_opts */
 
@@ -409,7 +408,8 @@ static void syrk_threads(work *w, int m)
 static void covariances_blas(const prob *P, work *w, const point *x, int c, double mu)
 {
 	const int m = P->m, nf = P->nf, nfp = w->nfp;
-	const double *restrict rc = P->psi + (size_t)c * nf, *restrict mc = w->v1;
+	/* mc is not restrict: fill_rows adds to it through w->v1 */
+	const double *restrict rc = P->psi + (size_t)c * nf, *mc = w->v1;
 	double *H = w->H->data, vu = 0.0;
 	const size_t td = w->H->tda;
 	int i0, j, k;
