@@ -221,7 +221,12 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 	if (!P->bin && nf >= BLAS_MIN_NF) {
 		w->nfp = (nf + PR_SYRK_W - 1) / PR_SYRK_W * PR_SYRK_W;
 		/* calloc: the padding columns stay 0 */
-		w->Y = calloc((size_t)(w->threads > 1 ? m : SYRK_ROWS) * w->nfp, sizeof *w->Y);
+		/* all of Y for threads; without the memory, one thread's block
+		 * (the same bytes) */
+		if (w->threads > 1 && !(w->Y = calloc((size_t)m * w->nfp, sizeof *w->Y)))
+			w->threads = 1;
+		if (!w->Y)
+			w->Y = calloc((size_t)SYRK_ROWS * w->nfp, sizeof *w->Y);
 		w->Hp = malloc((size_t)w->nfp * w->nfp * sizeof *w->Hp);
 		if (!w->Y || !w->Hp)
 			return PR_ENOMEM;

@@ -1,5 +1,5 @@
 /* syrk.c — the rank-k update behind the dense REPS Hessian: H += Y^T Y on
- * tiles of 8 x 16 entries held in vector registers (GCC vector extensions,
+ * tiles held in vector registers (8 x 16 or 4 x 8 entries, below) (GCC vector extensions,
  * one build per instruction set, chosen when the library loads). The
  * vectors run across entries of H, never across rows, so each entry's sum
  * keeps the order and the rounding of the scalar loop: the same bits on
@@ -19,8 +19,8 @@ typedef double v4d __attribute__((vector_size(32)));
 /* One tile shape per register file: TJ rows of H by two vectors of VT
  * columns, whose 2 TJ accumulators must stay in registers. AVX-512 (32
  * registers of 8 doubles): 8 x 16. AVX2 (16 registers of 4 doubles): 4 x 8;
- * 8 x 16 there would need 32 registers and spills every sum to memory,
- * a quarter of the speed. Each entry's sum is in row order either way. */
+ * 8 x 16 there would need 32 registers and spills every sum to memory
+ * (3.4x slower on dense200). Each entry's sum is in row order either way. */
 #define SYRK_TILES(name, VT, TJ)                                                        \
 static inline __attribute__((always_inline)) void                                      \
 name(const double *Y, int mr, int nfp, double *H, int jlo, int jhi)                    \

@@ -14,7 +14,8 @@
  * the rows into calls. */
 void pr_syrk_acc(const double *Y, int mr, int nfp, double *H);
 
-/* Rows of H a tile holds: pr_syrk_acc_rows's row bounds are multiples. */
+/* A multiple of every tile's height (8 or 4 rows of H): pr_syrk_acc_rows's
+ * row bounds are multiples of it. */
 #define PR_SYRK_TJ 8
 
 /* pr_syrk_acc on rows jlo <= j < jhi of H only (multiples of PR_SYRK_TJ,

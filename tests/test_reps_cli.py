@@ -239,7 +239,7 @@ def test_reps_threads_give_the_same_bytes(tmp_path, seed):
     assert read_csv(tmp_path / "s1.csv")[0]["status"] in ("active", "unreachable")
 
 
-@pytest.mark.parametrize("value", ["0", "65", "1.5", "two", "-1", ""])
+@pytest.mark.parametrize("value", ["0", "65", "1.5", "two", "-1", "", "0x2", "1e1", "+2", " 2", "2 ", "640"])
 def test_reps_bad_threads(tmp_path, value):
     good = reps_table(tmp_path)
     fails(run(["reps", "--return", "R", "--features", "phi*", "-i", good, "-o", "p.csv",

@@ -38,7 +38,8 @@ typedef struct {
 	int solver;       /* PR_REPS_SOLVER_NEWTON (default) or PR_REPS_SOLVER_NLOPT */
 	int threads;      /* threads for a wide dense problem's Hessian (default 1;
 	                     any count gives the same bits; > 1 holds all of
-	                     sqrt(p) (psi - psi_c) in memory, m x d doubles) */
+	                     sqrt(p) (psi - psi_c) in memory, m x d doubles
+	                     rounded up, or runs on one thread without it) */
 } pr_reps_opts;
 /* reps.solver: newton = the Newton path and eta -> 0 limit described at
  * pr_reps_solve; nlopt = NLopt's L-BFGS on the dual over (log eta, theta),

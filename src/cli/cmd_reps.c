@@ -172,14 +172,18 @@ static const char *parse_epsilon(const char *arg, void *target)
 	return end == arg || *end || !(*v > 0) || *v > 1e6 ? "a number > 0 and <= 1e6" : NULL;
 }
 
-/* --threads N: an integer in 1 .. 64 */
+/* --threads N: decimal digits only, 1 .. 64 */
 static const char *parse_threads(const char *arg, void *target)
 {
 	double *v = target;
-	char *end;
+	const char *c;
 
-	*v = strtod(arg, &end);
-	return end == arg || *end || !(*v >= 1 && *v <= 64) || *v != (int)*v ? "an integer in 1 .. 64" : NULL;
+	for (c = arg; *c >= '0' && *c <= '9'; c++)
+		;
+	if (c == arg || *c || c - arg > 2)
+		return "an integer in 1 .. 64";
+	*v = (double)atoi(arg);
+	return *v < 1 || *v > 64 ? "an integer in 1 .. 64" : NULL;
 }
 
 static const cli_opt reps_opts[] = {
