@@ -12,15 +12,22 @@ from (0, 0). Each timing is the median of RUNS (default 3) rounds, every
 solver once per round. Writes a CSV row per problem and solver to --csv:
 problem, n, d, eps, solver, seconds, status, kl_gap, residual_rel,
 max |p - p_scipy|, evaluations (points at which the dual was evaluated:
-scipy's nfev, poolreps' summary `iterations`); the ratio scipy / poolreps
-is printed. When the Python binding loads, poolreps.reps (the same solve
+scipy's nfev, poolreps' summary `iterations`), blas; the ratio scipy / poolreps
+is printed. scipy runs twice: in this process on the BLAS numpy finds
+(scipy-trust-exact; OpenBLAS once Debian's libopenblas0 is installed, which
+runs on every core) and in a child process on Debian's reference BLAS
+(scipy-trust-exact-refblas: libblas3, what python3-numpy pulls in on a
+fresh machine), chosen through LD_LIBRARY_PATH and checked in the child's
+memory map; the CSV's blas column names the BLAS each one loaded.
+When the Python binding loads, poolreps.reps (the same solve
 without the CSV round trip) is timed in-process too, in a child process
 per round, after one untimed call that loads the library. --previous ROOT (a
 source tree with build/rel built; scripts/bench_reps.sh builds one from
 git) adds the same runs of an earlier poolreps: whole process (solver
 poolreps-newton-previous) and in-process through its own binding and
 library, in a child process (poolreps-newton-inprocess-previous).
-poolreps-newton-threads2 is the whole process with `--threads 2`."""
+poolreps runs on every CPU by default (the same bits on any number of
+threads); poolreps-newton-threads1 is the whole process with `--threads 1`."""
 import argparse
 import csv
 import os
@@ -159,6 +166,52 @@ def scipy_run(R, phi, eps):
     return time.perf_counter() - t, {"status": "", "kl_gap": "", "residual_rel": "", "iterations": nfev}, p
 
 
+# Debian's reference BLAS and LAPACK (libblas3, liblapack3), ahead of the
+# alternatives' choice when they lead LD_LIBRARY_PATH
+REF_BLAS = ["/usr/lib/x86_64-linux-gnu/blas", "/usr/lib/x86_64-linux-gnu/lapack"]
+
+
+def loaded_blas():
+    """The BLAS library this process mapped (numpy's), by its path."""
+    with open("/proc/self/maps") as f:
+        paths = {line.split()[-1] for line in f if "blas" in line.split()[-1]}
+    if any("openblas" in p for p in paths):
+        return "OpenBLAS"
+    if any(os.path.dirname(p) == REF_BLAS[0] for p in paths):
+        return "reference BLAS"
+    return ", ".join(sorted(paths)) or "unknown"
+
+
+def scipy_child(name, out):
+    """--scipy-child NAME: scipy_run on one problem (untimed once first, as
+    in the parent, whose first round falls in the median's tails), saved to
+    out (npz) with the BLAS it ran on."""
+    R, phi, eps = problem(name)
+    scipy_run(R, phi, eps)
+    t, s, p = scipy_run(R, phi, eps)
+    np.savez(out, seconds=t, p=p, iterations=s["iterations"], blas=loaded_blas())
+    return 0
+
+
+def scipy_refblas(name):
+    """scipy_run in a child process on Debian's reference BLAS, or None
+    when it is not installed or the child loaded another BLAS."""
+    if not os.path.exists(os.path.join(REF_BLAS[0], "libblas.so.3")):
+        return None
+    env = dict(os.environ, LD_LIBRARY_PATH=":".join(REF_BLAS + [os.environ.get("LD_LIBRARY_PATH", "")]))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "out.npz")
+        r = subprocess.run([sys.executable, os.path.abspath(__file__), "--scipy-child", name, "--csv", out],
+                           env=env)
+        if r.returncode or not os.path.exists(out):
+            return None
+        z = np.load(out)
+        if str(z["blas"]) != "reference BLAS":
+            return None
+        return float(z["seconds"]), {"status": "", "kl_gap": "", "residual_rel": "",
+                                     "iterations": int(z["iterations"])}, z["p"]
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--poolreps", default=os.path.join(ROOT, "build", "rel", "poolreps"))
@@ -168,9 +221,12 @@ def main():
     ap.add_argument("--solvers", default="newton,nlopt")
     ap.add_argument("--previous", help="an earlier poolreps tree (build/rel built), timed the same way")
     ap.add_argument("--child", help=argparse.SUPPRESS)
+    ap.add_argument("--scipy-child", help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.child:
         return child(a)
+    if a.scipy_child:
+        return scipy_child(a.scipy_child, a.csv)
     os.makedirs(os.path.dirname(a.csv), exist_ok=True)
     rows = []
     # the binding is timed in child processes; here it only has to load
@@ -183,7 +239,8 @@ def main():
                        header=",".join(["R"] + [f"phi{j}" for j in range(phi.shape[1])]))
             # every solver once per round, rounds interleaved: a change of
             # the machine's load falls on all of them
-            runners = [("scipy-trust-exact", lambda: scipy_run(R, phi, eps))]
+            runners = [("scipy-trust-exact", lambda: scipy_run(R, phi, eps)),
+                       ("scipy-trust-exact-refblas", lambda: scipy_refblas(name))]
             if mod is not None:
                 runners.append(("poolreps-newton-inprocess", lambda: in_process_child(ROOT, name)))
             if a.previous:
@@ -194,9 +251,9 @@ def main():
                 runners.append(("poolreps-" + solver,
                                 lambda extra=extra: run_poolreps(a.poolreps, path, eps, tmp, extra)))
                 if solver == "newton":
-                    # the dense Hessian's rank-k update split over two threads
-                    runners.append(("poolreps-newton-threads2",
-                                    lambda: run_poolreps(a.poolreps, path, eps, tmp, ["--threads", "2"])))
+                    # the dense Hessian's rank-k update on one thread
+                    runners.append(("poolreps-newton-threads1",
+                                    lambda: run_poolreps(a.poolreps, path, eps, tmp, ["--threads", "1"])))
             if a.previous:
                 runners.append(("poolreps-newton-previous",
                                 lambda: run_poolreps(os.path.join(a.previous, "build", "rel", "poolreps"),
@@ -215,14 +272,16 @@ def main():
                 t_c = float(np.median([r[0] for r in res[label]]))
                 s, p = res[label][-1][1], res[label][-1][2]
                 diff = "" if p is None or label.startswith("scipy") else "%.3g" % np.abs(p - p_ref).max()
+                blas = {"scipy-trust-exact": loaded_blas(), "scipy-trust-exact-refblas": "reference BLAS"}
                 rows.append([name, len(R), phi.shape[1], eps, label, t_c, s["status"], s["kl_gap"],
-                             s["residual_rel"], diff, s.get("iterations", "")])
+                             s["residual_rel"], diff, s.get("iterations", ""), blas.get(label, "")])
                 print(f"{name}: {label} {t_c:.3f} s, ratio scipy/it {t_sc / t_c:.2f}, "
                       f"status {s['status'] or '-'}, max|p - p_scipy| {diff or '-'}", flush=True)
+    print(f"scipy-trust-exact ran on {loaded_blas()}", flush=True)
     with open(a.csv, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["problem", "n", "d", "eps", "solver", "seconds", "status", "kl_gap",
-                    "residual_rel", "max_abs_p_diff", "evaluations"])
+                    "residual_rel", "max_abs_p_diff", "evaluations", "blas"])
         w.writerows(rows)
 
 

@@ -3,17 +3,20 @@
 # Python binding) against scipy.optimize.minimize(method='trust-exact') on
 # the same REPS dual in the same run (scripts/bench_reps.py), next to the
 # previous poolreps built from git in this run (BENCH_BASE, default the
-# last commit before the AVX2 tile shape and --threads;
+# last commit before the per-thread blocks of Y, the register-held tiles
+# and the chord steps);
 # BENCH_BASE=none skips it), whole process and in-process: built by
 # scripts/prev_build.sh in a temporary folder, removed afterwards. Table by
 # scripts/bench_reps_table.py. CSV: build/bench/reps.csv (copy it to
 # docs/bench_reps.csv, then `scripts/bench_reps_table.py --write` updates
-# docs/benchmarks.md).
+# docs/benchmarks.md). Then the Hessian's rank-k update alone, poolreps'
+# kernel against OpenBLAS's dsyrk (tests/bench/bench_syrk.c) on dense200's
+# and dense140's shapes: build/bench/syrk.csv (docs/bench_syrk.csv).
 set -e
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
-BASE=${BENCH_BASE:-3c70b8d459c5305283862cf23f218db5c37c71a7}
-${MAKE:-make} -s SAN=0 build/rel/poolreps build/rel/libpoolreps.so.0.1.0
+BASE=${BENCH_BASE:-713233647ea1530bb7471152fd9c0ee79b48c18b}
+${MAKE:-make} -s SAN=0 build/rel/poolreps build/rel/libpoolreps.so.0.1.0 build/rel/bench_syrk
 TMP=$(mktemp -d "${TMPDIR:-/tmp}/bench_reps.XXXXXX")
 trap 'rm -rf "$TMP"' EXIT INT TERM
 PREV=
@@ -23,4 +26,12 @@ if [ "$BASE" != none ]; then
 	PREV="--previous $TMP/previous"
 fi
 "$PY" scripts/bench_reps.py --runs "${RUNS:-3}" --csv build/bench/reps.csv $PREV
+# key=value lines into CSV rows (the keys of the first line as the header)
+for shape in "20000 200" "2000 140"; do
+	set -- $shape
+	build/rel/bench_syrk --rows "$1" --cols "$2" --runs 11
+done | awk '{ for (i = 1; i <= NF; i++) { split($i, kv, "="); k[i] = kv[1]; v[i] = kv[2] }
+	if (NR == 1) { for (i = 1; i <= NF; i++) printf "%s%s", k[i], i < NF ? "," : "\n" }
+	for (i = 1; i <= NF; i++) printf "%s%s", v[i], i < NF ? "," : "\n" }' > build/bench/syrk.csv
+cat build/bench/syrk.csv
 "$PY" scripts/bench_reps_table.py build/bench/reps.csv

@@ -1,8 +1,11 @@
 #!/usr/bin/env python3
 """Markdown table of scripts/bench_reps.py's CSV (default docs/bench_reps.csv):
-per problem, each solver's seconds, the ratio scipy / it, its status and
-certificate, max |p - p_scipy| and the dual's evaluations; then the targets and the previous
-poolreps (when the CSV has it) in words made from the same numbers.
+per problem, each solver's seconds, the ratios scipy / it for both scipy
+peers (numpy's BLAS, and Debian's reference BLAS), its status and
+certificate, max |p - p_scipy| and the dual's evaluations; then the targets
+against each peer and the previous poolreps (when the CSV has it) in words
+made from the same numbers, and the rank-k update alone against OpenBLAS
+(syrk.csv or bench_syrk.csv beside the CSV, or --syrk).
 
   bench_reps_table.py [CSV]            print the table and the summary
   bench_reps_table.py --write [CSV]    put them into docs/benchmarks.md and
@@ -19,52 +22,95 @@ import doc_block
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DOCS = [os.path.join(ROOT, "docs", n) for n in ("benchmarks.md", "choices.md")]
 # problem: the ratio scipy / poolreps to reach, and the runs it is judged on
-TARGETS = {"dense140": (1.0, ["poolreps-newton", "poolreps-newton-threads2"]),
+TARGETS = {"dense140": (1.0, ["poolreps-newton", "poolreps-newton-threads1"]),
            "dense200": (2.0, ["poolreps-newton-inprocess", "poolreps-newton",
-                              "poolreps-newton-threads2"]),
+                              "poolreps-newton-threads1"]),
            "onehot80": (100.0, ["poolreps-newton-inprocess"])}
 RUN_WORDS = {"poolreps-newton": "whole process", "poolreps-newton-inprocess": "in process",
-             "poolreps-newton-threads2": "whole process on 2 threads"}
+             "poolreps-newton-threads1": "whole process on 1 thread"}
+# the scipy peers: numpy's BLAS in the bench's process, and Debian's
+# reference BLAS in a child process
+PEERS = ["scipy-trust-exact", "scipy-trust-exact-refblas"]
 
 
-def render(rows):
-    sc = {r["problem"]: float(r["seconds"]) for r in rows if r["solver"] == "scipy-trust-exact"}
-    sec = {(r["problem"], r["solver"]): float(r["seconds"]) for r in rows}
-    out = ["| problem | n | d | eps | solver | seconds | scipy / solver | status | kl_gap | "
-           "residual_rel | max abs p - p_scipy | evaluations |",
-           "|---|---:|---:|---:|---|---:|---:|---|---:|---:|---:|---:|"]
-    for r in rows:
-        ratio = sc[r["problem"]] / float(r["seconds"])
-        out.append(f"| {r['problem']} | {r['n']} | {r['d']} | {float(r['eps']):g} | {r['solver']} | "
-                   f"{float(r['seconds']):.3g} | {ratio:.2f} | {r['status'] or '-'} | "
-                   f"{r['kl_gap'] or '-'} | {r['residual_rel'] or '-'} | {r['max_abs_p_diff'] or '-'} | "
-                   f"{r.get('evaluations') or '-'} |")
+def targets(sc, sec, peer, blas):
+    """The targets' sentence against one scipy peer."""
     goals = []
     for prob, (target, runs) in TARGETS.items():
         for run in runs:
-            if (prob, run) in sec:
+            if (prob, run) in sec and prob in sc:
                 ratio = sc[prob] / sec[prob, run]
                 goals.append(f"{prob} {RUN_WORDS[run]} {ratio:.2f} (target {target:g}: "
                              f"{'met' if ratio >= target else 'not met'})")
-    out += ["", "Against the targets (scipy / poolreps Newton): " + "; ".join(goals) + "."]
+    return f"Against the targets, scipy on {blas} ({peer}) / poolreps Newton: " + "; ".join(goals) + "."
+
+
+def syrk_sentence(rows):
+    """The rank-k update alone (scripts/bench_reps.sh's build/bench/syrk.csv)."""
+    parts = []
+    for r in rows:
+        one, every = float(r["own_1_gmacs"]), float(r["own_all_gmacs"])
+        own = (f"{r['rows']} × {r['cols']}: poolreps' kernel {one:.1f} on one thread and {every:.1f} "
+               f"on {r['cpus']}")
+        if r.get("openblas", "") == "none" or "openblas_1_gmacs" not in r:
+            parts.append(own + " (no OpenBLAS to compare)")
+            continue
+        b1, ball = float(r["openblas_1_gmacs"]), float(r["openblas_all_gmacs"])
+        parts.append(own + f", OpenBLAS's dsyrk ({r['openblas_core']} kernel) {b1:.1f} on one thread "
+                     f"({b1 / one:.2f}× the kernel's) and {ball:.1f} on every core ({ball / every:.2f}× "
+                     f"the kernel's on {r['cpus']}), the answers {float(r['max_rel_diff']):.2g} of the "
+                     f"largest entry apart")
+    return ("The Hessian's rank-k update alone (`tests/bench/bench_syrk.c`, median of 11 runs, "
+            "G multiply-adds per second): " + "; ".join(parts) + ".")
+
+
+def render(rows, syrk=None):
+    peer = {s: {r["problem"]: float(r["seconds"]) for r in rows if r["solver"] == s} for s in PEERS}
+    blas = {r["solver"]: r["blas"] for r in rows if r["solver"] in PEERS}
+    sec = {(r["problem"], r["solver"]): float(r["seconds"]) for r in rows}
+    out = ["| problem | n | d | eps | solver | seconds | scipy / solver | refblas scipy / solver | "
+           "status | kl_gap | residual_rel | max abs p - p_scipy | evaluations |",
+           "|---|---:|---:|---:|---|---:|---:|---:|---|---:|---:|---:|---:|"]
+    for r in rows:
+        ratios = [f"{peer[s][r['problem']] / float(r['seconds']):.2f}" if r["problem"] in peer[s] else "-"
+                  for s in PEERS]
+        out.append(f"| {r['problem']} | {r['n']} | {r['d']} | {float(r['eps']):g} | {r['solver']} | "
+                   f"{float(r['seconds']):.3g} | {ratios[0]} | {ratios[1]} | {r['status'] or '-'} | "
+                   f"{r['kl_gap'] or '-'} | {r['residual_rel'] or '-'} | {r['max_abs_p_diff'] or '-'} | "
+                   f"{r.get('evaluations') or '-'} |")
+    for s in PEERS:
+        if peer[s]:
+            out += ["", targets(peer[s], sec, s, blas[s])]
+    sc = peer[PEERS[0]]
     for run, words in (("poolreps-newton", "Whole process"), ("poolreps-newton-inprocess", "In process")):
         old = "poolreps-newton-inprocess-previous" if run.endswith("inprocess") else "poolreps-newton-previous"
         prev = [f"{p} {sec[p, old]:.3g} s → {sec[p, run]:.3g} s ({sec[p, old] / sec[p, run]:.2f}× as fast)"
                 for p in sc if (p, old) in sec and (p, run) in sec]
         if prev:
             out += ["", f"{words} against the previous poolreps in the same run: " + "; ".join(prev) + "."]
+    if syrk:
+        out += ["", syrk_sentence(syrk)]
     return "\n".join(out) + "\n"
 
 
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("csv", nargs="?", default=os.path.join(ROOT, "docs", "bench_reps.csv"))
+    ap.add_argument("--syrk", help="bench_syrk's CSV (default: syrk.csv or bench_syrk.csv beside CSV)")
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--write", action="store_true")
     mode.add_argument("--check", action="store_true")
     a = ap.parse_args()
     with open(a.csv, newline="") as f:
-        text = render(list(csv.DictReader(f)))
+        rows = list(csv.DictReader(f))
+    base = os.path.dirname(os.path.abspath(a.csv))
+    syrk = a.syrk or next((os.path.join(base, n) for n in ("syrk.csv", "bench_syrk.csv")
+                           if os.path.exists(os.path.join(base, n))), None)
+    if syrk:
+        with open(syrk, newline="") as f:
+            text = render(rows, list(csv.DictReader(f)))
+    else:
+        text = render(rows)
     if not (a.write or a.check):
         sys.stdout.write(text)
         return 0

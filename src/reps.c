@@ -26,14 +26,17 @@
  * feature residual, and for the limit an LP gap and a bound on the mass an
  * optimal solution can put outside supp p_0, from a strictly complementary
  * dual whose reduced costs are exact to about eps^2. */
+#define _GNU_SOURCE /* sched_getaffinity: the CPUs that threads = 0 uses */
 #include <float.h>
 #include <limits.h>
 #include <math.h>
 #include <pthread.h>
+#include <sched.h>
 #include <setjmp.h>
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <glpk.h>
 #include <nlopt.h>
@@ -53,7 +56,7 @@ void pr_reps_opts_init(pr_reps_opts *o)
 	o->eta_min = 1e-2;
 	o->allow_failed = 0;
 	o->solver = PR_REPS_SOLVER_NEWTON;
-	o->threads = 1;
+	o->threads = 0;
 }
 
 const char *pr_reps_status_name(int status)
@@ -93,13 +96,21 @@ enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCE
  * come from directions that only the last digits of the data hold). */
 #define COND_RETRY 1e8
 /* Dense problems with at least this many free features form Cov_p(psi) as
- * a rank-k update (pr_syrk_acc on the sqrt(p)-weighted rows) instead of
- * row by row: other products (sqrt p dv_j sqrt p dv_k for p dv_j dv_k), so
- * only problems this wide (none of the thesis experiments') see other
- * round-off. */
+ * a rank-k update (pr_syrk_acc_rows on the sqrt(p)-weighted rows) instead
+ * of row by row: other products (sqrt p dv_j sqrt p dv_k for p dv_j dv_k),
+ * so only problems this wide (none of the thesis experiments') see other
+ * round-off; they also take chord steps (chord_next). */
 #define BLAS_MIN_NF 32
-/* Rows of Y per pr_syrk_acc call: 64 rows of 200 features stay in L2. */
+/* Rows of Y per pr_syrk_acc_rows call: 64 rows of 200 features stay in L2. */
 #define SYRK_ROWS 64
+/* Multiply-adds of a Hessian below which it runs on one thread: starting
+ * and joining a thread costs about as much as 1e5 of them. */
+#define HESS_THREAD_WORK 2e6
+/* joint_newton's chord steps on wide dense problems (chord_next): from a
+ * full Newton step that cut the error CHORD_FROM-fold, while each step cuts
+ * it CHORD_KEEP-fold. */
+#define CHORD_FROM 100.0
+#define CHORD_KEEP 8.0
 /* Largest move of log eta per search step before the root is bracketed. */
 #define MAX_DY 5.0
 /* Moves of MAX_DY up in log eta while no eta has given a theta solution. */
@@ -163,13 +174,14 @@ typedef struct {
 	gsl_matrix *H;       /* nf x nf */
 	double *dsc;         /* nf: Jacobi scaling 1/sqrt(H_jj), 0 = frozen */
 	double *v1, *v2, *c; /* nf */
+	double *dth;         /* nf: joint_newton's step in theta */
 	int *iscr;           /* 3 nf */
 	double *u;           /* m */
 	double varu, resvar; /* Var_p(u), ResVar_p(u | psi) at the last factorisation */
 	int nfp;             /* nf rounded up to PR_SYRK_W */
-	double *Y, *Hp;      /* dense, nf >= BLAS_MIN_NF (else NULL): SYRK_ROWS x nfp
-	                        rows of sqrt(p) (psi - psi_c) (all m rows when
-	                        threads > 1), nfp x nfp sums */
+	double *Y, *Hp;      /* dense, nf >= BLAS_MIN_NF (else NULL): per thread
+	                        SYRK_ROWS x nfp rows of sqrt(p) (psi - psi_c);
+	                        nfp x nfp sums */
 	int threads;         /* threads that share the rank-k update (dense) */
 } work;
 
@@ -190,8 +202,35 @@ static void work_free(work *w)
 	free(w->v1);
 	free(w->v2);
 	free(w->c);
+	free(w->dth);
 	free(w->u);
 	free(w->iscr);
+}
+
+/* threads = 0: one per CPU this process may run on (the affinity mask, as
+ * taskset or a Slurm allocation set it), at most 64. */
+static int auto_threads(void)
+{
+	cpu_set_t set;
+	long n;
+
+	if (sched_getaffinity(0, sizeof set, &set) == 0)
+		n = CPU_COUNT(&set);
+	else
+		n = sysconf(_SC_NPROCESSORS_ONLN);
+	return n < 1 ? 1 : n > 64 ? 64 : (int)n;
+}
+
+/* Threads for the Hessian of an m x nf dense problem: those asked for (0:
+ * auto_threads), but one below HESS_THREAD_WORK multiply-adds per Hessian,
+ * and no more than the runs of PR_SYRK_TJ rows pr_syrk_split can give. */
+static int hess_threads(int asked, int m, int nfp)
+{
+	int t = asked > 0 ? asked : auto_threads();
+
+	if ((double)m * nfp * nfp / 2 < HESS_THREAD_WORK)
+		return 1;
+	return t < nfp / PR_SYRK_TJ ? t : nfp / PR_SYRK_TJ;
 }
 
 static int work_alloc(work *w, const prob *P, int max_evals, int threads)
@@ -202,7 +241,7 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 
 	memset(w, 0, sizeof *w);
 	w->max_evals = max_evals;
-	w->threads = threads > 1 && m > SYRK_ROWS ? threads : 1;
+	w->threads = 1;
 	for (k = 0; k < 2; k++) {
 		w->pt[k].th = calloc(a, sizeof(double));
 		w->pt[k].A = calloc(b, sizeof(double));
@@ -216,32 +255,60 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 	w->v1 = calloc(a, sizeof(double));
 	w->v2 = calloc(a, sizeof(double));
 	w->c = calloc(a, sizeof(double));
+	w->dth = calloc(a, sizeof(double));
 	w->u = calloc(b, sizeof(double));
 	w->iscr = calloc(3 * a, sizeof(int));
 	if (!P->bin && nf >= BLAS_MIN_NF) {
 		w->nfp = (nf + PR_SYRK_W - 1) / PR_SYRK_W * PR_SYRK_W;
-		/* calloc: the padding columns stay 0 */
-		/* all of Y for threads; without the memory, one thread's block
-		 * (the same bytes) */
-		if (w->threads > 1 && !(w->Y = calloc((size_t)m * w->nfp, sizeof *w->Y)))
-			w->threads = 1;
-		if (!w->Y)
-			w->Y = calloc((size_t)SYRK_ROWS * w->nfp, sizeof *w->Y);
+		w->threads = hess_threads(threads, m, w->nfp);
+		/* a block of Y per thread; calloc: the padding columns stay 0 */
+		w->Y = calloc((size_t)w->threads * SYRK_ROWS * w->nfp, sizeof *w->Y);
 		w->Hp = malloc((size_t)w->nfp * w->nfp * sizeof *w->Hp);
 		if (!w->Y || !w->Hp)
 			return PR_ENOMEM;
 	}
-	return w->H && w->dsc && w->v1 && w->v2 && w->c && w->u && w->iscr ? PR_OK : PR_ENOMEM;
+	return w->H && w->dsc && w->v1 && w->v2 && w->c && w->dth && w->u && w->iscr ? PR_OK
+	                                                                        : PR_ENOMEM;
 }
 
-/* A = R - psi th, each row's sum in column order, four rows at a time (four
- * independent chains of additions instead of one: the same bits, faster). */
-static void dense_residuals(const prob *P, const double *th, double *A)
+/* Runs fn on the nt parts (each `size` bytes, nt <= 64): part 0 here, the
+ * others on threads of their own; a part whose thread cannot start runs
+ * here too. */
+static void run_parts(int nt, void *(*fn)(void *), void *parts, size_t size)
 {
-	const int m = P->m, nf = P->nf;
-	int i = 0, j;
+	pthread_t tid[64];
+	int started[64], t;
 
-	for (; i + 4 <= m; i += 4) {
+	for (t = 0; t < nt; t++)
+		started[t] = t > 0 && pthread_create(&tid[t], NULL, fn, (char *)parts + t * size) == 0;
+	for (t = 0; t < nt; t++)
+		if (!started[t])
+			fn((char *)parts + t * size);
+	for (t = 1; t < nt; t++)
+		if (started[t])
+			pthread_join(tid[t], NULL);
+}
+
+/* Rows lo .. hi - 1 of A = R - psi th, each row's sum in column order, four
+ * rows at a time (four independent chains of additions instead of one: the
+ * same bits, faster). */
+typedef struct {
+	const prob *P;
+	const double *th;
+	double *A;
+	int lo, hi;
+} resid_part;
+
+static void *residual_rows(void *arg)
+{
+	const resid_part *s = arg;
+	const prob *P = s->P;
+	const int nf = P->nf;
+	const double *th = s->th;
+	double *A = s->A;
+	int i = s->lo, j;
+
+	for (; i + 4 <= s->hi; i += 4) {
 		const double *r0 = P->psi + (size_t)i * nf, *r1 = r0 + nf, *r2 = r1 + nf, *r3 = r2 + nf;
 		double a0 = P->R[i], a1 = P->R[i + 1], a2 = P->R[i + 2], a3 = P->R[i + 3];
 
@@ -256,7 +323,7 @@ static void dense_residuals(const prob *P, const double *th, double *A)
 		A[i + 2] = a2;
 		A[i + 3] = a3;
 	}
-	for (; i < m; i++) {
+	for (; i < s->hi; i++) {
 		const double *r = P->psi + (size_t)i * nf;
 		double a = P->R[i];
 
@@ -264,6 +331,20 @@ static void dense_residuals(const prob *P, const double *th, double *A)
 			a -= r[j] * th[j];
 		A[i] = a;
 	}
+	return NULL;
+}
+
+/* A = R - psi th on w->threads threads, each a run of rows (a row's sum is
+ * one thread's, so any split gives the same bits). */
+static void dense_residuals(const prob *P, const work *w, const double *th, double *A)
+{
+	resid_part part[64];
+	int t, nt = w->threads;
+
+	for (t = 0; t < nt; t++)
+		part[t] = (resid_part){ P, th, A, (int)((long long)P->m * t / nt),
+		                        (int)((long long)P->m * (t + 1) / nt) };
+	run_parts(nt, residual_rows, part, sizeof *part);
 }
 
 /* The dual in solver coordinates at (eta, x->th):
@@ -286,7 +367,7 @@ static void eval(const prob *P, work *w, double eta, point *x)
 			x->A[i] = a;
 		}
 	else
-		dense_residuals(P, x->th, x->A);
+		dense_residuals(P, w, x->th, x->A);
 	for (i = 0; i < m; i++)
 		if (x->A[i] > amax)
 			amax = x->A[i];
@@ -338,8 +419,9 @@ static int plain_ok(const prob *P, const point *x)
 }
 
 /* Rows i0 .. i0 + mr - 1 of Y = diag(sqrt p) (psi - psi_c) into Y (from
- * its row 0), their moments added to mc = sum p (psi - psi_c), w->c = sum
- * p (psi - psi_c)(u - mu) and *vu = sum p (u - mu)^2, in row order. */
+ * its row 0); with vu, their moments are also added to mc = sum p (psi -
+ * psi_c), w->c = sum p (psi - psi_c)(u - mu) and *vu = sum p (u - mu)^2, in
+ * row order. */
 static void fill_rows(const prob *P, work *w, const point *x, const double *rc, double mu,
                       int i0, int mr, double *Y, double *vu)
 {
@@ -352,6 +434,11 @@ static void fill_rows(const prob *P, work *w, const point *x, const double *rc, 
 		const double *restrict r = P->psi + (size_t)(i0 + i) * nf;
 		double *restrict y = Y + (size_t)i * nfp;
 
+		if (!vu) {
+			for (j = 0; j < nf; j++)
+				y[j] = sp * (r[j] - rc[j]);
+			continue;
+		}
 		*vu += pi * du * du;
 		for (j = 0; j < nf; j++) {
 			const double dv = r[j] - rc[j];
@@ -363,73 +450,58 @@ static void fill_rows(const prob *P, work *w, const point *x, const double *rc, 
 	}
 }
 
-/* One thread's share of H += Y^T Y over all m rows of Y: rows jlo..jhi-1
- * of H, SYRK_ROWS rows of Y at a time (they stay in cache). */
+/* One thread's share of Hp += Y^T Y over all m rows: rows jlo..jhi-1 of
+ * Hp, from blocks of SYRK_ROWS rows of Y that the thread makes in its own
+ * buffer (they stay in its cache); the part with vu also sums the moments
+ * (fill_rows). Every entry gets the sums of one thread in row order, so
+ * any split gives the bits of one thread. */
 typedef struct {
-	const double *Y;
-	double *H;
-	int m, nfp, jlo, jhi;
-} syrk_part;
+	const prob *P;
+	work *w;
+	const point *x;
+	const double *rc;
+	double mu, *Y, *vu;
+	int jlo, jhi;
+} hess_part;
 
-static void *syrk_part_run(void *arg)
+static void *hess_part_run(void *arg)
 {
-	const syrk_part *a = arg;
+	const hess_part *a = arg;
+	const int m = a->P->m;
 	int i0;
 
-	for (i0 = 0; i0 < a->m; i0 += SYRK_ROWS)
-		pr_syrk_acc_rows(a->Y + (size_t)i0 * a->nfp, a->m - i0 < SYRK_ROWS ? a->m - i0 : SYRK_ROWS,
-		                 a->nfp, a->H, a->jlo, a->jhi);
-	return NULL;
-}
+	for (i0 = 0; i0 < m; i0 += SYRK_ROWS) {
+		const int mr = m - i0 < SYRK_ROWS ? m - i0 : SYRK_ROWS;
 
-/* H += Y^T Y on w->threads threads, each its own rows of H (the same bits
- * as one thread: every entry's sum is one thread's, in row order). A
- * thread that cannot start has its share done here. */
-static void syrk_threads(work *w, int m)
-{
-	syrk_part part[64];
-	pthread_t tid[64];
-	int started[64], t, nt = w->threads; /* <= 64: check_opts */
-
-	for (t = 0; t < nt; t++) {
-		part[t] = (syrk_part){ w->Y, w->Hp, m, w->nfp, pr_syrk_split(w->nfp, nt, t),
-		                       pr_syrk_split(w->nfp, nt, t + 1) };
-		started[t] = t > 0 && pthread_create(&tid[t], NULL, syrk_part_run, &part[t]) == 0;
+		fill_rows(a->P, a->w, a->x, a->rc, a->mu, i0, mr, a->Y, a->vu);
+		pr_syrk_acc_rows(a->Y, mr, a->w->nfp, a->w->Hp, a->jlo, a->jhi);
 	}
-	for (t = 0; t < nt; t++)
-		if (!started[t])
-			syrk_part_run(&part[t]);
-	for (t = 1; t < nt; t++)
-		if (started[t])
-			pthread_join(tid[t], NULL);
+	return NULL;
 }
 
 /* covariances() for wide dense problems: the moments about row c, with
  * sum p (psi - psi_c)(psi - psi_c)^T as Y^T Y, Y = diag(sqrt p) (psi -
- * psi_c), by pr_syrk_acc on blocks of SYRK_ROWS rows of Y (padded to
- * nfp columns; the block and w->Hp stay in cache), or with threads on all
- * of Y at once. w->u and mu are set, H's upper triangle and w->c, w->v1
- * zeroed by the caller. */
+ * psi_c), by pr_syrk_acc_rows on w->threads threads, each its own rows of
+ * Hp (split by pr_syrk_split for equal work) and its own blocks of Y; the
+ * first part, which also sums the moments, runs here, and so does a part
+ * whose thread cannot start. w->u and mu are set, H's upper triangle and
+ * w->c, w->v1 zeroed by the caller. */
 static void covariances_blas(const prob *P, work *w, const point *x, int c, double mu)
 {
-	const int m = P->m, nf = P->nf, nfp = w->nfp;
+	const int nf = P->nf, nfp = w->nfp, nt = w->threads; /* <= 64: check_opts */
 	/* mc is not restrict: fill_rows adds to it through w->v1 */
-	const double *restrict rc = P->psi + (size_t)c * nf, *mc = w->v1;
+	const double *mc = w->v1;
 	double *H = w->H->data, vu = 0.0;
 	const size_t td = w->H->tda;
-	int i0, j, k;
+	hess_part part[64];
+	int t, j, k;
 
 	memset(w->Hp, 0, (size_t)nfp * nfp * sizeof *w->Hp);
-	if (w->threads > 1) {
-		fill_rows(P, w, x, rc, mu, 0, m, w->Y, &vu);
-		syrk_threads(w, m);
-	} else
-		for (i0 = 0; i0 < m; i0 += SYRK_ROWS) {
-			const int mr = m - i0 < SYRK_ROWS ? m - i0 : SYRK_ROWS;
-
-			fill_rows(P, w, x, rc, mu, i0, mr, w->Y, &vu);
-			pr_syrk_acc(w->Y, mr, nfp, w->Hp);
-		}
+	for (t = 0; t < nt; t++)
+		part[t] = (hess_part){ P, w, x, P->psi + (size_t)c * nf, mu,
+		                       w->Y + (size_t)t * SYRK_ROWS * nfp, t == 0 ? &vu : NULL,
+		                       pr_syrk_split(nfp, nt, t), pr_syrk_split(nfp, nt, t + 1) };
+	run_parts(nt, hess_part_run, part, sizeof *part);
 	for (j = 0; j < nf; j++)
 		for (k = j; k < nf; k++)
 			H[(size_t)j * td + k] = w->Hp[(size_t)j * nfp + k] - mc[j] * mc[k];
@@ -812,9 +884,14 @@ static void feature_stats(const pr_reps_problem *pb, const int *rows, const doub
 		phat[j] += fs[j];
 		fs[j] = 0.0;
 	}
+	/* a comparison, not fmax (a call per value): the values are finite */
 	for (i = 0; i < m; i++)
-		for (j = 0; j < d; j++)
-			fs[j] = fmax(fs[j], fabs(feat(pb, rows[i], j) - phat[j]));
+		for (j = 0; j < d; j++) {
+			const double a = fabs(feat(pb, rows[i], j) - phat[j]);
+
+			if (a > fs[j])
+				fs[j] = a;
+		}
 }
 
 /* Allocates the solver-coordinate arrays of P for m rows and nf free features. */
@@ -1665,20 +1742,37 @@ static void dense_start(const prob *P, work *w, double eta_min, double *eta)
 	*eta = fmax(sqrt(w->resvar / (2.0 * P->eps)), eta_min);
 }
 
+/* Whether joint_newton's next step keeps the Hessian of this one (a chord
+ * step; wide dense problems only, where forming it is most of the work):
+ * after a full step from x to t that cut err = max(residual, |KL - eps|)
+ * CHORD_FROM-fold (Newton has reached its fast local phase, where the
+ * Hessian hardly moves), and then for as long as each full step cuts it
+ * CHORD_KEEP-fold. */
+static int chord_next(const prob *P, const work *w, const point *x, const point *t, double step,
+                      int chord)
+{
+	const double err = fmax(x->res, fabs(P->eps - x->kl)), next = fmax(t->res, fabs(P->eps - t->kl));
+
+	return w->Y && step == 1.0 && next * (chord ? CHORD_KEEP : CHORD_FROM) <= err;
+}
+
 /* The fast path: damped Newton on (eta, theta) jointly, from eta = 1 and
- * theta = 0 (wide dense problems: from dense_start's point). g is jointly convex with Hessian Cov_p([u, psi]) / eta (plus
- * the ridge), solved through the theta block's factorisation and its Schur
- * complement ResVar_p(u | psi) / eta; Armijo steps keep eta > 0. Returns 1
- * at the root (|KL - eps| <= KL_TOL, residual <= THETA_TOL), 0 if eta heads
- * below eta_min or it does not converge in 50 steps (the search takes over
- * from pt[0] at *eta), or a negative error. */
+ * theta = 0 (wide dense problems: from dense_start's point). g is jointly
+ * convex with Hessian Cov_p([u, psi]) / eta (plus the ridge), solved through
+ * the theta block's factorisation and its Schur complement ResVar_p(u |
+ * psi) / eta; Armijo steps keep eta > 0. Wide dense problems take chord
+ * steps near the root (chord_next), back to a fresh Hessian when a chord
+ * step finds no descent. Returns 1 at the root (|KL - eps| <= KL_TOL,
+ * residual <= THETA_TOL), 0 if eta heads below eta_min or it does not
+ * converge in 50 steps (the search takes over from pt[0] at *eta), or a
+ * negative error. */
 static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
 {
 	const int nf = P->nf;
 	const double ktol = KL_TOL * fmax(1.0, P->eps);
 	point *x = &w->pt[0], *t = &w->pt[1], tmp;
-	double *v1 = w->v1, *v2 = w->v2, *dth = w->c;
-	int it, j, k;
+	double *v1 = w->v1, *v2 = w->v2, *dth = w->dth, eh = 1.0;
+	int it, j, k, chord = 0;
 
 	*eta = 1.0;
 	memset(x->th, 0, (size_t)(nf > 0 ? nf : 1) * sizeof *x->th);
@@ -1695,22 +1789,26 @@ static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
 		 * last step's factorisation stands for it, cond included) */
 		if (w->Y && it > 0 && fabs(ge) <= ktol && x->res <= THETA_TOL)
 			return 1;
-		covariances(P, w, *eta, x);
-		if (factor(P, w, *eta) != PR_OK)
-			return 0;
+		if (!chord) {
+			covariances(P, w, *eta, x);
+			if (factor(P, w, *eta) != PR_OK)
+				return 0;
+			eh = *eta;
+		}
 		if (fabs(ge) <= ktol && x->res <= THETA_TOL)
 			return 1;
-		/* C = Cov/eta + ridge factorised; b = Cov(psi, u)/eta */
+		/* C = Cov/eta + ridge factorised; b = Cov(psi, u)/eta, at eta = eh
+		 * where they were formed */
 		hsolve(P, w, x->g, v1);
 		for (j = 0; j < nf; j++)
-			dth[j] = w->c[j] / *eta;
+			dth[j] = w->c[j] / eh;
 		hsolve(P, w, dth, v2);
 		for (j = 0; j < nf; j++) {
 			cv1 += dth[j] * v1[j];
 			cv2 += dth[j] * v2[j];
 		}
-		schur = w->varu / *eta - cv2;
-		if (!(schur > 1e-14 * w->varu / *eta))
+		schur = w->varu / eh - cv2;
+		if (!(schur > 1e-14 * w->varu / eh))
 			return 0;
 		de = (-ge + cv1) / schur;
 		for (j = 0; j < nf; j++)
@@ -1735,8 +1833,14 @@ static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
 				break;
 			}
 		}
+		/* a chord step that found no descent: this point's own Hessian */
+		if (!ok && chord) {
+			chord = 0;
+			continue;
+		}
 		if (!ok)
 			return 0;
+		chord = chord_next(P, w, x, t, step, chord);
 		tmp = *x;
 		*x = *t;
 		*t = tmp;
@@ -2065,8 +2169,8 @@ static int check_opts(const pr_reps_opts *o, char *err)
 		return pr_err(err, PR_EINVAL, "reps.max_iter: must be >= 1 (got %d)", o->max_iter);
 	if (!(o->eta_min > 0.0 && o->eta_min <= 1.0))
 		return pr_err(err, PR_EINVAL, "reps.eta_min: must be in (0, 1] (got %g)", o->eta_min);
-	if (o->threads < 1 || o->threads > 64)
-		return pr_err(err, PR_EINVAL, "reps: threads must be in 1 .. 64 (got %d)", o->threads);
+	if (o->threads < 0 || o->threads > 64)
+		return pr_err(err, PR_EINVAL, "reps: threads must be in 0 .. 64 (got %d)", o->threads);
 	return PR_OK;
 }
 

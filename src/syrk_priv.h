@@ -2,25 +2,22 @@
 #ifndef POOLREPS_SYRK_PRIV_H
 #define POOLREPS_SYRK_PRIV_H
 
-/* Width to which pr_syrk_acc's rows are padded (with zeros). */
+/* Width to which pr_syrk_acc_rows's rows are padded (with zeros). */
 #define PR_SYRK_W 16
-
-/* H += Y^T Y over the mr rows of Y (row-major, nfp columns, nfp a multiple
- * of PR_SYRK_W); H is nfp x nfp row-major and receives its upper triangle
- * (and a few entries below the diagonal, in the tiles the diagonal
- * crosses). Every H_jk gets y_0j y_0k, y_1j y_1k, ... added in row order,
- * one rounded product and one rounded sum at a time: the bits of the plain
- * triple loop, whatever vector width the CPU offers, and whatever split of
- * the rows into calls. */
-void pr_syrk_acc(const double *Y, int mr, int nfp, double *H);
 
 /* A multiple of every tile's height (8 or 4 rows of H): pr_syrk_acc_rows's
  * row bounds are multiples of it. */
 #define PR_SYRK_TJ 8
 
-/* pr_syrk_acc on rows jlo <= j < jhi of H only (multiples of PR_SYRK_TJ,
- * or jhi = nfp): each entry gets the same sums in the same order, so
- * threads that split H's rows between them write its bits. */
+/* H += Y^T Y over the mr rows of Y (row-major, nfp columns, nfp a multiple
+ * of PR_SYRK_W), on rows jlo <= j < jhi of H only (multiples of PR_SYRK_TJ,
+ * or jhi = nfp); H is nfp x nfp row-major and receives the upper triangle
+ * of those rows (and a few entries below the diagonal, in the tiles the
+ * diagonal crosses). Every H_jk gets y_0j y_0k, y_1j y_1k, ... added in row
+ * order, one rounded product and one rounded sum at a time: the bits of the
+ * plain triple loop, whatever vector width the CPU offers, whatever split
+ * of the rows of Y into calls, and whatever split of H's rows between
+ * threads. */
 void pr_syrk_acc_rows(const double *Y, int mr, int nfp, double *H, int jlo, int jhi);
 
 /* The first row of part t of `parts` (t = parts gives nfp) that split

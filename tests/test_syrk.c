@@ -1,4 +1,4 @@
-/* test_syrk.c — pr_syrk_acc gives the bits of the plain triple loop (each
+/* test_syrk.c — pr_syrk_acc_rows gives the bits of the plain triple loop (each
  * H_jk summed over the rows in order), on seeded random matrices of
  * several widths, rows split into calls of several sizes, and values
  * spanning many decades (where a reordered or fused sum would differ);
@@ -43,7 +43,8 @@ static void test_syrk_is_the_scalar_loop(void **state)
 		for (c = 0; c < sizeof chunks / sizeof *chunks; c++) {
 			memset(H, 0, (size_t)nfp * nfp * sizeof *H);
 			for (i = 0; i < m; i += chunks[c])
-				pr_syrk_acc(Y + (size_t)i * nfp, m - i < chunks[c] ? m - i : chunks[c], nfp, H);
+				pr_syrk_acc_rows(Y + (size_t)i * nfp, m - i < chunks[c] ? m - i : chunks[c], nfp,
+				                 H, 0, nfp);
 			for (j = 0; j < nf; j++)
 				for (k = j; k < nf; k++)
 					if (memcmp(&H[(size_t)j * nfp + k], &ref[(size_t)j * nf + k], sizeof *H))

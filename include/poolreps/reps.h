@@ -36,10 +36,10 @@ typedef struct {
 	int allow_failed; /* experiments: 1 = record a failed certificate and go
 	                     on; 0 (default) = a failed solve fails the run */
 	int solver;       /* PR_REPS_SOLVER_NEWTON (default) or PR_REPS_SOLVER_NLOPT */
-	int threads;      /* threads for a wide dense problem's Hessian (default 1;
-	                     any count gives the same bits; > 1 holds all of
-	                     sqrt(p) (psi - psi_c) in memory, m x d doubles
-	                     rounded up, or runs on one thread without it) */
+	int threads;      /* threads for a wide dense problem's Hessian, 0 .. 64
+	                     (default 0: one per CPU the process may run on;
+	                     any count gives the same bits; a Hessian of fewer
+	                     than 2e6 multiply-adds runs on one) */
 } pr_reps_opts;
 /* reps.solver: newton = the Newton path and eta -> 0 limit described at
  * pr_reps_solve; nlopt = NLopt's L-BFGS on the dual over (log eta, theta),

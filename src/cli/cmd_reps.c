@@ -172,7 +172,7 @@ static const char *parse_epsilon(const char *arg, void *target)
 	return end == arg || *end || !(*v > 0) || *v > 1e6 ? "a number > 0 and <= 1e6" : NULL;
 }
 
-/* --threads N: decimal digits only, 1 .. 64 */
+/* --threads N: decimal digits only, 0 .. 64 */
 static const char *parse_threads(const char *arg, void *target)
 {
 	double *v = target;
@@ -181,9 +181,9 @@ static const char *parse_threads(const char *arg, void *target)
 	for (c = arg; *c >= '0' && *c <= '9'; c++)
 		;
 	if (c == arg || *c || c - arg > 2)
-		return "an integer in 1 .. 64";
+		return "an integer in 0 .. 64";
 	*v = (double)atoi(arg);
-	return *v < 1 || *v > 64 ? "an integer in 1 .. 64" : NULL;
+	return *v > 64 ? "an integer in 0 .. 64" : NULL;
 }
 
 static const cli_opt reps_opts[] = {
@@ -197,8 +197,8 @@ static const cli_opt reps_opts[] = {
 	CLI_OPT_NUMBER("epsilon", "E", reps_args, epsilon, epsilon_set, parse_epsilon,
 	               "the KL bound, > 0 and <= 1e6 (default reps.epsilon)"),
 	CLI_OPT_NUMBER("threads", "N", reps_args, threads, threads_set, parse_threads,
-	               "threads for a wide dense problem's Hessian, 1 .. 64\n"
-	               "(default 1; the same bits for any N)"),
+	               "threads for a wide dense problem's Hessian, 0 .. 64\n"
+	               "(default 0: one per CPU; the same bits for any N)"),
 	CLI_OPT("summary", "FILE", reps_args, summary,
 	        "one row eta,dual,kl,ess,bound,residual,iterations,\n"
 	        "kl_gap,residual_rel,status,rank,cond,path"),
