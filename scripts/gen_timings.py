@@ -47,17 +47,23 @@ def write_csv(path, rows, cols):
 
 
 def machine():
-    model, cores = "unknown CPU", os.cpu_count() or 1
+    """The machine as /proc/cpuinfo names it, with its widest vector
+    instructions (hosts sold under one model name differ in them, and in
+    speed)."""
+    model, cores, isa = "unknown CPU", os.cpu_count() or 1, ""
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
             for line in f:
-                if line.startswith("model name"):
+                if line.startswith("model name") and model == "unknown CPU":
                     model = " ".join(line.split(":", 1)[1].split())
-                    break
+                elif line.startswith("flags") and not isa:
+                    flags = line.split(":", 1)[1].split()
+                    isa = next((n for f, n in (("avx512f", "AVX-512"), ("avx2", "AVX2"))
+                                if f in flags), "no AVX2")
     except OSError:
         pass
     mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
-    return f"{cores}-core {model}, {mem:.0f} GiB"
+    return f"{cores}-core {model}" + (f" with {isa}" if isa else "") + f", {mem:.0f} GiB"
 
 
 def record_reproduce(out, allow_busy=False):

@@ -83,7 +83,7 @@ const char *pr_reps_status_name(int status)
 #define SHIFT 1e-10
 /* Steps a solve took (pr_reps_result.path). */
 enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCED = 16,
-       PATH_NLOPT = 32 };
+       PATH_NLOPT = 32, PATH_CHORD = 64 };
 /* Rank tolerance of the reduced basis: singular values of the
  * sqrt(q)-weighted solver features below RANK_TOL of the largest are the
  * round-off of an exact dependence (1e-16 ... 1e-14 of it, whatever the
@@ -1840,6 +1840,8 @@ static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
 		}
 		if (!ok)
 			return 0;
+		if (chord)
+			w->path |= PATH_CHORD;
 		chord = chord_next(P, w, x, t, step, chord);
 		tmp = *x;
 		*x = *t;
@@ -2594,13 +2596,15 @@ done:
 
 static void path_name(int path, char *buf, size_t len)
 {
-	static const char *const word[] = {"joint", "search", "up", "limit", "reduced", "nlopt"};
+	static const struct { int bit; const char *word; } step[] = {
+		{PATH_JOINT, "joint"}, {PATH_CHORD, "chord"}, {PATH_SEARCH, "search"}, {PATH_UP, "up"},
+		{PATH_LIMIT, "limit"}, {PATH_REDUCED, "reduced"}, {PATH_NLOPT, "nlopt"}};
 	size_t k, at = 0;
 
 	buf[0] = '\0';
-	for (k = 0; k < sizeof word / sizeof *word; k++)
-		if (path & (1 << k) && at < len)
-			at += (size_t)snprintf(buf + at, len - at, "%s%s", at ? "+" : "", word[k]);
+	for (k = 0; k < sizeof step / sizeof *step; k++)
+		if (path & step[k].bit && at < len)
+			at += (size_t)snprintf(buf + at, len - at, "%s%s", at ? "+" : "", step[k].word);
 }
 
 /* The certificate of r (reps.h) for the solver's verdict. c->corr (dense

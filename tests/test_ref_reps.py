@@ -6,7 +6,9 @@ programmes for the eta -> 0 limit), on 240 seeded random problems:
   of 1-30 trees (continuous thresholds, so rich forests pin p near q and
   make the bound unreachable); ties in the returns; eps from 1e-6 to 10;
   q uniform or from importance weights, some of them 0; returns shifted by
-  up to 1e15 times their spread and scaled by 1e-300 ... 1e300.
+  up to 1e15 times their spread and scaled by 1e-300 ... 1e300. Then 13
+  wide dense problems (32-60 features, 150-3000 rows), whose Newton path
+  ends in chord steps, against the reference's minimiser of the dual.
 
 Tolerances (every comparison):
   - the C certificate: |KL - eps| <= 1e-9 (active), relative feature
@@ -163,3 +165,38 @@ def test_affine_invariance_exact():
         for sc in (1e-161, 1e154):
             p, s = run_c(d, base * sc, None, phi, 0.5)
             assert s["status"] == "active" and np.abs(p - ref).max() <= 1e-12
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_wide_dense_chord_steps_against_reference(tmp_path, seed):
+    """Wide dense problems (32 or more features) take chord steps near the
+    root, reusing the last Hessian (path `joint+chord`): their answer is
+    still the dual's minimiser. Offsets, column scales over four decades,
+    heavy-tailed returns, reachable bounds (eps <= 0.5 with n >= 150); the
+    reference minimises the dual from scratch (ref_reps.dual_solve on its
+    own exactly centred basis)."""
+    rng = np.random.default_rng(7700 + seed)
+    n, d = int(rng.integers(150, 500)), int(rng.integers(32, 61))
+    phi = rng.normal(size=(n, d)) * 10.0 ** rng.uniform(-2, 2, size=d) + rng.choice([0.0, 1e4])
+    R = (phi[:, :3] / phi[:, :3].std(0)) @ rng.normal(size=3) + rng.standard_t(3, size=n)
+    eps = float(rng.choice([1e-3, 0.1, 0.5]))
+    p, s = run_c(tmp_path, R, None, phi, eps)
+    q, on, Rs, psi = ref_reps.prepare(R, np.ones(n), phi)
+    _, p_ref, kl_ref, gmax = ref_reps.dual_solve(Rs[on], np.log(q[on]), psi[on], eps)
+    assert gmax <= 1e-12 and abs(kl_ref - eps) <= 1e-12, (gmax, kl_ref)
+    assert s["status"] == "active" and float(s["kl_gap"]) <= 1e-9, s
+    assert np.abs(p - p_ref).max() <= 1e-9, (s["path"], np.abs(p - p_ref).max())
+
+
+def test_wide_dense_problems_take_chord_steps(tmp_path):
+    """The chord steps are taken, not skipped: on dense200's kind of problem
+    (n = 3000, d = 60, eps = 0.5) the summary's path is joint+chord, and the
+    answer is the reference's."""
+    rng = np.random.default_rng(31)
+    phi = rng.normal(size=(3000, 60))
+    R = phi[:, :3].sum(1) + rng.normal(size=3000)
+    p, s = run_c(tmp_path, R, None, phi, 0.5)
+    assert s["status"] == "active" and s["path"] == "joint+chord", s
+    q, on, Rs, psi = ref_reps.prepare(R, np.ones(3000), phi)
+    _, p_ref, _, _ = ref_reps.dual_solve(Rs[on], np.log(q[on]), psi[on], 0.5)
+    assert np.abs(p - p_ref).max() <= 1e-9

@@ -108,10 +108,13 @@ typedef struct {
 	                        the last Jacobi-scaled theta Hessian: a lower
 	                        estimate of its condition number (1 without features) */
 	char path[48];       /* steps taken, joined by '+': joint (the joint Newton
-	                        fast path), search (the root search on log eta), up
-	                        (eta raised before any theta solve worked), limit
-	                        (the eta -> 0 limit), reduced (a second attempt on a
-	                        well-conditioned basis after the first failed) */
+	                        fast path), chord (steps that reused the last
+	                        Hessian near the root; wide dense problems), search
+	                        (the root search on log eta), up (eta raised before
+	                        any theta solve worked), limit (the eta -> 0 limit),
+	                        reduced (a second attempt on a well-conditioned
+	                        basis after the first failed), nlopt (reps.solver =
+	                        nlopt) */
 } pr_reps_result;
 
 /* Solve the dual and certify the result (see the file comment): Newton's
