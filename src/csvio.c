@@ -317,8 +317,10 @@ static int plain_line(scanner *r, const char *s, size_t n)
 	end = n - 1;
 	if (end && s[end - 1] == '\r')
 		--end;
-	for (i = 0; i < end; ++i)
-		if (s[i] == '"' || s[i] == ' ' || s[i] == '\t' || s[i] == '\r')
+	/* one memchr per byte that disqualifies (each runs at vector speed,
+	 * where a loop over the bytes comparing each with all four did not) */
+	for (i = 0; i < 4; ++i)
+		if (memchr(s, "\" \t\r"[i], end))
 			return 0;
 	if (!end)
 		return 1; /* an empty line: no record, as in libcsv */
