@@ -27,7 +27,7 @@ static int null_status(const char *err)
 
 const char *pr_bind_init(void)
 {
-	gsl_set_error_handler_off();
+	gsl_set_error_handler(pr_gsl_error_handler);
 	return pr_version();
 }
 

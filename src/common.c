@@ -6,6 +6,7 @@
 #include <fcntl.h>
 #include <limits.h>
 #include <pthread.h>
+#include <setjmp.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -14,6 +15,8 @@
 #include <sys/stat.h>
 #include <sys/syscall.h>
 #include <unistd.h>
+
+#include <gsl/gsl_errno.h>
 
 #include "poolreps/common.h"
 #include "common_priv.h"
@@ -85,6 +88,23 @@ static const char *boundary(const char *s)
 	while (((unsigned char)*s & 0xc0) == 0x80)
 		++s;
 	return s;
+}
+
+/* The jump target of this thread's guarded GSL call, or NULL. */
+static _Thread_local jmp_buf *gsl_jump;
+
+void pr_gsl_guard(jmp_buf *jb)
+{
+	gsl_jump = jb;
+}
+
+void pr_gsl_error_handler(const char *reason, const char *file, int line, int gsl_errno)
+{
+	(void)reason;
+	(void)file;
+	(void)line;
+	if (gsl_errno == GSL_ENOMEM && gsl_jump)
+		longjmp(*gsl_jump, 1);
 }
 
 int pr_err(char *err, int status, const char *fmt, ...)

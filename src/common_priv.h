@@ -4,10 +4,15 @@
 #ifndef POOLREPS_COMMON_PRIV_H
 #define POOLREPS_COMMON_PRIV_H
 
+#include <setjmp.h>
 #include <signal.h>
 #include <stddef.h>
 
 #include "poolreps/common.h"
+
+/* Arms pr_gsl_error_handler for this thread: a GSL allocation failure
+ * jumps to jb; NULL disarms it. */
+void pr_gsl_guard(jmp_buf *jb);
 
 /* A file or folder path the library builds (PATH_MAX on Linux). */
 #define PR_PATHLEN 4096

@@ -46,6 +46,7 @@
 #include <gsl/gsl_matrix.h>
 
 #include "poolreps/reps.h"
+#include "common_priv.h"
 #include "syrk_priv.h"
 
 void pr_reps_opts_init(pr_reps_opts *o)
@@ -106,6 +107,10 @@ enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCE
 /* Multiply-adds of a Hessian below which it runs on one thread: starting
  * and joining a thread costs about as much as 1e5 of them. */
 #define HESS_THREAD_WORK 2e6
+/* The same for the residuals A = R - psi th, which run at every evaluation. */
+#define RESID_THREAD_WORK 1e6
+/* Stack of a thread of the Hessian or the residuals. */
+#define THREAD_STACK ((size_t)256 << 10)
 /* joint_newton's chord steps on wide dense problems (chord_next): from a
  * full Newton step that cut the error CHORD_FROM-fold, while each step cuts
  * it CHORD_KEEP-fold. */
@@ -221,12 +226,14 @@ static int auto_threads(void)
 	return n < 1 ? 1 : n > 64 ? 64 : (int)n;
 }
 
-/* Threads for the Hessian of an m x nf dense problem: those asked for (0:
- * auto_threads), but one below HESS_THREAD_WORK multiply-adds per Hessian,
- * and no more than the runs of PR_SYRK_TJ rows pr_syrk_split can give. */
+/* Threads for the Hessian of an m x nf dense problem: those asked for, at
+ * most one per CPU (auto_threads; more only share the CPUs and start more
+ * threads), but one below HESS_THREAD_WORK multiply-adds per Hessian, and no
+ * more than the runs of PR_SYRK_TJ rows pr_syrk_split can give. */
 static int hess_threads(int asked, int m, int nfp)
 {
-	int t = asked > 0 ? asked : auto_threads();
+	const int cpus = auto_threads();
+	int t = asked > 0 && asked < cpus ? asked : cpus;
 
 	if ((double)m * nfp * nfp / 2 < HESS_THREAD_WORK)
 		return 1;
@@ -261,8 +268,13 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 	if (!P->bin && nf >= BLAS_MIN_NF) {
 		w->nfp = (nf + PR_SYRK_W - 1) / PR_SYRK_W * PR_SYRK_W;
 		w->threads = hess_threads(threads, m, w->nfp);
-		/* a block of Y per thread; calloc: the padding columns stay 0 */
+		/* a block of Y per thread (without the memory, one thread: the
+		 * same bytes); calloc: the padding columns stay 0 */
 		w->Y = calloc((size_t)w->threads * SYRK_ROWS * w->nfp, sizeof *w->Y);
+		if (!w->Y && w->threads > 1) {
+			w->threads = 1;
+			w->Y = calloc((size_t)SYRK_ROWS * w->nfp, sizeof *w->Y);
+		}
 		w->Hp = malloc((size_t)w->nfp * w->nfp * sizeof *w->Hp);
 		if (!w->Y || !w->Hp)
 			return PR_ENOMEM;
@@ -272,15 +284,23 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 }
 
 /* Runs fn on the nt parts (each `size` bytes, nt <= 64): part 0 here, the
- * others on threads of their own; a part whose thread cannot start runs
- * here too. */
+ * others on threads of their own, with stacks of THREAD_STACK bytes (the
+ * parts hold a few locals; glibc's default of 8 MiB per thread, kept in its
+ * cache after the join, took address space a later allocation needed);
+ * a part whose thread cannot start runs here too. */
 static void run_parts(int nt, void *(*fn)(void *), void *parts, size_t size)
 {
 	pthread_t tid[64];
-	int started[64], t;
+	pthread_attr_t attr;
+	int started[64], t, attr_ok = pthread_attr_init(&attr) == 0;
 
+	if (attr_ok)
+		pthread_attr_setstacksize(&attr, THREAD_STACK);
 	for (t = 0; t < nt; t++)
-		started[t] = t > 0 && pthread_create(&tid[t], NULL, fn, (char *)parts + t * size) == 0;
+		started[t] = t > 0 && pthread_create(&tid[t], attr_ok ? &attr : NULL, fn,
+		                                     (char *)parts + t * size) == 0;
+	if (attr_ok)
+		pthread_attr_destroy(&attr);
 	for (t = 0; t < nt; t++)
 		if (!started[t])
 			fn((char *)parts + t * size);
@@ -335,11 +355,12 @@ static void *residual_rows(void *arg)
 }
 
 /* A = R - psi th on w->threads threads, each a run of rows (a row's sum is
- * one thread's, so any split gives the same bits). */
+ * one thread's, so any split gives the same bits); on one below
+ * RESID_THREAD_WORK multiply-adds. */
 static void dense_residuals(const prob *P, const work *w, const double *th, double *A)
 {
 	resid_part part[64];
-	int t, nt = w->threads;
+	int t, nt = (double)P->m * P->nf < RESID_THREAD_WORK ? 1 : w->threads;
 
 	for (t = 0; t < nt; t++)
 		part[t] = (resid_part){ P, th, A, (int)((long long)P->m * t / nt),
@@ -2507,6 +2528,26 @@ static void reduced_column(const prob *P, const double *xh, const double *xl, co
 	}
 }
 
+/* gsl_linalg_SV_decomp: PR_OK, PR_ENUM, or PR_ENOMEM when it ran out of
+ * memory inside, where GSL does not check its own allocations (GSL 2.7's
+ * bidiagonalisation) and pr_gsl_error_handler jumps back here. (GSL's
+ * one-sided Jacobi SVD allocates nothing but stops short of convergence
+ * beyond about 100 columns, saying nothing.) */
+static int svd_guarded(gsl_matrix *A, gsl_matrix *V, gsl_vector *S, gsl_vector *wk)
+{
+	jmp_buf jb;
+	int st;
+
+	if (setjmp(jb)) {
+		pr_gsl_guard(NULL);
+		return PR_ENOMEM;
+	}
+	pr_gsl_guard(&jb);
+	st = gsl_linalg_SV_decomp(A, V, S, wk) == GSL_SUCCESS ? PR_OK : PR_ENUM;
+	pr_gsl_guard(NULL);
+	return st;
+}
+
 /* A well-conditioned basis of P's dense features: W = diag(sqrt q) (psi -
  * sum q psi) = U S V^T (Golub-Reinsch SVD, GSL); directions with singular
  * value below RANK_TOL of the largest are dropped, and Q's features are
@@ -2547,17 +2588,19 @@ static int prob_reduce(prob *Q, const prob *P, const ctx_t *c, double **T, doubl
 
 			gsl_matrix_set(A, (size_t)(tall ? i : j), (size_t)(tall ? j : i), v);
 		}
-	if (gsl_linalg_SV_decomp(A, B, S, wk) != GSL_SUCCESS) {
-		st = PR_ENUM;
+	if ((st = svd_guarded(A, B, S, wk)) != PR_OK)
 		goto done;
-	}
 	for (k = 0; k < mn; k++)
 		smax = fmax(smax, gsl_vector_get(S, (size_t)k));
 	for (k = 0; k < mn; k++)
 		r += gsl_vector_get(S, (size_t)k) > RANK_TOL * smax;
 
-	if ((st = prob_alloc(Q, m, r, 0, 0, 0)) != PR_OK || !(*T = calloc((size_t)nf * (r > 0 ? r : 1), sizeof **T)))
+	if ((st = prob_alloc(Q, m, r, 0, 0, 0)) != PR_OK)
 		goto done;
+	if (!(*T = calloc((size_t)nf * (r > 0 ? r : 1), sizeof **T))) {
+		st = PR_ENOMEM;
+		goto done;
+	}
 	Q->eps = P->eps;
 	memcpy(Q->R, P->R, (size_t)m * sizeof *Q->R);
 	memcpy(Q->q, P->q, (size_t)m * sizeof *Q->q);

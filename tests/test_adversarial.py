@@ -384,24 +384,42 @@ def test_sweep_missing_memory_stays_bounded(tmp_path, sweeps):
 # ---- class 3: an allocation that fails anywhere is exit 4 ----
 
 # Fails every allocation from the FAILAT-th on (malloc, calloc, realloc:
-# also those of the C library, libcsv, GSL and GLPK), as when memory runs out.
+# also those of the C library, libcsv, GSL and GLPK), as when memory runs out;
+# with FAILONE set, the FAILAT-th alone. FAILCOUNT=FILE: the number of
+# allocations, written there at exit.
 FAILMALLOC_C = r"""
 #include <errno.h>
+#include <stdio.h>
 #include <stdlib.h>
 extern void *__libc_malloc(size_t);
 extern void *__libc_calloc(size_t, size_t);
 extern void *__libc_realloc(void *, size_t);
 static long count, failat = -2;
+static int one;
 static int fail(void)
 {
+	long k;
+
 	if (failat == -2) {
 		const char *s = getenv("FAILAT");
 		failat = s ? atol(s) : -1;
+		one = getenv("FAILONE") != NULL;
 	}
-	if (failat < 0 || __atomic_add_fetch(&count, 1, __ATOMIC_SEQ_CST) < failat)
+	k = __atomic_add_fetch(&count, 1, __ATOMIC_SEQ_CST);
+	if (failat < 0 || k < failat || (one && k > failat))
 		return 0;
 	errno = ENOMEM;
 	return 1;
+}
+__attribute__((destructor)) static void report(void)
+{
+	const char *s = getenv("FAILCOUNT");
+	FILE *f = s ? fopen(s, "w") : NULL;
+
+	if (f) {
+		fprintf(f, "%ld\n", count);
+		fclose(f);
+	}
 }
 void *malloc(size_t n) { return fail() ? NULL : __libc_malloc(n); }
 void *calloc(size_t a, size_t b) { return fail() ? NULL : __libc_calloc(a, b); }
@@ -483,6 +501,61 @@ def test_every_allocation_failure_is_out_of_memory(name, args, step, failmalloc,
         assert snapshot(tmp_path) == before, n
         n += step
     assert n > 1, "the command allocated nothing"
+
+
+def wide_reps_table(path, which):
+    """A wide dense REPS problem as CSV: `reduced`, whose first attempt (joint
+    Newton with chord steps) fails its certificate and whose reduced basis
+    (GSL's SVD) certifies; `threads`, large enough for the Hessian's
+    threads (n d^2 / 2 >= 2e6 multiply-adds)."""
+    import numpy as np
+    import reps_families
+    if which == "reduced":
+        R, _, phi, _ = reps_families.make_family(reps_families.WIDE, 8)
+    else:
+        rng = np.random.default_rng(12)
+        phi = rng.normal(size=(3000, 40)) * 10.0 ** rng.uniform(-2, 2, size=40) + 1e3
+        R = phi[:, :3] @ rng.normal(size=3) + rng.standard_t(3, size=3000)
+    head = ",".join(["R"] + [f"phi{j}" for j in range(phi.shape[1])])
+    np.savetxt(path, np.c_[R, phi], delimiter=",", header=head, comments="", fmt="%.17g")
+
+
+@pytest.mark.native
+@pytest.mark.parametrize("which", ["reduced", "threads"])
+def test_allocation_failures_in_a_wide_reps_solve(which, failmalloc, tmp_path):
+    """Wide dense REPS (chord steps, the reduced basis and its SVD, the
+    Hessian's threads) with allocations failing, at every allocation in
+    turn: (1) that one and all after it: exit 4, one line, nothing written;
+    (2) that one alone: exit 4 the same way, or exit 0 with the bytes of an
+    undisturbed solve (a Hessian thread or its block that cannot be had
+    leaves the work to one thread). GSL's SVD allocates inside without
+    checking: poolreps' error handler turns that into out of memory."""
+    wide_reps_table(tmp_path / "w.csv", which)
+    args = [binary(), "reps", "--return", "R", "--features", "phi*", "--epsilon", "0.5", "-i", "w.csv",
+            "-q", "-o", "p.csv", "--summary", "s.csv"]
+    r = subprocess.run(args, cwd=tmp_path, capture_output=True, env=env(), timeout=120)
+    assert r.returncode == OK, r.stderr
+    ref = ((tmp_path / "p.csv").read_bytes(), (tmp_path / "s.csv").read_bytes())
+    path = ref[1].split(b"\n")[1].split(b",")[-1]
+    assert path == (b"joint+chord+reduced" if which == "reduced" else b"joint+chord"), path
+    (tmp_path / "p.csv").unlink()
+    (tmp_path / "s.csv").unlink()
+    before = snapshot(tmp_path)
+    r = subprocess.run(args[:-4], cwd=tmp_path, capture_output=True, timeout=120,
+                       env=dict(env(), LD_PRELOAD=str(failmalloc), FAILCOUNT=str(tmp_path.parent / "n")))
+    total = int((tmp_path.parent / "n").read_text())
+    for mode in ({}, {"FAILONE": "1"}):
+        for n in range(1, total + 1):
+            r = subprocess.run(args, cwd=tmp_path, capture_output=True, timeout=120,
+                               env=dict(env(), LD_PRELOAD=str(failmalloc), FAILAT=str(n), **mode))
+            if r.returncode == OK and mode:
+                assert ((tmp_path / "p.csv").read_bytes(), (tmp_path / "s.csv").read_bytes()) == ref, n
+                (tmp_path / "p.csv").unlink()
+                (tmp_path / "s.csv").unlink()
+                continue
+            assert r.returncode == 4, (mode, n, r.returncode, r.stderr)
+            one_line(r)
+            assert snapshot(tmp_path) == before, (mode, n)
 
 
 def test_sweep_missing_into_a_closed_pipe_is_sigpipe(tmp_path, sweeps):

@@ -43,6 +43,15 @@ int pr_exit_code(int status);
 /* The version string: git describe at build time, or the tarball version. */
 const char *pr_version(void);
 
+/* A GSL error handler for programs that use poolreps (the command line and
+ * the Python binding install it with gsl_set_error_handler): it ignores
+ * GSL's errors, as gsl_set_error_handler_off does (poolreps checks every
+ * status), except an allocation failure inside a GSL routine that poolreps
+ * guards because GSL does not check it there (the SVD of REPS's reduced
+ * basis): then poolreps reports out of memory instead of GSL going on with
+ * a null vector. GSL's own allocations in that routine are not freed. */
+void pr_gsl_error_handler(const char *reason, const char *file, int line, int gsl_errno);
+
 /* The command line an output folder's provenance.txt records, as typed. */
 typedef struct {
 	int argc;

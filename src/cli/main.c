@@ -358,7 +358,7 @@ int main(int argc, char **argv)
 	clock_t c0 = clock();
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
-	gsl_set_error_handler_off();
+	gsl_set_error_handler(pr_gsl_error_handler);
 	install_handlers();
 	if (!prov.argv) {
 		fail("out of memory");
