@@ -37,9 +37,10 @@ typedef struct {
 	                     on; 0 (default) = a failed solve fails the run */
 	int solver;       /* PR_REPS_SOLVER_NEWTON (default) or PR_REPS_SOLVER_NLOPT */
 	int threads;      /* threads for a wide dense problem's Hessian, 0 .. 64
-	                     (default 0: one per CPU the process may run on;
-	                     any count gives the same bits; a Hessian of fewer
-	                     than 2e6 multiply-adds runs on one) */
+	                     (default 0: one per CPU the process may run on, and
+	                     never more than that; any count gives the same bits;
+	                     a Hessian of fewer than 2e6 multiply-adds runs on
+	                     one) */
 } pr_reps_opts;
 /* reps.solver: newton = the Newton path and eta -> 0 limit described at
  * pr_reps_solve; nlopt = NLopt's L-BFGS on the dual over (log eta, theta),

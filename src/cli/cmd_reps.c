@@ -198,7 +198,8 @@ static const cli_opt reps_opts[] = {
 	               "the KL bound, > 0 and <= 1e6 (default reps.epsilon)"),
 	CLI_OPT_NUMBER("threads", "N", reps_args, threads, threads_set, parse_threads,
 	               "threads for a wide dense problem's Hessian, 0 .. 64\n"
-	               "(default 0: one per CPU; the same bits for any N)"),
+	               "(default 0: one per CPU, and no more than that;\n"
+	               "the same bits for any N)"),
 	CLI_OPT("summary", "FILE", reps_args, summary,
 	        "one row eta,dual,kl,ess,bound,residual,iterations,\n"
 	        "kl_gap,residual_rel,status,rank,cond,path"),
