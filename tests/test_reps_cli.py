@@ -223,8 +223,10 @@ def dense_table(path, rng, n, d):
 def test_reps_threads_give_the_same_bytes(tmp_path, seed):
     """--threads splits the dense Hessian's rank-k update: weights and
     summary byte for byte those of one thread, for any count (the rows of
-    the Hessian split unevenly for most of them; 0 is one per CPU). The
-    problems are large enough (n d^2 / 2 >= 2e6 multiply-adds per Hessian)
+    the Hessian split unevenly for most of them; 0 is one per CPU, and a
+    count above the CPUs runs one thread per CPU: tests/test_syrk.c checks
+    the kernel on every split into 1 to 7 parts). The problems are large
+    enough (n d^2 / 2 >= 2e6 multiply-adds per Hessian)
     for the threads to start."""
     rng = np.random.default_rng(900 + seed)
     n, d = int(rng.integers(4000, 6000)), int(rng.integers(32, 70))
