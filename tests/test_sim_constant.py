@@ -192,14 +192,16 @@ ILL_CONDITIONED = [
 
 @pytest.mark.parametrize("case", range(len(ILL_CONDITIONED)))
 def test_reference_disagreements_are_ill_conditioning(case, tmp_path):
-    """Where the simulator and the reference disagree by more than 1e-9 m,
+    """Where the simulator and the reference disagreed by more than 1e-9 m,
     the shot itself amplifies rounding: moving every input by 1e-12 moves
-    the reference's (and the simulator's) final positions by more than 1,000
-    times the disagreement (long chains of collisions between moving
-    balls, 17 to 31 events). The disagreement is below 1e-2 of that
-    movement, i.e. what an input change of 1e-14 m would make, and the
-    two still agree to that level on the perturbed shots; the events,
-    pockets and hits are the same."""
+    the reference's (and the simulator's) final positions by more than
+    1e-6 m (long chains of collisions between moving balls, 17 to 31
+    events). The disagreement is below 1e-2 of that movement, i.e. what an
+    input change of 1e-14 m would make, and the two still agree to that
+    level on the perturbed shots; the events, pockets and hits are the
+    same. (Whether a shot's disagreement is above or below 1e-9 m depends on
+    the reference's eigenvalue routine, numpy's LAPACK: Debian's reference
+    LAPACK and OpenBLAS round differently, so that is not asserted.)"""
     nballs, row = ILL_CONDITIONED[case]
     rng = np.random.default_rng(3)
     pert = [list(np.array(row) + rng.choice([-1.0, 1.0], len(row)) * 1e-12) for _ in range(4)]
@@ -213,5 +215,5 @@ def test_reference_disagreements_are_ill_conditioning(case, tmp_path):
         assert int(c["hit"]) == int(r["hit"]) and int(c["events"]) == r["events"]
     spread = np.max(np.abs(rfin[1:] - rfin[0]))
     err = np.max(np.abs(fin - rfin), axis=1)
-    assert err[0] > 1e-9, "the shot now agrees within 1e-9 m: it no longer shows the amplification"
+    assert spread > 1e-6, f"a 1e-12 change of the inputs moves the result by only {spread:.3g} m"
     assert np.all(err <= 1e-2 * spread), (err, spread)
