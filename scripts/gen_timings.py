@@ -10,14 +10,20 @@ generated from committed measurements (docs/data/timing_*.csv), never typed.
   gen_timings.py [--check]                write (or compare) the text between
                                           the <!-- timing:NAME --> markers
 
+Each recording is also appended to docs/data/timing_history.csv (commit,
+date, command, seconds, machine), so that the text can say how the same two
+commands measured on earlier hosts.
+
 A measurement counts as an idle-machine figure only if, while it ran, other
 work took less than IDLE_SHARE of the machine's cores (load.csv's
 others_share; scripts/reproduce-timed.sh measures it from /proc/stat). The
 machine is described from /proc/cpuinfo when a measurement is recorded."""
 import argparse
 import csv
+import datetime
 import os
 import re
+import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -27,6 +33,8 @@ IDLE_SHARE = 0.1
 # report (load.csv's wall_s); 'total' of timings.csv stops before the report
 END = "end to end"
 FILES = [os.path.join(ROOT, "README.md"), os.path.join(ROOT, "docs", "benchmarks.md")]
+HISTORY = os.path.join(DATA, "timing_history.csv")
+HISTORY_COLS = ["commit", "date", "what", "seconds", "machine"]
 
 
 def read_csv(path):
@@ -80,6 +88,18 @@ def record_reproduce(out, allow_busy=False):
     rows = [dict(s, machine=machine(), others_share=load["others_share"]) for s in steps]
     write_csv(os.path.join(DATA, "timing_reproduce.csv"), rows,
               ["step", "seconds", "others_share", "machine"])
+    idle = float(load["others_share"]) < IDLE_SHARE
+    add_history("make reproduce", load["wall_s"], ("idle " if idle else "busy ") + machine())
+
+
+def add_history(what, seconds, mach):
+    """One row of timing_history.csv for this recording."""
+    rows = read_csv(HISTORY) if os.path.exists(HISTORY) else []
+    commit = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=ROOT, capture_output=True,
+                            text=True).stdout.strip() or "unknown"
+    rows.append({"commit": commit, "date": datetime.date.today().isoformat(), "what": what,
+                 "seconds": seconds, "machine": mach})
+    write_csv(HISTORY, rows, HISTORY_COLS)
 
 
 def record_check(log, busy=False):
@@ -96,6 +116,7 @@ def record_check(log, busy=False):
     rows += [{"what": f"{name} ({phase})", "seconds": sec, "machine": ""}
              for sec, phase, name in slow]
     write_csv(os.path.join(DATA, "timing_check.csv"), rows, ["what", "seconds", "machine"])
+    add_history("make check", wall[-1], rows[0]["machine"])
 
 
 def blocks():
@@ -132,8 +153,23 @@ def blocks():
               + "; its 10 slowest tests:", "", "| test | s |", "|---|---:|"]
     lines += [f"| `{r['what']}` | {float(r['seconds']):.1f} |" for r in chk
               if r["what"] not in ("make check", "pytest")]
+    lines += ["", history_sentence()]
     out["table"] = "\n".join(lines)
     return out
+
+
+def history_sentence():
+    """How the two commands measured on every idle recording so far."""
+    rows = [r for r in read_csv(HISTORY) if r["machine"].startswith("idle ")]
+    parts = []
+    for what in ("make reproduce", "make check"):
+        sec = [float(r["seconds"]) for r in rows if r["what"] == what]
+        if sec:
+            parts.append(f"`{what}` {min(sec):.0f}–{max(sec):.0f} s ({len(sec)} recordings)")
+    hosts = sorted({r["machine"][len("idle "):] for r in rows})
+    return ("Every idle-machine recording of the two commands so far, at the versions and on "
+            "the hosts of their day (docs/data/timing_history.csv): " + ", ".join(parts)
+            + "; the hosts: " + "; ".join(hosts) + ".")
 
 
 def render(text, b):
