@@ -442,9 +442,9 @@ static int plain_ok(const prob *P, const point *x)
 /* Rows i0 .. i0 + mr - 1 of Y = diag(sqrt p) (psi - psi_c) into Y (from
  * its row 0); with vu, their moments are also added to mc = sum p (psi -
  * psi_c), w->c = sum p (psi - psi_c)(u - mu) and *vu = sum p (u - mu)^2, in
- * row order. */
+ * row order; without, only columns from on (the others are not read). */
 static void fill_rows(const prob *P, work *w, const point *x, const double *rc, double mu,
-                      int i0, int mr, double *Y, double *vu)
+                      int i0, int mr, double *Y, double *vu, int from)
 {
 	const int nf = P->nf, nfp = w->nfp;
 	double *restrict mc = w->v1, *restrict cu = w->c;
@@ -456,7 +456,7 @@ static void fill_rows(const prob *P, work *w, const point *x, const double *rc, 
 		double *restrict y = Y + (size_t)i * nfp;
 
 		if (!vu) {
-			for (j = 0; j < nf; j++)
+			for (j = from; j < nf; j++)
 				y[j] = sp * (r[j] - rc[j]);
 			continue;
 		}
@@ -494,7 +494,9 @@ static void *hess_part_run(void *arg)
 	for (i0 = 0; i0 < m; i0 += SYRK_ROWS) {
 		const int mr = m - i0 < SYRK_ROWS ? m - i0 : SYRK_ROWS;
 
-		fill_rows(a->P, a->w, a->x, a->rc, a->mu, i0, mr, a->Y, a->vu);
+		/* pr_syrk_acc_rows reads no column below jlo's run of PR_SYRK_W */
+		fill_rows(a->P, a->w, a->x, a->rc, a->mu, i0, mr, a->Y, a->vu,
+		          a->jlo / PR_SYRK_W * PR_SYRK_W);
 		pr_syrk_acc_rows(a->Y, mr, a->w->nfp, a->w->Hp, a->jlo, a->jhi);
 	}
 	return NULL;

@@ -13,7 +13,8 @@
  * of PR_SYRK_W), on rows jlo <= j < jhi of H only (multiples of PR_SYRK_TJ,
  * or jhi = nfp); H is nfp x nfp row-major and receives the upper triangle
  * of those rows (and a few entries below the diagonal, in the tiles the
- * diagonal crosses). Every H_jk gets y_0j y_0k, y_1j y_1k, ... added in row
+ * diagonal crosses); it reads no column of Y below jlo rounded down to a
+ * multiple of PR_SYRK_W. Every H_jk gets y_0j y_0k, y_1j y_1k, ... added in row
  * order, one rounded product and one rounded sum at a time: the bits of the
  * plain triple loop, whatever vector width the CPU offers, whatever split
  * of the rows of Y into calls, and whatever split of H's rows between
