@@ -21,22 +21,9 @@
 
 #include "poolreps/bind.h"
 #include "poolreps/sim.h"
+#include "bench_util.h"
 
 #define POOL 65536
-
-static double now(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp(const void *a, const void *b)
-{
-	double x = *(const double *)a, y = *(const double *)b;
-	return (x > y) - (x < y);
-}
 
 int main(int argc, char **argv)
 {
@@ -100,16 +87,16 @@ int main(int argc, char **argv)
 	memset(hit, 0, (size_t)shots);
 	memset(ev, 0, (size_t)shots * sizeof *ev);
 	for (k = 0; k < runs; ++k) {
-		double t0 = now();
+		double t0 = bench_now();
 		if (pr_bind_shoot(c, shots, 2, st, act, fin, pocket, hit, gap, rew, tend, ev, err)) {
 			fprintf(stderr, "bench_bind: %s\n", err);
 			return 1;
 		}
-		rate[k] = (double)shots / (now() - t0);
+		rate[k] = (double)shots / (bench_now() - t0);
 	}
 	for (i = 0; i < shots; ++i)
 		events += ev[i];
-	qsort(rate, (size_t)runs, sizeof *rate, cmp);
+	qsort(rate, (size_t)runs, sizeof *rate, bench_cmp);
 	printf("mode=event actions=gauss shots=%ld runs=%d median_shots_per_s=%.0f min=%.0f max=%.0f "
 	       "events_per_shot=%.2f\n", shots, runs, rate[runs / 2], rate[0], rate[runs - 1],
 	       (double)events / (double)shots);

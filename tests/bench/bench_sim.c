@@ -24,22 +24,9 @@
 #include <gsl/gsl_rng.h>
 
 #include "poolreps/sim.h"
+#include "bench_util.h"
 
 #define POOL 65536
-
-static double now(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp(const void *a, const void *b)
-{
-	double x = *(const double *)a, y = *(const double *)b;
-	return (x > y) - (x < y);
-}
 
 int main(int argc, char **argv)
 {
@@ -109,7 +96,7 @@ int main(int argc, char **argv)
 		}
 	}
 	for (k = 0; k < runs; ++k) {
-		double t0 = now();
+		double t0 = bench_now();
 		events = 0;
 		for (i = 0; i < shots; ++i) {
 			pr_shot r;
@@ -121,9 +108,9 @@ int main(int argc, char **argv)
 			sink += r.final[2];
 			events += r.events;
 		}
-		rate[k] = (double)shots / (now() - t0);
+		rate[k] = (double)shots / (bench_now() - t0);
 	}
-	qsort(rate, (size_t)runs, sizeof *rate, cmp);
+	qsort(rate, (size_t)runs, sizeof *rate, bench_cmp);
 	printf("mode=%s law=%s actions=%s dt=%g shots=%ld runs=%d median_shots_per_s=%.0f min=%.0f max=%.0f "
 	       "events_per_shot=%.2f checksum=%.6g\n", o.mode == PR_SIM_EVENT ? "event" : "stepped",
 	       t.friction_law == PR_FRICTION_CONSTANT ? "constant" : "exponential", actions, o.dt, shots, runs, rate[runs / 2], rate[0], rate[runs - 1],

@@ -26,6 +26,7 @@
 #include <unistd.h>
 
 #include "syrk_priv.h"
+#include "bench_util.h"
 
 #define BLOCK 64
 
@@ -34,24 +35,9 @@ typedef void dsyrk_fn(int, int, int, int, int, double, const double *, int, doub
 typedef void threads_fn(int);
 typedef char *corename_fn(void);
 
-static double now(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-	double x = *(const double *)a, y = *(const double *)b;
-
-	return (x > y) - (x < y);
-}
-
 static double median(double *t, int k)
 {
-	qsort(t, (size_t)k, sizeof *t, cmp_double);
+	qsort(t, (size_t)k, sizeof *t, bench_cmp);
 	return k % 2 ? t[k / 2] : 0.5 * (t[k / 2 - 1] + t[k / 2]);
 }
 
@@ -105,7 +91,7 @@ int main(int argc, char **argv)
 		                             { 0, 0, 0, 0 } };
 	const char *lib = "libopenblas.so.0";
 	int m = 20000, d = 200, runs = 5, c, nfp, r, j, k, nt, cpus;
-	double *Y, *H, *Hb, *B, *t, macs, diff = 0.0, big = 0.0;
+	double *Y, *H, *Hb, *B, *t, macs, med, diff = 0.0, big = 0.0;
 	void *h;
 	dsyrk_fn *dsyrk = NULL;
 	threads_fn *set_threads = NULL;
@@ -149,13 +135,14 @@ int main(int argc, char **argv)
 	for (k = 0; k < 2; k++) {
 		nt = k ? 1 : cpus;
 		for (r = 0; r < runs; r++) {
-			double t0 = now();
+			double t0 = bench_now();
 
 			own(Y, m, nfp, H, B, nt);
-			t[r] = now() - t0;
+			t[r] = bench_now() - t0;
 		}
-		printf(" own_%s_s=%.6f own_%s_gmacs=%.2f", k ? "1" : "all", median(t, runs), k ? "1" : "all",
-		       macs / median(t, runs) * 1e-9);
+		med = median(t, runs);
+		printf(" own_%s_s=%.6f own_%s_gmacs=%.2f", k ? "1" : "all", med, k ? "1" : "all",
+		       macs / med * 1e-9);
 	}
 	if ((h = dlopen(lib, RTLD_NOW | RTLD_LOCAL))) {
 		*(void **)&dsyrk = dlsym(h, "cblas_dsyrk");
@@ -170,13 +157,14 @@ int main(int argc, char **argv)
 		/* 0: OpenBLAS's own default, every core */
 		set_threads(nt ? 1 : 0);
 		for (r = 0; r < runs; r++) {
-			double t0 = now();
+			double t0 = bench_now();
 
 			dsyrk(101, 121, 112, d, m, 1.0, Y, nfp, 0.0, Hb, nfp); /* row-major, upper, Y^T Y */
-			t[r] = now() - t0;
+			t[r] = bench_now() - t0;
 		}
-		printf(" openblas_%s_s=%.6f openblas_%s_gmacs=%.2f", nt ? "1" : "all", median(t, runs),
-		       nt ? "1" : "all", macs / median(t, runs) * 1e-9);
+		med = median(t, runs);
+		printf(" openblas_%s_s=%.6f openblas_%s_gmacs=%.2f", nt ? "1" : "all", med,
+		       nt ? "1" : "all", macs / med * 1e-9);
 	}
 	for (j = 0; j < d; j++)
 		for (k = j; k < d; k++) {
