@@ -3,8 +3,8 @@
 # Python binding) against scipy.optimize.minimize(method='trust-exact') on
 # the same REPS dual in the same run (scripts/bench_reps.py), next to the
 # previous poolreps built from git in this run (BENCH_BASE, default the
-# last commit before the per-thread blocks of Y, the register-held tiles
-# and the chord steps);
+# last commit before the CSV input was read in parts on several threads
+# and its numbers in place, 8 digits at a time;
 # BENCH_BASE=none skips it), whole process and in-process: built by
 # scripts/prev_build.sh in a temporary folder, removed afterwards. Table by
 # scripts/bench_reps_table.py. CSV: build/bench/reps.csv (copy it to
@@ -15,7 +15,7 @@
 set -e
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
-BASE=${BENCH_BASE:-713233647ea1530bb7471152fd9c0ee79b48c18b}
+BASE=${BENCH_BASE:-b65e7967daf272532ff0762ea311401f5cb10acf}
 ${MAKE:-make} -s SAN=0 build/rel/poolreps build/rel/libpoolreps.so.0.1.0 build/rel/bench_syrk
 TMP=$(mktemp -d "${TMPDIR:-/tmp}/bench_reps.XXXXXX")
 trap 'rm -rf "$TMP"' EXIT INT TERM

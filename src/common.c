@@ -1,11 +1,13 @@
 /* common.c — status helpers shared by every module, one-line messages, and
  * the registry of temporary paths that a fatal signal removes. */
-#define _GNU_SOURCE /* syscall(SYS_getdents64): listing a folder inside a signal handler */
+#define _GNU_SOURCE /* syscall(SYS_getdents64): listing a folder inside a signal handler;
+                     * sched_getaffinity: the CPUs of pr_cpu_count */
 #include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
 #include <pthread.h>
+#include <sched.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -107,6 +109,14 @@ void pr_gsl_error_handler(const char *reason, const char *file, int line, int gs
 		longjmp(*gsl_jump, 1);
 }
 
+/* Set in a thread whose failures are retried by the caller (pr_oom_retried). */
+static _Thread_local int oom_retried;
+
+void pr_oom_retried(int on)
+{
+	oom_retried = on;
+}
+
 int pr_err(char *err, int status, const char *fmt, ...)
 {
 	/* room for a message around a path of PATH_MAX bytes, each byte escaped */
@@ -114,7 +124,7 @@ int pr_err(char *err, int status, const char *fmt, ...)
 	size_t n;
 	va_list ap;
 
-	if (status == PR_ENOMEM)
+	if (status == PR_ENOMEM && !oom_retried)
 		pr_out_of_memory = 1;
 	if (err) {
 		va_start(ap, fmt);
@@ -446,4 +456,42 @@ int pr_owner_dead(const char *tag)
 	/* the PID lives again in another process (our /proc shows our namespace) */
 	now = pid == (long)getpid() ? 0 : start_time(pid);
 	return start && now && now != start && start_time(0) && (long)getpid() == proc_self_pid();
+}
+
+/* ---- threads ---- */
+
+int pr_cpu_count(void)
+{
+	cpu_set_t set;
+	long n;
+
+	if (sched_getaffinity(0, sizeof set, &set) == 0)
+		n = CPU_COUNT(&set);
+	else
+		n = sysconf(_SC_NPROCESSORS_ONLN);
+	return n < 1 ? 1 : n > PR_MAX_THREADS ? PR_MAX_THREADS : (int)n;
+}
+
+/* Stacks of PR_THREAD_STACK bytes: the parts hold a few locals, and glibc's
+ * default of 8 MiB per thread, kept in its cache after the join, took
+ * address space a later allocation needed. */
+void pr_run_parts(int nt, void *(*fn)(void *), void *parts, size_t size)
+{
+	pthread_t tid[PR_MAX_THREADS];
+	pthread_attr_t attr;
+	int started[PR_MAX_THREADS], t, attr_ok = pthread_attr_init(&attr) == 0;
+
+	if (attr_ok)
+		pthread_attr_setstacksize(&attr, PR_THREAD_STACK);
+	for (t = 0; t < nt; t++)
+		started[t] = t > 0 && pthread_create(&tid[t], attr_ok ? &attr : NULL, fn,
+		                                     (char *)parts + t * size) == 0;
+	if (attr_ok)
+		pthread_attr_destroy(&attr);
+	for (t = 0; t < nt; t++)
+		if (!started[t])
+			fn((char *)parts + t * size);
+	for (t = 1; t < nt; t++)
+		if (started[t])
+			pthread_join(tid[t], NULL);
 }

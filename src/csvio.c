@@ -6,7 +6,9 @@
  * record is reported with the file line it ends on. A whole line with no
  * quote, blank or inner carriage return, read while libcsv holds no part of
  * a record, is split at its commas directly (what libcsv would do with it,
- * at a fraction of the cost); the callbacks and limits are the same.
+ * at a fraction of the cost); the callbacks and limits are the same. In a
+ * numeric table such a line's numbers are read in place (plain_numbers).
+ * pr_csv_read_threads reads a large file in parts on several threads.
  */
 #define _DEFAULT_SOURCE /* realpath */
 #include <dirent.h>
@@ -159,6 +161,14 @@ int pr_csv_parse_double(const char *s, double *v)
 
 /* ---- the one reader ---- */
 
+/* A numeric table being read: the table and a row of values. */
+typedef struct {
+	pr_csv *t;
+	double *row;
+} numeric;
+
+static int numeric_row(void *user, const char *path, long line, int n, char **fields, char *err);
+
 typedef struct {
 	const char *path;
 	unsigned flags;
@@ -174,6 +184,7 @@ typedef struct {
 	char *text;                /* the record's fields, NUL-terminated, end to end */
 	size_t len, cap;
 	char **ptr;                /* handed to the callbacks */
+	numeric *num;              /* the table the rows go to (numeric_row), or NULL */
 } scanner;
 
 static void on_field(void *s, size_t len, void *data)
@@ -302,6 +313,32 @@ static void on_record(int c, void *data)
 	r->len = 0;
 }
 
+/* A plain line (plain_line) of a numeric table read in place, without the
+ * copy of its fields: 1 when it holds as many fields as the header, each a
+ * number decimal.c reads exactly (the value numeric_row would store) and no
+ * longer than a field may be; 0, with nothing done, for the general way,
+ * which reports what is wrong. The block's padding lets the parser load 8
+ * bytes at a time. */
+static int plain_numbers(scanner *r, const char *s, size_t end)
+{
+	const char *f = s, *stop = s, *e = s + end;
+	double *row = r->num->row;
+	int j;
+
+	for (j = 0; j < r->ncols; j++, f = stop + 1) {
+		if (!pr_decimal_parse_padded(f, &stop, &row[j]) || stop - f > PR_CSV_MAX_FIELD ||
+		    (stop != e && *stop != ','))
+			return 0;
+		if (stop == e)
+			break;
+	}
+	if (j != r->ncols - 1 || stop != e)
+		return 0;
+	r->nfields_seen += r->ncols;
+	r->status = add_row(r->num->t, row, r->line, r->err);
+	return 1;
+}
+
 /* Report a whole line that libcsv would split at every comma and nowhere
  * else (no quote, no blank, which libcsv trims, no carriage return but one
  * right before the line end) through the same callbacks, without libcsv's
@@ -324,6 +361,8 @@ static int plain_line(scanner *r, const char *s, size_t n)
 			return 0;
 	if (!end)
 		return 1; /* an empty line: no record, as in libcsv */
+	if (r->num && r->header_done && plain_numbers(r, s, end))
+		return 1;
 	for (f = s; !r->status; f = c + 1) {
 		if (!(c = memchr(f, ',', (size_t)(s + end - f)))) {
 			on_field((void *)f, (size_t)(s + end - f), r);
@@ -335,17 +374,24 @@ static int plain_line(scanner *r, const char *s, size_t n)
 	return 1;
 }
 
+/* 1 if libcsv is between records (holds no part of one). */
+static int csv_idle(const scanner *r, const struct csv_parser *p)
+{
+	return p->pstate == r->idle_state && !p->quoted && !p->entry_pos;
+}
+
 /* Feed one piece (at most one line end, at its end) to libcsv. pending
  * counts the bytes since the last completed field, which libcsv buffers: a
  * quoted field may double its quotes, so more than twice the field limit
- * (plus a block) means a field over the limit that has not ended yet. */
+ * (plus a block) means a field over the limit that has not ended yet. A
+ * piece after which libcsv is between records (a blank line) buffers
+ * nothing. */
 static void feed(scanner *r, struct csv_parser *p, const char *s, size_t n, long *pending,
                  long *linelen)
 {
 	long before = r->nfields_seen;
 	/* libcsv between records: a plain line may bypass it */
-	int direct = !(r->flags & PR_CSV_LIBCSV_ONLY) && p->pstate == r->idle_state && !p->quoted &&
-	             !p->entry_pos;
+	int direct = !(r->flags & PR_CSV_LIBCSV_ONLY) && csv_idle(r, p);
 
 	*linelen += (long)n;
 	if (*linelen > PR_CSV_MAX_LINE + 1) {
@@ -357,7 +403,7 @@ static void feed(scanner *r, struct csv_parser *p, const char *s, size_t n, long
 	    !r->status)
 		r->status = pr_err(r->err, csv_error(p) == CSV_ENOMEM ? PR_ENOMEM : PR_EIO,
 		                   "%s:%ld: malformed CSV: %s", r->path, r->line, csv_strerror(csv_error(p)));
-	*pending = r->nfields_seen == before ? *pending + (long)n : 0;
+	*pending = r->nfields_seen == before && !csv_idle(r, p) ? *pending + (long)n : 0;
 	if (!r->status && *pending > 2L * PR_CSV_MAX_FIELD + 2)
 		r->status = pr_err(r->err, PR_EIO, "%s:%ld: field %d is longer than %d bytes%s",
 		                   r->path, r->line, r->nfield + 1, PR_CSV_MAX_FIELD,
@@ -378,40 +424,54 @@ typedef struct {
 
 #define SCAN_BLOCK ((size_t)1 << 16)
 
-static int source_open(source *src, const char *path, unsigned flags, pr_csv_record_fn header,
-                       pr_csv_record_fn row, void *user, int eager, char *err)
+/* The scanner and libcsv of a source that reads the file shown as shown. */
+static int source_setup(source *src, const char *shown, unsigned flags, pr_csv_record_fn header,
+                        pr_csv_record_fn row, void *user, char *err)
 {
 	scanner *r = &src->r;
-	struct stat st;
 
-	memset(src, 0, sizeof *src);
-	src->std = !path || strcmp(path, "-") == 0;
 	src->first = 1;
 	src->last = '\n';
-	src->eager = eager;
-	r->path = src->std ? "<stdin>" : path;
+	r->path = shown;
 	r->flags = flags;
 	r->header = header;
 	r->row = row;
 	r->user = user;
 	r->err = err;
 	r->line = 1;
+	r->num = row == numeric_row ? user : NULL;
+	/* zeroed padding after a block: plain_numbers' 8-byte loads */
+	src->buf = calloc(1, SCAN_BLOCK + 8);
+	if (!src->buf || csv_init(&src->p, CSV_APPEND_NULL | CSV_STRICT | CSV_STRICT_FINI) != 0) {
+		free(src->buf);
+		src->buf = NULL;
+		return pr_err(err, PR_ENOMEM, "%s: out of memory", shown);
+	}
+	r->idle_state = src->p.pstate;
+	return PR_OK;
+}
+
+static int source_open(source *src, const char *path, unsigned flags, pr_csv_record_fn header,
+                       pr_csv_record_fn row, void *user, int eager, char *err)
+{
+	struct stat st;
+
+	memset(src, 0, sizeof *src);
+	src->std = !path || strcmp(path, "-") == 0;
+	src->eager = eager;
 	src->fp = src->std ? stdin : fopen(path, "rb");
 	if (!src->fp)
 		return pr_err(err, pr_errno_status(), "%s: cannot open: %s", path, strerror(errno));
 	if (fstat(fileno(src->fp), &st) == 0 && S_ISDIR(st.st_mode)) {
 		if (!src->std)
 			fclose(src->fp);
-		return pr_err(err, PR_EIO, "%s: is a directory, not a CSV file", r->path);
+		return pr_err(err, PR_EIO, "%s: is a directory, not a CSV file", src->std ? "<stdin>" : path);
 	}
-	src->buf = malloc(SCAN_BLOCK);
-	if (!src->buf || csv_init(&src->p, CSV_APPEND_NULL | CSV_STRICT | CSV_STRICT_FINI) != 0) {
-		free(src->buf);
+	if (source_setup(src, src->std ? "<stdin>" : path, flags, header, row, user, err)) {
 		if (!src->std)
 			fclose(src->fp);
-		return pr_err(err, PR_ENOMEM, "%s: out of memory", r->path);
+		return PR_ENOMEM;
 	}
-	r->idle_state = src->p.pstate;
 	return PR_OK;
 }
 
@@ -435,15 +495,12 @@ static size_t read_eager(source *src)
 	return n;
 }
 
-/* Read one block and feed it, split at line ends; 0 at the end of the input. */
-static size_t source_block(source *src)
+/* Feed the n > 0 bytes at s (one block of the input), split at line ends. */
+static void scan_block(source *src, char *s, size_t n)
 {
 	scanner *r = &src->r;
-	size_t n = src->eager ? read_eager(src) : fread(src->buf, 1, SCAN_BLOCK, src->fp);
-	char *s = src->buf, *end = src->buf + n, *nul;
+	char *end = s + n, *nul;
 
-	if (n == 0)
-		return 0;
 	/* a UTF-8 byte-order mark (spreadsheet exports) is not part of the header */
 	if (src->first && n >= 3 && memcmp(s, "\xEF\xBB\xBF", 3) == 0)
 		s += 3;
@@ -453,7 +510,7 @@ static size_t source_block(source *src)
 		for (; s < nul; ++s)
 			line += *s == '\n';
 		r->status = pr_err(r->err, PR_EIO, "%s:%ld: NUL byte: not a text CSV file", r->path, line);
-		return n;
+		return;
 	}
 	while (!r->status && s < end) {
 		char *nl = memchr(s, '\n', (size_t)(end - s));
@@ -466,6 +523,15 @@ static size_t source_block(source *src)
 		s += len;
 	}
 	src->last = (unsigned char)end[-1];
+}
+
+/* Read one block and feed it; 0 at the end of the input. */
+static size_t source_block(source *src)
+{
+	size_t n = src->eager ? read_eager(src) : fread(src->buf, 1, SCAN_BLOCK, src->fp);
+
+	if (n)
+		scan_block(src, src->buf, n);
 	return n;
 }
 
@@ -494,13 +560,20 @@ static void source_end(source *src)
 		                   r->path, r->line);
 }
 
-static void source_close(source *src)
+/* What source_setup and the scan allocated. */
+static void source_release(source *src)
 {
-	csv_free(&src->p);
+	if (src->buf)
+		csv_free(&src->p);
 	free(src->buf);
 	free(src->r.off);
 	free(src->r.ptr);
 	free(src->r.text);
+}
+
+static void source_close(source *src)
+{
+	source_release(src);
 	if (!src->std)
 		fclose(src->fp);
 }
@@ -522,11 +595,6 @@ int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,
 }
 
 /* ---- numeric tables ---- */
-
-typedef struct {
-	pr_csv *t;
-	double *row;
-} numeric;
 
 static int numeric_header(void *user, const char *path, long line, int n, char **names, char *err)
 {
@@ -564,6 +632,222 @@ int pr_csv_read(const char *path, pr_csv **out, char *err)
 	}
 	*out = u.t;
 	return rc;
+}
+
+/* ---- a large file on several threads ----
+ *
+ * A regular file of at least PAR_MIN bytes is split at line ends into
+ * parts, each read at once by a scanner and libcsv of its own through the
+ * same scan_block into a table of its own; the tables are joined in file
+ * order with their lines renumbered. The header line is read first, alone.
+ * A line end starts a record only outside quotes, so a quote in a later
+ * part, like anything but plain rows there (a NUL, a bad field, a file
+ * that shrank), has the whole file read again on one thread: every message
+ * and every value is pr_csv_read's. */
+#define PAR_MIN ((off_t)1 << 20)
+#define PAR_PART ((off_t)1 << 19) /* bytes per part at least */
+
+typedef struct {
+	source src;
+	numeric u;
+	int fd, redo;
+	off_t off, end; /* bytes off .. end - 1; end < 0: to the end of the file */
+	char err[PR_ERRLEN];
+} part;
+
+static void *part_run(void *arg)
+{
+	part *a = arg;
+	source *src = &a->src;
+	scanner *r = &src->r;
+	off_t off = a->off;
+
+	/* a failure here is not the read's: the file is read again (the
+	 * thread of read_parts sets it back) */
+	pr_oom_retried(1);
+
+	while (!r->status && !a->redo && (a->end < 0 || off < a->end)) {
+		size_t want = a->end >= 0 && a->end - off < (off_t)SCAN_BLOCK ? (size_t)(a->end - off)
+		                                                                : SCAN_BLOCK;
+		ssize_t k = pread(a->fd, src->buf, want, off);
+
+		if (k < 0 && errno == EINTR && !pr_interrupted)
+			continue;
+		if (k <= 0) {
+			/* a read error, or a part cut short by a file that shrank */
+			a->redo = k < 0 || a->end >= 0;
+			break;
+		}
+		/* only the header's part starts where no quote can be open */
+		if (a->off > 0 && memchr(src->buf, '"', (size_t)k))
+			a->redo = 1;
+		else
+			scan_block(src, src->buf, (size_t)k);
+		off += k;
+	}
+	/* a part but the last ends on a line end with libcsv between records */
+	if (a->end >= 0)
+		a->redo |= src->last != '\n' || !csv_idle(r, &src->p);
+	else if (!a->redo && !r->status)
+		source_end(src);
+	a->redo |= r->status != PR_OK;
+	return NULL;
+}
+
+/* The part of path from off (its scanner; the header's when off is 0). */
+static int part_init(part *a, int fd, const char *path, off_t off, const pr_csv *hdr)
+{
+	scanner *r = &a->src.r;
+
+	a->fd = fd;
+	a->off = off;
+	a->end = -1;
+	/* eager: source_end asks no FILE for a read error */
+	a->src.eager = 1;
+	if (source_setup(&a->src, path, 0, numeric_header, numeric_row, &a->u, a->err))
+		return PR_ENOMEM;
+	if (!hdr)
+		return PR_OK;
+	a->src.first = 0;
+	r->header_done = 1;
+	r->ncols = hdr->ncols;
+	if (!(a->u.t = pr_csv_new(hdr->ncols, (const char *const *)hdr->names, a->err)) ||
+	    !(a->u.row = malloc((size_t)hdr->ncols * sizeof *a->u.row)))
+		return PR_ENOMEM;
+	return PR_OK;
+}
+
+static void part_free(part *a)
+{
+	source_release(&a->src);
+	free(a->u.row);
+	pr_csv_free(a->u.t);
+}
+
+/* The first line start at or after off (off > 0) within a block; 0 when
+ * there is none, or at or past size. */
+static off_t line_start(int fd, char *buf, off_t off, off_t size)
+{
+	ssize_t k = pread(fd, buf, SCAN_BLOCK, off - 1);
+	const char *nl = k > 0 ? memchr(buf, '\n', (size_t)k) : NULL;
+	off_t at = nl ? off + (nl - buf) : 0;
+
+	return at < size ? at : 0;
+}
+
+/* The rows of parts 1 .. np into the header's table (part 0's), their lines
+ * shifted by the line ends of the parts before; 0 when memory ran out. */
+static int join_parts(part *pt, int np)
+{
+	pr_csv *t = pt[0].u.t, *first = pt[1].u.t;
+	const size_t w = (size_t)t->ncols;
+	long rows = 0, shift = 0, i;
+	double *d;
+	long *l;
+	int k;
+
+	for (k = 1; k <= np; k++)
+		rows += pt[k].u.t->nrows;
+	if (!rows)
+		return 1;
+	/* part 1's arrays, grown to hold every row, become the table's */
+	if (!(d = realloc(first->data, (size_t)rows * w * sizeof *d)))
+		return 0;
+	first->data = d;
+	if (!(l = realloc(first->lines, (size_t)rows * sizeof *l)))
+		return 0;
+	first->data = NULL;
+	first->lines = NULL;
+	t->data = d;
+	t->lines = l;
+	t->cap = rows;
+	for (k = 1; k <= np; k++) {
+		const pr_csv *c = pt[k].u.t;
+
+		shift += pt[k - 1].src.r.line - 1;
+		if (k > 1 && c->nrows) {
+			memcpy(d + (size_t)t->nrows * w, c->data, (size_t)c->nrows * w * sizeof *d);
+			memcpy(l + t->nrows, c->lines, (size_t)c->nrows * sizeof *l);
+		}
+		for (i = t->nrows; i < t->nrows + c->nrows; i++)
+			l[i] += shift;
+		t->nrows += c->nrows;
+	}
+	return 1;
+}
+
+/* pr_csv_read of a regular file of at least PAR_MIN bytes on up to threads
+ * threads: 1 with *out, or 0 (nothing kept) to read it on one thread. */
+static int read_parts(const char *path, int threads, pr_csv **out)
+{
+	struct stat st;
+	part *pt = NULL;
+	off_t size, at;
+	int fd = open(path, O_RDONLY | O_CLOEXEC), np = 0, k, ok = 0;
+
+	if (fd < 0)
+		return 0;
+	pr_oom_retried(1);
+	if (fstat(fd, &st) || !S_ISREG(st.st_mode) || st.st_size < PAR_MIN)
+		goto done;
+	size = st.st_size;
+	np = size / PAR_PART < threads ? (int)(size / PAR_PART) : threads;
+	if (!(pt = calloc((size_t)np + 1, sizeof *pt)) || part_init(&pt[0], fd, path, 0, NULL))
+		goto done;
+	/* the header: the first line, alone */
+	if (!(pt[0].end = line_start(fd, pt[0].src.buf, 1, size)))
+		goto done;
+	part_run(&pt[0]);
+	if (pt[0].redo || !pt[0].u.t)
+		goto done;
+	for (k = 1, at = pt[0].end; k <= np; k++) {
+		if (part_init(&pt[k], fd, path, at, pt[0].u.t))
+			goto done;
+		if (k < np) {
+			off_t want = pt[0].end + (size - pt[0].end) / np * k;
+
+			at = line_start(fd, pt[k].src.buf, want > at ? want : at + 1, size);
+			if (at <= pt[k].off)
+				goto done;
+			pt[k].end = at;
+		}
+	}
+	pr_run_parts(np, part_run, pt + 1, sizeof *pt);
+	for (k = 1; k <= np; k++)
+		if (pt[k].redo)
+			goto done;
+	if ((ok = join_parts(pt, np))) {
+		*out = pt[0].u.t;
+		pt[0].u.t = NULL;
+	}
+done:
+	if (pt)
+		for (k = 0; k <= np; k++)
+			part_free(&pt[k]);
+	free(pt);
+	close(fd);
+	pr_oom_retried(0);
+	return ok;
+}
+
+static atomic_long parts_reads;
+
+long pr_csv_parts_reads(void)
+{
+	return atomic_load(&parts_reads);
+}
+
+int pr_csv_read_threads(const char *path, int threads, pr_csv **out, char *err)
+{
+	if (threads == 0)
+		threads = pr_cpu_count();
+	if (threads > PR_MAX_THREADS)
+		threads = PR_MAX_THREADS;
+	if (threads > 1 && path && strcmp(path, "-") != 0 && read_parts(path, threads, out)) {
+		atomic_fetch_add(&parts_reads, 1);
+		return PR_OK;
+	}
+	return pr_csv_read(path, out, err);
 }
 
 /* ---- a numeric table read in chunks ----

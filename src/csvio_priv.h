@@ -12,6 +12,10 @@ int pr_csv_parse_double(const char *s, double *v);
  * 1 with *v and *end (the first byte after it) set; 0 when it must be left
  * to strtod (any other form, or a value this does not handle). */
 int pr_decimal_parse(const char *s, const char **end, double *v);
+/* The same where 8 bytes may be read from any byte of s up to the first
+ * that cannot continue the number (a buffer padded after its text): 8
+ * digits at a time. */
+int pr_decimal_parse_padded(const char *s, const char **end, double *v);
 /* The shortest of %.15g..%.17g that reads back exactly. */
 void pr_csv_format_double(double v, char *buf, size_t n);
 
@@ -40,5 +44,8 @@ typedef int (*pr_csv_record_fn)(void *user, const char *path, long line, int n,
                                 char **fields, char *err);
 int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,
                 pr_csv_record_fn row, void *user, char *err);
+/* How many pr_csv_read_threads calls so far read their file in parts (the
+ * tests tell the parts' way from the one-thread way by it). */
+long pr_csv_parts_reads(void);
 
 #endif

@@ -178,18 +178,53 @@ static int scale(uint64_t w, int q, double *v)
 
 #define DIGIT(c) ((unsigned)((c) - '0') < 10)
 
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+/* The eight bytes at p as an 8-digit number if they are all digits (one
+ * load and three multiplications where a loop takes eight dependent
+ * steps); -1 otherwise. */
+static int64_t eight_digits(const char *p)
+{
+	const uint64_t hi = 0xF0F0F0F0F0F0F0F0ULL, zeros = 0x3030303030303030ULL;
+	uint64_t v;
+
+	memcpy(&v, p, sizeof v);
+	/* each byte 0x30..0x39: high nibble 3, and adding 6 keeps it 3 */
+	if ((v & hi) != zeros || ((v + 0x0606060606060606ULL) & hi) != zeros)
+		return -1;
+	v -= zeros;
+	/* pairs, then fours, then all eight (the first byte is the highest digit) */
+	v = v * 10 + (v >> 8);
+	v = ((v & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32)) +
+	     ((v >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32))) >> 32;
+	return (int64_t)(uint32_t)v;
+}
+#else
+static int64_t eight_digits(const char *p)
+{
+	(void)p;
+	return -1;
+}
+#endif
+
 /* Append the digits at *s to w (nd significant digits so far; leading
  * zeros skipped while nd is 0); the number of digits read, or -1 past 19
- * significant digits. */
-static int digits(const char **s, uint64_t *w, int *nd)
+ * significant digits. padded: 8 bytes may be read from any byte up to the
+ * first that is not a digit. */
+static int digits(const char **s, uint64_t *w, int *nd, int padded)
 {
 	const char *p = *s, *start = p;
 	uint64_t x = *w;
+	int64_t e;
 	int k = *nd;
 
 	if (!k)
 		while (*p == '0')
 			++p;
+	while (padded && k <= 11 && (e = eight_digits(p)) >= 0) {
+		x = 100000000 * x + (uint64_t)e;
+		k += 8;
+		p += 8;
+	}
 	/* four digits at a time (one multiplication on the chain through x
 	 * instead of four); each byte is read only after the one before it
 	 * was a digit, so never past the terminating NUL */
@@ -210,18 +245,18 @@ static int digits(const char **s, uint64_t *w, int *nd)
 	return (int)(p - start);
 }
 
-int pr_decimal_parse(const char *s, const char **end, double *v)
+static int parse(const char *s, const char **end, double *v, int padded)
 {
 	uint64_t w = 0;
 	int neg = 0, nd = 0, q = 0, nint, nfrac = 0, has_exp = 0;
 
 	if (*s == '+' || *s == '-')
 		neg = *s++ == '-';
-	if ((nint = digits(&s, &w, &nd)) < 0)
+	if ((nint = digits(&s, &w, &nd, padded)) < 0)
 		return 0;
 	if (*s == '.') {
 		++s;
-		if ((nfrac = digits(&s, &w, &nd)) < 0)
+		if ((nfrac = digits(&s, &w, &nd, padded)) < 0)
 			return 0;
 		q = -nfrac;
 	}
@@ -254,6 +289,16 @@ int pr_decimal_parse(const char *s, const char **end, double *v)
 	return 1;
 }
 
+int pr_decimal_parse(const char *s, const char **end, double *v)
+{
+	return parse(s, end, v, 0);
+}
+
+int pr_decimal_parse_padded(const char *s, const char **end, double *v)
+{
+	return parse(s, end, v, 1);
+}
+
 #else /* no 128-bit integers or no IEEE binary64: strtod decides everything */
 int pr_decimal_parse(const char *s, const char **end, double *v)
 {
@@ -261,6 +306,11 @@ int pr_decimal_parse(const char *s, const char **end, double *v)
 	(void)end;
 	(void)v;
 	return 0;
+}
+
+int pr_decimal_parse_padded(const char *s, const char **end, double *v)
+{
+	return pr_decimal_parse(s, end, v);
 }
 #endif
 

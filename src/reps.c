@@ -26,12 +26,9 @@
  * feature residual, and for the limit an LP gap and a bound on the mass an
  * optimal solution can put outside supp p_0, from a strictly complementary
  * dual whose reduced costs are exact to about eps^2. */
-#define _GNU_SOURCE /* sched_getaffinity: the CPUs that threads = 0 uses */
 #include <float.h>
 #include <limits.h>
 #include <math.h>
-#include <pthread.h>
-#include <sched.h>
 #include <setjmp.h>
 #include <stdlib.h>
 #include <stdio.h>
@@ -109,8 +106,6 @@ enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCE
 #define HESS_THREAD_WORK 2e6
 /* The same for the residuals A = R - psi th, which run at every evaluation. */
 #define RESID_THREAD_WORK 1e6
-/* Stack of a thread of the Hessian or the residuals. */
-#define THREAD_STACK ((size_t)256 << 10)
 /* joint_newton's chord steps on wide dense problems (chord_next): from a
  * full Newton step that cut the error CHORD_FROM-fold, while each step cuts
  * it CHORD_KEEP-fold. */
@@ -212,27 +207,13 @@ static void work_free(work *w)
 	free(w->iscr);
 }
 
-/* threads = 0: one per CPU this process may run on (the affinity mask, as
- * taskset or a Slurm allocation set it), at most 64. */
-static int auto_threads(void)
-{
-	cpu_set_t set;
-	long n;
-
-	if (sched_getaffinity(0, sizeof set, &set) == 0)
-		n = CPU_COUNT(&set);
-	else
-		n = sysconf(_SC_NPROCESSORS_ONLN);
-	return n < 1 ? 1 : n > 64 ? 64 : (int)n;
-}
-
 /* Threads for the Hessian of an m x nf dense problem: those asked for, at
- * most one per CPU (auto_threads; more only share the CPUs and start more
+ * most one per CPU (pr_cpu_count; more only share the CPUs and start more
  * threads), but one below HESS_THREAD_WORK multiply-adds per Hessian, and no
  * more than the runs of PR_SYRK_TJ rows pr_syrk_split can give. */
 static int hess_threads(int asked, int m, int nfp)
 {
-	const int cpus = auto_threads();
+	const int cpus = pr_cpu_count();
 	int t = asked > 0 && asked < cpus ? asked : cpus;
 
 	if ((double)m * nfp * nfp / 2 < HESS_THREAD_WORK)
@@ -281,32 +262,6 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 	}
 	return w->H && w->dsc && w->v1 && w->v2 && w->c && w->dth && w->u && w->iscr ? PR_OK
 	                                                                        : PR_ENOMEM;
-}
-
-/* Runs fn on the nt parts (each `size` bytes, nt <= 64): part 0 here, the
- * others on threads of their own, with stacks of THREAD_STACK bytes (the
- * parts hold a few locals; glibc's default of 8 MiB per thread, kept in its
- * cache after the join, took address space a later allocation needed);
- * a part whose thread cannot start runs here too. */
-static void run_parts(int nt, void *(*fn)(void *), void *parts, size_t size)
-{
-	pthread_t tid[64];
-	pthread_attr_t attr;
-	int started[64], t, attr_ok = pthread_attr_init(&attr) == 0;
-
-	if (attr_ok)
-		pthread_attr_setstacksize(&attr, THREAD_STACK);
-	for (t = 0; t < nt; t++)
-		started[t] = t > 0 && pthread_create(&tid[t], attr_ok ? &attr : NULL, fn,
-		                                     (char *)parts + t * size) == 0;
-	if (attr_ok)
-		pthread_attr_destroy(&attr);
-	for (t = 0; t < nt; t++)
-		if (!started[t])
-			fn((char *)parts + t * size);
-	for (t = 1; t < nt; t++)
-		if (started[t])
-			pthread_join(tid[t], NULL);
 }
 
 /* Rows lo .. hi - 1 of A = R - psi th, each row's sum in column order, four
@@ -359,13 +314,13 @@ static void *residual_rows(void *arg)
  * RESID_THREAD_WORK multiply-adds. */
 static void dense_residuals(const prob *P, const work *w, const double *th, double *A)
 {
-	resid_part part[64];
+	resid_part part[PR_MAX_THREADS];
 	int t, nt = (double)P->m * P->nf < RESID_THREAD_WORK ? 1 : w->threads;
 
 	for (t = 0; t < nt; t++)
 		part[t] = (resid_part){ P, th, A, (int)((long long)P->m * t / nt),
 		                        (int)((long long)P->m * (t + 1) / nt) };
-	run_parts(nt, residual_rows, part, sizeof *part);
+	pr_run_parts(nt, residual_rows, part, sizeof *part);
 }
 
 /* The dual in solver coordinates at (eta, x->th):
@@ -511,12 +466,12 @@ static void *hess_part_run(void *arg)
  * w->c, w->v1 zeroed by the caller. */
 static void covariances_blas(const prob *P, work *w, const point *x, int c, double mu)
 {
-	const int nf = P->nf, nfp = w->nfp, nt = w->threads; /* <= 64: check_opts */
+	const int nf = P->nf, nfp = w->nfp, nt = w->threads; /* <= PR_MAX_THREADS: check_opts */
 	/* mc is not restrict: fill_rows adds to it through w->v1 */
 	const double *mc = w->v1;
 	double *H = w->H->data, vu = 0.0;
 	const size_t td = w->H->tda;
-	hess_part part[64];
+	hess_part part[PR_MAX_THREADS];
 	int t, j, k;
 
 	memset(w->Hp, 0, (size_t)nfp * nfp * sizeof *w->Hp);
@@ -524,7 +479,7 @@ static void covariances_blas(const prob *P, work *w, const point *x, int c, doub
 		part[t] = (hess_part){ P, w, x, P->psi + (size_t)c * nf, mu,
 		                       w->Y + (size_t)t * SYRK_ROWS * nfp, t == 0 ? &vu : NULL,
 		                       pr_syrk_split(nfp, nt, t), pr_syrk_split(nfp, nt, t + 1) };
-	run_parts(nt, hess_part_run, part, sizeof *part);
+	pr_run_parts(nt, hess_part_run, part, sizeof *part);
 	for (j = 0; j < nf; j++)
 		for (k = j; k < nf; k++)
 			H[(size_t)j * td + k] = w->Hp[(size_t)j * nfp + k] - mc[j] * mc[k];
@@ -2194,8 +2149,9 @@ static int check_opts(const pr_reps_opts *o, char *err)
 		return pr_err(err, PR_EINVAL, "reps.max_iter: must be >= 1 (got %d)", o->max_iter);
 	if (!(o->eta_min > 0.0 && o->eta_min <= 1.0))
 		return pr_err(err, PR_EINVAL, "reps.eta_min: must be in (0, 1] (got %g)", o->eta_min);
-	if (o->threads < 0 || o->threads > 64)
-		return pr_err(err, PR_EINVAL, "reps: threads must be in 0 .. 64 (got %d)", o->threads);
+	if (o->threads < 0 || o->threads > PR_MAX_THREADS)
+		return pr_err(err, PR_EINVAL, "reps: threads must be in 0 .. %d (got %d)", PR_MAX_THREADS,
+		              o->threads);
 	return PR_OK;
 }
 

@@ -54,6 +54,22 @@ static void test_read_valid_and_odd(void **state)
 	assert_int_equal(pr_csv_nrows(t), 2);
 	assert_int_equal(pr_csv_line(t, 1), 5);
 	pr_csv_free(t);
+	/* more blank lines than a field may have bytes: they buffer nothing */
+	{
+		char *many = malloc(30000);
+		size_t k, n = 0;
+
+		assert_non_null(many);
+		n += (size_t)sprintf(many, "x,y\n");
+		for (k = 0; k < 9000; k++)
+			n += (size_t)sprintf(many + n, k % 2 ? "\r\n" : "\n");
+		sprintf(many + n, "1,2\n");
+		assert_int_equal(read_text(many, &t, err), PR_OK);
+		assert_int_equal(pr_csv_nrows(t), 1);
+		assert_int_equal(pr_csv_line(t, 0), 9002);
+		pr_csv_free(t);
+		free(many);
+	}
 	/* header only */
 	assert_int_equal(read_text("x,y\n", &t, err), PR_OK);
 	assert_int_equal(pr_csv_nrows(t), 0);

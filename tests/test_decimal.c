@@ -37,6 +37,27 @@ static int ref_parse(const char *s, double *v)
 
 static long n_checked, n_fast;
 
+/* pr_decimal_parse_padded answers as pr_decimal_parse (verdict, end, bits),
+ * with digits after the text's end, where 8-byte loads see them. */
+static void check_padded(const char *s)
+{
+	char buf[160];
+	const char *e1, *e2;
+	double a = 0, b = 0;
+	size_t n = strlen(s);
+	int r1, r2;
+
+	if (n + 9 > sizeof buf)
+		return;
+	memcpy(buf, s, n + 1);
+	memset(buf + n + 1, '9', 8);
+	r1 = pr_decimal_parse(s, &e1, &a);
+	r2 = pr_decimal_parse_padded(buf, &e2, &b);
+	if (r1 != r2 || (r1 && (e1 - s != e2 - buf || memcmp(&a, &b, sizeof a) != 0)))
+		fail_msg("'%s': padded %d %a (end %td), plain %d %a (end %td)", s, r2, b, e2 - buf, r1, a,
+		         e1 - s);
+}
+
 /* Same verdict and same bits as strtod; fast-path answers counted. */
 static void check(const char *s)
 {
@@ -51,6 +72,7 @@ static void check(const char *s)
 			fail_msg("'%s': fast path %a, strtod %a", s, f, b);
 		n_fast++;
 	}
+	check_padded(s);
 	n_checked++;
 }
 
@@ -204,6 +226,30 @@ static void test_edges(void **state)
 		check(texts[i]);
 }
 
+/* Every byte that is not a digit, at every place of a run of digits in the
+ * integer part, the fraction and the exponent: the 8-digit loads stop
+ * where the byte loop stops. */
+static void test_padded_stops(void **state)
+{
+	static const char *forms[] = { "%s", "-0.%s", "1.%se5", "12345.6789%s" };
+	const char run[] = "1234567890123456789";
+	char digits[24], text[64];
+	size_t f, pos;
+	int c;
+
+	(void)state;
+	for (f = 0; f < sizeof forms / sizeof *forms; f++)
+		for (pos = 0; pos < sizeof run - 1; pos++)
+			for (c = 1; c < 256; c++) {
+				if (c >= '0' && c <= '9')
+					continue;
+				memcpy(digits, run, sizeof run);
+				digits[pos] = (char)c;
+				snprintf(text, sizeof text, forms[f], digits);
+				check(text);
+			}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -211,6 +257,7 @@ int main(void)
 		cmocka_unit_test(test_random_texts),
 		cmocka_unit_test(test_near_halfway),
 		cmocka_unit_test(test_edges),
+		cmocka_unit_test(test_padded_stops),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);
 }

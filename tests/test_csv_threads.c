@@ -1,0 +1,235 @@
+/* test_csv_threads.c — a CSV file read in parts on several threads
+ * (pr_csv_read_threads) gives what pr_csv_read gives: the same status and
+ * message, and for a good file the same names, values (bits), rows and
+ * lines, on seeded random files of 1.2 to 3 MiB in every form the reader
+ * takes (blank lines, CRLF, blanks around fields, quoted fields, a
+ * byte-order mark, no final line end, numbers strtod must read) and with
+ * one defect placed late in the file (a bad number, a short row, a NUL, an
+ * over-long field, an open quote). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+#include <gsl/gsl_rng.h>
+
+#include "poolreps/csvio.h"
+#include "csvio_priv.h"
+
+typedef struct {
+	char *s;
+	size_t n, cap;
+} text;
+
+static void put(text *t, const char *s, size_t n)
+{
+	if (t->n + n + 1 > t->cap) {
+		t->cap = 2 * (t->n + n + 1);
+		t->s = realloc(t->s, t->cap);
+		assert_non_null(t->s);
+	}
+	memcpy(t->s + t->n, s, n);
+	t->n += n;
+}
+
+static void puts_(text *t, const char *s)
+{
+	put(t, s, strlen(s));
+}
+
+/* One field: mostly what the writer prints, sometimes what other tools do. */
+static void number(text *t, gsl_rng *r)
+{
+	char buf[64];
+	double x = (gsl_rng_uniform(r) - 0.5) * 1e3;
+
+	switch (gsl_rng_uniform_int(r, 12)) {
+	case 0: snprintf(buf, sizeof buf, "%ld", (long)(x * 1e3)); break;
+	case 1: snprintf(buf, sizeof buf, "%.3e", x * 1e-30); break;
+	case 2: snprintf(buf, sizeof buf, "0000%.6f", x < 0 ? -x : x); break;
+	case 3: snprintf(buf, sizeof buf, "%.25f", x); break; /* more digits than the exact path takes */
+	case 4: snprintf(buf, sizeof buf, "%a", x); break;       /* hex: strtod's */
+	case 5: snprintf(buf, sizeof buf, "+.%u", (unsigned)gsl_rng_get(r)); break;
+	default: snprintf(buf, sizeof buf, "%.17g", x); break;
+	}
+	puts_(t, buf);
+}
+
+/* A line end: LF, or CRLF. */
+static void eol(text *t, gsl_rng *r, int crlf)
+{
+	puts_(t, crlf && gsl_rng_uniform_int(r, 2) ? "\r\n" : "\n");
+}
+
+enum { GOOD, BAD_NUMBER, SHORT_ROW, NUL, LONG_FIELD, OPEN_QUOTE, QUOTED_NEWLINE, NDEFECTS };
+
+/* A file of at least `bytes` bytes with ncols columns; with a defect, in
+ * the last third. Returns the text (NUL-terminated, n bytes). */
+static text make_file(gsl_rng *r, size_t bytes, int ncols, int defect)
+{
+	text t = { NULL, 0, 0 };
+	char name[32];
+	const int bom = gsl_rng_uniform_int(r, 4) == 0, crlf = gsl_rng_uniform_int(r, 2),
+	          blanks = gsl_rng_uniform_int(r, 3) == 0, quotes = gsl_rng_uniform_int(r, 4) == 0,
+	          last_eol = gsl_rng_uniform_int(r, 4) != 0;
+	int j, placed = 0, here;
+
+	if (bom)
+		puts_(&t, "\xEF\xBB\xBF");
+	for (j = 0; j < ncols; j++) {
+		snprintf(name, sizeof name, j == 1 && quotes ? "%s\"c,%d\"" : "%sc%d", j ? "," : "", j);
+		puts_(&t, name);
+	}
+	eol(&t, r, crlf);
+	while (t.n < bytes) {
+		here = defect && !placed && t.n > bytes * 2 / 3;
+		if (gsl_rng_uniform_int(r, 50) == 0) { /* a blank line */
+			eol(&t, r, crlf);
+			continue;
+		}
+		for (j = 0; j < ncols; j++) {
+			if (j)
+				puts_(&t, ",");
+			if (here && j == ncols - 1) {
+				switch (defect) {
+				case BAD_NUMBER: puts_(&t, "1.5x"); break;
+				/* one field less (drops the comma), or one more */
+				case SHORT_ROW: ncols > 1 ? (void)t.n-- : puts_(&t, "1,2"); break;
+				case NUL: put(&t, "1\0", 2); break;
+				case LONG_FIELD: {
+					char *z = malloc(5000);
+					memset(z, '0', 5000);
+					put(&t, z, 5000);
+					free(z);
+					puts_(&t, "1");
+					break;
+				}
+				case OPEN_QUOTE: puts_(&t, "\"2"); break;
+				case QUOTED_NEWLINE: puts_(&t, "\"2\n\""); break;
+				default: break;
+				}
+				placed = 1;
+				continue;
+			}
+			if (blanks && gsl_rng_uniform_int(r, 20) == 0)
+				puts_(&t, " ");
+			if (quotes && gsl_rng_uniform_int(r, 500) == 0) {
+				puts_(&t, "\"");
+				number(&t, r);
+				puts_(&t, "\"");
+			} else {
+				number(&t, r);
+			}
+		}
+		if (t.n < bytes || last_eol)
+			eol(&t, r, crlf);
+	}
+	t.s[t.n] = '\0';
+	return t;
+}
+
+/* Both readers on the file: the same answer. */
+static void compare(const char *path, int threads)
+{
+	pr_csv *a = NULL, *b = NULL;
+	char ea[PR_ERRLEN] = "", eb[PR_ERRLEN] = "";
+	int ra = pr_csv_read(path, &a, ea), rb = pr_csv_read_threads(path, threads, &b, eb), j;
+	long i;
+
+	assert_int_equal(ra, rb);
+	if (ra != PR_OK) {
+		assert_string_equal(ea, eb);
+		assert_null(b);
+		return;
+	}
+	assert_int_equal(pr_csv_ncols(a), pr_csv_ncols(b));
+	assert_int_equal(pr_csv_nrows(a), pr_csv_nrows(b));
+	for (j = 0; j < pr_csv_ncols(a); j++)
+		assert_string_equal(pr_csv_name(a, j), pr_csv_name(b, j));
+	for (i = 0; i < pr_csv_nrows(a); i++) {
+		if (memcmp(pr_csv_row(a, i), pr_csv_row(b, i), (size_t)pr_csv_ncols(a) * sizeof(double)))
+			fail_msg("%s: row %ld differs on %d threads", path, i, threads);
+		assert_int_equal(pr_csv_line(a, i), pr_csv_line(b, i));
+	}
+	assert_string_equal(pr_csv_path(a), pr_csv_path(b));
+	pr_csv_free(a);
+	pr_csv_free(b);
+}
+
+static char path[64];
+
+static void write_text(const text *t)
+{
+	FILE *fp = fopen(path, "wb");
+
+	assert_non_null(fp);
+	assert_int_equal(fwrite(t->s, 1, t->n, fp), t->n);
+	assert_int_equal(fclose(fp), 0);
+}
+
+static void test_same_answer(void **state)
+{
+	static const int threads[] = { 2, 3, 4, 7 };
+	gsl_rng *r = gsl_rng_alloc(gsl_rng_mt19937);
+	long parts_before = pr_csv_parts_reads(), good = 0;
+	int c, k, defect;
+
+	(void)state;
+	gsl_rng_set(r, 20261204);
+	for (c = 0; c < 3 * NDEFECTS; c++) {
+		static const int widths[] = { 1, 3, 17, 40 };
+		text t;
+
+		defect = c % NDEFECTS;
+		t = make_file(r, (size_t)(1.2e6 + gsl_rng_uniform(r) * 1.8e6),
+		              widths[gsl_rng_uniform_int(r, 4)], defect);
+		write_text(&t);
+		for (k = 0; k < 4; k++)
+			compare(path, threads[k]);
+		good += defect == GOOD;
+		free(t.s);
+	}
+	/* the parts' way ran (good files without quotes take it) */
+	assert_true(pr_csv_parts_reads() > parts_before);
+	assert_true(good > 0);
+	gsl_rng_free(r);
+	unlink(path);
+}
+
+/* Small files, stdin-like paths and non-files take the one-thread way and
+ * answer as pr_csv_read does. */
+static void test_one_thread_cases(void **state)
+{
+	long before = pr_csv_parts_reads();
+
+	(void)state;
+	{
+		text t = { NULL, 0, 0 };
+		puts_(&t, "a,b\n1,2\n");
+		t.s[t.n] = '\0';
+		write_text(&t);
+		compare(path, 4);
+		free(t.s);
+	}
+	compare("/nonexistent.csv", 4);
+	compare("/tmp", 4);
+	compare("/dev/null", 4);
+	assert_int_equal(pr_csv_parts_reads(), before);
+	unlink(path);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_same_answer),
+		cmocka_unit_test(test_one_thread_cases),
+	};
+
+	snprintf(path, sizeof path, "/tmp/pr_test_csvt_%ld.csv", (long)getpid());
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}
