@@ -54,7 +54,7 @@ static int bit_length(u128 x)
 /* The double nearest (x + f) 2^e for x > 0 and 0 <= f < 1 (f > 0 iff
  * sticky; sticky only with x >= 2^54, so that f lies below the bits kept);
  * 0 when that is not a normal double. */
-static int round_even(u128 x, int sticky, int e, double *v)
+static inline __attribute__((always_inline)) int round_even(u128 x, int sticky, int e, double *v)
 {
 	int sh = bit_length(x) - 54, biased;
 	uint64_t top, m, bits;
@@ -100,6 +100,41 @@ static int cmp_mid(uint64_t w, int k, uint64_t M, int F)
 		a = (u128)w << -t;
 	}
 	return (a > b) - (a < b);
+}
+
+/* recip5[k] = ceil(2^(63 + e) / 5^k), e the bit length of 5^k: in
+ * (2^63, 2^64), for k = 1..27 (entry 0 unused) */
+static const uint64_t recip5[28] = {
+	0,
+	0xcccccccccccccccdULL, 0xa3d70a3d70a3d70bULL, 0x83126e978d4fdf3cULL,
+	0xd1b71758e219652cULL, 0xa7c5ac471b478424ULL, 0x8637bd05af6c69b6ULL,
+	0xd6bf94d5e57a42bdULL, 0xabcc77118461cefdULL, 0x89705f4136b4a598ULL,
+	0xdbe6fecebdedd5bfULL, 0xafebff0bcb24aaffULL, 0x8cbccc096f5088ccULL,
+	0xe12e13424bb40e14ULL, 0xb424dc35095cd810ULL, 0x901d7cf73ab0acdaULL,
+	0xe69594bec44de15cULL, 0xb877aa3236a4b44aULL, 0x9392ee8e921d5d08ULL,
+	0xec1e4a7db69561a6ULL, 0xbce5086492111aebULL, 0x971da05074da7befULL,
+	0xf1c90080baf72cb2ULL, 0xc16d9a0095928a28ULL, 0x9abe14cd44753b53ULL,
+	0xf79687aed3eec552ULL, 0xc612062576589ddbULL, 0x9e74d1b791e07e49ULL,
+};
+
+/* w 10^-k for 1 <= k <= 27 by one 64 x 64 multiplication: W = w shifted to
+ * fill 64 bits, P = W recip5[k] is W 2^(63+e) / 5^k plus less than 2^64, so
+ * its top 64 bits hi lie within 1 of y = W 2^(e-1) / 5^k, and the value is
+ * y 2^(1 - s - k - e). Unless the bits of hi below the 54 kept are 0, 1 or
+ * all ones (then y might lie in another block of them, or on its edge), y
+ * lies strictly inside the block hi is in: the 54 bits are y's and
+ * something lies below them, so hi with a sticky bit rounds as y does. 0
+ * when undecided (about 1 in 2^8; the exact ways below decide). */
+static int quotient_mul(uint64_t w, int k, double *v)
+{
+	const int s = __builtin_clzll(w), e = 64 - __builtin_clzll(pow5[k]);
+	const uint64_t hi = (uint64_t)(((u128)(w << s) * recip5[k]) >> 64);
+	const int sh = 64 - __builtin_clzll(hi) - 54;
+	const uint64_t low = hi & ((1ULL << sh) - 1);
+
+	if (low < 2 || low == (1ULL << sh) - 1)
+		return 0;
+	return round_even(hi, 1, 1 - s - k - e, v);
 }
 
 /* w 10^-k for w > 2^53, k <= 22: the IEEE quotient (double)w / 10^k lies
@@ -164,7 +199,7 @@ static int scale(uint64_t w, int q, double *v)
 #endif
 	if (q < -27 || q > 27)
 		return 0;
-	if (q < 0 && q >= -22 && near_quotient(w, -q, p10, v))
+	if (q < 0 && (quotient_mul(w, -q, v) || (q >= -22 && near_quotient(w, -q, p10, v))))
 		return 1;
 	if (q >= 0)
 		return round_even((u128)w * pow5[q], 0, q, v);
@@ -182,7 +217,7 @@ static int scale(uint64_t w, int q, double *v)
 /* The eight bytes at p as an 8-digit number if they are all digits (one
  * load and three multiplications where a loop takes eight dependent
  * steps); -1 otherwise. */
-static int64_t eight_digits(const char *p)
+static inline __attribute__((always_inline)) int64_t eight_digits(const char *p)
 {
 	const uint64_t hi = 0xF0F0F0F0F0F0F0F0ULL, zeros = 0x3030303030303030ULL;
 	uint64_t v;
@@ -199,7 +234,7 @@ static int64_t eight_digits(const char *p)
 	return (int64_t)(uint32_t)v;
 }
 #else
-static int64_t eight_digits(const char *p)
+static inline __attribute__((always_inline)) int64_t eight_digits(const char *p)
 {
 	(void)p;
 	return -1;
@@ -210,7 +245,8 @@ static int64_t eight_digits(const char *p)
  * zeros skipped while nd is 0); the number of digits read, or -1 past 19
  * significant digits. padded: 8 bytes may be read from any byte up to the
  * first that is not a digit. */
-static int digits(const char **s, uint64_t *w, int *nd, int padded)
+static inline __attribute__((always_inline)) int digits(const char **s, uint64_t *w, int *nd,
+                                                     int padded)
 {
 	const char *p = *s, *start = p;
 	uint64_t x = *w;
