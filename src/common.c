@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -472,26 +473,39 @@ int pr_cpu_count(void)
 	return n < 1 ? 1 : n > PR_MAX_THREADS ? PR_MAX_THREADS : (int)n;
 }
 
-/* Stacks of PR_THREAD_STACK bytes: the parts hold a few locals, and glibc's
- * default of 8 MiB per thread, kept in its cache after the join, took
- * address space a later allocation needed. */
+/* Stacks of PR_THREAD_STACK bytes that this maps and unmaps itself: the
+ * parts hold a few locals, and glibc keeps the stacks it makes (8 MiB by
+ * default) in a cache after the join, address space that a later
+ * allocation under a limit then lacked, so that the thread count decided
+ * whether a command ran out of memory. A guard page below each. */
 void pr_run_parts(int nt, void *(*fn)(void *), void *parts, size_t size)
 {
+	const size_t page = (size_t)sysconf(_SC_PAGESIZE), len = PR_THREAD_STACK + page;
 	pthread_t tid[PR_MAX_THREADS];
-	pthread_attr_t attr;
-	int started[PR_MAX_THREADS], t, attr_ok = pthread_attr_init(&attr) == 0;
+	void *stack[PR_MAX_THREADS];
+	int started[PR_MAX_THREADS], t;
 
-	if (attr_ok)
-		pthread_attr_setstacksize(&attr, PR_THREAD_STACK);
-	for (t = 0; t < nt; t++)
-		started[t] = t > 0 && pthread_create(&tid[t], attr_ok ? &attr : NULL, fn,
-		                                     (char *)parts + t * size) == 0;
-	if (attr_ok)
+	for (t = 0; t < nt; t++) {
+		pthread_attr_t attr;
+
+		started[t] = 0;
+		stack[t] = MAP_FAILED;
+		if (t == 0 || pthread_attr_init(&attr) != 0)
+			continue;
+		stack[t] = mmap(NULL, len, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_STACK,
+		                -1, 0);
+		started[t] = stack[t] != MAP_FAILED && mprotect(stack[t], page, PROT_NONE) == 0 &&
+		             pthread_attr_setstack(&attr, (char *)stack[t] + page, PR_THREAD_STACK) == 0 &&
+		             pthread_create(&tid[t], &attr, fn, (char *)parts + t * size) == 0;
 		pthread_attr_destroy(&attr);
+	}
 	for (t = 0; t < nt; t++)
 		if (!started[t])
 			fn((char *)parts + t * size);
-	for (t = 1; t < nt; t++)
+	for (t = 1; t < nt; t++) {
 		if (started[t])
 			pthread_join(tid[t], NULL);
+		if (stack[t] != MAP_FAILED)
+			munmap(stack[t], len);
+	}
 }

@@ -10,7 +10,7 @@
  * numeric table such a line's numbers are read in place (plain_numbers).
  * pr_csv_read_threads reads a large file in parts on several threads.
  */
-#define _DEFAULT_SOURCE /* realpath */
+#define _DEFAULT_SOURCE /* realpath; MAP_ANONYMOUS */
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -20,6 +20,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -37,7 +38,47 @@ struct pr_csv {
 	double *data;
 	long *lines;
 	char *path;
+	int mapped; /* data and lines are mappings of cap rows (map_rows), not malloc's */
 };
+
+/* The data and line arrays of cap rows of ncols at *data and *lines (both
+ * NULL, or mappings of old rows) as new anonymous mappings, with the first
+ * rows copied: a read in parts keeps its rows there, so that its threads
+ * never call malloc (a thread's first malloc gives it an arena of its own,
+ * which keeps 64 MiB of address space reserved for good). 0 when the
+ * system refused: then the arrays are as they were. */
+static void unmap_rows(double *data, long *lines, long cap, int ncols);
+
+static int map_rows(double **data, long **lines, long old, long cap, int ncols)
+{
+	const size_t w = (size_t)ncols * sizeof **data, keep = (size_t)(old < cap ? old : cap);
+	void *d = mmap(NULL, (size_t)cap * w, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+	void *l = d == MAP_FAILED ? MAP_FAILED
+	                          : mmap(NULL, (size_t)cap * sizeof **lines, PROT_READ | PROT_WRITE,
+	                                 MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+
+	if (l == MAP_FAILED) {
+		if (d != MAP_FAILED)
+			munmap(d, (size_t)cap * w);
+		return 0;
+	}
+	if (keep) {
+		memcpy(d, *data, keep * w);
+		memcpy(l, *lines, keep * sizeof **lines);
+	}
+	unmap_rows(*data, *lines, old, ncols);
+	*data = d;
+	*lines = l;
+	return 1;
+}
+
+static void unmap_rows(double *data, long *lines, long cap, int ncols)
+{
+	if (data)
+		munmap(data, (size_t)cap * (size_t)ncols * sizeof *data);
+	if (lines)
+		munmap(lines, (size_t)cap * sizeof *lines);
+}
 
 pr_csv *pr_csv_new(int ncols, const char *const *names, char *err)
 {
@@ -75,8 +116,12 @@ void pr_csv_free(pr_csv *t)
 		for (j = 0; j < t->ncols; ++j)
 			free(t->names[j]);
 	free(t->names);
-	free(t->data);
-	free(t->lines);
+	if (t->mapped) {
+		unmap_rows(t->data, t->lines, t->cap, t->ncols);
+	} else {
+		free(t->data);
+		free(t->lines);
+	}
 	free(t->path);
 	free(t);
 }
@@ -101,7 +146,11 @@ int pr_csv_find(const pr_csv *t, const char *name)
 
 static int add_row(pr_csv *t, const double *row, long line, char *err)
 {
-	if (t->nrows == t->cap) {
+	if (t->nrows == t->cap && t->mapped) {
+		if (!map_rows(&t->data, &t->lines, t->cap, 2 * t->cap, t->ncols))
+			return pr_err(err, PR_ENOMEM, "out of memory reading %ld rows", t->nrows);
+		t->cap *= 2;
+	} else if (t->nrows == t->cap) {
 		long cap = t->cap ? 2 * t->cap : 64;
 		double *d = realloc(t->data, (size_t)cap * (size_t)t->ncols * sizeof *d);
 		long *l;
@@ -313,52 +362,67 @@ static void on_record(int c, void *data)
 	r->len = 0;
 }
 
-/* A plain line (plain_line) of a numeric table read in place, without the
- * copy of its fields: 1 when it holds as many fields as the header, each a
- * number decimal.c reads exactly (the value numeric_row would store) and no
- * longer than a field may be; 0, with nothing done, for the general way,
- * which reports what is wrong. The block's padding lets the parser load 8
- * bytes at a time. */
-static int plain_numbers(scanner *r, const char *s, size_t end)
+/* The ncols numbers of a plain line (plain_line; end bytes, without its
+ * line end) read in place into row, without the copy of its fields: 1 when
+ * it holds as many fields as that, each a number decimal.c reads exactly
+ * (the value numeric_row would store) and no longer than a field may be; 0
+ * for the general way, which reports what is wrong. The block's padding
+ * lets the parser load 8 bytes at a time. */
+static int numbers_in_place(const char *s, size_t end, int ncols, double *row)
 {
 	const char *f = s, *stop = s, *e = s + end;
-	double *row = r->num->row;
 	int j;
 
-	for (j = 0; j < r->ncols; j++, f = stop + 1) {
+	for (j = 0; j < ncols; j++, f = stop + 1) {
 		if (!pr_decimal_parse_padded(f, &stop, &row[j]) || stop - f > PR_CSV_MAX_FIELD ||
 		    (stop != e && *stop != ','))
 			return 0;
 		if (stop == e)
 			break;
 	}
-	if (j != r->ncols - 1 || stop != e)
+	return j == ncols - 1 && stop == e;
+}
+
+static int plain_numbers(scanner *r, const char *s, size_t end)
+{
+	if (!numbers_in_place(s, end, r->ncols, r->num->row))
 		return 0;
 	r->nfields_seen += r->ncols;
-	r->status = add_row(r->num->t, row, r->line, r->err);
+	r->status = add_row(r->num->t, r->num->row, r->line, r->err);
 	return 1;
 }
 
-/* Report a whole line that libcsv would split at every comma and nowhere
- * else (no quote, no blank, which libcsv trims, no carriage return but one
- * right before the line end) through the same callbacks, without libcsv's
+/* 1 if the n bytes at s are a whole line that libcsv would split at every
+ * comma and nowhere else: a line end at the end, and no quote, no blank
+ * (which libcsv trims), no carriage return but one right before the line
+ * end; *end: the bytes before the line end. */
+static int plain_bytes(const char *s, size_t n, size_t *end)
+{
+	size_t i;
+
+	if (!n || s[n - 1] != '\n')
+		return 0;
+	*end = n - 1;
+	if (*end && s[*end - 1] == '\r')
+		--*end;
+	/* one memchr per byte that disqualifies (each runs at vector speed,
+	 * where a loop over the bytes comparing each with all four did not) */
+	for (i = 0; i < 4; ++i)
+		if (memchr(s, "\" \t\r"[i], *end))
+			return 0;
+	return 1;
+}
+
+/* Report a whole plain line (plain_bytes) through the same callbacks, without libcsv's
  * byte-by-byte state machine and copy; 0, with nothing reported, for any
  * other piece. Called only while libcsv holds no part of a record. */
 static int plain_line(scanner *r, const char *s, size_t n)
 {
-	size_t end, i;
+	size_t end;
 	const char *f, *c;
 
-	if (!n || s[n - 1] != '\n')
+	if (!plain_bytes(s, n, &end))
 		return 0;
-	end = n - 1;
-	if (end && s[end - 1] == '\r')
-		--end;
-	/* one memchr per byte that disqualifies (each runs at vector speed,
-	 * where a loop over the bytes comparing each with all four did not) */
-	for (i = 0; i < 4; ++i)
-		if (memchr(s, "\" \t\r"[i], end))
-			return 0;
 	if (!end)
 		return 1; /* an empty line: no record, as in libcsv */
 	if (r->num && r->header_done && plain_numbers(r, s, end))
@@ -620,6 +684,24 @@ static int numeric_row(void *user, const char *path, long line, int n, char **fi
 	return add_row(u->t, u->row, line, err);
 }
 
+/* The table's arrays cut to its rows (the room doubling left unused),
+ * as a read in parts leaves them: a command's later steps find the same
+ * memory whichever way the table was read. */
+static void fit_rows(pr_csv *t)
+{
+	double *d;
+	long *l;
+
+	if (t->nrows == t->cap || t->nrows == 0)
+		return;
+	if ((d = realloc(t->data, (size_t)t->nrows * (size_t)t->ncols * sizeof *d)))
+		t->data = d;
+	if ((l = realloc(t->lines, (size_t)t->nrows * sizeof *l)))
+		t->lines = l;
+	/* an array that could not shrink is still longer */
+	t->cap = t->nrows;
+}
+
 int pr_csv_read(const char *path, pr_csv **out, char *err)
 {
 	numeric u = {NULL, NULL};
@@ -629,6 +711,8 @@ int pr_csv_read(const char *path, pr_csv **out, char *err)
 	if (rc) {
 		pr_csv_free(u.t);
 		u.t = NULL;
+	} else {
+		fit_rows(u.t);
 	}
 	*out = u.t;
 	return rc;
@@ -636,92 +720,85 @@ int pr_csv_read(const char *path, pr_csv **out, char *err)
 
 /* ---- a large file on several threads ----
  *
- * A regular file of at least PAR_MIN bytes is split at line ends into
- * parts, each read at once by a scanner and libcsv of its own through the
- * same scan_block into a table of its own; the tables are joined in file
- * order with their lines renumbered. The header line is read first, alone.
- * A line end starts a record only outside quotes, so a quote in a later
- * part, like anything but plain rows there (a NUL, a bad field, a file
- * that shrank), has the whole file read again on one thread: every message
- * and every value is pr_csv_read's. */
+ * A regular file of at least PAR_MIN bytes is read in parts split at line
+ * ends, each by a thread of its own. The header line is read first, alone,
+ * by the one reader. A part takes only what that reader would split
+ * directly and read in place: whole plain lines (plain_bytes) of numbers
+ * (numbers_in_place) or blank ones, lines carried whole from one block to
+ * the next; its rows go to mappings (map_rows), so its thread allocates
+ * nothing. The parts' rows are joined in file order with their lines
+ * renumbered. Anything else in a part (a quote, a blank, a NUL, a bad or
+ * short row, a line longer than a block or without a line end, a file
+ * that shrank, memory refused), a header line that is not the header alone
+ * (a bare carriage return ends a record), and the whole file is read again
+ * by the one reader: every value, line and message is pr_csv_read's, and
+ * what the attempt held is all given back first. */
 #define PAR_MIN ((off_t)1 << 20)
 #define PAR_PART ((off_t)1 << 19) /* bytes per part at least */
 
 typedef struct {
-	source src;
-	numeric u;
-	int fd, redo;
-	off_t off, end; /* bytes off .. end - 1; end < 0: to the end of the file */
-	char err[PR_ERRLEN];
+	int fd, ncols, redo;
+	off_t off, end;  /* bytes off .. end - 1; end < 0: to the end of the file */
+	char *buf;       /* SCAN_BLOCK + 8 bytes (mapped), zero after what was read */
+	double *data;    /* cap rows of ncols (map_rows) */
+	long *lines;     /* each row's line in the part, from 1 */
+	long nrows, cap, nl; /* rows, room, line ends read */
 } part;
+
+/* One whole line of n bytes (its line end included) into the part's rows;
+ * 0 when the one reader must decide. */
+static int part_line(part *a, const char *s, size_t n)
+{
+	size_t end;
+
+	if (!plain_bytes(s, n, &end))
+		return 0;
+	if (!end)
+		return 1; /* a blank line: no record */
+	if (a->nrows == a->cap) {
+		long cap = a->cap ? 2 * a->cap : 1024;
+
+		if (!map_rows(&a->data, &a->lines, a->cap, cap, a->ncols))
+			return 0;
+		a->cap = cap;
+	}
+	if (!numbers_in_place(s, end, a->ncols, a->data + (size_t)a->nrows * a->ncols))
+		return 0;
+	a->lines[a->nrows++] = a->nl + 1;
+	return 1;
+}
 
 static void *part_run(void *arg)
 {
 	part *a = arg;
-	source *src = &a->src;
-	scanner *r = &src->r;
 	off_t off = a->off;
+	size_t have = 0; /* bytes of an unfinished line at the start of buf */
 
-	/* a failure here is not the read's: the file is read again (the
-	 * thread of read_parts sets it back) */
-	pr_oom_retried(1);
+	while (!a->redo) {
+		size_t want = SCAN_BLOCK - have;
+		ssize_t k;
+		char *s, *e, *nl;
 
-	while (!r->status && !a->redo && (a->end < 0 || off < a->end)) {
-		size_t want = a->end >= 0 && a->end - off < (off_t)SCAN_BLOCK ? (size_t)(a->end - off)
-		                                                                : SCAN_BLOCK;
-		ssize_t k = pread(a->fd, src->buf, want, off);
-
-		if (k < 0 && errno == EINTR && !pr_interrupted)
+		if (a->end >= 0 && a->end - off < (off_t)want)
+			want = (size_t)(a->end - off);
+		if ((k = want ? pread(a->fd, a->buf + have, want, off) : 0) < 0 && errno == EINTR &&
+		    !pr_interrupted)
 			continue;
 		if (k <= 0) {
-			/* a read error, or a part cut short by a file that shrank */
-			a->redo = k < 0 || a->end >= 0;
+			/* an error, a part cut short, a last line without its end */
+			a->redo = k < 0 || (a->end >= 0 && off < a->end) || have > 0;
 			break;
 		}
-		/* only the header's part starts where no quote can be open */
-		if (a->off > 0 && memchr(src->buf, '"', (size_t)k))
-			a->redo = 1;
-		else
-			scan_block(src, src->buf, (size_t)k);
 		off += k;
+		for (s = a->buf, e = a->buf + have + k; !a->redo && (nl = memchr(s, '\n', (size_t)(e - s)));
+		     s = nl + 1, a->nl++)
+			a->redo = !part_line(a, s, (size_t)(nl + 1 - s));
+		/* a line longer than a block is the one reader's */
+		have = (size_t)(e - s);
+		a->redo |= have == SCAN_BLOCK;
+		memmove(a->buf, s, have);
 	}
-	/* a part but the last ends on a line end with libcsv between records */
-	if (a->end >= 0)
-		a->redo |= src->last != '\n' || !csv_idle(r, &src->p);
-	else if (!a->redo && !r->status)
-		source_end(src);
-	a->redo |= r->status != PR_OK;
 	return NULL;
-}
-
-/* The part of path from off (its scanner; the header's when off is 0). */
-static int part_init(part *a, int fd, const char *path, off_t off, const pr_csv *hdr)
-{
-	scanner *r = &a->src.r;
-
-	a->fd = fd;
-	a->off = off;
-	a->end = -1;
-	/* eager: source_end asks no FILE for a read error */
-	a->src.eager = 1;
-	if (source_setup(&a->src, path, 0, numeric_header, numeric_row, &a->u, a->err))
-		return PR_ENOMEM;
-	if (!hdr)
-		return PR_OK;
-	a->src.first = 0;
-	r->header_done = 1;
-	r->ncols = hdr->ncols;
-	if (!(a->u.t = pr_csv_new(hdr->ncols, (const char *const *)hdr->names, a->err)) ||
-	    !(a->u.row = malloc((size_t)hdr->ncols * sizeof *a->u.row)))
-		return PR_ENOMEM;
-	return PR_OK;
-}
-
-static void part_free(part *a)
-{
-	source_release(&a->src);
-	free(a->u.row);
-	pr_csv_free(a->u.t);
 }
 
 /* The first line start at or after off (off > 0) within a block; 0 when
@@ -735,96 +812,139 @@ static off_t line_start(int fd, char *buf, off_t off, off_t size)
 	return at < size ? at : 0;
 }
 
-/* The rows of parts 1 .. np into the header's table (part 0's), their lines
- * shifted by the line ends of the parts before; 0 when memory ran out. */
-static int join_parts(part *pt, int np)
+/* The header, the h bytes of the file's first line, by the one reader into
+ * u: 1 when they are the header alone, with *nl their line ends. */
+static int read_header(int fd, const char *path, off_t h, numeric *u, long *nl)
 {
-	pr_csv *t = pt[0].u.t, *first = pt[1].u.t;
+	source src;
+	char err[PR_ERRLEN];
+	int ok = 0;
+
+	memset(&src, 0, sizeof src);
+	src.eager = 1;
+	if (source_setup(&src, path, 0, numeric_header, numeric_row, u, err))
+		return 0;
+	if (pread(fd, src.buf, (size_t)h, 0) == (ssize_t)h) {
+		scan_block(&src, src.buf, (size_t)h);
+		ok = !src.r.status && u->t && u->t->nrows == 0 && src.last == '\n' &&
+		     csv_idle(&src.r, &src.p);
+		*nl = src.r.line - 1;
+	}
+	source_release(&src);
+	return ok;
+}
+
+/* The rows of the np parts into t, their lines shifted by the line ends
+ * before them (the header's, hl, then the parts'); 0 when memory ran out.
+ * Part 0's mapping grows to hold them all and becomes t's. */
+static int join_parts(pr_csv *t, part *pt, int np, long hl)
+{
 	const size_t w = (size_t)t->ncols;
-	long rows = 0, shift = 0, i;
-	double *d;
-	long *l;
+	long rows = 0, shift = hl, i;
 	int k;
 
-	for (k = 1; k <= np; k++)
-		rows += pt[k].u.t->nrows;
+	for (k = 0; k < np; k++)
+		rows += pt[k].nrows;
 	if (!rows)
 		return 1;
-	/* part 1's arrays, grown to hold every row, become the table's */
-	if (!(d = realloc(first->data, (size_t)rows * w * sizeof *d)))
+	if (!map_rows(&pt[0].data, &pt[0].lines, pt[0].cap, rows, t->ncols))
 		return 0;
-	first->data = d;
-	if (!(l = realloc(first->lines, (size_t)rows * sizeof *l)))
-		return 0;
-	first->data = NULL;
-	first->lines = NULL;
-	t->data = d;
-	t->lines = l;
-	t->cap = rows;
-	for (k = 1; k <= np; k++) {
-		const pr_csv *c = pt[k].u.t;
-
-		shift += pt[k - 1].src.r.line - 1;
-		if (k > 1 && c->nrows) {
-			memcpy(d + (size_t)t->nrows * w, c->data, (size_t)c->nrows * w * sizeof *d);
-			memcpy(l + t->nrows, c->lines, (size_t)c->nrows * sizeof *l);
+	pt[0].cap = rows;
+	for (k = 0; k < np; k++) {
+		if (k > 0 && pt[k].nrows) {
+			memcpy(pt[0].data + (size_t)t->nrows * w, pt[k].data, (size_t)pt[k].nrows * w * sizeof(double));
+			memcpy(pt[0].lines + t->nrows, pt[k].lines, (size_t)pt[k].nrows * sizeof(long));
 		}
-		for (i = t->nrows; i < t->nrows + c->nrows; i++)
-			l[i] += shift;
-		t->nrows += c->nrows;
+		for (i = t->nrows; i < t->nrows + pt[k].nrows; i++)
+			pt[0].lines[i] += shift;
+		t->nrows += pt[k].nrows;
+		shift += pt[k].nl;
+	}
+	t->data = pt[0].data;
+	t->lines = pt[0].lines;
+	t->cap = rows;
+	t->mapped = 1;
+	pt[0].data = NULL;
+	pt[0].lines = NULL;
+	return 1;
+}
+
+/* Splits [h, size) into the np parts at line ends; 0 when a bound has no
+ * line end near it. */
+static int split_parts(part *pt, int np, int fd, off_t h, off_t size)
+{
+	off_t at = h;
+	int k;
+
+	for (k = 0; k < np; k++) {
+		pt[k].off = at;
+		pt[k].end = -1;
+		if (k < np - 1) {
+			off_t want = h + (size - h) / np * (k + 1);
+
+			at = line_start(fd, pt[k].buf, want > at ? want : at + 1, size);
+			if (at <= pt[k].off)
+				return 0;
+			pt[k].end = at;
+		}
 	}
 	return 1;
 }
 
 /* pr_csv_read of a regular file of at least PAR_MIN bytes on up to threads
- * threads: 1 with *out, or 0 (nothing kept) to read it on one thread. */
+ * threads: 1 with *out, or 0 (everything given back) to read it on one. It
+ * is never opened unless it is one (a FIFO would wait for a writer, and
+ * lose what one wrote), and never waits to open. */
 static int read_parts(const char *path, int threads, pr_csv **out)
 {
-	struct stat st;
+	struct stat st, fst;
+	numeric u = { NULL, NULL };
 	part *pt = NULL;
-	off_t size, at;
-	int fd = open(path, O_RDONLY | O_CLOEXEC), np = 0, k, ok = 0;
+	long hl = 0;
+	off_t h;
+	int fd, np = 0, k, ok = 0;
 
-	if (fd < 0)
+	if (stat(path, &st) || !S_ISREG(st.st_mode) || st.st_size < PAR_MIN ||
+	    (fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK)) < 0)
 		return 0;
+	/* a failure here is not the read's: the one reader reads again */
 	pr_oom_retried(1);
-	if (fstat(fd, &st) || !S_ISREG(st.st_mode) || st.st_size < PAR_MIN)
+	if (fstat(fd, &fst) || !S_ISREG(fst.st_mode) || fst.st_dev != st.st_dev || fst.st_ino != st.st_ino)
 		goto done;
-	size = st.st_size;
-	np = size / PAR_PART < threads ? (int)(size / PAR_PART) : threads;
-	if (!(pt = calloc((size_t)np + 1, sizeof *pt)) || part_init(&pt[0], fd, path, 0, NULL))
+	np = fst.st_size / PAR_PART < threads ? (int)(fst.st_size / PAR_PART) : threads;
+	if (!(pt = calloc((size_t)np, sizeof *pt)))
 		goto done;
-	/* the header: the first line, alone */
-	if (!(pt[0].end = line_start(fd, pt[0].src.buf, 1, size)))
-		goto done;
-	part_run(&pt[0]);
-	if (pt[0].redo || !pt[0].u.t)
-		goto done;
-	for (k = 1, at = pt[0].end; k <= np; k++) {
-		if (part_init(&pt[k], fd, path, at, pt[0].u.t))
+	/* blocks mapped (zeroed; given back whole), not from the heap */
+	for (k = 0; k < np; k++) {
+		pt[k].fd = fd;
+		if ((pt[k].buf = mmap(NULL, SCAN_BLOCK + 8, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS,
+		                      -1, 0)) == MAP_FAILED) {
+			pt[k].buf = NULL;
 			goto done;
-		if (k < np) {
-			off_t want = pt[0].end + (size - pt[0].end) / np * k;
-
-			at = line_start(fd, pt[k].src.buf, want > at ? want : at + 1, size);
-			if (at <= pt[k].off)
-				goto done;
-			pt[k].end = at;
 		}
 	}
-	pr_run_parts(np, part_run, pt + 1, sizeof *pt);
-	for (k = 1; k <= np; k++)
-		if (pt[k].redo)
-			goto done;
-	if ((ok = join_parts(pt, np))) {
-		*out = pt[0].u.t;
-		pt[0].u.t = NULL;
+	if (!(h = line_start(fd, pt[0].buf, 1, fst.st_size)) || h > (off_t)SCAN_BLOCK ||
+	    !read_header(fd, path, h, &u, &hl) || !split_parts(pt, np, fd, h, fst.st_size))
+		goto done;
+	for (k = 0; k < np; k++)
+		pt[k].ncols = u.t->ncols;
+	pr_run_parts(np, part_run, pt, sizeof *pt);
+	for (k = 0; k < np && !pt[k].redo; k++)
+		;
+	if (k == np && (ok = join_parts(u.t, pt, np, hl))) {
+		*out = u.t;
+		u.t = NULL;
 	}
 done:
 	if (pt)
-		for (k = 0; k <= np; k++)
-			part_free(&pt[k]);
+		for (k = 0; k < np; k++) {
+			unmap_rows(pt[k].data, pt[k].lines, pt[k].cap, pt[k].ncols);
+			if (pt[k].buf)
+				munmap(pt[k].buf, SCAN_BLOCK + 8);
+		}
 	free(pt);
+	free(u.row);
+	pr_csv_free(u.t);
 	close(fd);
 	pr_oom_retried(0);
 	return ok;

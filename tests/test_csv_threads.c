@@ -13,6 +13,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -42,19 +44,24 @@ static void puts_(text *t, const char *s)
 	put(t, s, strlen(s));
 }
 
-/* One field: mostly what the writer prints, sometimes what other tools do. */
-static void number(text *t, gsl_rng *r)
+/* One field: mostly what the writer prints; with hard, sometimes what
+ * other tools do (numbers only strtod reads). */
+static void number(text *t, gsl_rng *r, int hard)
 {
 	char buf[64];
 	double x = (gsl_rng_uniform(r) - 0.5) * 1e3;
+	int c = (int)gsl_rng_uniform_int(r, 12);
 
-	switch (gsl_rng_uniform_int(r, 12)) {
+	if (!hard && c >= 3 && c <= 5)
+		c = 6;
+	switch (c) {
 	case 0: snprintf(buf, sizeof buf, "%ld", (long)(x * 1e3)); break;
-	case 1: snprintf(buf, sizeof buf, "%.3e", x * 1e-30); break;
+	case 1: snprintf(buf, sizeof buf, "%.3e", x * 1e-10); break;
 	case 2: snprintf(buf, sizeof buf, "0000%.6f", x < 0 ? -x : x); break;
 	case 3: snprintf(buf, sizeof buf, "%.25f", x); break; /* more digits than the exact path takes */
-	case 4: snprintf(buf, sizeof buf, "%a", x); break;       /* hex: strtod's */
-	case 5: snprintf(buf, sizeof buf, "+.%u", (unsigned)gsl_rng_get(r)); break;
+	case 4: snprintf(buf, sizeof buf, "%a", x); break;       /* hex */
+	case 5: snprintf(buf, sizeof buf, "%.3e", x * 1e-300); break; /* an exponent past 27 */
+	case 6: snprintf(buf, sizeof buf, "+.%u", (unsigned)gsl_rng_get(r)); break;
 	default: snprintf(buf, sizeof buf, "%.17g", x); break;
 	}
 	puts_(t, buf);
@@ -69,14 +76,16 @@ static void eol(text *t, gsl_rng *r, int crlf)
 enum { GOOD, BAD_NUMBER, SHORT_ROW, NUL, LONG_FIELD, OPEN_QUOTE, QUOTED_NEWLINE, NDEFECTS };
 
 /* A file of at least `bytes` bytes with ncols columns; with a defect, in
- * the last third. Returns the text (NUL-terminated, n bytes). */
-static text make_file(gsl_rng *r, size_t bytes, int ncols, int defect)
+ * the last third; hard: with what the parts leave to the one reader (a
+ * quoted header, blanks, quoted fields, numbers only strtod reads). Returns
+ * the text (NUL-terminated, n bytes). */
+static text make_file(gsl_rng *r, size_t bytes, int ncols, int defect, int hard)
 {
 	text t = { NULL, 0, 0 };
 	char name[32];
-	const int bom = gsl_rng_uniform_int(r, 4) == 0, crlf = gsl_rng_uniform_int(r, 2),
-	          blanks = gsl_rng_uniform_int(r, 3) == 0, quotes = gsl_rng_uniform_int(r, 4) == 0,
-	          last_eol = gsl_rng_uniform_int(r, 4) != 0;
+	const int bom = gsl_rng_uniform_int(r, 4) == 0,
+	          crlf = gsl_rng_uniform_int(r, 2), blanks = hard && gsl_rng_uniform_int(r, 3) == 0,
+	          quotes = hard && gsl_rng_uniform_int(r, 2) == 0, last_eol = gsl_rng_uniform_int(r, 4) != 0;
 	int j, placed = 0, here;
 
 	if (bom)
@@ -120,10 +129,10 @@ static text make_file(gsl_rng *r, size_t bytes, int ncols, int defect)
 				puts_(&t, " ");
 			if (quotes && gsl_rng_uniform_int(r, 500) == 0) {
 				puts_(&t, "\"");
-				number(&t, r);
+				number(&t, r, hard);
 				puts_(&t, "\"");
 			} else {
-				number(&t, r);
+				number(&t, r, hard);
 			}
 		}
 		if (t.n < bytes || last_eol)
@@ -187,7 +196,7 @@ static void test_same_answer(void **state)
 
 		defect = c % NDEFECTS;
 		t = make_file(r, (size_t)(1.2e6 + gsl_rng_uniform(r) * 1.8e6),
-		              widths[gsl_rng_uniform_int(r, 4)], defect);
+		              widths[gsl_rng_uniform_int(r, 4)], defect, c / NDEFECTS == 1);
 		write_text(&t);
 		for (k = 0; k < 4; k++)
 			compare(path, threads[k]);
@@ -199,6 +208,59 @@ static void test_same_answer(void **state)
 	assert_true(good > 0);
 	gsl_rng_free(r);
 	unlink(path);
+}
+
+/* A header line that holds data rows too (a bare carriage return ends the
+ * header record): the one reader reads it, with the same rows. */
+static void test_header_line_with_rows(void **state)
+{
+	text t = { NULL, 0, 0 };
+	char row[64];
+	long before = pr_csv_parts_reads(), i;
+
+	(void)state;
+	puts_(&t, "R,phi0\r0.5,1.25\r0.25,3\n");
+	for (i = 0; t.n < 1300000; i++) {
+		snprintf(row, sizeof row, "%ld.5,%ld\n", i % 7, i % 13);
+		puts_(&t, row);
+	}
+	t.s[t.n] = '\0';
+	write_text(&t);
+	compare(path, 2);
+	compare(path, 5);
+	assert_int_equal(pr_csv_parts_reads(), before);
+	free(t.s);
+	unlink(path);
+}
+
+/* A FIFO is never opened to look at it (that would wait for a writer, or
+ * take and drop what one wrote): its rows come through whole. */
+static void test_fifo(void **state)
+{
+	char fifo[64];
+	pr_csv *t = NULL;
+	char err[PR_ERRLEN];
+	pid_t pid;
+	int st;
+
+	(void)state;
+	snprintf(fifo, sizeof fifo, "/tmp/pr_test_csvt_fifo_%ld", (long)getpid());
+	unlink(fifo);
+	assert_int_equal(mkfifo(fifo, 0600), 0);
+	pid = fork();
+	assert_true(pid >= 0);
+	if (pid == 0) {
+		FILE *fp = fopen(fifo, "w");
+		_exit(fp && fputs("R,phi0\n1,2\n3,4\n5,7\n", fp) >= 0 && fclose(fp) == 0 ? 0 : 1);
+	}
+	alarm(20); /* a hang fails the test */
+	assert_int_equal(pr_csv_read_threads(fifo, 2, &t, err), PR_OK);
+	alarm(0);
+	assert_int_equal(pr_csv_nrows(t), 3);
+	pr_csv_free(t);
+	assert_int_equal(waitpid(pid, &st, 0), pid);
+	assert_true(WIFEXITED(st) && WEXITSTATUS(st) == 0);
+	unlink(fifo);
 }
 
 /* Small files, stdin-like paths and non-files take the one-thread way and
@@ -228,6 +290,8 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_same_answer),
 		cmocka_unit_test(test_one_thread_cases),
+		cmocka_unit_test(test_header_line_with_rows),
+		cmocka_unit_test(test_fifo),
 	};
 
 	snprintf(path, sizeof path, "/tmp/pr_test_csvt_%ld.csv", (long)getpid());

@@ -859,3 +859,46 @@ def test_read_only_target_for_a_non_root_user(target):
         assert snapshot(d) == before
     finally:
         shutil.rmtree(d, ignore_errors=True)
+
+
+@pytest.mark.native
+def test_ulimit_v_reps_read_in_parts_same_outcome(tmp_path):
+    """A 12 MB input read in parts (`reps --threads 2` and the default)
+    under an address-space limit: at the smallest limit (found to 64 KiB)
+    at which one thread succeeds plus 256 KiB, they succeed with the same
+    bytes; 256 KiB below it, where one thread runs out of memory, they run
+    out the same way (exit 4, the same line, nothing written). A read in
+    parts that cannot have its memory gives it all back before the one
+    reader starts, and its threads allocate nothing of their own."""
+    import resource
+    if SAN:
+        pytest.skip("AddressSanitizer reserves terabytes of address space: ulimit -v cannot apply")
+    rows = "".join(f"{i % 997}.{i % 89:02d},{(i * 7) % 1013}.25\n" for i in range(800000))
+    (tmp_path / "big.csv").write_text("R,phi0\n" + rows)
+    assert (tmp_path / "big.csv").stat().st_size > 10 << 20
+
+    def attempt(threads, kib):
+        for name in ("p.csv", "s.csv"):
+            if (tmp_path / name).exists():
+                (tmp_path / name).unlink()
+        r = run(["reps", "--return", "R", "--features", "phi0", "--threads", threads, "-i", "big.csv",
+                 "-o", "p.csv", "--summary", "s.csv", "-q"], tmp_path,
+                pre=limit(resource.RLIMIT_AS, kib << 10), timeout=120)
+        out = None
+        if r.returncode == 0:
+            out = ((tmp_path / "p.csv").read_bytes(), (tmp_path / "s.csv").read_bytes())
+        return r.returncode, r.stderr, out
+
+    lo, hi = 16 << 10, 1 << 20  # KiB: fails, succeeds
+    assert attempt(1, lo)[0] == NOMEM and attempt(1, hi)[0] == 0
+    while hi - lo > 64:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if attempt(1, mid)[0] == 0 else (mid, hi)
+    good = attempt(1, hi + 256)
+    bad = attempt(1, hi - 256)
+    assert good[0] == 0 and bad[0] == NOMEM
+    for threads in (2, 0):
+        assert attempt(threads, hi + 256) == good, threads
+        got = attempt(threads, hi - 256)
+        assert got[:2] == bad[:2], (threads, got[1], bad[1])
+        assert not (tmp_path / "p.csv").exists() and not (tmp_path / "s.csv").exists()
