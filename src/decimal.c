@@ -8,10 +8,13 @@
  *     IEEE multiplication or division rounds their product or quotient
  *     correctly (needs FLT_EVAL_METHOD 0: no wider intermediate);
  *   - 0 <= q <= 27: w * 5^q is exact in 128 bits; the value is that times 2^q;
- *   - -27 <= q < 0: w 2^(s+t) / 5^-q (w shifted left by s to fill 64 bits,
- *     2^t <= 5^-q < 2^(t+1)) is a quotient of 63 or 64 bits; its remainder
- *     says exactly whether anything lies below the bits kept, so rounding
- *     to nearest-even is exact.
+ *   - -27 <= q < 0: one 64 x 64 multiplication by a rounded-up reciprocal
+ *     of 5^-q gives the quotient's top bits to within one unit, which
+ *     decides the rounding unless they lie next to a rounding edge (about
+ *     1 in 2^8, quotient_mul); then w 2^(s+t) / 5^-q (w shifted left by s
+ *     to fill 64 bits, 2^t <= 5^-q < 2^(t+1)) is a quotient of 63 or 64
+ *     bits whose remainder says exactly whether anything lies below the
+ *     bits kept, so rounding to nearest-even is exact.
  * Everything else (more digits, a larger exponent, a zero with an
  * exponent, hex, inf, nan, a result outside the normal range) is left to
  * the caller, which then asks strtod: whatever this returns is the double
@@ -82,26 +85,6 @@ static inline __attribute__((always_inline)) int round_even(u128 x, int sticky, 
 	return 1;
 }
 
-/* Sign of w 10^-k - M 2^F (k <= 27, M < 2^56), exactly: w against
- * M 5^k 2^(F+k); 2 when that does not fit 128 bits. */
-static int cmp_mid(uint64_t w, int k, uint64_t M, int F)
-{
-	const u128 r = (u128)M * pow5[k];
-	const int t = F + k;
-	u128 a = w, b = r;
-
-	if (t >= 0) {
-		if (bit_length(r) + t > 127)
-			return 2;
-		b = r << t;
-	} else {
-		if (-t > 63)
-			return 2;
-		a = (u128)w << -t;
-	}
-	return (a > b) - (a < b);
-}
-
 /* recip5[k] = ceil(2^(63 + e) / 5^k), e the bit length of 5^k: in
  * (2^63, 2^64), for k = 1..27 (entry 0 unused) */
 static const uint64_t recip5[28] = {
@@ -124,7 +107,7 @@ static const uint64_t recip5[28] = {
  * all ones (then y might lie in another block of them, or on its edge), y
  * lies strictly inside the block hi is in: the 54 bits are y's and
  * something lies below them, so hi with a sticky bit rounds as y does. 0
- * when undecided (about 1 in 2^8; the exact ways below decide). */
+ * when undecided (about 1 in 2^8; the exact division below decides). */
 static int quotient_mul(uint64_t w, int k, double *v)
 {
 	const int s = __builtin_clzll(w), e = 64 - __builtin_clzll(pow5[k]);
@@ -135,48 +118,6 @@ static int quotient_mul(uint64_t w, int k, double *v)
 	if (low < 2 || low == (1ULL << sh) - 1)
 		return 0;
 	return round_even(hi, 1, 1 - s - k - e, v);
-}
-
-/* w 10^-k for w > 2^53, k <= 22: the IEEE quotient (double)w / 10^k lies
- * within two ulps of the value; the midpoints next to it, compared exactly
- * (cmp_mid), move it to the nearest double, ties to even. 0 when that
- * does not settle (then the division of scale decides). */
-static int near_quotient(uint64_t w, int k, const double *p10, double *v)
-{
-	double c = (double)w / p10[k];
-	int step;
-
-	for (step = 0; step < 4; step++) {
-		uint64_t bits, m;
-		int biased, E, up, lo;
-
-		memcpy(&bits, &c, sizeof bits);
-		biased = (int)(bits >> 52);
-		if (biased < 2 || biased > 2045)
-			return 0;
-		m = (bits & ((1ULL << 52) - 1)) | 1ULL << 52;
-		E = biased - 1075;
-		up = cmp_mid(w, k, 2 * m + 1, E - 1);
-		/* below a power of two the neighbour is half as far */
-		lo = m == 1ULL << 52 ? cmp_mid(w, k, 4 * m - 1, E - 2) : cmp_mid(w, k, 2 * m - 1, E - 1);
-		if (up == 2 || lo == 2)
-			return 0;
-		if (up > 0 || (up == 0 && (m & 1))) {
-			bits++;
-		} else if (lo < 0 || (lo == 0 && (m & 1))) {
-			bits--;
-		} else {
-			*v = c;
-			return 1;
-		}
-		memcpy(&c, &bits, sizeof c);
-		/* a tie settles on the even neighbour: done */
-		if (up == 0 || lo == 0) {
-			*v = c;
-			return 1;
-		}
-	}
-	return 0;
 }
 
 /* The double of w 10^q for w > 0 (see the top of the file); 0: not here. */
@@ -199,7 +140,7 @@ static int scale(uint64_t w, int q, double *v)
 #endif
 	if (q < -27 || q > 27)
 		return 0;
-	if (q < 0 && (quotient_mul(w, -q, v) || (q >= -22 && near_quotient(w, -q, p10, v))))
+	if (q < 0 && quotient_mul(w, -q, v))
 		return 1;
 	if (q >= 0)
 		return round_even((u128)w * pow5[q], 0, q, v);
