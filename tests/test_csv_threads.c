@@ -22,31 +22,11 @@
 
 #include "poolreps/csvio.h"
 #include "csvio_priv.h"
-
-typedef struct {
-	char *s;
-	size_t n, cap;
-} text;
-
-static void put(text *t, const char *s, size_t n)
-{
-	if (t->n + n + 1 > t->cap) {
-		t->cap = 2 * (t->n + n + 1);
-		t->s = realloc(t->s, t->cap);
-		assert_non_null(t->s);
-	}
-	memcpy(t->s + t->n, s, n);
-	t->n += n;
-}
-
-static void puts_(text *t, const char *s)
-{
-	put(t, s, strlen(s));
-}
+#include "text_buf.h"
 
 /* One field: mostly what the writer prints; with hard, sometimes what
  * other tools do (numbers only strtod reads). */
-static void number(text *t, gsl_rng *r, int hard)
+static void number(text_buf *t, gsl_rng *r, int hard)
 {
 	char buf[64];
 	double x = (gsl_rng_uniform(r) - 0.5) * 1e3;
@@ -64,13 +44,13 @@ static void number(text *t, gsl_rng *r, int hard)
 	case 6: snprintf(buf, sizeof buf, "+.%u", (unsigned)gsl_rng_get(r)); break;
 	default: snprintf(buf, sizeof buf, "%.17g", x); break;
 	}
-	puts_(t, buf);
+	text_puts(t, buf);
 }
 
 /* A line end: LF, or CRLF. */
-static void eol(text *t, gsl_rng *r, int crlf)
+static void eol(text_buf *t, gsl_rng *r, int crlf)
 {
-	puts_(t, crlf && gsl_rng_uniform_int(r, 2) ? "\r\n" : "\n");
+	text_puts(t, crlf && gsl_rng_uniform_int(r, 2) ? "\r\n" : "\n");
 }
 
 enum { GOOD, BAD_NUMBER, SHORT_ROW, NUL, LONG_FIELD, OPEN_QUOTE, QUOTED_NEWLINE, NDEFECTS };
@@ -79,9 +59,9 @@ enum { GOOD, BAD_NUMBER, SHORT_ROW, NUL, LONG_FIELD, OPEN_QUOTE, QUOTED_NEWLINE,
  * the last third; hard: with what the parts leave to the one reader (a
  * quoted header, blanks, quoted fields, numbers only strtod reads). Returns
  * the text (NUL-terminated, n bytes). */
-static text make_file(gsl_rng *r, size_t bytes, int ncols, int defect, int hard)
+static text_buf make_file(gsl_rng *r, size_t bytes, int ncols, int defect, int hard)
 {
-	text t = { NULL, 0, 0 };
+	text_buf t = { NULL, 0, 0 };
 	char name[32];
 	const int bom = gsl_rng_uniform_int(r, 4) == 0,
 	          crlf = gsl_rng_uniform_int(r, 2), blanks = hard && gsl_rng_uniform_int(r, 3) == 0,
@@ -89,57 +69,56 @@ static text make_file(gsl_rng *r, size_t bytes, int ncols, int defect, int hard)
 	int j, placed = 0, here;
 
 	if (bom)
-		puts_(&t, "\xEF\xBB\xBF");
+		text_puts(&t, "\xEF\xBB\xBF");
 	for (j = 0; j < ncols; j++) {
 		snprintf(name, sizeof name, j == 1 && quotes ? "%s\"c,%d\"" : "%sc%d", j ? "," : "", j);
-		puts_(&t, name);
+		text_puts(&t, name);
 	}
 	eol(&t, r, crlf);
-	while (t.n < bytes) {
-		here = defect && !placed && t.n > bytes * 2 / 3;
+	while (t.len < bytes) {
+		here = defect && !placed && t.len > bytes * 2 / 3;
 		if (gsl_rng_uniform_int(r, 50) == 0) { /* a blank line */
 			eol(&t, r, crlf);
 			continue;
 		}
 		for (j = 0; j < ncols; j++) {
 			if (j)
-				puts_(&t, ",");
+				text_puts(&t, ",");
 			if (here && j == ncols - 1) {
 				switch (defect) {
-				case BAD_NUMBER: puts_(&t, "1.5x"); break;
+				case BAD_NUMBER: text_puts(&t, "1.5x"); break;
 				/* one field less (drops the comma), or one more */
-				case SHORT_ROW: ncols > 1 ? (void)t.n-- : puts_(&t, "1,2"); break;
-				case NUL: put(&t, "1\0", 2); break;
+				case SHORT_ROW: ncols > 1 ? (void)t.len-- : text_puts(&t, "1,2"); break;
+				case NUL: text_append(&t, "1\0", 2); break;
 				case LONG_FIELD: {
 					char *z = malloc(5000);
 					memset(z, '0', 5000);
-					put(&t, z, 5000);
+					text_append(&t, z, 5000);
 					free(z);
-					puts_(&t, "1");
+					text_puts(&t, "1");
 					break;
 				}
-				case OPEN_QUOTE: puts_(&t, "\"2"); break;
-				case QUOTED_NEWLINE: puts_(&t, "\"2\n\""); break;
+				case OPEN_QUOTE: text_puts(&t, "\"2"); break;
+				case QUOTED_NEWLINE: text_puts(&t, "\"2\n\""); break;
 				default: break;
 				}
 				placed = 1;
 				continue;
 			}
 			if (blanks && gsl_rng_uniform_int(r, 20) == 0)
-				puts_(&t, " ");
+				text_puts(&t, " ");
 			if (quotes && gsl_rng_uniform_int(r, 500) == 0) {
-				puts_(&t, "\"");
+				text_puts(&t, "\"");
 				number(&t, r, hard);
-				puts_(&t, "\"");
+				text_puts(&t, "\"");
 			} else {
 				number(&t, r, hard);
 			}
 		}
-		if (t.n < bytes || last_eol)
+		if (t.len < bytes || last_eol)
 			eol(&t, r, crlf);
 	}
-	t.s[t.n] = '\0';
-	return t;
+		return t;
 }
 
 /* Both readers on the file: the same answer. */
@@ -172,12 +151,12 @@ static void compare(const char *path, int threads)
 
 static char path[64];
 
-static void write_text(const text *t)
+static void write_text(const text_buf *t)
 {
 	FILE *fp = fopen(path, "wb");
 
 	assert_non_null(fp);
-	assert_int_equal(fwrite(t->s, 1, t->n, fp), t->n);
+	assert_int_equal(fwrite(t->buf, 1, t->len, fp), t->len);
 	assert_int_equal(fclose(fp), 0);
 }
 
@@ -192,7 +171,7 @@ static void test_same_answer(void **state)
 	gsl_rng_set(r, 20261204);
 	for (c = 0; c < 3 * NDEFECTS; c++) {
 		static const int widths[] = { 1, 3, 17, 40 };
-		text t;
+		text_buf t;
 
 		defect = c % NDEFECTS;
 		t = make_file(r, (size_t)(1.2e6 + gsl_rng_uniform(r) * 1.8e6),
@@ -201,7 +180,7 @@ static void test_same_answer(void **state)
 		for (k = 0; k < 4; k++)
 			compare(path, threads[k]);
 		good += defect == GOOD;
-		free(t.s);
+		free(t.buf);
 	}
 	/* the parts' way ran (good files without quotes take it) */
 	assert_true(pr_csv_parts_reads() > parts_before);
@@ -214,22 +193,21 @@ static void test_same_answer(void **state)
  * header record): the one reader reads it, with the same rows. */
 static void test_header_line_with_rows(void **state)
 {
-	text t = { NULL, 0, 0 };
+	text_buf t = { NULL, 0, 0 };
 	char row[64];
 	long before = pr_csv_parts_reads(), i;
 
 	(void)state;
-	puts_(&t, "R,phi0\r0.5,1.25\r0.25,3\n");
-	for (i = 0; t.n < 1300000; i++) {
+	text_puts(&t, "R,phi0\r0.5,1.25\r0.25,3\n");
+	for (i = 0; t.len < 1300000; i++) {
 		snprintf(row, sizeof row, "%ld.5,%ld\n", i % 7, i % 13);
-		puts_(&t, row);
+		text_puts(&t, row);
 	}
-	t.s[t.n] = '\0';
-	write_text(&t);
+		write_text(&t);
 	compare(path, 2);
 	compare(path, 5);
 	assert_int_equal(pr_csv_parts_reads(), before);
-	free(t.s);
+	free(t.buf);
 	unlink(path);
 }
 
@@ -271,12 +249,11 @@ static void test_one_thread_cases(void **state)
 
 	(void)state;
 	{
-		text t = { NULL, 0, 0 };
-		puts_(&t, "a,b\n1,2\n");
-		t.s[t.n] = '\0';
-		write_text(&t);
+		text_buf t = { NULL, 0, 0 };
+		text_puts(&t, "a,b\n1,2\n");
+				write_text(&t);
 		compare(path, 4);
-		free(t.s);
+		free(t.buf);
 	}
 	compare("/nonexistent.csv", 4);
 	compare("/tmp", 4);

@@ -17,36 +17,20 @@
 
 #include "poolreps/common.h"
 #include "csvio_priv.h"
-
-typedef struct {
-	char *buf;
-	size_t len, cap;
-} log_t;
-
-static void append(log_t *g, const char *s, size_t n)
-{
-	if (g->len + n + 1 > g->cap) {
-		g->cap = 2 * (g->len + n + 1);
-		g->buf = realloc(g->buf, g->cap);
-		assert_non_null(g->buf);
-	}
-	memcpy(g->buf + g->len, s, n);
-	g->len += n;
-	g->buf[g->len] = '\0';
-}
+#include "text_buf.h"
 
 static int record(void *user, const char *path, long line, int n, char **fields, char *err)
 {
-	log_t *g = user;
+	text_buf *g = user;
 	char head[64];
 	int j;
 
 	(void)path;
 	(void)err;
-	append(g, head, (size_t)snprintf(head, sizeof head, "\n%ld:%d:", line, n));
+	text_append(g, head, (size_t)snprintf(head, sizeof head, "\n%ld:%d:", line, n));
 	for (j = 0; j < n; ++j) {
-		append(g, fields[j], strlen(fields[j]));
-		append(g, "\x1f", 1);
+		text_append(g, fields[j], strlen(fields[j]));
+		text_append(g, "\x1f", 1);
 	}
 	return PR_OK;
 }
@@ -54,11 +38,11 @@ static int record(void *user, const char *path, long line, int n, char **fields,
 /* One scan as text: every record, then the status and the message. */
 static char *scan(const char *file, unsigned flags)
 {
-	log_t g = { NULL, 0, 0 };
+	text_buf g = { NULL, 0, 0 };
 	char err[PR_ERRLEN] = "", tail[PR_ERRLEN + 32];
 	int rc = pr_csv_scan(file, flags, record, record, &g, err);
 
-	append(&g, tail, (size_t)snprintf(tail, sizeof tail, "\nstatus %d: %s", rc, rc ? err : ""));
+	text_append(&g, tail, (size_t)snprintf(tail, sizeof tail, "\nstatus %d: %s", rc, rc ? err : ""));
 	return g.buf;
 }
 
