@@ -196,6 +196,18 @@ int pr_bind_starts(const pr_config *c, gsl_rng *rng, long n, double *states, cha
 	return PR_OK;
 }
 
+int pr_bind_starts_each(const pr_config *c, gsl_rng *const *rngs, long n, double *states, char *err)
+{
+	const size_t w = 2 * (size_t)c->table.balls;
+	long i;
+	int rc;
+
+	for (i = 0; i < n; ++i)
+		if ((rc = pr_bind_starts(c, rngs[i], 1, states + w * (size_t)i, err)))
+			return rc;
+	return PR_OK;
+}
+
 int pr_bind_forest_fit(const pr_config *c, int n, int dx, int dy, const double *X,
                        const double *Y, const double *w, pr_forest **out, char *err)
 {

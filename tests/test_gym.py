@@ -541,3 +541,100 @@ def test_the_autoreset_example_of_docs_python_md():
     r = np.array([envs.step(np.random.default_rng(t).normal(0, 0.1, (8, 2)))[1]
                   for t in range(10)])
     assert (r[1::2] == 0).all() and (r[0::2] != 0).all()
+
+
+# ---- the native vector env (poolreps.vector) ------------------------------------
+
+def sync_same_step(n, **kwargs):
+    from gymnasium.vector import AutoresetMode
+    return gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=n, vectorization_mode="sync",
+                              vector_kwargs={"autoreset_mode": AutoresetMode.SAME_STEP}, **kwargs)
+
+
+@needs_gym
+@pytest.mark.parametrize("kwargs", [{}, {"normalize_actions": True},
+                                    {"set": {"table.friction": 0.4, "table.balls": 3}}])
+def test_native_vector_env_equals_sync_vector_env(kwargs):
+    from poolreps.vector import PocketVectorEnv
+    n = 7
+    native = gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=n,
+                                vectorization_mode="vector_entry_point", **kwargs)
+    assert isinstance(native, PocketVectorEnv)
+    assert native.metadata["autoreset_mode"].value == "SameStep"
+    sync = sync_same_step(n, **kwargs)
+    assert native.observation_space == sync.observation_space
+    assert native.action_space == sync.action_space
+    a, _ = native.reset(seed=11)
+    b, _ = sync.reset(seed=11)
+    assert np.array_equal(a, b)
+    rng = np.random.default_rng(5)
+    for step in range(6):
+        act = native.action_space.sample() if step % 2 else rng.normal(0, 0.3, (n, 2))
+        act = act.astype(native.action_space.dtype)
+        o1, r1, t1, u1, i1 = native.step(act)
+        o2, r2, t2, u2, i2 = sync.step(act)
+        assert np.array_equal(r1, r2) and np.array_equal(o1, o2)
+        assert t1.all() and t2.all() and not u1.any() and not u2.any()
+        assert np.array_equal(i1["final_obs"], np.stack(i2["final_obs"]))
+        assert i1["_final_obs"].all()
+        assert set(i1) == set(i2) and set(i1["final_info"]) == set(i2["final_info"])
+        for k, v in i2["final_info"].items():
+            assert np.array_equal(i1["final_info"][k], v.astype(i1["final_info"][k].dtype)), k
+    # a list of seeds: one per sub-env
+    seeds = [3, 2**32 - 1, 0, 9, 4, 4, 17]
+    a, _ = native.reset(seed=seeds)
+    assert np.array_equal(a, np.stack([poolreps.PocketEnv(**kwargs).reset(seed=s)[0]
+                                       for s in seeds]))
+
+
+@needs_gym
+def test_native_vector_env_refuses_bad_input_and_changes_nothing():
+    venv = gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=3)
+    with pytest.raises(RuntimeError, match="reset"):
+        venv.step(np.zeros((3, 2)))
+    first, _ = venv.reset(seed=1)
+    for bad in ({"stat": 1}, {"set": {"table.friction": 0.3}}, {"state": np.zeros((2, 4))},
+                {"state": np.zeros((3, 4))}):
+        with pytest.raises(ValueError):
+            venv.reset(seed=99, options=bad)
+    for seed in (-1, 1.5, [1, 2], True):
+        with pytest.raises(ValueError, match="seed"):
+            venv.reset(seed=seed)
+    # nothing was reseeded by the failed calls: the streams continue
+    ref = gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=3)
+    ref.reset(seed=1)
+    assert np.array_equal(venv.reset()[0], ref.reset()[0])
+    with pytest.raises(ValueError, match="actions"):
+        venv.step(np.zeros((2, 2)))
+    given = np.array([[-0.25, 0, 0.1, 0.05]] * 3)
+    assert np.array_equal(venv.reset(options={"state": given})[0], given)
+    with pytest.raises(ValueError, match="num_envs"):
+        poolreps.vector.PocketVectorEnv(num_envs=0)
+
+
+@needs_gym
+@pytest.mark.parametrize("mode", ["sync", "vector_entry_point"])
+def test_any_seed_gymnasium_accepts_works_for_vector_envs(mode):
+    venv = gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=4, vectorization_mode=mode)
+    obs, _ = venv.reset(seed=2**32 - 2)
+    # sub-env i is seeded with seed + i, wrapped to 0..2**32-1
+    want = [poolreps.PocketEnv().reset(seed=s)[0] for s in (2**32 - 2, 2**32 - 1, 0, 1)]
+    assert np.array_equal(obs, np.stack(want))
+    big = 2**70 + 5
+    env = poolreps.PocketEnv()
+    assert np.array_equal(env.reset(seed=big)[0], poolreps.PocketEnv().reset(seed=5)[0])
+    assert env.np_random_seed == big  # np_random is Gymnasium's, from the full seed
+
+
+@needs_gym
+def test_reset_refuses_unknown_options_and_changes_nothing():
+    env = poolreps.PocketEnv()
+    env.reset(seed=3)
+    before = env.np_random.bit_generator.state
+    for bad in ({"stat": [0, 0, 0.1, 0]}, {"set": {"table.friction": 0.3}}):
+        with pytest.raises(ValueError, match="options: unknown key"):
+            env.reset(seed=8, options=bad)
+    assert env.np_random.bit_generator.state == before
+    ref = poolreps.PocketEnv()
+    ref.reset(seed=3)
+    assert np.array_equal(env.reset()[0], ref.reset()[0])

@@ -58,6 +58,10 @@ int pr_bind_check_state(const pr_config *c, const double *state, int nballs, cha
 /* n start states of table.balls balls each (eq. 7.2, keys start.*), drawn
  * from rng; states is n x 2*table.balls. */
 int pr_bind_starts(const pr_config *c, gsl_rng *rng, long n, double *states, char *err);
+/* One start state from each of the n generators rngs[i] into row i of
+ * states (a vector environment: one stream per sub-environment). */
+int pr_bind_starts_each(const pr_config *c, gsl_rng *const *rngs, long n, double *states,
+                        char *err);
 /* A GSL mt19937 set to seed (NULL when out of memory). */
 gsl_rng *pr_bind_rng_new(unsigned long seed);
 void pr_bind_rng_free(gsl_rng *rng);

@@ -7,6 +7,7 @@ Search*, on numpy arrays, at the C library's speed.
     reps(returns, features=None, epsilon=None, base=None)      # poolreps reps
     Policy(**keys).fit(S, A, w).mean_cov(S) / .sample / .log_prob   # poolreps policy
     PocketEnv(set=None, render_mode=None, normalize_actions=False)  # Gymnasium API
+    gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=N)   # PocketVectorEnv, batched
 
 Keys are the CLI's (`poolreps --help`), given as a dict {'section.key':
 value} (or, for Forest and Policy, as keyword arguments of their own
@@ -48,8 +49,11 @@ def register_envs() -> None:
     except ImportError:
         return
     if ENV_ID not in gymnasium.registry:
+        # the native vector env needs Gymnasium 1.x's VectorEnv (AutoresetMode)
+        native = hasattr(gymnasium.vector, "AutoresetMode")
         gymnasium.register(id=ENV_ID, entry_point="poolreps.env:PocketEnv",
-                           vector_entry_point=None)
+                           vector_entry_point="poolreps.vector:PocketVectorEnv" if native
+                           else None)
 
 
 register_envs()

@@ -120,6 +120,7 @@ _PROTOTYPES = {
     "pr_bind_policy_rng_new": (_P, [c_ulong]),
     "pr_bind_policy_sample_rng": (c_int, [_P, c_long, _P, c_int, _P, _P, _P, c_char_p]),
     "pr_bind_starts": (c_int, [_P, _P, c_long, _P, c_char_p]),
+    "pr_bind_starts_each": (c_int, [_P, _P, c_long, _P, c_char_p]),
     "pr_bind_rng_new": (_P, [c_ulong]),
     "pr_bind_rng_free": (None, [_P]),
     "pr_bind_forest_fit": (c_int, [_P, c_int, c_int, c_int, _P, _P, _P, POINTER(_P), c_char_p]),
@@ -245,6 +246,26 @@ def seed_value(name, seed):
     if not 0 <= int(seed) <= 4294967295:
         raise ValueError(f"{name}: must be an integer in 0..4294967295 (got {seed})")
     return int(seed)
+
+
+def env_seed(name, seed):
+    """An environment's seed: any integer >= 0 (what Gymnasium accepts),
+    wrapped to 0..2**32-1, so that a vector env's seed + i works at the top
+    of the range; ValueError for anything else."""
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise ValueError(f"{name}: must be an integer >= 0 (got {seed!r})")
+    return int(seed) % 2**32
+
+
+def options(opts, known):
+    """A reset's options as a dict; ValueError for a key not in known (a
+    typo must not be ignored)."""
+    opts = dict(opts or {})
+    unknown = sorted(set(opts) - set(known), key=str)
+    if unknown:
+        raise ValueError(f"options: unknown key {unknown[0]!r} (known: "
+                         f"{', '.join(repr(k) for k in sorted(known))})")
+    return opts
 
 
 def addr(a):

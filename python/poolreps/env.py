@@ -139,7 +139,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
             if seed is None:
                 seed = int(self.np_random.integers(0, 2**32)) if gymnasium else \
                     int(np.random.SeedSequence().generate_state(1)[0])
-            ptr = lib.pr_bind_rng_new(_lib.seed_value("seed", seed))
+            ptr = lib.pr_bind_rng_new(_lib.env_seed("seed", seed))
         self._rng = _lib.rng_handle(ptr)
 
     def _draw(self, n, seed, repetition=None):
@@ -162,9 +162,9 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         instead; options={'repetition': k} switches to Experiment 3's start
         states of repetition k for experiment.seed = seed: the n-th reset
         from then on returns the start state of that run's n-th episode."""
+        options = _lib.options(options, ("state", "repetition"))
         if gymnasium:
             super().reset(seed=seed)
-        options = options or {}
         rep = options.get("repetition")
         if "state" in options:
             if seed is not None or rep is not None:
@@ -227,7 +227,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         n = S.shape[0]
         info = {k: r[k] for k in ("pocket", "hit", "min_gap", "t_end", "events")}
         info["clipped"] = clipped
-        info["velocity"] = A
+        info["velocity"] = A.copy() if A is actions else A  # never the caller's array
         return (r["final"].reshape(n, -1), r["reward"], np.ones(n, dtype=bool),
                 np.zeros(n, dtype=bool), info)
 

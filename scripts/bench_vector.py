@@ -1,0 +1,73 @@
+#!/usr/bin/env python3
+"""bench_vector.py [--envs N ...] [--rounds K] [--seconds S] — environment
+steps per second of the native vector env (PocketVectorEnv, one batch call
+per step) against Gymnasium's SyncVectorEnv of PocketEnvs (a Python loop
+over the sub-envs), both with same-step autoreset, on two action workloads:
+
+  gauss    velocities N(0, 0.1^2 I) m/s (tests/bench/bench_sim.c's shots)
+  uniform  normalize_actions=True, actions uniform in [-1, 1]^2 (a fresh
+           policy's; faster shots, more cushion events per shot)
+
+Rounds alternate native and sync so that both see the same machine load;
+each round steps for S seconds. Writes CSV rows workload,envs,kind,round,
+steps_per_s to stdout."""
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python"))
+import gymnasium  # noqa: E402
+from gymnasium.vector import AutoresetMode  # noqa: E402
+
+import poolreps  # noqa: E402,F401  (registers the environment)
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--envs", type=int, nargs="+", default=[256, 4096])
+ap.add_argument("--sync-envs", type=int, nargs="+", default=[256])
+ap.add_argument("--rounds", type=int, default=5)
+ap.add_argument("--seconds", type=float, default=1.0)
+a = ap.parse_args()
+
+WORKLOADS = {"gauss": {}, "uniform": {"normalize_actions": True}}
+
+
+def make(kind, n, kwargs):
+    if kind == "native":
+        return gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=n,
+                                  vectorization_mode="vector_entry_point", **kwargs)
+    return gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=n, vectorization_mode="sync",
+                              vector_kwargs={"autoreset_mode": AutoresetMode.SAME_STEP}, **kwargs)
+
+
+def actions(workload, n, rng):
+    if workload == "gauss":
+        return rng.normal(0, 0.1, (n, 2))
+    return rng.uniform(-1, 1, (n, 2)).astype(np.float32)
+
+
+def rate(env, acts, seconds):
+    """Steps of all sub-envs per second, over whole calls for at least seconds."""
+    k, steps, t0 = 0, 0, time.perf_counter()
+    while True:
+        env.step(acts[k % len(acts)])
+        k, steps = k + 1, steps + env.num_envs
+        dt = time.perf_counter() - t0
+        if dt >= seconds:
+            return steps / dt
+
+
+print("workload,envs,kind,round,steps_per_s")
+rng = np.random.default_rng(1)
+for w, kwargs in WORKLOADS.items():
+    sizes = sorted(set(a.envs) | set(a.sync_envs))
+    envs = {(kind, n): make(kind, n, kwargs) for n in sizes for kind in ("native", "sync")
+            if kind == "native" and n in a.envs or kind == "sync" and n in a.sync_envs}
+    for e in envs.values():
+        e.reset(seed=1)
+    acts = {n: [actions(w, n, rng) for _ in range(16)] for n in sizes}
+    for r in range(a.rounds):
+        for (kind, n), e in envs.items():
+            print(f"{w},{n},{kind},{r},{rate(e, acts[n], a.seconds):.0f}", flush=True)
