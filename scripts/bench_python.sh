@@ -5,8 +5,8 @@
 # computes the reward and writes the output arrays), on the same workload:
 # 2-ball shots from Experiment 3's start region, actions N(0, 0.1^2 I),
 # 1,000,000 shots per run, one thread. Wall clock: runs alternate C, C bind,
-# Python, ... so that all see the same machine load; each ratio is the median
-# of the rounds' ratios.
+# Python, Python with per-row parameters, ... so that all see the same
+# machine load; each ratio is the median of the rounds' ratios.
 # Instructions (when valgrind is installed): callgrind's count per extra
 # shot (runs of 100,000 and 200,000 shots), which load does not disturb.
 set -e
@@ -20,16 +20,19 @@ field() { printf '%s\n' "$1" | tr ' ' '\n' | sed -n "s/^$2=//p"; }
 crun() { build/rel/bench_sim --mode event --actions gauss --shots "$1" --runs 1; }
 brun() { build/rel/bench_bind --shots "$1" --runs 1; }
 prun() { "$PY" scripts/bench_python.py --shots "$1" --runs 1; }
+qrun() { "$PY" scripts/bench_python.py --shots "$1" --runs 1 --params; }
 median() { printf '%s\n' $1 | sort -g | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }'; }
 
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", a / b }'; }
-c="" b="" p="" r="" rb=""
+c="" b="" p="" q="" r="" rb="" rq=""
 i=0
 while [ $i -lt "$RUNS" ]; do
 	cs=$(field "$(crun "$SHOTS")" median_shots_per_s)
 	bs=$(field "$(brun "$SHOTS")" median_shots_per_s)
 	line=$(prun "$SHOTS")
 	ps=$(field "$line" median_shots_per_s)
+	qs=$(field "$(qrun "$SHOTS")" median_shots_per_s)
+	q="$q $qs" rq="$rq $(ratio "$ps" "$qs")"
 	c="$c $cs" b="$b $bs" p="$p $ps" r="$r $(ratio "$ps" "$cs")" rb="$rb $(ratio "$ps" "$bs")"
 	i=$((i + 1))
 done
@@ -38,9 +41,11 @@ echo "|---|---:|---:|---:|---|"
 echo "| C: pr_sim_shoot loop (tests/bench/bench_sim.c) | $RUNS | $SHOTS | $(median "$c") |$c |"
 echo "| C: pr_bind_shoot, with rewards and outputs (tests/bench/bench_bind.c) | $RUNS | $SHOTS | $(median "$b") |$b |"
 echo "| Python: poolreps.shoot (scripts/bench_python.py) | $RUNS | $SHOTS | $(median "$p") |$p |"
+echo "| Python: poolreps.shoot, friction and restitution per row (--params) | $RUNS | $SHOTS | $(median "$q") |$q |"
 echo
 echo "Python / C bench, median of the $RUNS rounds: $(median "$r") (rounds:$r)"
 echo "Python / C pr_bind_shoot, median of the $RUNS rounds: $(median "$rb") (rounds:$rb)"
+echo "Cost of per-row parameters (plain / --params shots/s), median of the $RUNS rounds: $(median "$rq") (rounds:$rq)"
 echo "Events per shot: $(field "$line" events_per_shot)"
 if command -v valgrind >/dev/null 2>&1; then
 	count() { valgrind --tool=callgrind --callgrind-out-file=/dev/null "$@" 2>&1 >/dev/null |

@@ -15,6 +15,7 @@
 
 #include "poolreps/bind.h"
 #include "poolreps/exp.h"
+#include "poolreps/shotparams.h"
 #include "poolreps/sim.h"
 #include "streams.h"
 
@@ -70,25 +71,28 @@ char *pr_bind_config_ini(const pr_config *c, char *err)
 	return buf;
 }
 
-int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const double *balls,
-                        const double *actions, double *final, int *pocket, unsigned char *hit,
-                        double *min_gap, double *reward, double *t_end, long *events, char *err)
+int pr_bind_shoot_params(const pr_config *c, long lo, long hi, int nballs, const double *balls,
+                         const double *actions, int nkeys, const char *const *keys,
+                         const double *values, double *final, int *pocket, unsigned char *hit,
+                         double *min_gap, double *reward, double *t_end, long *events, char *err)
 {
 	char why[PR_ERRLEN];
-	pr_sim *sim;
+	pr_shot_params *p;
 	long r;
 	int j, rc = PR_OK;
 
 	if (nballs > PR_SIM_MAX_BALLS || nballs < 1 + c->table.reward_balls)
 		return pr_err(err, PR_EINVAL, "%d balls: need 1 + table.reward_balls (%d) to %d",
 		              nballs, c->table.reward_balls, PR_SIM_MAX_BALLS);
-	if (!(sim = pr_sim_new(&c->table, &c->sim, err)))
+	if (!(p = pr_shot_params_new(c, nkeys, keys, err)))
 		return null_status(err);
 	for (r = lo; r < hi; ++r) {
 		const size_t k = (size_t)r * (size_t)nballs;
+		pr_sim *sim = pr_shot_params_row(p, values + (size_t)r * (size_t)nkeys, &rc, why);
 		pr_shot res;
 
-		if ((rc = pr_sim_shoot(sim, balls + 2 * k, nballs, actions + 2 * r, &res, NULL, why))) {
+		if (!sim || (rc = pr_sim_shoot(sim, balls + 2 * k, nballs, actions + 2 * r, &res, NULL,
+		                               why))) {
 			pr_err(err, rc, "row %ld: %s", r, why);
 			break;
 		}
@@ -100,12 +104,21 @@ int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const 
 		}
 		hit[r] = (unsigned char)res.hit;
 		min_gap[r] = res.min_gap;
-		reward[r] = pr_sim_reward(&c->table, &c->reward, &res);
+		reward[r] = pr_sim_reward(&pr_shot_params_config(p)->table,
+		                          &pr_shot_params_config(p)->reward, &res);
 		t_end[r] = res.t_end;
 		events[r] = res.events;
 	}
-	pr_sim_free(sim);
+	pr_shot_params_free(p);
 	return rc;
+}
+
+int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const double *balls,
+                        const double *actions, double *final, int *pocket, unsigned char *hit,
+                        double *min_gap, double *reward, double *t_end, long *events, char *err)
+{
+	return pr_bind_shoot_params(c, lo, hi, nballs, balls, actions, 0, NULL, NULL, final, pocket,
+	                            hit, min_gap, reward, t_end, events, err);
 }
 
 int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
@@ -194,6 +207,16 @@ int pr_bind_starts(const pr_config *c, gsl_rng *rng, long n, double *states, cha
 		if ((rc = pr_sim_sample_start(&c->table, &c->start, b, rng, states + 2 * (size_t)b * i, err)))
 			return rc;
 	return PR_OK;
+}
+
+void pr_bind_uniforms_each(gsl_rng *const *rngs, long n, int k, double *u)
+{
+	long i;
+	int j;
+
+	for (i = 0; i < n; ++i)
+		for (j = 0; j < k; ++j)
+			u[(size_t)i * (size_t)k + (size_t)j] = gsl_rng_uniform(rngs[i]);
 }
 
 int pr_bind_starts_each(const pr_config *c, gsl_rng *const *rngs, long n, double *states, char *err)

@@ -1076,3 +1076,34 @@ void pr_config_help(pr_config_schema schema, const char *only, FILE *fp)
 		fprintf(fp, ": %s\n", k->help);
 	}
 }
+
+/* ---- numbers set per row (shotparams.c) ---- */
+
+int pr_config_number_key(const pr_config *c, const char *name, char *err)
+{
+	char *base;
+	int i = find_dotted(c, name);
+
+	if (i < 0)
+		return pr_err(err, PR_EINVAL, "%.80s: unknown key", name);
+	if (key_at(c, i, &base)->type != PR_KEY_DOUBLE)
+		return pr_err(err, PR_EINVAL, "%.80s: not a number key (only numbers vary per row)",
+		              name);
+	return i;
+}
+
+int pr_config_set_number(pr_config *c, int i, double v, char *err)
+{
+	char *base = NULL, text[40];
+	const pr_config_key *k = key_at(c, i, &base);
+
+	if (!isfinite(v))
+		return pr_err(err, PR_EINVAL, "%s.%s: not a finite number", k->section, k->key);
+	if (!in_range(k, v)) {
+		pr_csv_format_double(v, text, sizeof text);
+		return range_err(k, "", text, err);
+	}
+	*(double *)(base + k->off) = v;
+	c->key_line[i] = -1;
+	return PR_OK;
+}

@@ -8,9 +8,11 @@
  */
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "poolreps/csvio.h"
 #include "poolreps/shoot.h"
+#include "poolreps/shotparams.h"
 
 /* Column of each expected name, or an error naming the first missing one. */
 static int map_columns(const pr_csv *in, int n, int *col, char *err)
@@ -112,35 +114,64 @@ static int write_trace(pr_csvw *w, long shot, const pr_sim_trace *tr)
 	return rc;
 }
 
-/* The shooter's state: options, simulator, columns and writers. */
+/* The shooter's state: options, per-row parameters, columns and writers. */
 typedef struct {
-	const pr_table *table;
-	const pr_reward_opts *reward;
-	const pr_sim_opts *opts;
-	pr_sim *sim;
+	const pr_config *cfg;
+	pr_shot_params *params;
 	pr_sim_trace *tr;
 	pr_csvw *w, *tw;
 	int n, ncols, keep, *col;
-	double *state;
+	int nparam, *pcol;   /* key columns */
+	const char **keys;   /* their names */
+	double *state, *pval;
 	long shots;          /* rows shot so far: the trace's shot index */
 } shooter;
 
-/* The header's checks: column count, ball count, every expected name. */
+/* The key columns ("section.key": a parameter per row, shotparams.h): their
+ * names into s->keys and their columns into s->pcol; returns their count. */
+static int key_columns(shooter *s, const pr_csv *in)
+{
+	int i, k = 0;
+
+	for (i = 0; i < s->ncols; ++i)
+		if (strchr(pr_csv_name(in, i), '.')) {
+			s->keys[k] = pr_csv_name(in, i);
+			s->pcol[k++] = i;
+		}
+	return k;
+}
+
+/* The header's checks: column count, ball count, every expected name, the
+ * key columns' keys. */
 static int check_columns(shooter *s, const pr_csv *in, char *err)
 {
+	char why[PR_ERRLEN];
+	int rc;
+
 	s->ncols = pr_csv_ncols(in);
-	s->n = (s->ncols - 2) / 2;
-	if (s->ncols < 4 || s->ncols % 2)
-		return pr_err(err, PR_EIO, "%s:1: %d columns: expected x0,y0,...,vx,vy (2 per ball plus 2)",
-		              pr_csv_path(in), s->ncols);
-	if (s->n > PR_SIM_MAX_BALLS || s->n < 1 + s->table->reward_balls)
+	s->keys = malloc(((size_t)s->ncols + 1) * sizeof *s->keys);
+	s->pcol = malloc(((size_t)s->ncols + 1) * sizeof *s->pcol);
+	s->pval = malloc(((size_t)s->ncols + 1) * sizeof *s->pval);
+	if (!s->keys || !s->pcol || !s->pval)
+		return pr_err(err, PR_ENOMEM, "shoot: out of memory");
+	s->nparam = key_columns(s, in);
+	s->n = (s->ncols - s->nparam - 2) / 2;
+	if (s->ncols - s->nparam < 4 || (s->ncols - s->nparam) % 2)
+		return pr_err(err, PR_EIO, "%s:1: %d columns: expected x0,y0,...,vx,vy (2 per ball plus 2) "
+		              "and key columns section.key", pr_csv_path(in), s->ncols);
+	if (s->n > PR_SIM_MAX_BALLS || s->n < 1 + s->cfg->table.reward_balls)
 		return pr_err(err, PR_EINVAL, "%s:1: %d balls: need 1 + table.reward_balls (%d) to %d",
-		              pr_csv_path(in), s->n, s->table->reward_balls, PR_SIM_MAX_BALLS);
+		              pr_csv_path(in), s->n, s->cfg->table.reward_balls, PR_SIM_MAX_BALLS);
 	s->state = malloc((size_t)s->n * 2 * sizeof *s->state);
 	s->col = malloc((size_t)(2 * s->n + 2) * sizeof *s->col);
 	if (!s->state || !s->col)
 		return pr_err(err, PR_ENOMEM, "shoot: out of memory");
-	return map_columns(in, s->n, s->col, err);
+	if ((rc = map_columns(in, s->n, s->col, err)))
+		return rc;
+	if (!(s->params = pr_shot_params_new(s->cfg, s->nparam, s->keys, why)))
+		return pr_err(err, strstr(why, "out of memory") ? PR_ENOMEM : PR_EINVAL, "%s:1: %s",
+		              pr_csv_path(in), why);
+	return PR_OK;
 }
 
 /* Check and shoot every row of a chunk, in order; write each result. A write
@@ -148,23 +179,28 @@ static int check_columns(shooter *s, const pr_csv *in, char *err)
 static int shoot_chunk(shooter *s, const pr_csv *chunk, char *err)
 {
 	char why[PR_ERRLEN];
+	const pr_config *cfg = pr_shot_params_config(s->params);
 	double act[2];
 	long r, nrows = pr_csv_nrows(chunk);
-	int rc;
+	int k, rc = PR_OK;
 
 	for (r = 0; r < nrows && !pr_csvw_status(s->w) && !(s->tw && pr_csvw_status(s->tw)); ++r) {
 		const double *row = pr_csv_row(chunk, r);
+		pr_sim *sim;
 		pr_shot res;
 
 		if (pr_interrupted)
 			return pr_err(err, PR_EINTR, "shoot: interrupted");
 		get_row(row, s->n, s->col, s->state, act);
-		if ((rc = pr_sim_check_state(s->table, s->state, s->n, why)) ||
-		    (rc = pr_sim_check_action(s->opts, act, why)) ||
-		    (rc = pr_sim_shoot(s->sim, s->state, s->n, act, &res, s->tr, why)))
+		for (k = 0; k < s->nparam; ++k)
+			s->pval[k] = row[s->pcol[k]];
+		if (!(sim = pr_shot_params_row(s->params, s->pval, &rc, why)) ||
+		    (rc = pr_sim_check_state(&cfg->table, s->state, s->n, why)) ||
+		    (rc = pr_sim_check_action(&cfg->sim, act, why)) ||
+		    (rc = pr_sim_shoot(sim, s->state, s->n, act, &res, s->tr, why)))
 			return pr_err(err, rc, "%s:%ld: %s", pr_csv_path(chunk), pr_csv_line(chunk, r), why);
 		write_shot(s->w, s->keep ? row : NULL, s->ncols, &res,
-		           pr_sim_reward(s->table, s->reward, &res));
+		           pr_sim_reward(&cfg->table, &cfg->reward, &res));
 		if (s->tw)
 			write_trace(s->tw, s->shots, s->tr);
 		s->shots++;
@@ -194,25 +230,18 @@ static int shoot_stream(shooter *s, pr_csv_stream *in, const pr_shoot_files *f, 
 	return rc;
 }
 
-int pr_shoot_csv(const pr_table *t, const pr_sim_opts *o, const pr_reward_opts *rw,
-                 const pr_shoot_files *f, char *err)
+int pr_shoot_csv(const pr_config *c, const pr_shoot_files *f, char *err)
 {
 	shooter s = { 0 };
 	pr_csv_stream *in = NULL;
 	pr_outset *set = NULL;
 	int rc;
 
-	s.table = t;
-	s.opts = o;
-	s.reward = rw;
+	s.cfg = c;
 	s.keep = f->keep;
 	if ((rc = pr_csv_stream_open(f->input, &in, err)) ||
 	    (rc = check_columns(&s, pr_csv_stream_columns(in), err)))
 		goto done;
-	if (!(s.sim = pr_sim_new(t, o, err))) {
-		rc = PR_EINVAL;
-		goto done;
-	}
 	if ((f->trace && !(s.tr = pr_sim_trace_new(err))) || !(set = pr_outset_new(err))) {
 		rc = PR_ENOMEM;
 		goto done;
@@ -222,9 +251,12 @@ int pr_shoot_csv(const pr_table *t, const pr_sim_opts *o, const pr_reward_opts *
 done:
 	rc = pr_outset_commit(set, rc, err);
 	pr_sim_trace_free(s.tr);
-	pr_sim_free(s.sim);
+	pr_shot_params_free(s.params);
 	free(s.state);
 	free(s.col);
+	free(s.keys);
+	free(s.pcol);
+	free(s.pval);
 	pr_csv_stream_free(in);
 	return rc;
 }

@@ -53,6 +53,15 @@ int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const 
                         const double *actions, double *final, int *pocket, unsigned char *hit,
                         double *min_gap, double *reward, double *t_end, long *events, char *err);
 
+/* The same with per-row parameters (shotparams.h): values is n x nkeys,
+ * row r's values for keys[0..nkeys-1] (number keys of table., sim. and
+ * reward.); row r is shot as with --set KEY=VALUE for each, bit for bit,
+ * and a value --set refuses stops the batch with "row R: <message>". */
+int pr_bind_shoot_params(const pr_config *c, long lo, long hi, int nballs, const double *balls,
+                         const double *actions, int nkeys, const char *const *keys,
+                         const double *values, double *final, int *pocket, unsigned char *hit,
+                         double *min_gap, double *reward, double *t_end, long *events, char *err);
+
 /* pr_sim_check_state on the configuration's table. */
 int pr_bind_check_state(const pr_config *c, const double *state, int nballs, char *err);
 /* n start states of table.balls balls each (eq. 7.2, keys start.*), drawn
@@ -62,6 +71,9 @@ int pr_bind_starts(const pr_config *c, gsl_rng *rng, long n, double *states, cha
  * states (a vector environment: one stream per sub-environment). */
 int pr_bind_starts_each(const pr_config *c, gsl_rng *const *rngs, long n, double *states,
                         char *err);
+/* k uniform draws in [0, 1) from each of the n generators rngs[i] into
+ * row i of u (n x k): per-episode parameters of a vector environment. */
+void pr_bind_uniforms_each(gsl_rng *const *rngs, long n, int k, double *u);
 /* A GSL mt19937 set to seed (NULL when out of memory). */
 gsl_rng *pr_bind_rng_new(unsigned long seed);
 void pr_bind_rng_free(gsl_rng *rng);

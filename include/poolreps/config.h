@@ -123,5 +123,13 @@ int pr_config_key_listed(const char *list, const char *key);
 /* 1 if "section.key" is a key of another experiment's block than the one
  * experiment.name of c names (that experiment never reads it). */
 int pr_config_key_elsewhere(const pr_config *c, const char *key);
+/* The index of number key "section.key" for pr_config_set_number, or a
+ * negative status and err for an unknown key or one that is not a number. */
+int pr_config_number_key(const pr_config *c, const char *name, char *err);
+/* Sets number key i to v with --set's checks of that key (finite, in
+ * range; pr_config_validate's checks across keys are the caller's), as if
+ * set by --set: the same bits as "--set section.key=V" for any text V that
+ * reads as v. */
+int pr_config_set_number(pr_config *c, int i, double v, char *err);
 
 #endif

@@ -1,8 +1,10 @@
 /* shoot.h — the `shoot` row filter: one simulated shot per row of a CSV,
  * read, shot and written in chunks (memory independent of the row count).
  *
- * Input columns x0,y0,...,x{n-1},y{n-1},vx,vy (any order, no others); the
- * ball count n comes from them. Output columns x0,y0,... (final positions),
+ * Input columns x0,y0,...,x{n-1},y{n-1},vx,vy (any order); the ball count n
+ * comes from them. Columns named section.key (number keys of table., sim.
+ * and reward.) set those keys per row (shotparams.h): the row is shot as
+ * with --set section.key=VALUE. Output columns x0,y0,... (final positions),
  * pocket0,..., hit, min_gap, reward, t_end, events, one row per input row;
  * with keep, the input columns as read come first and the final positions
  * are named final_x0,final_y0,..., so that a row holds a whole sample
@@ -13,6 +15,7 @@
 #define POOLREPS_SHOOT_H
 
 #include "poolreps/common.h"
+#include "poolreps/config.h"
 #include "poolreps/sim.h"
 
 typedef struct {
@@ -32,7 +35,6 @@ typedef struct {
  * a pipe or a device receives the results of every complete chunk at once,
  * whole rows only: after a failure it holds exactly the rows before the
  * failing one, and the failure is the status (the caller's exit code). */
-int pr_shoot_csv(const pr_table *t, const pr_sim_opts *o, const pr_reward_opts *rw,
-                 const pr_shoot_files *f, char *err);
+int pr_shoot_csv(const pr_config *c, const pr_shoot_files *f, char *err);
 
 #endif

@@ -23,13 +23,17 @@ PICKLE_FORMAT = 1
 
 
 def shoot(balls: ArrayLike, actions: ArrayLike, mode: str = "event",
-          set: Keys = None) -> Dict[str, np.ndarray]:
+          set: Keys = None, params: Keys = None) -> Dict[str, np.ndarray]:
     """Simulate one shot per row, as `poolreps shoot`.
 
     balls: (N, 2*n_balls) start positions x0, y0, x1, y1, ... (ball 0 is the
     cue ball); actions: (N, 2) the cue ball's initial velocity in m/s.
     mode: sim.mode ('event' or 'stepped'); set: other keys, e.g.
     {'table.friction': 0.3} (applied after mode, so they may override it).
+    params: number keys of table., sim. and reward. with one value per row,
+    (N,) arrays or scalars (broadcast), e.g. {'table.friction': f,
+    'table.restitution': k}: row i is shot as with set={key: value[i]} on
+    top of set, bit for bit (domain randomisation in one call).
 
     Returns a dict of arrays: final (N, n_balls, 2) final positions (a
     pocketed ball at its pocket's centre), pocket (N, n_balls) pocket id or
@@ -44,13 +48,33 @@ def shoot(balls: ArrayLike, actions: ArrayLike, mode: str = "event",
     if b.shape[1] < 2 or b.shape[1] % 2:
         raise ValueError(f"balls: expected 2 columns per ball (x0, y0, x1, y1, ...), "
                          f"got shape {b.shape}")
-    return shoot_rows(cfg, b, array("actions", actions, 2, cols=2, rows=b.shape[0],
-                                    allow_empty=True, finite=False))
+    a = array("actions", actions, 2, cols=2, rows=b.shape[0], allow_empty=True, finite=False)
+    return shoot_rows(cfg, b, a, row_params(params, b.shape[0]))
 
 
-def shoot_rows(cfg, b: np.ndarray, a: np.ndarray) -> Dict[str, np.ndarray]:
-    """shoot on checked arrays with a built Config, in pieces (Ctrl-C is
-    honoured between them)."""
+RowParams = Optional[Tuple[Tuple[str, ...], np.ndarray]]
+
+
+def row_params(params: Keys, n: int) -> RowParams:
+    """(keys, (n, k) values) for shoot's params, or None for none."""
+    if not params:
+        return None
+    keys = tuple(params)
+    for k in keys:
+        if not isinstance(k, str):
+            raise ValueError(f"params: {k!r}: keys are 'section.key' strings")
+    cols = []
+    for k in keys:
+        v = np.asarray(params[k])
+        if v.ndim == 0:
+            v = np.full(n, v, dtype=np.float64) if v.dtype.kind in "iuf" else v.reshape(1)
+        cols.append(array(f"params[{k!r}]", v, 1, rows=n, allow_empty=True, finite=False))
+    return keys, np.ascontiguousarray(np.stack(cols, axis=1).reshape(n, len(keys)))
+
+
+def shoot_rows(cfg, b: np.ndarray, a: np.ndarray, params: RowParams = None) -> Dict[str, np.ndarray]:
+    """shoot on checked arrays with a built Config and row_params' values,
+    in pieces (Ctrl-C is honoured between them)."""
     n, nb = b.shape[0], b.shape[1] // 2
     out = {
         "final": np.empty((n, nb, 2)),
@@ -64,8 +88,11 @@ def shoot_rows(cfg, b: np.ndarray, a: np.ndarray) -> Dict[str, np.ndarray]:
     err = errbuf()
     ptrs = [addr(out[k]) for k in ("final", "pocket", "hit", "min_gap", "reward", "t_end",
                                    "events")]
+    keys, values = params if params else ((), None)
+    names = (ctypes.c_char_p * max(1, len(keys)))(*[k.encode() for k in keys])
     for lo, hi in chunks(n):
-        check(lib.pr_bind_shoot_range(cfg.ptr, lo, hi, nb, addr(b), addr(a), *ptrs, err), err)
+        check(lib.pr_bind_shoot_params(cfg.ptr, lo, hi, nb, addr(b), addr(a), len(keys), names,
+                                       addr(values), *ptrs, err), err)
     return out
 
 

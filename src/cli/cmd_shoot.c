@@ -7,7 +7,7 @@ int pr_cmd_shoot(const pr_config *cfg, const shoot_args *a, char *err)
 {
 	pr_shoot_files f = { a->input, a->output, a->trace, a->keep };
 
-	return pr_shoot_csv(&cfg->table, &cfg->sim, &cfg->reward, &f, err);
+	return pr_shoot_csv(cfg, &f, err);
 }
 
 static int shoot_main(const pr_config *cfg, const void *opts, char *err)
@@ -27,7 +27,7 @@ static const cli_opt shoot_opts[] = {
 const cli_command cli_shoot = {
 	"shoot",
 	"poolreps shoot [-c FILE] [-i IN.csv] [-o OUT.csv] [--trace TRACE.csv] [--keep]\n"
-	"  One shot per input row. Input columns x0,y0,x1,y1,...,vx,vy. Output columns\n"
-	"  x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events.",
+	"  One shot per input row. Input columns x0,y0,x1,y1,...,vx,vy, any table.*, sim.*, reward.* number key (--set per row).\n"
+	"  Output columns x0,y0,... (final), pocket0,... (id or -1), hit, min_gap, reward, t_end, events.",
 	shoot_opts, sizeof(shoot_args), "table.,sim.,reward.", CLI_OPS_NONE, 0, NULL, shoot_main
 };

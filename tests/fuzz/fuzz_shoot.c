@@ -33,7 +33,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	f.output = out;
 	f.trace = size % 2 ? trace : NULL; /* half the inputs also write a trace */
 	err[0] = '\0';
-	if (pr_shoot_csv(&cfg.table, &cfg.sim, &cfg.reward, &f, err) != PR_OK) {
+	if (pr_shoot_csv(&cfg, &f, err) != PR_OK) {
 		fuzz_check_err(err, NULL);
 		if (access(out, F_OK) == 0 || access(trace, F_OK) == 0) {
 			fprintf(stderr, "fuzz harness: failed shoot left an output file: %s\n", err);
