@@ -553,7 +553,9 @@ def sync_same_step(n, **kwargs):
 
 @needs_gym
 @pytest.mark.parametrize("kwargs", [{}, {"normalize_actions": True},
-                                    {"set": {"table.friction": 0.4, "table.balls": 3}}])
+                                    {"set": {"table.friction": 0.4, "table.balls": 3}},
+                                    {"randomize": {"table.friction": (0.1, 0.6),
+                                                   "table.restitution": (0.3, 1.0)}}])
 def test_native_vector_env_equals_sync_vector_env(kwargs):
     from poolreps.vector import PocketVectorEnv
     n = 7
@@ -564,9 +566,10 @@ def test_native_vector_env_equals_sync_vector_env(kwargs):
     sync = sync_same_step(n, **kwargs)
     assert native.observation_space == sync.observation_space
     assert native.action_space == sync.action_space
-    a, _ = native.reset(seed=11)
-    b, _ = sync.reset(seed=11)
-    assert np.array_equal(a, b)
+    a, ia = native.reset(seed=11)
+    b, ib = sync.reset(seed=11)
+    assert np.array_equal(a, b) and set(ia) == set(ib)
+    assert all(np.array_equal(ia[k], ib[k]) for k in ia)
     rng = np.random.default_rng(5)
     for step in range(6):
         act = native.action_space.sample() if step % 2 else rng.normal(0, 0.3, (n, 2))
@@ -578,6 +581,7 @@ def test_native_vector_env_equals_sync_vector_env(kwargs):
         assert np.array_equal(i1["final_obs"], np.stack(i2["final_obs"]))
         assert i1["_final_obs"].all()
         assert set(i1) == set(i2) and set(i1["final_info"]) == set(i2["final_info"])
+        assert all(np.array_equal(i1[k], i2[k]) for k in i1 if k[0] != "f")
         for k, v in i2["final_info"].items():
             assert np.array_equal(i1["final_info"][k], v.astype(i1["final_info"][k].dtype)), k
     # a list of seeds: one per sub-env
@@ -638,3 +642,58 @@ def test_reset_refuses_unknown_options_and_changes_nothing():
     ref = poolreps.PocketEnv()
     ref.reset(seed=3)
     assert np.array_equal(env.reset()[0], ref.reset()[0])
+
+
+# ---- domain randomisation (PocketEnv(randomize=...)) ----------------------------
+
+RANDOMIZE = {"table.friction": (0.1, 0.6), "table.restitution": (0.3, 1.0),
+             "reward.miss_penalty": (0.5, 2.0)}
+
+
+def test_randomize_draws_per_episode_and_shoots_with_the_values():
+    env = poolreps.PocketEnv(randomize=RANDOMIZE)
+    seen = []
+    obs, info = env.reset(seed=21)
+    for episode in range(8):
+        assert set(info) == set(RANDOMIZE)
+        for k, (lo, hi) in RANDOMIZE.items():
+            assert lo <= info[k] < hi
+        a = np.array([0.3 - 0.05 * episode, 0.1])
+        final, reward, _, _, step_info = env.step(a)
+        # the oracle: one shot with the episode's values as plain keys
+        ref = poolreps.shoot(obs[None], a[None], set={"experiment.name": "exp3", **info})
+        assert reward == ref["reward"][0] and np.array_equal(final, ref["final"].reshape(-1))
+        assert all(step_info[k] == info[k] for k in RANDOMIZE)
+        traj = env.trajectory()
+        for b in range(env.n_balls):  # the trajectory is the randomized shot's
+            last = traj[traj[:, 3] == b][-1]
+            if ref["pocket"][0, b] < 0:
+                assert np.allclose(last[1:3], final[2 * b:2 * b + 2])
+        seen.append(tuple(info.values()))
+        obs, info = env.reset()
+    assert len(set(seen)) == len(seen)
+    # the same seed draws the same episodes; pickling continues the stream
+    again = poolreps.PocketEnv(randomize=RANDOMIZE)
+    assert tuple(again.reset(seed=21)[1].values()) == seen[0]
+    clone = pickle.loads(pickle.dumps(again))
+    assert clone.reset()[1] == again.reset()[1]
+
+
+def test_randomize_batch_calls_and_refusals():
+    env = poolreps.PocketEnv(randomize=RANDOMIZE)
+    states, info = env.reset_batch(30, seed=4)
+    assert set(info) == set(RANDOMIZE) and all(v.shape == (30,) for v in info.values())
+    acts = np.random.default_rng(0).normal(0, 0.3, (30, 2))
+    _, rewards, _, _, _ = env.step_batch(states, acts, info)
+    assert np.array_equal(rewards, poolreps.shoot(states, acts, set={"experiment.name": "exp3"},
+                                                  params=info)["reward"])
+    assert poolreps.PocketEnv().reset_batch(2, seed=4)[1] == {}
+    for bad, msg in [({"table.frction": (0, 1)}, "unknown key"),
+                     ({"table.balls": (2, 3)}, "not a number key"),
+                     ({"forest.trees": (1, 2)}, "only table., sim. and reward."),
+                     ({"table.friction": (-1, 0.5)}, "out of range"),
+                     ({"table.friction": (0.5, 0.1)}, "low 0.5 > high 0.1"),
+                     ({"table.friction": 0.3}, r"expected \(low, high\)"),
+                     ({"table.friction": (0.1, np.nan)}, "not a finite")]:
+        with pytest.raises(ValueError, match=msg):
+            poolreps.PocketEnv(randomize=bad)

@@ -90,7 +90,8 @@ def shoot_rows(cfg, b: np.ndarray, a: np.ndarray, params: RowParams = None) -> D
                                    "events")]
     keys, values = params if params else ((), None)
     names = (ctypes.c_char_p * max(1, len(keys)))(*[k.encode() for k in keys])
-    for lo, hi in chunks(n):
+    # no rows: one empty range all the same, which checks params' keys
+    for lo, hi in list(chunks(n)) or ([(0, 0)] if keys else []):
         check(lib.pr_bind_shoot_params(cfg.ptr, lo, hi, nb, addr(b), addr(a), len(keys), names,
                                        addr(values), *ptrs, err), err)
     return out

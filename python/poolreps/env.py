@@ -9,7 +9,7 @@ import numpy as np
 
 from . import _lib
 from ._lib import addr, array, check, chunks, config, errbuf, lib
-from .core import shoot_rows
+from .core import row_params, shoot_rows
 
 try:
     import gymnasium
@@ -67,13 +67,14 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 30}
 
     def __init__(self, set: Optional[Dict[str, Any]] = None, render_mode: Optional[str] = None,
-                 normalize_actions: bool = False, width: int = 400, height: int = 200) -> None:
+                 normalize_actions: bool = False, width: int = 400, height: int = 200,
+                 randomize: Optional[Dict[str, Tuple[float, float]]] = None) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: {render_mode!r} is not one of "
                              f"{self.metadata['render_modes']} or None")
         self._args = {"set": dict(set or {}), "render_mode": render_mode,
                       "normalize_actions": bool(normalize_actions), "width": int(width),
-                      "height": int(height)}
+                      "height": int(height), "randomize": dict(randomize or {})}
         self._cfg = config(_lib.assignments({"experiment.name": "exp3", **(set or {})}))
         self.render_mode = render_mode
         self.normalize_actions = bool(normalize_actions)
@@ -81,6 +82,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
                               self._cfg.number("table.width")]) / 2
         self.n_balls = int(self._cfg.number("table.balls"))
         self.max_speed = self._cfg.number("sim.max_speed")
+        self._rand = self._randomize(randomize)
         low, high = -np.tile(self.half, self.n_balls), np.tile(self.half, self.n_balls)
         box = spaces.Box if gymnasium else Bounds
         self.observation_space = box(low, high, dtype=np.float64)
@@ -93,13 +95,14 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         self._lock = threading.Lock()  # guards the start-state generator
         self._rng = None
         self._state = None
-        self._last = None      # (start state, velocity, final state) of the last shot
+        self._params = None    # this episode's randomized values, (1, keys)
+        self._last = None      # (start state, velocity, final state, params) of the last shot
         self._renderer = None
 
     def __repr__(self) -> str:
         a = self._args
-        extra = "".join(f", {k}={a[k]!r}" for k in ("render_mode", "normalize_actions")
-                        if a[k])
+        extra = "".join(f", {k}={a[k]!r}" for k in ("render_mode", "normalize_actions",
+                                                    "randomize") if a[k])
         return f"PocketEnv(set={a['set']!r}{extra})"
 
     # ---- pickling: the keys, the generators' states and the episode ----------
@@ -108,7 +111,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         with self._lock:
             rng = None if self._rng is None else _lib.rng_state(self._rng)
         return {"format": 1, "args": self._args, "rng": rng, "state": self._state,
-                "last": self._last, "np_random": getattr(self, "_np_random", None),
+                "last": self._last, "params": self._params, "np_random": getattr(self, "_np_random", None),
                 "np_random_seed": getattr(self, "_np_random_seed", None)}
 
     def __setstate__(self, st: Dict[str, Any]) -> None:
@@ -120,9 +123,59 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         if st["rng"] is not None:
             self._rng = _lib.rng_from_state(st["rng"])
         self._state, self._last = st["state"], st["last"]
+        self._params = st.get("params")
         if st["np_random"] is not None:
             self._np_random = st["np_random"]
             self._np_random_seed = st["np_random_seed"]
+
+    # ---- domain randomisation -------------------------------------------------
+
+    def _randomize(self, randomize):
+        """(keys, low, high) of randomize={key: (low, high)}, or None; the
+        keys checked as shoot's params check them."""
+        if not randomize:
+            return None
+        keys = tuple(randomize)
+        bounds = []
+        for k in keys:
+            b = np.asarray(randomize[k], dtype=object)
+            if b.shape != (2,):
+                raise ValueError(f"randomize[{k!r}]: expected (low, high), got {randomize[k]!r}")
+            lo, hi = array(f"randomize[{k!r}]", list(b), 1, rows=2)
+            if not lo <= hi:
+                raise ValueError(f"randomize[{k!r}]: low {lo!r} > high {hi!r}")
+            bounds.append((lo, hi))
+        low, high = np.array(bounds).T.copy()
+        # a shot of no rows checks the keys (unknown, not a number, another section)
+        shoot_rows(self._cfg, np.empty((0, 2 * self.n_balls)), np.empty((0, 2)),
+                   (keys, np.empty((0, len(keys)))))
+        for k, b in zip(keys, bounds):  # both ends as --set values (the range is an interval)
+            for v in b:
+                try:
+                    config(_lib.assignments({"experiment.name": "exp3", **self._args["set"],
+                                             k: v}))
+                except ValueError as e:
+                    raise ValueError(f"randomize[{k!r}]: {e}") from None
+        return keys, low, high
+
+    def draw_params(self, u: np.ndarray) -> Dict[str, np.ndarray]:
+        """{key: values} of randomize for uniform draws u (n, keys) in [0, 1)."""
+        keys, low, high = self._rand
+        v = low + (high - low) * u
+        return {k: v[:, j].copy() for j, k in enumerate(keys)}
+
+    def _draw_params(self, n):
+        """n rows of randomized values from the start-state generator
+        (after the start state), or None without randomize."""
+        if self._rand is None:
+            return None
+        u = np.empty((n, len(self._rand[0])))
+        with self._lock:
+            if self._rng is None:
+                self._seed_rng(None, None)
+            rngs = (ctypes.c_void_p * max(n, 1))(*([self._rng.ptr] * n))
+            lib.pr_bind_uniforms_each(rngs, n, u.shape[1], addr(u))
+        return self.draw_params(u)
 
     # ---- start states ---------------------------------------------------------
 
@@ -161,7 +214,9 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         np_random); options={'state': positions} starts from given positions
         instead; options={'repetition': k} switches to Experiment 3's start
         states of repetition k for experiment.seed = seed: the n-th reset
-        from then on returns the start state of that run's n-th episode."""
+        from then on returns the start state of that run's n-th episode.
+        With randomize, the episode's values are drawn next from the same
+        generator, and info holds them ({key: value})."""
         options = _lib.options(options, ("state", "repetition"))
         if gymnasium:
             super().reset(seed=seed)
@@ -175,14 +230,18 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         else:
             state = self._draw(1, seed, rep)[0]
         self._state = state
+        self._params = self._draw_params(1)
         self._last = None
-        return state.copy(), {}
+        return state.copy(), {} if self._params is None else \
+            {k: float(v[0]) for k, v in self._params.items()}
 
     def reset_batch(self, n: int, seed: Optional[int] = None,
                     repetition: Optional[int] = None) -> Tuple[np.ndarray, Dict]:
-        """n start states at once, (n, 2*n_balls), and an empty info dict;
-        seed and repetition as for reset()."""
-        return self._draw(int(n), seed, repetition), {}
+        """n start states at once, (n, 2*n_balls), and an info dict (with
+        randomize, {key: (n,) values}, drawn after the n states: pass them
+        to step_batch as params); seed and repetition as for reset()."""
+        states = self._draw(int(n), seed, repetition)
+        return states, self._draw_params(states.shape[0]) or {}
 
     # ---- shots ----------------------------------------------------------------
 
@@ -207,25 +266,30 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         if self._state is None:
             raise RuntimeError("PocketEnv: call reset() before step()")
         a = array("action", action, 1, rows=2)
-        obs, reward, _, _, info = self.step_batch(self._state[None, :], a[None, :])
-        self._last = (self._state, info["velocity"][0], obs[0])
+        obs, reward, _, _, info = self.step_batch(self._state[None, :], a[None, :],
+                                                  self._params)
+        self._last = (self._state, info["velocity"][0], obs[0], self._params)
         self._state = None
         if self.render_mode == "human":
             self.render()
         return obs[0], float(reward[0]), True, False, {k: v[0] for k, v in info.items()}
 
-    def step_batch(self, states: Any, actions: Any):
+    def step_batch(self, states: Any, actions: Any, params: Optional[Dict[str, Any]] = None):
         """One shot from each row of states (N, 2*n_balls) with actions
         (N, 2): (observations, rewards, terminated, truncated, info), each
         with N rows; info holds pocket, hit, min_gap, t_end, events, clipped
-        and velocity (the velocity shot, m/s)."""
+        and velocity (the velocity shot, m/s), and params' keys. params:
+        keys per row as for poolreps.shoot (e.g. reset_batch's info)."""
         S = array("states", states, 2, cols=2 * self.n_balls, allow_empty=True, finite=False)
         A, clipped = self.velocity(np.asarray(actions) if hasattr(actions, "shape") else actions)
         if A.shape[0] != S.shape[0]:
             raise ValueError(f"actions: expected {S.shape[0]} rows, got shape {A.shape}")
-        r = shoot_rows(self._cfg, S, A)
         n = S.shape[0]
+        rows = row_params(params, n)
+        r = shoot_rows(self._cfg, S, A, rows)
         info = {k: r[k] for k in ("pocket", "hit", "min_gap", "t_end", "events")}
+        if rows:
+            info.update({k: rows[1][:, j].copy() for j, k in enumerate(rows[0])})
         info["clipped"] = clipped
         info["velocity"] = A.copy() if A is actions else A  # never the caller's array
         return (r["final"].reshape(n, -1), r["reward"], np.ones(n, dtype=bool),
@@ -236,11 +300,15 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         the start, at every event and at the end); None before a shot."""
         if self._last is None:
             return None
-        start, v, _ = self._last
+        start, v = self._last[:2]
+        params = self._last[3] if len(self._last) > 3 else None
+        cfg = self._cfg if not params else config(_lib.assignments(
+            {"experiment.name": "exp3", **self._args["set"],
+             **{k: float(x[0]) for k, x in params.items()}}))
         rows, n = ctypes.c_void_p(), ctypes.c_long()
         err = errbuf()
         v = np.ascontiguousarray(v, dtype=np.float64)
-        check(lib.pr_bind_trace(self._cfg.ptr, self.n_balls, addr(start), addr(v),
+        check(lib.pr_bind_trace(cfg.ptr, self.n_balls, addr(start), addr(v),
                                 ctypes.byref(rows), ctypes.byref(n), err), err)
         try:
             return np.ctypeslib.as_array(ctypes.cast(rows.value, ctypes.POINTER(ctypes.c_double)),

@@ -29,8 +29,9 @@ class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
     Sub-env i draws its start states from its own generator, seeded as a
     PocketEnv reset with seed + i (wrapped to 0..2**32-1): the start
     states, rewards and observations equal those of a SyncVectorEnv of
-    PocketEnvs (autoreset_mode SAME_STEP) on the same seeds. Keyword
-    arguments are PocketEnv's (set, normalize_actions, randomize).
+    PocketEnvs (autoreset_mode SAME_STEP) on the same seeds, randomized
+    parameters (randomize=) included. Keyword arguments are PocketEnv's
+    (set, normalize_actions, randomize).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
@@ -51,6 +52,7 @@ class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
         self._rngs: List[_lib.Handle] = []
         self._ptrs = (ctypes.c_void_p * num_envs)()
         self._states: Optional[Obs] = None
+        self._params: Optional[Dict[str, npt.NDArray[np.float64]]] = None
 
     def __repr__(self) -> str:
         return f"PocketVectorEnv(num_envs={self.num_envs}, {self.env!r})"
@@ -62,11 +64,28 @@ class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
             self._ptrs[i] = h.ptr
 
     def _starts(self) -> Obs:
+        """Each sub-env's next start state, then its randomized values (as
+        PocketEnv.reset draws them) into self._params."""
         states = np.empty((self.num_envs, 2 * self.env.n_balls))
         err = errbuf()
         check(lib.pr_bind_starts_each(self.env._cfg.ptr, self._ptrs, self.num_envs,
                                       addr(states), err), err)
+        self._draw_params()
         return states
+
+    def _draw_params(self) -> None:
+        if self.env._rand is not None:
+            u = np.empty((self.num_envs, len(self.env._rand[0])))
+            lib.pr_bind_uniforms_each(self._ptrs, self.num_envs, u.shape[1], addr(u))
+            self._params = self.env.draw_params(u)
+
+    def _episode_info(self) -> Dict[str, Any]:
+        """The new episodes' randomized values, as SyncVectorEnv gathers
+        PocketEnv.reset's info: {key: (num_envs,), '_key': mask}."""
+        info: Dict[str, Any] = {}
+        for k, v in (self._params or {}).items():
+            info[k], info["_" + k] = v, self._mask()
+        return info
 
     def _given(self, state: Any) -> Obs:
         s = _lib.array("state", state, 2, rows=self.num_envs, cols=2 * self.env.n_balls)
@@ -98,8 +117,12 @@ class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
                 [int(s) for s in self.np_random.integers(0, 2**32, self.num_envs)]
         if seeds:
             self._seed(seeds)
-        self._states = self._starts() if given is None else given
-        return self._states.copy(), {}
+        if given is None:
+            self._states = self._starts()
+        else:
+            self._states = given
+            self._draw_params()
+        return self._states.copy(), self._episode_info()
 
     def step(self, actions: Any) -> Tuple[Obs, npt.NDArray[np.float64], npt.NDArray[np.bool_],
                                           npt.NDArray[np.bool_], Dict[str, Any]]:
@@ -112,12 +135,13 @@ class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
         (float64, bool, int), not object arrays."""
         if self._states is None:
             raise RuntimeError("PocketVectorEnv: call reset() before step()")
-        final, rewards, terminated, truncated, shot = self.env.step_batch(self._states, actions)
+        final, rewards, terminated, truncated, shot = self.env.step_batch(
+            self._states, actions, self._params)
         self._states = self._starts()
         for k in list(shot):
             shot["_" + k] = self._mask()
-        info = {"final_obs": final, "_final_obs": self._mask(), "final_info": shot,
-                "_final_info": self._mask()}
+        info = {**self._episode_info(), "final_obs": final, "_final_obs": self._mask(),
+                "final_info": shot, "_final_info": self._mask()}
         return self._states.copy(), rewards, terminated, truncated, info
 
     def _mask(self) -> npt.NDArray[np.bool_]:
