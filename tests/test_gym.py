@@ -697,3 +697,58 @@ def test_randomize_batch_calls_and_refusals():
                      ({"table.friction": (0.1, np.nan)}, "not a finite")]:
         with pytest.raises(ValueError, match=msg):
             poolreps.PocketEnv(randomize=bad)
+
+
+# ---- animated shots (rgb_array_list, human) ------------------------------------
+
+def cue_pixel(renderer, x, y):
+    c, r = renderer._px(x, y)
+    return int(r), int(c)
+
+
+@pytest.mark.parametrize("kw", [{}, {"randomize": {"table.friction": (0.3, 0.6)}}])
+def test_rgb_array_list_animates_the_shot_with_the_simulators_positions(kw):
+    env = poolreps.PocketEnv(render_mode="rgb_array_list", **kw)
+    fps = env.metadata["render_fps"]
+    assert fps >= 10
+    obs, info = env.reset(seed=5)
+    first = env.render()
+    assert len(first) == 1 and env.render() == []  # frames are handed out once
+    a = np.array([0.3, 0.05])  # a typical Experiment 3 shot
+    final, *_ = env.step(a)
+    frames = env.render()
+    assert len(frames) >= 10
+    assert all(f.shape == (200, 400, 3) and f.dtype == np.uint8 for f in frames)
+    r = env._renderer
+    # the oracle: the shot stopped at t = k / fps by sim.max_time (a --set key)
+    for k in range(1, len(frames) - 1, max(1, (len(frames) - 2) // 7)):
+        ref = poolreps.shoot(obs[None], a[None], set={"experiment.name": "exp3", **info,
+                                                      "sim.max_time": k / fps})
+        x, y = ref["final"][0, 0]
+        assert tuple(frames[k][cue_pixel(r, x, y)]) == (245, 245, 245), k
+    assert np.array_equal(frames[-1], poolreps.PocketEnv(render_mode="rgb_array", **kw)
+                          ._get_renderer().frame(final, env.trajectory()))
+    # the trail grows frame by frame
+    trail = [int((f != frames[0]).any(axis=2).sum()) for f in frames[1:]]
+    assert trail[-1] > trail[0]
+    # reset starts a new list
+    env.reset()
+    assert len(env.render()) == 1
+
+
+@needs_gym
+def test_rgb_array_list_through_gymnasium_make_and_human_plays_the_shot(monkeypatch):
+    env = gymnasium.make("poolreps/PocketEnv-v0", render_mode="rgb_array_list")
+    assert env.unwrapped.render_mode == "rgb_array_list"  # native: no RenderCollection
+    env.reset(seed=2)
+    env.step(np.array([0.3, 0.05]))
+    frames = env.render()
+    assert len(frames) >= 12 and frames[0].shape == (200, 400, 3)
+    from poolreps import render
+    shown = []
+    monkeypatch.setattr(render.Renderer, "show", lambda self, f, pause=0: shown.append(pause))
+    human = poolreps.PocketEnv(render_mode="human")
+    human.reset(seed=2)
+    human.step(np.array([0.3, 0.05]))
+    assert len(shown) == len(frames)  # the start frame, then the shot's frames
+    assert shown[-1] == pytest.approx(1 / human.metadata["render_fps"])

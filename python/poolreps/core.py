@@ -72,7 +72,8 @@ def row_params(params: Keys, n: int) -> RowParams:
     return keys, np.ascontiguousarray(np.stack(cols, axis=1).reshape(n, len(keys)))
 
 
-def shoot_rows(cfg, b: np.ndarray, a: np.ndarray, params: RowParams = None) -> Dict[str, np.ndarray]:
+def shoot_rows(cfg, b: np.ndarray, a: np.ndarray,
+               params: RowParams = None) -> Dict[str, np.ndarray]:
     """shoot on checked arrays with a built Config and row_params' values,
     in pieces (Ctrl-C is honoured between them)."""
     n, nb = b.shape[0], b.shape[1] // 2

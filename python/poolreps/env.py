@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import ctypes
 import threading
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
@@ -18,6 +18,10 @@ except ImportError:  # the environment works without it; spaces are then Bounds
     gymnasium = None
 
 ENV_ID = "poolreps/PocketEnv-v0"
+# rgb_array_list and human: a shot's frames cover at most this much
+# simulated time, then the final frame (under the exponential law a slow
+# ball creeps on visibly for tens of seconds)
+MAX_CLIP_SECONDS = 10.0
 
 
 class Bounds:
@@ -61,10 +65,15 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
 
     render_mode 'rgb_array': render() returns a (height, width, 3) uint8
     image of the table, the pockets, the balls and the last shot's
-    trajectory; 'human' shows it with matplotlib.
+    trajectory. 'rgb_array_list': render() returns the frames since the
+    last render() or reset(): the start state, then along each shot one
+    frame every 1/render_fps s of simulated time (the simulator's own
+    positions, trails so far) up to the last visible motion, and the final
+    frame; gymnasium.utils.save_video writes them as a clip. 'human' plays
+    each shot's frames at render_fps with matplotlib.
     """
 
-    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 30}
+    metadata = {"render_modes": ["rgb_array", "rgb_array_list", "human"], "render_fps": 30}
 
     def __init__(self, set: Optional[Dict[str, Any]] = None, render_mode: Optional[str] = None,
                  normalize_actions: bool = False, width: int = 400, height: int = 200,
@@ -98,6 +107,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         self._params = None    # this episode's randomized values, (1, keys)
         self._last = None      # (start state, velocity, final state, params) of the last shot
         self._renderer = None
+        self._frames: List[np.ndarray] = []  # rgb_array_list: frames not yet rendered
 
     def __repr__(self) -> str:
         a = self._args
@@ -111,7 +121,8 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         with self._lock:
             rng = None if self._rng is None else _lib.rng_state(self._rng)
         return {"format": 1, "args": self._args, "rng": rng, "state": self._state,
-                "last": self._last, "params": self._params, "np_random": getattr(self, "_np_random", None),
+                "last": self._last, "params": self._params,
+                "np_random": getattr(self, "_np_random", None),
                 "np_random_seed": getattr(self, "_np_random_seed", None)}
 
     def __setstate__(self, st: Dict[str, Any]) -> None:
@@ -232,6 +243,8 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         self._state = state
         self._params = self._draw_params(1)
         self._last = None
+        if self.render_mode == "rgb_array_list":
+            self._frames = [self._get_renderer().frame(state, None)]
         return state.copy(), {} if self._params is None else \
             {k: float(v[0]) for k, v in self._params.items()}
 
@@ -270,6 +283,8 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
                                                   self._params)
         self._last = (self._state, info["velocity"][0], obs[0], self._params)
         self._state = None
+        if self.render_mode == "rgb_array_list":
+            self._frames += self._shot_frames()
         if self.render_mode == "human":
             self.render()
         return obs[0], float(reward[0]), True, False, {k: v[0] for k, v in info.items()}
@@ -318,21 +333,51 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
 
     # ---- rendering ------------------------------------------------------------
 
-    def render(self) -> Optional[np.ndarray]:
-        """rgb_array: the frame; human: draw it in a matplotlib window; no
-        render_mode: None."""
-        if self.render_mode is None:
-            return None
+    def _get_renderer(self):
         from .render import Renderer
         if self._renderer is None:
             self._renderer = Renderer(self._cfg, self._args["width"], self._args["height"])
+        return self._renderer
+
+    def _shot_frames(self) -> List[np.ndarray]:
+        """The last shot's frames after its start (Renderer.clip): positions every
+        1/render_fps s from the simulator itself, the shot simulated again
+        with sim.max_time = t per frame (one batch call, the law's own
+        motion), for at most MAX_CLIP_SECONDS."""
+        start, v, final = self._last[:3]
+        params = self._last[3] if len(self._last) > 3 else None
+        trace = self.trajectory()
+        fps = self.metadata["render_fps"]
+        t_end = float(trace[:, 0].max())
+        times = np.arange(1, int(np.ceil(min(t_end, MAX_CLIP_SECONDS) * fps)) + 1) / fps
+        times = times[times < t_end]
+        n = len(times)
+        keys = {k: np.repeat(x[0], n) for k, x in (params or {}).items()}
+        keys["sim.max_time"] = times
+        at = shoot_rows(self._cfg, np.tile(start, (n, 1)), np.tile(v, (n, 1)),
+                        row_params(keys, n))
+        return self._get_renderer().clip(final, trace, times, at["final"].reshape(n, -1))
+
+    def render(self) -> Union[np.ndarray, List[np.ndarray], None]:
+        """rgb_array: the frame; rgb_array_list: the frames since the last
+        render() or reset() (then forgotten); human: play the last shot in a
+        matplotlib window; no render_mode: None."""
+        if self.render_mode is None:
+            return None
+        if self.render_mode == "rgb_array_list":
+            frames, self._frames = self._frames, []
+            return frames
+        r = self._get_renderer()
         if self._last is not None:
-            frame = self._renderer.frame(self._last[2], self.trajectory())
+            frame = r.frame(self._last[2], self.trajectory())
         else:
-            frame = self._renderer.frame(self._state, None)
+            frame = r.frame(self._state, None)
         if self.render_mode == "rgb_array":
             return frame
-        self._renderer.show(frame)
+        frames = [frame] if self._last is None else \
+            [r.frame(self._last[0], None)] + self._shot_frames()
+        for f in frames:
+            r.show(f, 1 / self.metadata["render_fps"])
         return None
 
     def close(self) -> None:

@@ -2,7 +2,7 @@
 video: no plotting library in the rgb_array path)."""
 from __future__ import annotations
 
-from typing import Optional
+from typing import List, Optional
 
 import numpy as np
 
@@ -82,7 +82,24 @@ class Renderer:
                 self._disc(img, x, y, self.R, BALLS[kind])
         return img
 
-    def show(self, frame: np.ndarray) -> None:
+    def clip(self, final: np.ndarray, trace: np.ndarray,
+             times: np.ndarray, positions: np.ndarray) -> List[np.ndarray]:
+        """The frames of a shot after its start: the balls at each of times
+        (positions (len(times), 2*n_balls)) with the trails so far, and the
+        final frame. Frames after which no ball moves by half a pixel any
+        more are left out (the exponential law's long, invisible tail)."""
+        moving = np.nonzero(np.abs(positions - final).max(axis=1) * self.s >= 0.5)[0]
+        n = moving[-1] + 1 if len(moving) else 0
+        frames = []
+        for t, pos in zip(times[:n], positions[:n]):
+            now = np.column_stack([np.full(len(pos) // 2, t), pos.reshape(-1, 2),
+                                   np.arange(len(pos) // 2)])
+            upto = np.vstack([trace[trace[:, 0] < t], now])
+            frames.append(self.frame(pos, upto[np.lexsort((upto[:, 0], upto[:, 3]))]))
+        frames.append(self.frame(final, trace))
+        return frames
+
+    def show(self, frame: np.ndarray, pause: float = 1e-3) -> None:
         import matplotlib.pyplot as plt
         if self.fig is None:
             plt.ion()
@@ -92,7 +109,7 @@ class Renderer:
         else:
             self.im.set_data(frame)
         self.fig.canvas.draw_idle()
-        plt.pause(1e-3)
+        plt.pause(pause)
 
     def close(self) -> None:
         if self.fig is not None:
