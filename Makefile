@@ -297,11 +297,13 @@ baselines: all
 	  BASELINES_DOCS=docs BASELINES_README=README.md sh scripts/baselines.sh run $(OUT)/baselines $(BASELINES_SEEDS)
 
 # build/venv: the system's Python packages plus Gymnasium from PyPI (not a
-# Debian package), for tests/test_gym.py (which skips without it)
+# Debian package), for tests/test_gym.py (which skips without it), and mypy
+# for its typing test
 venv: build/venv/.done
 build/venv/.done:
 	/usr/bin/python3 -m venv --system-site-packages build/venv
 	build/venv/bin/pip install -q gymnasium
+	build/venv/bin/pip install -q mypy
 	touch $@
 
 # the Python package: the library next to it, so that `pip install ./python`

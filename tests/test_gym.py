@@ -752,3 +752,44 @@ def test_rgb_array_list_through_gymnasium_make_and_human_plays_the_shot(monkeypa
     human.step(np.array([0.3, 0.05]))
     assert len(shown) == len(frames)  # the start frame, then the shot's frames
     assert shown[-1] == pytest.approx(1 / human.metadata["render_fps"])
+
+
+# ---- typing ----------------------------------------------------------------------
+
+USER_SCRIPT = '''
+import gymnasium as gym
+import numpy as np
+import numpy.typing as npt
+import poolreps
+
+env = gym.make("poolreps/PocketEnv-v0", normalize_actions=True)
+n: int = gym.spaces.flatdim(env.action_space)
+pe = poolreps.PocketEnv(normalize_actions=True, randomize={"table.friction": (0.2, 0.3)})
+m: int = gym.spaces.flatdim(pe.action_space) + gym.spaces.flatdim(pe.observation_space)
+box: gym.spaces.Box = pe.observation_space
+obs, info = pe.reset(seed=1)
+o2: npt.NDArray[np.float64] = obs
+states, binfo = pe.reset_batch(8, seed=2)
+final, rewards, term, trunc, sinfo = pe.step_batch(states, np.zeros((8, 2)), binfo)
+r: npt.NDArray[np.float64] = rewards + final.sum(axis=1)
+t: npt.NDArray[np.bool_] = term | trunc
+res = poolreps.shoot(states, np.zeros((8, 2)), params={"table.friction": 0.3})
+g: npt.NDArray[np.float64] = res["reward"]
+venv = gym.make_vec("poolreps/PocketEnv-v0", num_envs=4)
+vobs, vinfo = venv.reset(seed=3)
+frames = poolreps.PocketEnv(render_mode="rgb_array_list").render()
+'''
+
+
+@needs_gym
+def test_a_user_script_passes_mypy_strict(tmp_path):
+    """The package as a user sees it (installed, typed: py.typed): its own
+    modules are followed silently, the user's script is checked strictly."""
+    pytest.importorskip("mypy", reason="mypy is not installed (build/venv/bin/pip install mypy)")
+    (tmp_path / "user.py").write_text(USER_SCRIPT)
+    env = child_env()
+    env["MYPYPATH"] = env.pop("PYTHONPATH")
+    r = run_cmd([sys.executable, "-m", "mypy", "--strict", "--follow-imports=silent",
+                 "--no-incremental", "--cache-dir", str(tmp_path / "cache"), "user.py"],
+                capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr

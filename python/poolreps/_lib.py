@@ -58,9 +58,11 @@ def _candidates():
 
 # The shared libraries libpoolreps.so.0 links against, and the Debian 12
 # packages that hold them (the wheel does not vendor them: docs/python.md).
+# (tests/test_runtime_libs.py compares this with the library's NEEDED list.)
 RUNTIME_PACKAGES = {
     "libgsl.so.27": "libgsl27", "libgslcblas.so.0": "libgslcblas0",
     "libglpk.so.40": "libglpk40", "libcsv.so.3": "libcsv3", "libinih.so.1": "libinih1",
+    "libnlopt.so.0": "libnlopt0",
 }
 
 

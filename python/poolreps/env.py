@@ -6,6 +6,7 @@ import threading
 from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _lib
 from ._lib import addr, array, check, chunks, config, errbuf, lib
@@ -22,6 +23,10 @@ ENV_ID = "poolreps/PocketEnv-v0"
 # simulated time, then the final frame (under the exponential law a slow
 # ball creeps on visibly for tens of seconds)
 MAX_CLIP_SECONDS = 10.0
+
+Floats = npt.NDArray[np.float64]
+Bools = npt.NDArray[np.bool_]
+Pixels = npt.NDArray[np.uint8]
 
 
 class Bounds:
@@ -93,11 +98,13 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         self.max_speed = self._cfg.number("sim.max_speed")
         self._rand = self._randomize(randomize)
         low, high = -np.tile(self.half, self.n_balls), np.tile(self.half, self.n_balls)
-        box = spaces.Box if gymnasium else Bounds
-        self.observation_space = box(low, high, dtype=np.float64)
+        # typed as gymnasium's Box (what they are with gymnasium installed),
+        # so that user code passes mypy --strict
+        box: Any = spaces.Box if gymnasium else Bounds
+        self.observation_space: spaces.Box = box(low, high, dtype=np.float64)
         if self.normalize_actions:
-            self.action_space = box(-np.ones(2, np.float32), np.ones(2, np.float32),
-                                    dtype=np.float32)
+            self.action_space: spaces.Box = box(-np.ones(2, np.float32),
+                                                np.ones(2, np.float32), dtype=np.float32)
         else:
             v = np.full(2, self.max_speed)
             self.action_space = box(-v, v, dtype=np.float64)
@@ -169,7 +176,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
                     raise ValueError(f"randomize[{k!r}]: {e}") from None
         return keys, low, high
 
-    def draw_params(self, u: np.ndarray) -> Dict[str, np.ndarray]:
+    def draw_params(self, u: Floats) -> Dict[str, Floats]:
         """{key: values} of randomize for uniform draws u (n, keys) in [0, 1)."""
         keys, low, high = self._rand
         v = low + (high - low) * u
@@ -220,7 +227,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         return states
 
     def reset(self, *, seed: Optional[int] = None,
-              options: Optional[Dict[str, Any]] = None) -> Tuple[np.ndarray, Dict]:
+              options: Optional[Dict[str, Any]] = None) -> Tuple[Floats, Dict[str, Any]]:
         """(observation, info). seed reseeds the start-state generator (and
         np_random); options={'state': positions} starts from given positions
         instead; options={'repetition': k} switches to Experiment 3's start
@@ -249,7 +256,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
             {k: float(v[0]) for k, v in self._params.items()}
 
     def reset_batch(self, n: int, seed: Optional[int] = None,
-                    repetition: Optional[int] = None) -> Tuple[np.ndarray, Dict]:
+                    repetition: Optional[int] = None) -> Tuple[Floats, Dict[str, Floats]]:
         """n start states at once, (n, 2*n_balls), and an info dict (with
         randomize, {key: (n,) values}, drawn after the n states: pass them
         to step_batch as params); seed and repetition as for reset()."""
@@ -258,7 +265,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
 
     # ---- shots ----------------------------------------------------------------
 
-    def velocity(self, actions: Any, name: str = "actions") -> Tuple[np.ndarray, np.ndarray]:
+    def velocity(self, actions: Any, name: str = "actions") -> Tuple[Floats, Bools]:
         """Velocities (N, 2) in m/s for actions (N, 2) (scaled by
         sim.max_speed under normalize_actions, then clipped to it), and
         which were clipped."""
@@ -273,7 +280,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
             A[clipped] *= (self.max_speed / speed[clipped] * (1 - 2.0**-50))[:, None]
         return A, clipped
 
-    def step(self, action: Any) -> Tuple[np.ndarray, float, bool, bool, Dict[str, Any]]:
+    def step(self, action: Any) -> Tuple[Floats, float, bool, bool, Dict[str, Any]]:
         """(observation, reward, terminated, truncated, info): one shot; the
         episode is over (terminated is True)."""
         if self._state is None:
@@ -289,7 +296,8 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
             self.render()
         return obs[0], float(reward[0]), True, False, {k: v[0] for k, v in info.items()}
 
-    def step_batch(self, states: Any, actions: Any, params: Optional[Dict[str, Any]] = None):
+    def step_batch(self, states: Any, actions: Any, params: Optional[Dict[str, Any]] = None
+                   ) -> Tuple[Floats, Floats, Bools, Bools, Dict[str, Any]]:
         """One shot from each row of states (N, 2*n_balls) with actions
         (N, 2): (observations, rewards, terminated, truncated, info), each
         with N rows; info holds pocket, hit, min_gap, t_end, events, clipped
@@ -310,7 +318,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         return (r["final"].reshape(n, -1), r["reward"], np.ones(n, dtype=bool),
                 np.zeros(n, dtype=bool), info)
 
-    def trajectory(self) -> Optional[np.ndarray]:
+    def trajectory(self) -> Optional[Floats]:
         """The last shot's trajectory: rows t, x, y, ball (one per ball at
         the start, at every event and at the end); None before a shot."""
         if self._last is None:
@@ -358,7 +366,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
                         row_params(keys, n))
         return self._get_renderer().clip(final, trace, times, at["final"].reshape(n, -1))
 
-    def render(self) -> Union[np.ndarray, List[np.ndarray], None]:
+    def render(self) -> Union[Pixels, List[Pixels], None]:
         """rgb_array: the frame; rgb_array_list: the frames since the last
         render() or reset() (then forgotten); human: play the last shot in a
         matplotlib window; no render_mode: None."""
