@@ -764,6 +764,8 @@ static int grow_tree(pr_forest *f, builder *b, int t)
 		double thr = 0, suml = 0;
 		pr_node *nd;
 
+		if (pr_interrupted) /* a tree on many samples takes a while: poll per node */
+			return PR_EINTR;
 		if (id == f->cap_nodes && grow_nodes(f))
 			return PR_ENOMEM;
 		f->nnodes++;

@@ -399,6 +399,10 @@ def test_load_refuses_save_options(tmp_path):
     # the whole 4 M rows: 400 000 took only 0.37 s on an idle machine, less
     # than the 0.5 s before the signal
     "policy.mean_cov(balls[:, 2:4])",
+    # one library call each (a fit, a solve): run in a worker thread that
+    # the library's interrupt flag stops (13 s and 1.6 s on a busy machine)
+    "poolreps.Forest(trees=50).fit(X, X[:, 0] + rng.normal(size=len(X)))",
+    "poolreps.reps(rng.normal(size=len(F)), F)",
 ])
 def test_keyboard_interrupt_within_0_2_s(call):
     p = run_python(f"""
@@ -412,6 +416,8 @@ def test_keyboard_interrupt_within_0_2_s(call):
         S = rng.uniform(size=(300, 2))
         forest = poolreps.Forest(trees=5).fit(S, S[:, 0])
         policy = poolreps.Policy(n_min=40).fit(S, rng.normal(size=(300, 2)), None)
+        X = rng.uniform(size=(400000, 4))
+        F = rng.normal(size=(300000, 60))
         sent = []
         def interrupt():
             time.sleep(0.5)

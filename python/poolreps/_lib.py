@@ -9,7 +9,9 @@ import ctypes
 import functools
 import numbers
 import os
+import signal
 import subprocess
+import threading
 from ctypes import POINTER, c_char, c_char_p, c_double, c_int, c_long, c_size_t, c_ulong, c_void_p
 from pathlib import Path
 
@@ -236,6 +238,46 @@ def rng_from_state(state):
 # handles its signals between them: Ctrl-C stops a long batch within a
 # piece's time (a few milliseconds) instead of at its end.
 CHUNK_ROWS = 8192
+
+
+# The library's flag that its long loops poll (sig_atomic_t, an int here):
+# the CLI's signal handler sets it; for Python, interruptible() does.
+_INTERRUPTED = ctypes.c_int.in_dll(lib, "pr_interrupted")
+
+
+def interruptible(fn, *args):
+    """fn(*args), a library call that cannot be cut into pieces (a fit, a
+    REPS solve), run in a worker thread while the main thread waits, so
+    that Ctrl-C reaches Python at once: it sets the library's flag, which
+    the call's loops poll, waits for the call to return and raises
+    KeyboardInterrupt. Outside the main thread (where Python delivers no
+    signal) fn runs directly."""
+    if threading.current_thread() is not threading.main_thread():
+        return fn(*args)
+    out, done = [], threading.Event()
+
+    def work():
+        try:
+            out.append(fn(*args))
+        finally:
+            done.set()
+
+    worker = threading.Thread(target=work, daemon=True)
+    worker.start()
+    # waiting on an Event, not on join(): a join that a signal interrupts
+    # can mark a running thread as stopped (CPython 3.11's threading)
+    try:
+        while not done.wait(0.05):
+            pass
+    except KeyboardInterrupt:
+        _INTERRUPTED.value = signal.SIGINT
+        done.wait()
+        _INTERRUPTED.value = 0
+        raise
+    finally:
+        if done.is_set():
+            worker.join()
+    return out[0]
 
 
 def chunks(n, rows=CHUNK_ROWS):

@@ -166,8 +166,8 @@ def reps(returns: ArrayLike, features: Any = None, epsilon: Optional[float] = No
     rowptr, col, val = csr if csr else (None, None, None)
     res = ctypes.c_void_p()
     err = errbuf()
-    rc = lib.pr_bind_reps(cfg.ptr, n, d, addr(R), addr(q), addr(phi), addr(rowptr), addr(col),
-                          addr(val), ctypes.byref(res), err)
+    rc = _lib.interruptible(lib.pr_bind_reps, cfg.ptr, n, d, addr(R), addr(q), addr(phi),
+                            addr(rowptr), addr(col), addr(val), ctypes.byref(res), err)
     check(rc, err)
     h = Handle(res.value, lib.pr_reps_result_free)
     out = {"p": np.ctypeslib.as_array(ctypes.cast(lib.pr_bind_reps_p(h.ptr),
@@ -240,7 +240,7 @@ class _Model:
     def _fit(self, fn, free, meta, *args):
         out = ctypes.c_void_p()
         err = errbuf()
-        check(fn(self._cfg.ptr, *args, ctypes.byref(out), err), err)
+        check(_lib.interruptible(fn, self._cfg.ptr, *args, ctypes.byref(out), err), err)
         self._h = Handle(out.value, free, meta)
         return self
 
