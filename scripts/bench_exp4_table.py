@@ -8,8 +8,6 @@ are byte-identical.
   bench_exp4_table.py --write [CSV]    put it into docs/benchmarks.md,
                                        between the bench_exp4 markers
   bench_exp4_table.py --check [CSV]    exit 1 if it differs"""
-import argparse
-import csv
 import os
 import statistics
 import sys
@@ -33,21 +31,6 @@ def render(rows):
             f"this one {new:.1f} CPU s ({change}); the CSVs of every run are {same}.\n")
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("csv", nargs="?", default=os.path.join(ROOT, "docs", "bench_exp4.csv"))
-    mode = ap.add_mutually_exclusive_group()
-    mode.add_argument("--write", action="store_true")
-    mode.add_argument("--check", action="store_true")
-    a = ap.parse_args()
-    with open(a.csv, newline="") as f:
-        text = render(list(csv.DictReader(f)))
-    if not (a.write or a.check):
-        sys.stdout.write(text)
-        return 0
-    doc_block.update(DOCS, "bench_exp4", text, a.check, "bench_exp4_table.py", a.csv)
-    return 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(doc_block.table_main(render, "bench_exp4", "bench_exp4_table.py",
+                                  os.path.join(ROOT, "docs", "bench_exp4.csv"), DOCS))

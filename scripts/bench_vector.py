@@ -8,9 +8,15 @@ over the sub-envs), both with same-step autoreset, on two action workloads:
   uniform  normalize_actions=True, actions uniform in [-1, 1]^2 (a fresh
            policy's; faster shots, more cushion events per shot)
 
-Rounds alternate native and sync so that both see the same machine load;
-each round steps for S seconds. Writes CSV rows workload,envs,kind,round,
-steps_per_s to stdout."""
+and per-row physics: poolreps.shoot on --rows rows of the gauss workload,
+plain and with table.friction and table.restitution per row (workload
+shoot, kind plain or params, envs = rows, steps_per_s = shots/s).
+
+Rounds alternate the kinds so that all see the same machine load; each
+round steps for S seconds. Writes CSV rows workload,envs,kind,round,
+steps_per_s,load1 (the 1-minute load average as the round ended) to
+stdout."""
+import os
 import argparse
 import sys
 import time
@@ -29,6 +35,7 @@ ap.add_argument("--envs", type=int, nargs="+", default=[256, 4096])
 ap.add_argument("--sync-envs", type=int, nargs="+", default=[256])
 ap.add_argument("--rounds", type=int, default=5)
 ap.add_argument("--seconds", type=float, default=1.0)
+ap.add_argument("--rows", type=int, default=262144)
 a = ap.parse_args()
 
 WORKLOADS = {"gauss": {}, "uniform": {"normalize_actions": True}}
@@ -59,8 +66,29 @@ def rate(env, acts, seconds):
             return steps / dt
 
 
-print("workload,envs,kind,round,steps_per_s")
+def shoot_rate(states, acts, params, seconds):
+    k, t0 = 0, time.perf_counter()
+    while True:
+        poolreps.shoot(states, acts, params=params)
+        k += 1
+        dt = time.perf_counter() - t0
+        if dt >= seconds:
+            return k * len(states) / dt
+
+
+def row(w, n, kind, r, rate):
+    print(f"{w},{n},{kind},{r},{rate:.0f},{os.getloadavg()[0]:.2f}", flush=True)
+
+
+print("workload,envs,kind,round,steps_per_s,load1")
 rng = np.random.default_rng(1)
+states, _ = poolreps.PocketEnv().reset_batch(a.rows, seed=1)
+acts = rng.normal(0, 0.1, (a.rows, 2))
+params = {"table.friction": rng.uniform(0.1, 0.5, a.rows),
+          "table.restitution": rng.uniform(0.5, 1.0, a.rows)}
+for r in range(a.rounds):
+    for kind, p in (("plain", None), ("params", params)):
+        row("shoot", a.rows, kind, r, shoot_rate(states, acts, p, a.seconds))
 for w, kwargs in WORKLOADS.items():
     sizes = sorted(set(a.envs) | set(a.sync_envs))
     envs = {(kind, n): make(kind, n, kwargs) for n in sizes for kind in ("native", "sync")
@@ -70,4 +98,4 @@ for w, kwargs in WORKLOADS.items():
     acts = {n: [actions(w, n, rng) for _ in range(16)] for n in sizes}
     for r in range(a.rounds):
         for (kind, n), e in envs.items():
-            print(f"{w},{n},{kind},{r},{rate(e, acts[n], a.seconds):.0f}", flush=True)
+            row(w, n, kind, r, rate(e, acts[n], a.seconds))

