@@ -111,7 +111,7 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         self._lock = threading.Lock()  # guards the start-state generator
         self._rng = None
         self._state = None
-        self._params = None    # this episode's randomized values, (1, keys)
+        self._params = None    # this episode's randomized values: {key: (1,) array}
         self._last = None      # (start state, velocity, final state, params) of the last shot
         self._renderer = None
         self._frames: List[np.ndarray] = []  # rgb_array_list: frames not yet rendered
