@@ -133,3 +133,20 @@ def test_cli_bad_key_columns_fail_and_write_nothing(tmp_path, col, value, msg):
     err = out.stderr.decode()
     assert err.count("\n") == 1 and msg in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_cli_key_columns_with_keep_and_trace(tmp_path):
+    text = "table.restitution,x0,y0,x1,y1,vx,vy\n0.3,-0.25,0,0.1,0.05,1.2,0.6\n" \
+           "0.9,-0.25,0,0.1,0.05,1.2,0.6\n"
+    out = run_poolreps(["shoot", "--keep", "--trace", tmp_path / "t.csv"], input=text.encode())
+    assert out.returncode == 0, out.stderr
+    rows = read_csv(out.stdout.decode())
+    assert rows[0][:7] == text.splitlines()[0].split(",") and rows[0][7] == "final_x0"
+    assert [r[0] for r in rows[1:]] == ["0.3", "0.9"]
+    assert rows[1][7:] != rows[2][7:]  # the cushions bounce differently
+    trace = read_csv((tmp_path / "t.csv").read_text())
+    assert {r[0] for r in trace[1:]} == {"0", "1"}
+    for i, k in enumerate((0.3, 0.9)):
+        one = "x0,y0,x1,y1,vx,vy\n-0.25,0,0.1,0.05,1.2,0.6\n"
+        ref = run_poolreps(["shoot", "--set", f"table.restitution={k}"], input=one.encode())
+        assert read_csv(ref.stdout.decode())[1] == rows[i + 1][7:]
