@@ -753,6 +753,11 @@ def test_rgb_array_list_through_gymnasium_make_and_human_plays_the_shot(monkeypa
     env.step(np.array([0.3, 0.05]))
     frames = env.render()
     assert len(frames) >= 12 and frames[0].shape == (200, 400, 3)
+    from gymnasium.utils.env_checker import check_env
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # Gymnasium's checker passes without a warning
+        check_env(gymnasium.make("poolreps/PocketEnv-v0", normalize_actions=True,
+                                 render_mode="rgb_array_list").unwrapped)
     from poolreps import render
     shown = []
     monkeypatch.setattr(render.Renderer, "show", lambda self, f, pause=0: shown.append(pause))
