@@ -100,7 +100,7 @@ static int sweep_main(const pr_config *cfg, const void *opts, char *err)
 {
 	const sweep_args *a = opts;
 
-	return a->missing ? pr_rundir_missing(a->missing, err) : pr_rundir_sweep(cfg, &a->r, err);
+	return a->missing ? pr_rundir_missing(a->missing, "-", err) : pr_rundir_sweep(cfg, &a->r, err);
 }
 
 static const cli_opt sweep_opts[] = {

@@ -330,6 +330,9 @@ static int run_command(const cli_command *cmd, const cli_common *c, const cli_gi
 	pr_config cfg;
 	int rc;
 
+	/* only now: a listing (--help, --help-keys, --version) writes no file,
+	 * and a closed pipe ends it silently, as it ends any filter */
+	install_handlers();
 	if ((graceful = (cmd->flags & CLI_GRACEFUL) != 0))
 		make_stop_timer();
 	progress = progress_for(c, &prog, t0);
@@ -359,7 +362,6 @@ int main(int argc, char **argv)
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
 	gsl_set_error_handler(pr_gsl_error_handler);
-	install_handlers();
 	if (!prov.argv) {
 		fail("out of memory");
 		return pr_exit_code(PR_ENOMEM);
