@@ -16,6 +16,7 @@
 #include "poolreps/bind.h"
 #include "poolreps/exp.h"
 #include "poolreps/sim.h"
+#include "poolreps/internal.h"
 #include "streams.h"
 
 /* Constructors and fits return NULL for bad input and for a failed allocation

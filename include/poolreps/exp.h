@@ -53,18 +53,4 @@ const pr_experiment *pr_exp_find(const char *name);
  * is made with pr_config_init(&c, pr_exp_config). */
 int pr_exp_config(int i, struct pr_config_exp *out);
 
-/* A gsl_rng (mt19937) seeded from (seed, stream, index) by a hash, so that
- * every repetition and purpose has its own reproducible stream. Caller frees. */
-gsl_rng *pr_exp_rng(unsigned long seed, unsigned long stream, unsigned long index);
-
-/* The repetitions [*lo, *hi) this process runs (experiment.repetition). */
-void pr_exp_reps(const pr_config *cfg, int *lo, int *hi);
-
-/* The variants of cfg's experiment (n = 0 for one without); PR_EINVAL naming
- * experiment.variant when it is set but not below their count. */
-int pr_exp_variants(const pr_config *cfg, pr_variants *out, char *err);
-
-/* PR_EINVAL naming experiment.variant unless it is -1 or below n. */
-int pr_exp_check_variant(const pr_config *cfg, int n, char *err);
-
 #endif

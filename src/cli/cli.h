@@ -1,5 +1,6 @@
 /* cli.h — the command line's own header (src/cli, linked into the poolreps
- * executable alone, against the public headers only).
+ * executable alone, against the poolreps/ headers: the public ones, the
+ * library's private ones and the tool's).
  *
  * Each command declares its options in a table of cli_opt (name, kind,
  * where the value goes in that command's own struct, the value's name and

@@ -6,6 +6,7 @@
 
 #include "poolreps/exp.h"
 #include "poolreps/rundir.h"
+#include "poolreps/internal.h"
 #include "cli.h"
 
 static int run_main(const pr_config *cfg, const void *opts, char *err)

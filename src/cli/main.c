@@ -14,6 +14,7 @@
 
 #include "poolreps/config.h"
 #include "poolreps/exp.h"
+#include "poolreps/internal.h"
 #include "cli.h"
 
 /* During a run or merge, the first signal asks the loops to stop (they

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "poolreps/exp.h"
+#include "poolreps/internal.h"
 #include "cli.h"
 
 /* Options of no command's table: they act at once (help, help-keys,

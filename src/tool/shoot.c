@@ -11,6 +11,7 @@
 
 #include "poolreps/csvio.h"
 #include "poolreps/shoot.h"
+#include "poolreps/internal.h"
 
 /* Column of each expected name, or an error naming the first missing one. */
 static int map_columns(const pr_csv *in, int n, int *col, char *err)
