@@ -44,6 +44,13 @@ typedef struct {
 	const struct pr_config_default *defaults;
 	/* another experiment's block whose keys it reads too (exp4: exp3's), or NULL */
 	const struct pr_config_block *reads;
+	/* what `poolreps help experiments` lists and the pipeline scripts read:
+	 * the folder a run writes under results/ by default, the kind
+	 * ("figures", "experiment" or "benchmark": which script draws it) and a
+	 * title (no comma) */
+	const char *folder;
+	const char *kind;
+	const char *title;
 } pr_experiment;
 
 /* The experiment called `name`, or NULL. */

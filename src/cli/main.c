@@ -169,9 +169,18 @@ static int pick_command(int argc, char **argv, int *op, int *help, const cli_giv
 {
 	int i = *op;
 
-	/* poolreps help [COMMAND]: that command's --help */
+	/* poolreps help [COMMAND]: that command's --help; help experiments:
+	 * the registry (*help = 2) */
 	if (i < argc && strcmp(argv[i], "help") == 0) {
 		*help = 1;
+		if (i + 1 < argc && strcmp(argv[i + 1], "experiments") == 0) {
+			if (i + 2 < argc)
+				return snprintf(msg, CLI_MSGLEN, "help: unexpected argument '%.60s'",
+				                argv[i + 2]) > 0;
+			*help = 2;
+			*op = argc;
+			return 0;
+		}
 		if (++i < argc && !command_named(argv[i]))
 			return snprintf(msg, CLI_MSGLEN, "help: unknown command '%.60s' (see poolreps --help)",
 			                argv[i]) > 0;
@@ -371,7 +380,11 @@ int main(int argc, char **argv)
 	rc = cli_parse(argc, argv, cli_commands, cli_ncommands, &g, &c, &help, &op, &code, msg);
 	if (rc == 0)
 		rc = pick_command(argc, argv, &op, &help, &g, &c, &cmd, &nops, &ops, msg);
-	if (rc == 0 && help) {
+	if (rc == 0 && help == 2) {
+		cli_experiments(stdout);
+		rc = -1;
+		code = cli_stdout_done();
+	} else if (rc == 0 && help) {
 		cli_usage(stdout, cli_commands, cli_ncommands, cmd);
 		rc = -1;
 		code = cli_stdout_done();

@@ -78,6 +78,8 @@ void pr_exp_reps(const pr_config *cfg, int *lo, int *hi);
 /* The variants of cfg's experiment (n = 0 for one without); PR_EINVAL naming
  * experiment.variant when it is set but not below their count. */
 int pr_exp_variants(const pr_config *cfg, pr_variants *out, char *err);
+/* The i-th experiment of the registry (in its order), or NULL past the last. */
+const pr_experiment *pr_exp_at(int i);
 /* PR_EINVAL naming experiment.variant unless it is -1 or below n. */
 int pr_exp_check_variant(const pr_config *cfg, int n, char *err);
 
