@@ -19,6 +19,13 @@ ifeq ($(FUZZ),1)
   CFLAGS += -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
   LDFLAGS += -fsanitize=address,undefined
   BUILD := build/fuzz
+else ifeq ($(COV),1)
+  # COV=1: line coverage (gcov, part of gcc) of src/ over whatever runs:
+  # `make check COV=1` runs the whole suite, pytest included, on these
+  # objects and prints scripts/coverage.py's table (docs/testing.md)
+  CFLAGS += -O0 --coverage
+  LDFLAGS += --coverage
+  BUILD := build/cov
 else ifeq ($(SAN),1)
   CFLAGS += -O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
   LDFLAGS += -fsanitize=address,undefined
@@ -49,6 +56,7 @@ TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
 .PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power exp4-study study verdicts sensitivity quick-sums FORCE
 .PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin venv baselines
+.PHONY: coverage
 
 all: poolreps
 
@@ -114,6 +122,7 @@ CHECK_LOG = $(BUILD)/check
 check:
 	@t0=$$(date +%s); st=0; \
 	  $(MAKE) -j$(JOBS) $(TEST_BIN) $(BUILD)/poolreps $(BUILD)/tests/ref_driver $(SOLIB) || exit $$?; \
+	  $(if $(filter 1,$(COV)),find $(BUILD) -name '*.gcda' -delete;) \
 	  mkdir -p $(CHECK_LOG); \
 	  { $(MAKE) --no-print-directory check-c > $(CHECK_LOG)/c.log 2>&1; echo $$? > $(CHECK_LOG)/c.rc; } & \
 	  { $(MAKE) --no-print-directory verdicts CHECK=1 > $(CHECK_LOG)/verdicts.log 2>&1; \
@@ -121,7 +130,12 @@ check:
 	  $(MAKE) check-py || st=$$?; wait; \
 	  for part in c verdicts; do echo "== make check: $$part (ran alongside pytest)"; \
 	    cat $(CHECK_LOG)/$$part.log; [ "$$(cat $(CHECK_LOG)/$$part.rc)" = 0 ] || st=1; done; \
+	  $(if $(filter 1,$(COV)),$(PYTHON) scripts/coverage.py $(BUILD) || st=1;) \
 	  echo "make check: $$(( $$(date +%s) - t0 )) s wall"; exit $$st
+
+# the coverage of what ran since the objects were built (after a partial run)
+coverage:
+	$(PYTHON) scripts/coverage.py build/cov
 
 check-c: $(TEST_BIN)
 	@fail=0; for t in $(TEST_BIN); do echo "== $$t"; $$t || fail=1; done; exit $$fail
