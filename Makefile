@@ -19,6 +19,13 @@ ifeq ($(FUZZ),1)
   CFLAGS += -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
   LDFLAGS += -fsanitize=address,undefined
   BUILD := build/fuzz
+else ifeq ($(COV),1)
+  # COV=1: line coverage (gcov, part of gcc) of src/ over whatever runs:
+  # `make check COV=1` runs the whole suite, pytest included, on these
+  # objects and prints scripts/coverage.py's table (docs/testing.md)
+  CFLAGS += -O0 --coverage
+  LDFLAGS += --coverage
+  BUILD := build/cov
 else ifeq ($(SAN),1)
   CFLAGS += -O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
   LDFLAGS += -fsanitize=address,undefined
@@ -26,29 +33,37 @@ else ifeq ($(SAN),1)
 else
   BUILD := build/rel
 endif
-ALL_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc $(shell pkg-config --cflags $(PKGS) 2>/dev/null) $(CFLAGS) -MMD -MP
+ALL_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc/private -Isrc $(shell pkg-config --cflags $(PKGS) 2>/dev/null) $(CFLAGS) -MMD -MP
 LIBS    := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lglpk -lcsv -linih -lnlopt -lpthread -lm
 
 LIB_SRC := $(wildcard src/*.c)
 LIB_OBJ := $(LIB_SRC:src/%.c=$(BUILD)/%.o)
-# the command line (src/cli): linked into the poolreps executable alone, and
-# compiled against the public headers only, as any other program would be
+# the tool (src/tool: run folders, sweeps, output staging, the row filters)
+# and the command line (src/cli): linked into the poolreps executable alone.
+# Besides the public headers they see the library's private ones
+# (src/private/poolreps: CSV plumbing and what the command needs beyond the
+# public API), which libpoolreps.so does not export and make install does
+# not install; the command line sees the tool's headers (src/tool/poolreps).
+TOOL_SRC := $(wildcard src/tool/*.c)
+TOOL_OBJ := $(TOOL_SRC:src/%.c=$(BUILD)/%.o)
+TOOL_LIB := $(BUILD)/libpoolreps_tool.a
 CLI_SRC := $(wildcard src/cli/*.c)
 CLI_OBJ := $(CLI_SRC:src/%.c=$(BUILD)/%.o)
-CLI_CFLAGS = $(WARN) $(DEFS) -Iinclude $(shell pkg-config --cflags $(PKGS) 2>/dev/null) $(CFLAGS) -MMD -MP
+CLI_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc/private -Isrc/tool $(shell pkg-config --cflags $(PKGS) 2>/dev/null) $(CFLAGS) -MMD -MP
 LIB     := $(BUILD)/libpoolreps.a
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 
 .PHONY: all lib check check-c check-py bench reproduce reproduce-run deps install clean fuzz valgrind man power exp4-study study verdicts sensitivity quick-sums FORCE
 .PHONY: shared install-lib examples python check-pybind bench-bin fuzz-bin venv baselines
+.PHONY: coverage
 
 all: poolreps
 
 lib: $(LIB)
 
 # flags live here: a changed Makefile rebuilds everything
-$(LIB_OBJ) $(CLI_OBJ): Makefile
+$(LIB_OBJ) $(TOOL_OBJ) $(CLI_OBJ): Makefile
 
 $(BUILD)/%.o: src/%.c | $(BUILD)
 	$(CC) $(ALL_CFLAGS) -c $< -o $@
@@ -56,10 +71,13 @@ $(BUILD)/%.o: src/%.c | $(BUILD)
 $(BUILD)/cli/%.o: src/cli/%.c | $(BUILD)/cli
 	$(CC) $(CLI_CFLAGS) -c $< -o $@
 
+$(BUILD)/tool/%.o: src/tool/%.c | $(BUILD)/tool
+	$(CC) $(ALL_CFLAGS) -Isrc/tool -c $< -o $@
+
 $(BUILD):
 	mkdir -p $(BUILD)/tests
 
-$(BUILD)/cli:
+$(BUILD)/cli $(BUILD)/tool:
 	mkdir -p $@
 
 # the version string is compiled into common.o: rebuild it when git describe changes
@@ -72,7 +90,11 @@ $(LIB): $(LIB_OBJ)
 	rm -f $@
 	ar rcs $@ $^
 
-$(BUILD)/poolreps: $(CLI_OBJ) $(LIB)
+$(TOOL_LIB): $(TOOL_OBJ)
+	rm -f $@
+	ar rcs $@ $^
+
+$(BUILD)/poolreps: $(CLI_OBJ) $(TOOL_LIB) $(LIB)
 	$(CC) $(LDFLAGS) $^ $(LIBS) -o $@
 
 poolreps: $(BUILD)/poolreps
@@ -83,8 +105,12 @@ $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)
 
 # the command line's option tables and help: src/cli without its main
 CLI_TABLES_OBJ := $(filter-out $(BUILD)/cli/main.o,$(CLI_OBJ))
-$(BUILD)/tests/test_cli_opts: tests/test_cli_opts.c $(CLI_TABLES_OBJ) $(LIB) | $(BUILD)
-	$(CC) $(ALL_CFLAGS) $(LDFLAGS) $< $(CLI_TABLES_OBJ) $(LIB) $(LIBS) -lcmocka -o $@
+$(BUILD)/tests/test_cli_opts: tests/test_cli_opts.c $(CLI_TABLES_OBJ) $(TOOL_LIB) $(LIB) | $(BUILD)
+	$(CC) $(ALL_CFLAGS) -Isrc/tool $(LDFLAGS) $< $(CLI_TABLES_OBJ) $(TOOL_LIB) $(LIB) $(LIBS) -lcmocka -o $@
+
+# the tool's own tests (tests/test_tool_*.c) link it too
+$(BUILD)/tests/test_tool_%: tests/test_tool_%.c $(TOOL_LIB) $(LIB) | $(BUILD)
+	$(CC) $(ALL_CFLAGS) -Isrc/tool $(LDFLAGS) $< $(TOOL_LIB) $(LIB) $(LIBS) -lcmocka -o $@
 
 # the packages are probed when make starts (below); nothing is installed here.
 # Everything is built first, so that the C tests and `make verdicts CHECK=1`
@@ -96,6 +122,7 @@ CHECK_LOG = $(BUILD)/check
 check:
 	@t0=$$(date +%s); st=0; \
 	  $(MAKE) -j$(JOBS) $(TEST_BIN) $(BUILD)/poolreps $(BUILD)/tests/ref_driver $(SOLIB) || exit $$?; \
+	  $(if $(filter 1,$(COV)),find $(BUILD) -name '*.gcda' -delete;) \
 	  mkdir -p $(CHECK_LOG); \
 	  { $(MAKE) --no-print-directory check-c > $(CHECK_LOG)/c.log 2>&1; echo $$? > $(CHECK_LOG)/c.rc; } & \
 	  { $(MAKE) --no-print-directory verdicts CHECK=1 > $(CHECK_LOG)/verdicts.log 2>&1; \
@@ -103,7 +130,12 @@ check:
 	  $(MAKE) check-py || st=$$?; wait; \
 	  for part in c verdicts; do echo "== make check: $$part (ran alongside pytest)"; \
 	    cat $(CHECK_LOG)/$$part.log; [ "$$(cat $(CHECK_LOG)/$$part.rc)" = 0 ] || st=1; done; \
+	  $(if $(filter 1,$(COV)),$(PYTHON) scripts/coverage.py $(BUILD) || st=1;) \
 	  echo "make check: $$(( $$(date +%s) - t0 )) s wall"; exit $$st
+
+# the coverage of what ran since the objects were built (after a partial run)
+coverage:
+	$(PYTHON) scripts/coverage.py build/cov
 
 check-c: $(TEST_BIN)
 	@fail=0; for t in $(TEST_BIN); do echo "== $$t"; $$t || fail=1; done; exit $$fail
@@ -123,8 +155,8 @@ fuzz:
 # the libFuzzer harnesses: `make FUZZ=1 fuzz-bin` (scripts/fuzz.sh does)
 FUZZ_BIN := $(patsubst tests/fuzz/%.c,$(BUILD)/%,$(wildcard tests/fuzz/fuzz_*.c))
 fuzz-bin: $(FUZZ_BIN)
-$(FUZZ_BIN): $(BUILD)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(LIB)
-	$(CC) $(ALL_CFLAGS) $(LDFLAGS) -fsanitize=fuzzer $< $(filter %.o,$^) $(LIB) $(LIBS) -o $@
+$(FUZZ_BIN): $(BUILD)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(TOOL_LIB) $(LIB)
+	$(CC) $(ALL_CFLAGS) -Isrc/tool $(LDFLAGS) -fsanitize=fuzzer $< $(filter %.o,$^) $(TOOL_LIB) $(LIB) $(LIBS) -o $@
 
 valgrind: $(BUILD)/poolreps
 	sh scripts/valgrind.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"
@@ -350,4 +382,4 @@ else ifeq ($(filter clean,$(MAKECMDGOALS)),)
   endif
 endif
 
--include $(LIB_OBJ:.o=.d) $(CLI_OBJ:.o=.d)
+-include $(LIB_OBJ:.o=.d) $(TOOL_OBJ:.o=.d) $(CLI_OBJ:.o=.d)

@@ -27,6 +27,16 @@ def strip(text):
 
 def declared(headers=None):
     """{name: header} of every pr_ function and extern variable the headers declare."""
+    return {n: h for n, (h, _) in declarations(headers).items()}
+
+
+def variables(headers=None):
+    """The extern variables among them (the rest are functions)."""
+    return {n for n, (_, kind) in declarations(headers).items() if kind == "variable"}
+
+
+def declarations(headers=None):
+    """{name: (header, "function" or "variable")}."""
     names = {}
     for h in headers or sorted((ROOT / "include" / "poolreps").glob("*.h")):
         text = strip(h.read_text())
@@ -50,11 +60,11 @@ def declared(headers=None):
                     continue
                 m = re.match(r"^extern\b.*?\b(pr_\w+)\s*(\[[^\]]*\])?$", s)
                 if m:
-                    names[m.group(1)] = h.name
+                    names[m.group(1)] = (h.name, "variable")
                     continue
                 m = re.search(r"\b(pr_\w+)\s*\(", s)
                 if m and not s.startswith("extern"):
-                    names[m.group(1)] = h.name
+                    names[m.group(1)] = (h.name, "function")
             else:
                 stmt.append(ch)
     return names

@@ -9,7 +9,9 @@ For every .c file under src/ (src/cli included) the functions it defines
 not). A circle is a set of files that reach each other through calls
 (a strongly connected component of more than one file); --check exits 1 if
 there is one, if a file outside src/cli includes a header of src/cli or
-src/cli includes a private header, or if a function is longer than
+src/cli includes a module's private header (src/*.h), if the library (src/
+outside src/cli and src/tool) includes a header of the tool or calls into
+the tool or the command line, or if a function is longer than
 MAX_LINES (from its first unindented line to its closing brace). Without
 --check the layers are printed bottom up: each file above every file it
 calls."""
@@ -155,16 +157,34 @@ def long_functions(files):
             for f in files for n, head in function_lengths(f.read_text()) if n > MAX_LINES]
 
 
+TOP = ("cli", "tool")  # the executable's layers, above the library
+
+
+def is_tool_header(inc):
+    return (SRC / "tool" / inc).exists() and not (SRC / inc).exists() and \
+        not (SRC / "private" / inc).exists() and not (ROOT / "include" / inc).exists()
+
+
 def include_problems(files):
     bad = []
     for f in files:
         rel = f.relative_to(SRC)
         for inc in re.findall(r'^\s*#\s*include\s+"([^"]+)"', f.read_text(), flags=re.M):
             if rel.parts[0] == "cli" and not (inc.startswith("poolreps/") or (SRC / "cli" / inc).exists()):
-                bad.append(f"{rel}: includes the private header {inc} (the CLI uses the public API only)")
+                bad.append(f"{rel}: includes the module header {inc} (the CLI uses poolreps/ headers only)")
             if rel.parts[0] != "cli" and (SRC / "cli" / inc).exists() and not (SRC / inc).exists():
                 bad.append(f"{rel}: includes the command line's {inc}")
+            if rel.parts[0] not in TOP and is_tool_header(inc):
+                bad.append(f"{rel}: includes the tool's {inc} (the library is below the tool)")
     return bad
+
+
+def upward_calls(files, calls):
+    """A library file (outside src/cli and src/tool) calling into them."""
+    return [f"{name(f)}: calls {name(g)} ({', '.join(sorted(calls[f][g])[:3])}): the library "
+            f"is below the tool and the command line"
+            for f in files if f.relative_to(SRC).parts[0] not in TOP
+            for g in calls[f] if g.relative_to(SRC).parts[0] in TOP]
 
 
 def name(f):
@@ -174,7 +194,7 @@ def name(f):
 def main(argv):
     files, defs, calls = scan()
     circles = [c for c in components(files, calls) if len(c) > 1]
-    bad = include_problems(files) + long_functions(files)
+    bad = include_problems(files) + upward_calls(files, calls) + long_functions(files)
     if "--check" in argv:
         for c in circles:
             pairs = [f"{name(a)} -> {name(b)} ({', '.join(sorted(calls[a][b])[:3])})"

@@ -2,8 +2,9 @@
 """plot_all.py [--stdin] [--timings FILE] [DIR...] — draw the figures of
 poolreps output folders in ONE Python process: matplotlib is imported once,
 then each folder goes to the plot script of its experiment (experiment.name
-in DIR/config.ini): figures -> plot_sim_figures, exp1..exp4 -> plot_expN,
-quadratic/sphere/rosenbrock -> plot_benchmarks. scripts/plot is its
+in DIR/config.ini), by its kind in the registry (scripts/experiments.py):
+figures -> plot_sim_figures, an experiment NAME -> plot_NAME, a benchmark ->
+plot_benchmarks. scripts/plot is its
 launcher. --stdin also reads folder names, one a line, as they come (so
 `make reproduce` draws a folder while the next experiment runs); --timings
 appends 'NAME: figures,SECONDS' per folder to FILE. The first folder that
@@ -16,11 +17,16 @@ import sys
 import time
 
 import figstyle  # noqa: F401  (first: it picks a Python with matplotlib)
+import experiments
 
-SCRIPTS = {"figures": "plot_sim_figures", "exp1": "plot_exp1", "exp2": "plot_exp2",
-           "exp3": "plot_exp3", "exp4": "plot_exp4", "quadratic": "plot_benchmarks",
-           "sphere": "plot_benchmarks", "rosenbrock": "plot_benchmarks"}
 HERE = os.path.dirname(os.path.abspath(__file__))
+KIND_SCRIPTS = {"figures": "plot_sim_figures", "benchmark": "plot_benchmarks"}
+
+
+def scripts():
+    """{experiment name: the module that draws its folder}."""
+    return {r["name"]: KIND_SCRIPTS.get(r["kind"], "plot_" + r["name"])
+            for r in experiments.registry()}
 
 
 def experiment_name(d):
@@ -35,13 +41,14 @@ def experiment_name(d):
         return None
 
 
-def plot(d, timings=None):
-    """Draw folder d's figures with its experiment's script."""
+def plot(d, timings=None, known=None):
+    """Draw folder d's figures with its experiment's script (known: scripts())."""
+    known = known or scripts()
     name = experiment_name(d)
-    if name not in SCRIPTS:
+    if name not in known:
         sys.exit(f"plot: {d}/config.ini: no experiment.name this script knows "
                  "(not a poolreps output folder?)")
-    script = SCRIPTS[name]
+    script = known[name]
     module = importlib.import_module(script)
     t0 = time.monotonic()
     argv0, sys.argv[0] = sys.argv[0], os.path.join(HERE, script + ".py")
@@ -63,12 +70,13 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if not a.dirs and not a.stdin:
         sys.exit("usage: plot DIR...")
+    known = scripts()
     for d in a.dirs:
-        plot(d, a.timings)
+        plot(d, a.timings, known)
     if a.stdin:
         for line in sys.stdin:
             if line.strip():
-                plot(line.rstrip("\n"), a.timings)
+                plot(line.rstrip("\n"), a.timings, known)
 
 
 if __name__ == "__main__":

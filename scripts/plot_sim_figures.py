@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Draw the simulator figures (thesis Fig. 7.1, 7.2, 7.3, 7.5) from the CSVs
-that `poolreps data/figures.ini -o DIR` writes (see include/poolreps/figures.h).
+that `poolreps data/figures.ini -o DIR` writes (see src/private/poolreps/figures.h).
 
 Usage: plot_sim_figures.py DIR
 

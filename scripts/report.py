@@ -23,6 +23,7 @@ import sys
 import claims
 import exp3_table
 import exp_data
+import experiments
 
 # (file stem in OUT/figures, heading, caption)
 FIGURES = [
@@ -166,7 +167,6 @@ figcaption { max-width: 60rem; } .note { background: #fbf0c8; padding: 0.5rem 0.
 # the verdicts of the study, written by scripts/verdicts.py (make verdicts)
 VERDICTS_HTML = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs",
                              "verdicts_report.html")
-EXPERIMENTS = ["sim", "exp1", "exp2", "exp3", "exp4", "quadratic", "sphere", "rosenbrock"]
 
 
 def esc(text):
@@ -278,21 +278,26 @@ def figures_section(out):
     return "\n".join(parts), missing
 
 
-def provenance_section(out):
+def folders():
+    """The experiments' folders in OUT, in the registry's order."""
+    return [r["folder"] for r in experiments.registry()]
+
+
+def provenance_section(out, names):
     keys = ["version", "seed", "parameter_file", "finished", "wall_seconds", "cpu_seconds",
             "peak_memory_mib"]
     rows = []
-    for name in EXPERIMENTS:
+    for name in names:
         p = provenance(out, name)
         if p:
             rows.append([name] + [p.get(k, "–") for k in keys])
-    host = next((provenance(out, n).get("host") for n in EXPERIMENTS if provenance(out, n)), "–")
+    host = next((provenance(out, n).get("host") for n in names if provenance(out, n)), "–")
     text = [f"<p>Host: {esc(host)}. Each experiment's folder holds its full effective "
             "configuration (<code>config.ini</code>) and <code>provenance.txt</code>; the "
             "command lines are below.</p>",
             table(["folder", "version", "seed", "parameter file", "finished (UTC)", "wall s",
                    "CPU s", "peak MiB"], rows, num={5, 6, 7})]
-    cmds = [[n, provenance(out, n).get("command", "–")] for n in EXPERIMENTS if provenance(out, n)]
+    cmds = [[n, provenance(out, n).get("command", "–")] for n in names if provenance(out, n)]
     text.append(table(["folder", "command"], cmds))
     tpath = os.path.join(out, "timings.csv")
     if os.path.exists(tpath):
@@ -314,7 +319,8 @@ def provenance_section(out):
 
 def write(out, quick):
     figs, missing = figures_section(out)
-    version = next((provenance(out, n).get("version") for n in EXPERIMENTS
+    names = folders()
+    version = next((provenance(out, n).get("version") for n in names
                     if provenance(out, n)), "unknown")
     note = ('<p class="note">This is a smoke run at tiny sizes (<code>make reproduce '
             'QUICK=1</code>): the numbers of this run below show that the pipeline works, '
@@ -356,7 +362,7 @@ def write(out, quick):
 </section>
 <section id="provenance">
 <h2>Provenance and timings</h2>
-{provenance_section(out)}
+{provenance_section(out, names)}
 </section>
 </main>
 </body>

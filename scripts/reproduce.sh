@@ -21,6 +21,11 @@ BIN=${POOLREPS:-./poolreps}
 [ -x "$BIN" ] || { echo "reproduce: build ./poolreps first (make)" >&2; exit 1; }
 [ -n "$PY" ] || { echo "reproduce: no Python with matplotlib found; install python3-matplotlib or set PYTHON=" >&2; exit 1; }
 export PYTHON="$PY"
+# the experiments, their folders and kinds: the library's registry, the one
+# list (plot_all.py and report.py read it through the same binary)
+export POOLREPS="$BIN"
+reg=$("$BIN" help experiments | tail -n +2 | cut -d, -f1-3)
+[ -n "$reg" ] || { echo "reproduce: $BIN help experiments listed nothing" >&2; exit 1; }
 mkdir -p "$OUT/figures"
 # the figures of an earlier run must not outlive it
 rm -f "$OUT/figures"/*.png "$OUT/figures"/*.svg "$OUT/figures"/*.pdf "$OUT/report.html"
@@ -72,7 +77,7 @@ exec 3> "$tmp/queue"
 
 run() { # name: data/NAME.ini; QUICK=1 adds the keys of data/quick/NAME.ini
 	name=$1
-	dir=$name; [ "$name" = figures ] && dir=sim
+	dir=$(echo "$reg" | awk -F, -v n="$name" '$1 == n { print $2 }')
 	quick=
 	if [ "$QUICK" = 1 ] && [ -f "data/quick/$name.ini" ]; then
 		quick=$(sh scripts/quick-sets.sh "data/quick/$name.ini")
@@ -102,8 +107,8 @@ run_bg() {
 # both cores stay busy until the end (the output does not depend on how the
 # threads are scheduled)
 run_bg exp4
-for name in figures exp1 exp2 exp3 quadratic sphere rosenbrock; do
-	run $name
+for name in $(echo "$reg" | awk -F, '$1 != "exp4" { print $1 }'); do
+	run "$name"
 done
 st=0; wait "$bg" || st=$?
 bg=
@@ -114,13 +119,14 @@ st=0; wait "$plotter" || st=$?
 plotter=
 [ $st = 0 ] || { echo "reproduce: drawing the figures failed (exit $st, see its message above)" >&2; exit 1; }
 cat "$tmp/figure-times" >> "$OUT/timings.csv"
-for d in sim exp1 exp2 exp3 exp4; do
-	cp "$OUT/$d"/*.png "$OUT/$d"/*.svg "$OUT/figures/"
-done
-for b in quadratic sphere rosenbrock; do
-	for ext in png svg; do
-		cp "$OUT/$b/bench_curve.$ext" "$OUT/figures/bench_$b.$ext"
-	done
+echo "$reg" | while IFS=, read -r name dir kind; do
+	if [ "$kind" = benchmark ]; then
+		for ext in png svg; do
+			cp "$OUT/$dir/bench_curve.$ext" "$OUT/figures/bench_$name.$ext"
+		done
+	else
+		cp "$OUT/$dir"/*.png "$OUT/$dir"/*.svg "$OUT/figures/"
+	fi
 done
 total=$(echo "$start $(date +%s.%N)" | awk '{ printf "%.2f", $2 - $1 }')
 echo "total,$total" >> "$OUT/timings.csv"

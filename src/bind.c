@@ -17,6 +17,7 @@
 #include "poolreps/exp.h"
 #include "poolreps/shotparams.h"
 #include "poolreps/sim.h"
+#include "poolreps/internal.h"
 #include "streams.h"
 
 /* Constructors and fits return NULL for bad input and for a failed allocation

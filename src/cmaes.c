@@ -28,6 +28,7 @@
 #include <gsl/gsl_sort.h>
 
 #include "poolreps/cmaes.h"
+#include "poolreps/internal.h"
 
 /* Singular values below this fraction of the largest are dropped in the
  * baseline regression (minimum-norm least squares). */

@@ -9,6 +9,7 @@
 #include <stddef.h>
 
 #include "poolreps/common.h"
+#include "poolreps/internal.h"
 
 /* Arms pr_gsl_error_handler for this thread: a GSL allocation failure
  * jumps to jb; NULL disarms it. */

@@ -227,7 +227,8 @@ typedef struct {
 	long line;                 /* current physical line, 1-based */
 	int status, header_done, ncols;
 	long nfields_seen;         /* fields completed so far (limit bookkeeping) */
-	int idle_state;            /* libcsv's state between records (after csv_init) */
+	int idle;                  /* libcsv holds no part of a record (libcsv_took) */
+	int in_quote;              /* libcsv is inside a quoted field */
 	int nfield, capfield;
 	size_t *off;               /* start of each field of the record in text */
 	char *text;                /* the record's fields, NUL-terminated, end to end */
@@ -438,10 +439,21 @@ static int plain_line(scanner *r, const char *s, size_t n)
 	return 1;
 }
 
-/* 1 if libcsv is between records (holds no part of one). */
-static int csv_idle(const scanner *r, const struct csv_parser *p)
+/* libcsv's state after it took the n bytes at s, from the bytes alone (its
+ * struct is not read): inside a quoted field while an odd number of quotes
+ * has gone by (with CSV_STRICT a quote only opens, doubles or closes one);
+ * between records after a line end outside quotes. A piece without a line
+ * end counts as holding part of a record, which at worst sends the next
+ * piece through libcsv too. */
+static void libcsv_took(scanner *r, const char *s, size_t n)
 {
-	return p->pstate == r->idle_state && !p->quoted && !p->entry_pos;
+	const char *q = s, *e = s + n;
+
+	while ((q = memchr(q, '"', (size_t)(e - q)))) {
+		r->in_quote = !r->in_quote;
+		++q;
+	}
+	r->idle = !r->in_quote && n && s[n - 1] == '\n';
 }
 
 /* Feed one piece (at most one line end, at its end) to libcsv. pending
@@ -455,7 +467,7 @@ static void feed(scanner *r, struct csv_parser *p, const char *s, size_t n, long
 {
 	long before = r->nfields_seen;
 	/* libcsv between records: a plain line may bypass it */
-	int direct = !(r->flags & PR_CSV_LIBCSV_ONLY) && csv_idle(r, p);
+	int direct = !(r->flags & PR_CSV_LIBCSV_ONLY) && r->idle;
 
 	*linelen += (long)n;
 	if (*linelen > PR_CSV_MAX_LINE + 1) {
@@ -463,15 +475,18 @@ static void feed(scanner *r, struct csv_parser *p, const char *s, size_t n, long
 		                   r->line, PR_CSV_MAX_LINE);
 		return;
 	}
-	if (!(direct && plain_line(r, s, n)) && csv_parse(p, s, n, on_field, on_record, r) != n &&
-	    !r->status)
-		r->status = pr_err(r->err, csv_error(p) == CSV_ENOMEM ? PR_ENOMEM : PR_EIO,
-		                   "%s:%ld: malformed CSV: %s", r->path, r->line, csv_strerror(csv_error(p)));
-	*pending = r->nfields_seen == before && !csv_idle(r, p) ? *pending + (long)n : 0;
+	if (!(direct && plain_line(r, s, n))) {
+		if (csv_parse(p, s, n, on_field, on_record, r) != n && !r->status)
+			r->status = pr_err(r->err, csv_error(p) == CSV_ENOMEM ? PR_ENOMEM : PR_EIO,
+			                   "%s:%ld: malformed CSV: %s", r->path, r->line,
+			                   csv_strerror(csv_error(p)));
+		libcsv_took(r, s, n);
+	}
+	*pending = r->nfields_seen == before && !r->idle ? *pending + (long)n : 0;
 	if (!r->status && *pending > 2L * PR_CSV_MAX_FIELD + 2)
 		r->status = pr_err(r->err, PR_EIO, "%s:%ld: field %d is longer than %d bytes%s",
 		                   r->path, r->line, r->nfield + 1, PR_CSV_MAX_FIELD,
-		                   p->quoted ? " (a quote that never ends?)" : "");
+		                   r->in_quote ? " (a quote that never ends?)" : "");
 }
 
 /* The reader's state between blocks: the scanner, libcsv and the file. A
@@ -511,7 +526,7 @@ static int source_setup(source *src, const char *shown, unsigned flags, pr_csv_r
 		src->buf = NULL;
 		return pr_err(err, PR_ENOMEM, "%s: out of memory", shown);
 	}
-	r->idle_state = src->p.pstate;
+	r->idle = 1;
 	return PR_OK;
 }
 
@@ -827,7 +842,7 @@ static int read_header(int fd, const char *path, off_t h, numeric *u, long *nl)
 	if (pread(fd, src.buf, (size_t)h, 0) == (ssize_t)h) {
 		scan_block(&src, src.buf, (size_t)h);
 		ok = !src.r.status && u->t && u->t->nrows == 0 && src.last == '\n' &&
-		     csv_idle(&src.r, &src.p);
+		     src.r.idle;
 		*nl = src.r.line - 1;
 	}
 	source_release(&src);

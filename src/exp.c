@@ -9,22 +9,28 @@
 #include "exp_priv.h"
 
 static const pr_experiment experiments[] = {
-	{"figures", pr_figures_run, NULL, NULL, NULL, NULL, NULL, NULL},
+	{"figures", pr_figures_run, NULL, NULL, NULL, NULL, NULL, NULL, "sim", "figures",
+	 "the simulator figures of chapter 7"},
 	{"exp1", pr_exp1_run, pr_exp1_summarize, pr_exp1_variants, "exp1_summary.csv", &pr_exp1_keys, NULL,
-	 NULL},
+	 NULL, "exp1", "experiment", "Experiment 1: representing the reward function (thesis 7.3)"},
 	{"exp2", pr_exp2_run, pr_exp2_summarize, NULL, "exp2_summary.csv", &pr_exp2_keys, pr_exp2_defaults,
-	 NULL},
+	 NULL, "exp2", "experiment", "Experiment 2: representing an optimal policy (thesis 7.4)"},
 	{"exp3", pr_exp3_run, pr_exp3_summarize, pr_exp3_variants, "exp3_final.csv", &pr_exp3_keys,
-	 pr_exp3_defaults, NULL},
+	 pr_exp3_defaults, NULL,
+	 "exp3", "experiment", "Experiment 3: learning to pocket a ball with REPS (thesis 7.5)"},
 	/* Experiment 3's task and learner: its defaults and its exp3.* keys */
 	{"exp4", pr_exp4_run, pr_exp4_summarize, pr_exp4_variants, "exp4_verdict.csv", &pr_exp4_keys,
-	 pr_exp3_defaults, &pr_exp3_keys},
+	 pr_exp3_defaults, &pr_exp3_keys,
+	 "exp4", "experiment", "Experiment 4: REPS from an imitated policy (beyond the thesis)"},
 	{"quadratic", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv",
-	 &pr_bench_keys, pr_quadratic_defaults, NULL},
+	 &pr_bench_keys, pr_quadratic_defaults, NULL,
+	 "quadratic", "benchmark", "REPS on the contextual quadratic"},
 	{"sphere", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv",
-	 &pr_bench_keys, pr_sphere_defaults, NULL},
+	 &pr_bench_keys, pr_sphere_defaults, NULL,
+	 "sphere", "benchmark", "REPS on the contextual sphere"},
 	{"rosenbrock", pr_exp_benchmark_run, pr_exp_benchmark_summarize, NULL, "bench_summary.csv",
-	 &pr_bench_keys, pr_rosenbrock_defaults, NULL},
+	 &pr_bench_keys, pr_rosenbrock_defaults, NULL,
+	 "rosenbrock", "benchmark", "REPS on the contextual Rosenbrock function"},
 };
 #define NEXP ((int)(sizeof experiments / sizeof experiments[0]))
 
@@ -36,6 +42,11 @@ const pr_experiment *pr_exp_find(const char *name)
 		if (strcmp(experiments[i].name, name) == 0)
 			return &experiments[i];
 	return NULL;
+}
+
+const pr_experiment *pr_exp_at(int i)
+{
+	return i >= 0 && i < NEXP ? &experiments[i] : NULL;
 }
 
 int pr_exp_config(int i, pr_config_exp *out)

@@ -49,6 +49,7 @@
 #include <gsl/gsl_rng.h>
 
 #include "poolreps/forest.h"
+#include "poolreps/internal.h"
 
 /* One node in 16 bytes, so a descent touches one cache line per level. */
 typedef struct {

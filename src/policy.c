@@ -22,6 +22,7 @@
 #include <gsl/gsl_randist.h>
 
 #include "poolreps/policy.h"
+#include "poolreps/internal.h"
 
 /* Singular values of the standardised design below these fractions of the
  * largest are dropped (a pseudo-inverse): the SVD of the design itself

@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "poolreps/shotparams.h"
+#include "poolreps/internal.h"
 
 /* Keys whose value pr_config_validate relates to other keys (the ball on
  * the table, the start boxes inside the cushions, the time step): a row

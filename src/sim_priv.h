@@ -6,6 +6,7 @@
 #define POOLREPS_SIM_PRIV_H
 
 #include "poolreps/sim.h"
+#include "poolreps/internal.h"
 
 /* Ball states. */
 enum { PR_BALL_MOVING = 0, PR_BALL_REST = 1, PR_BALL_POCKETED = 2 };

@@ -18,6 +18,7 @@
 
 #include "poolreps/cmaes.h"
 #include "poolreps/policy.h"
+#include "poolreps/internal.h"
 
 static int read_n(double *v, size_t n)
 {

@@ -389,3 +389,20 @@ def test_message_after_an_unfinished_bar_starts_a_line(tmp_path):
     # the bar is erased (carriage return, erase line): the message is one line
     assert re.search(r"\r\x1b\[Kpoolreps: interrupted: [^\r\n]*\n$", text), repr(text)
     assert "  poolreps: interrupted" not in text
+
+
+# ---- a listing cut short by its reader ----
+
+@pytest.mark.parametrize("args", [["--help-keys"], ["--help"], ["--version"], ["help", "run"]])
+def test_a_listing_into_a_closed_pipe_ends_silently_like_any_filter(args, tmp_path):
+    """`poolreps --help-keys | head -5` writes no file: a reader that has gone
+    ends it by SIGPIPE (the shell's 141) with nothing on stderr, never with
+    the run's "partial output files removed"; the folder stays empty."""
+    r, w = os.pipe()
+    os.close(r)  # the reader is gone before the first write
+    p = subprocess.run([binary()] + args, stdout=w, stderr=subprocess.PIPE, cwd=tmp_path,
+                       timeout=30 * timeout_scale(), env=dict(os.environ, LC_ALL="C"))
+    os.close(w)
+    assert p.stderr == b""
+    assert p.returncode in (0, -signal.SIGPIPE)
+    assert list(tmp_path.iterdir()) == []

@@ -15,6 +15,7 @@
 
 #include "poolreps/cmaes.h"
 #include "poolreps/policy.h"
+#include "poolreps/internal.h"
 #include "test_util.h"
 
 static gsl_rng *new_rng(unsigned long seed)

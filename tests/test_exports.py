@@ -48,8 +48,18 @@ def test_nm_shows_exactly_the_public_api():
     syms = exports.exported(LIB)
     assert syms == set(exports.declared())
     assert not [s for s in syms if s.startswith("pr_cmd_")]
-    # the library's internals stay inside it
+    # the library's internals stay inside it, and the tool's calls (run
+    # folders, sweeps, CSV plumbing) are no part of it
     assert "pr_outdir_run" not in syms and "pr_csv_scan" not in syms
+    assert not [s for s in syms if s.startswith(("pr_rundir_", "pr_csv", "pr_outset_",
+                                                 "pr_query_", "pr_outdir_"))]
+
+
+def test_the_public_api_is_small():
+    """At most 110 exported functions (room for the learner's below it)."""
+    names = exports.declared()
+    funcs = [n for n in names if n not in exports.variables()]
+    assert 0 < len(funcs) <= 110, len(funcs)
 
 
 @needs_lib
@@ -71,5 +81,18 @@ def test_the_installed_headers_are_the_public_ones_without_the_command_line():
     installed = sorted(p.name for p in inc.glob("*.h"))
     assert installed == sorted(p.name for p in (ROOT / "include/poolreps").glob("*.h"))
     assert "cmd.h" not in installed
+    assert not {"rundir.h", "csvio.h", "query.h", "internal.h"} & set(installed)
     text = "".join((inc / n).read_text() for n in installed)
     assert "pr_cmd_" not in text
+
+
+def test_every_export_is_used_by_python_an_example_or_documented():
+    """An exported name earns its place: the Python package or an example
+    calls it, or docs/library.md names it for C users."""
+    texts = [f.read_text() for f in sorted((ROOT / "python" / "poolreps").glob("*.py"))]
+    texts += [f.read_text() for f in sorted((ROOT / "examples").glob("*.c"))]
+    texts.append((ROOT / "docs" / "library.md").read_text())
+    used = set()
+    for t in texts:
+        used |= set(re.findall(r"\b(pr_\w+)\b", t))
+    assert sorted(set(exports.declared()) - used) == []

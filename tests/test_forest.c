@@ -17,6 +17,7 @@
 #include <gsl/gsl_rng.h>
 
 #include "poolreps/forest.h"
+#include "poolreps/internal.h"
 #include "test_util.h"
 
 static pr_forest *fit(const pr_forest_opts *o, const double *X, int n, int dx,

@@ -1,8 +1,10 @@
 """No circle in the include/call graph of src/ (scripts/layers.py).
 
 A circle is a set of files that call functions defined in each other; the
-layers then have no order. The command line (src/cli) uses the public
-headers only, and no library file includes one of its headers."""
+layers then have no order. The command line (src/cli) uses the poolreps/
+headers only (public, private, the tool's), no library file includes one of
+its headers, and the library neither includes nor calls the tool (src/tool),
+which is linked into the poolreps executable alone."""
 import subprocess
 import sys
 
@@ -44,3 +46,37 @@ def test_the_length_count_sees_a_long_function():
             "int g(void)\n{\n\treturn 0;\n}\n")
     assert layers.function_lengths(text) == [(layers.MAX_LINES + 1, "static int f(int a,"),
                                              (4, "int g(void)")]
+
+
+def test_the_library_neither_includes_nor_calls_the_tool(tmp_path, monkeypatch):
+    """The check sees a library file that includes a header of src/tool or
+    calls a function defined there (the tool sits above the library)."""
+    src = tmp_path / "src"
+    (src / "tool" / "poolreps").mkdir(parents=True)
+    (src / "tool" / "poolreps" / "staging.h").write_text("int pr_stage(void);\n")
+    (src / "tool" / "staging.c").write_text("int pr_stage(void)\n{\n\treturn 0;\n}\n")
+    (src / "model.c").write_text('#include "poolreps/staging.h"\nint pr_model(void)\n{\n'
+                                 '\treturn pr_stage();\n}\n')
+    monkeypatch.setattr(layers, "SRC", src)
+    monkeypatch.setattr(layers, "ROOT", tmp_path)
+    files, _, calls = layers.scan()
+    assert [b.split(":")[0] for b in layers.include_problems(files)] == ["model.c"]
+    assert [b.split(":")[0] for b in layers.upward_calls(files, calls)] == ["model.c"]
+    (src / "model.c").write_text("int pr_model(void)\n{\n\treturn 1;\n}\n")
+    files, _, calls = layers.scan()
+    assert layers.include_problems(files) == [] and layers.upward_calls(files, calls) == []
+
+
+def test_the_tool_is_not_in_the_library_archive():
+    """Run folders, sweeps, staging and the row filters (src/tool) are linked
+    into the poolreps executable alone: libpoolreps.a holds none of them."""
+    import os
+    import shutil
+    lib = ROOT / os.environ.get("POOLREPS_BUILD", "build/rel") / "libpoolreps.a"
+    if not lib.exists() or not shutil.which("ar"):
+        import pytest
+        pytest.skip("no build/rel/libpoolreps.a")
+    members = subprocess.run(["ar", "t", str(lib)], capture_output=True, text=True,
+                             check=True).stdout.split()
+    tool = sorted(p.stem + ".o" for p in (ROOT / "src" / "tool").glob("*.c"))
+    assert tool and not set(tool) & set(members)

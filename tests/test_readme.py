@@ -97,6 +97,24 @@ def test_stream_benchmark_text_is_the_recorded_measurement():
     assert p.returncode == 0, p.stderr
 
 
+def test_csv_reader_benchmark_text_is_the_recorded_measurement():
+    """docs/benchmarks.md's csv_read block (each piece of the reader's speed
+    machinery against libcsv and strtod) is what scripts/bench_csv_read.py
+    makes of docs/bench_csv_read.csv."""
+    p = run_cmd(["/usr/bin/env", "python3", str(ROOT / "scripts" / "bench_csv_read.py"),
+                 "--check"], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+
+
+def test_coverage_figure_is_the_recorded_measurement():
+    """docs/testing.md's coverage sentence is what scripts/coverage.py makes
+    of docs/data/coverage.csv (written by `make check COV=1` and
+    `scripts/coverage.py build/cov --write`)."""
+    p = run_cmd(["/usr/bin/env", "python3", str(ROOT / "scripts" / "coverage.py"), "--check"],
+                capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+
+
 def readme_reproduce_seconds():
     m = re.search(r"<!-- timing:reproduce -->in (\d+) s", README)
     assert m, "README has no generated reproduce time"

@@ -20,6 +20,12 @@ from conftest import ROOT, quick_sets, run_cmd
 
 PY = os.environ.get("PYTHON") or "/usr/bin/python3"
 SCRIPTS = ROOT / "scripts"
+sys.path.insert(0, str(SCRIPTS))
+import experiments  # noqa: E402  (the registry, as `poolreps help experiments` prints it)
+
+# the experiments with quick settings; test_every_experiment_has_quick_settings
+# holds them to the registry
+QUICK = sorted(p.stem for p in (ROOT / "data" / "quick").glob("*.ini"))
 STEMS = ["fig7_1_table", "fig7_2_reward", "fig7_3_shots", "fig7_4a_nmin", "fig7_4b_trees",
          "fig7_4c_cuts", "exp1_map", "fig7_5_ghost", "fig7_6", "fig7_7", "fig7_8", "fig7_9",
          "fig7_10", "exp4_curves_query", "exp4_curves_residual", "exp4_final", "exp4_rates",
@@ -53,8 +59,28 @@ def test_quick_reproduction_writes_the_recorded_bytes(out):
     assert not changed, f"outputs differ from the recorded bytes: {changed}"
 
 
-@pytest.mark.parametrize("name", ["exp1", "exp2", "exp3", "exp4", "quadratic", "sphere",
-                                  "rosenbrock"])
+def test_every_experiment_has_quick_settings(poolreps):
+    """The registry (`poolreps help experiments`) is the one list: every
+    experiment but the figures has data/NAME.ini and data/quick/NAME.ini,
+    and no quick file names an experiment it does not hold."""
+    reg = experiments.registry(os.environ.get("POOLREPS"))
+    assert QUICK == sorted(r["name"] for r in reg if r["kind"] != "figures")
+    assert all((ROOT / "data" / f"{r['name']}.ini").exists() for r in reg)
+
+
+def test_the_registry_listing_is_csv_in_registry_order(poolreps):
+    r = poolreps(["help", "experiments"])
+    assert r.returncode == 0 and r.stderr == b""
+    rows = list(csv.reader(r.stdout.decode().splitlines()))
+    assert rows[0] == ["name", "folder", "kind", "summary", "title"]
+    assert all(len(x) == 5 and x[2] in ("figures", "experiment", "benchmark") for x in rows[1:])
+    assert [x[0] for x in rows[1:]][:2] == ["figures", "exp1"] and ["figures", "sim"] == rows[1][:2]
+    bad = poolreps(["help", "experiments", "more"])
+    assert bad.returncode == 1 and bad.stdout == b""
+    assert bad.stderr.decode() == "poolreps: help: unexpected argument 'more'\n"
+
+
+@pytest.mark.parametrize("name", QUICK)
 def test_quick_settings_are_valid(name, poolreps):
     """data/quick/NAME.ini sets keys poolreps knows, to values it accepts, on
     top of data/NAME.ini."""
@@ -171,8 +197,7 @@ def test_report_html_structure(out):
     # Experiment 4: 6 policies x 4 inits x 2 covariances, the hand-crafted one once
     assert len(exp4) == 1 + 5 * 8 + 4
     assert exp4[1][0] == "nrvr_rs.scratch.query" and exp4[-1][0] == "handcrafted.policy.none"
-    assert [r[0] for r in prov[1:]] == ["sim", "exp1", "exp2", "exp3", "exp4", "quadratic",
-                                        "sphere", "rosenbrock"]
+    assert [r[0] for r in prov[1:]] == [r["folder"] for r in experiments.registry()]
     assert all("poolreps" in r[1] for r in cmds[1:])
     assert timing[-1][0] == "total" and float(timing[-1][1]) > 0
     assert "smoke run" in (out / "report.html").read_text(encoding="utf-8")
@@ -195,6 +220,10 @@ def test_reproduce_writes_every_figure_and_clears_old_ones(out):
     assert names == sorted(f"{s}.{e}" for s in STEMS for e in ("png", "svg"))
     assert sorted(sum(FOLDER_STEMS.values(), [])) == sorted(s for s in STEMS
                                                             if not s.startswith("bench_"))
+    reg = experiments.registry()
+    assert sorted(FOLDER_STEMS) == sorted(r["folder"] for r in reg if r["kind"] != "benchmark")
+    assert [s for s in STEMS if s.startswith("bench_")] == \
+        [f"bench_{r['name']}" for r in reg if r["kind"] == "benchmark"]
     for folder, stems in FOLDER_STEMS.items():
         for stem in stems:
             png, svg = (out / folder / f"{stem}.png").read_bytes(), (out / folder / f"{stem}.svg").read_bytes()

@@ -12,6 +12,7 @@
 #include <gsl/gsl_rng.h>
 
 #include "poolreps/sim.h"
+#include "poolreps/internal.h"
 #include "test_util.h"
 
 #define R 0.015

@@ -33,13 +33,6 @@ int pr_err(char *err, int status, const char *fmt, ...)
 #endif
 	;
 
-/* Escape s as pr_err does into out (size n >= 1). */
-void pr_escape(const char *s, char *out, size_t n);
-
-/* The exit code main() uses for a status: 0, 1, 2, 3, 4, or 128 + the
- * signal recorded in pr_interrupted for PR_EINTR (130 when none is). */
-int pr_exit_code(int status);
-
 /* The version string: git describe at build time, or the tarball version. */
 const char *pr_version(void);
 
@@ -65,18 +58,5 @@ extern volatile sig_atomic_t pr_interrupted;
  * PR_ENOMEM, in any thread): the command's failure is then out of memory,
  * whatever status the code above it turned the report into. */
 extern volatile sig_atomic_t pr_out_of_memory;
-
-/* ---- for a program's signal handler (the CLI's) ----
- * The fatal signals the CLI handles: SIGINT, SIGTERM, SIGHUP, SIGQUIT,
- * SIGPIPE, SIGXFSZ, SIGXCPU, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPOLL,
- * SIGPWR, SIGSTKFLT (every one whose default ends the process, but the
- * faults of a bug); terminated by 0. */
-extern const int pr_fatal_signals[];
-/* Remove every temporary file and staging folder the library has
- * registered, with async-signal-safe calls only. */
-void pr_cleanup_run(void);
-/* Set when a command's outputs are all in place (its commit point): a
- * signal after it no longer means that nothing was written. */
-extern volatile sig_atomic_t pr_committed;
 
 #endif

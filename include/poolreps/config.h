@@ -47,7 +47,6 @@ typedef struct {
 	int variant;          /* -1: all; v: only variant v (sweeps; pr_exp_variants) */
 	int threads;          /* repetitions run on this many threads */
 } pr_run_opts;
-void pr_run_opts_init(pr_run_opts *o);
 
 /* value.features: which features of the value-feature forest REPS uses. */
 typedef enum {
@@ -92,44 +91,11 @@ typedef struct pr_config {
 
 /* Defaults of the modules and of every experiment of schema. */
 void pr_config_init(pr_config *c, pr_config_schema schema);
-/* The option block b of c (a registered experiment's), or NULL. */
-const void *pr_config_opts(const pr_config *c, const struct pr_config_block *b);
 /* Read an INI file; the first bad line or key stops with an error. */
 int pr_config_load(pr_config *c, const char *path, char *err);
 /* Apply "section.key=value" from --set. */
 int pr_config_set(pr_config *c, const char *assignment, char *err);
 /* Checks that involve several keys (e.g. n_c <= n_min, boxes inside the table). */
 int pr_config_validate(const pr_config *c, char *err);
-/* Where key "section.key" got its value, for messages: "file:line", "--set",
- * or for a default the parameter file (or "defaults"). Returns buf. */
-const char *pr_config_where(const pr_config *c, const char *key, char *buf, size_t n);
-/* The first key (in table order, other than those in skip, a NULL-ended
- * list of "section.key" names, or NULL) whose value differs between a and b:
- * its name into key and both values as written by pr_config_write into va
- * and vb (each n bytes, truncated). 0 if none, -1 if out of memory. */
-int pr_config_diff(const pr_config *a, const pr_config *b, const char *const *skip, char *key,
-                   size_t nkey, char *va, char *vb, size_t n);
-/* Write every key as INI (the effective configuration); the other friction
- * law's parameter (table.deceleration under the exponential law, table.friction
- * under the constant one) as a comment, since read back it would clash with
- * table.friction_law. */
-int pr_config_write(const pr_config *c, FILE *fp);
-/* List the keys of schema with default, unit and range: every key, or only
- * those in the list `only` (as pr_config_key_listed reads it). */
-void pr_config_help(pr_config_schema schema, const char *only, FILE *fp);
-/* 1 if key ("section.key") is in list, a comma list of whole names and of
- * sections ending in '.': "forest.,experiment.seed". */
-int pr_config_key_listed(const char *list, const char *key);
-/* 1 if "section.key" is a key of another experiment's block than the one
- * experiment.name of c names (that experiment never reads it). */
-int pr_config_key_elsewhere(const pr_config *c, const char *key);
-/* The index of number key "section.key" for pr_config_set_number, or a
- * negative status and err for an unknown key or one that is not a number. */
-int pr_config_number_key(const pr_config *c, const char *name, char *err);
-/* Sets number key i to v with --set's checks of that key (finite, in
- * range; pr_config_validate's checks across keys are the caller's), as if
- * set by --set: the same bits as "--set section.key=V" for any text V that
- * reads as v. */
-int pr_config_set_number(pr_config *c, int i, double v, char *err);
 
 #endif

@@ -44,6 +44,13 @@ typedef struct {
 	const struct pr_config_default *defaults;
 	/* another experiment's block whose keys it reads too (exp4: exp3's), or NULL */
 	const struct pr_config_block *reads;
+	/* what `poolreps help experiments` lists and the pipeline scripts read:
+	 * the folder a run writes under results/ by default, the kind
+	 * ("figures", "experiment" or "benchmark": which script draws it) and a
+	 * title (no comma) */
+	const char *folder;
+	const char *kind;
+	const char *title;
 } pr_experiment;
 
 /* The experiment called `name`, or NULL. */
@@ -52,19 +59,5 @@ const pr_experiment *pr_exp_find(const char *name);
 /* The registry as the schema of pr_config_init: every pr_config of the CLI
  * is made with pr_config_init(&c, pr_exp_config). */
 int pr_exp_config(int i, struct pr_config_exp *out);
-
-/* A gsl_rng (mt19937) seeded from (seed, stream, index) by a hash, so that
- * every repetition and purpose has its own reproducible stream. Caller frees. */
-gsl_rng *pr_exp_rng(unsigned long seed, unsigned long stream, unsigned long index);
-
-/* The repetitions [*lo, *hi) this process runs (experiment.repetition). */
-void pr_exp_reps(const pr_config *cfg, int *lo, int *hi);
-
-/* The variants of cfg's experiment (n = 0 for one without); PR_EINVAL naming
- * experiment.variant when it is set but not below their count. */
-int pr_exp_variants(const pr_config *cfg, pr_variants *out, char *err);
-
-/* PR_EINVAL naming experiment.variant unless it is -1 or below n. */
-int pr_exp_check_variant(const pr_config *cfg, int n, char *err);
 
 #endif

@@ -23,9 +23,6 @@ typedef struct {
 	int outputs;          /* PR_OUTPUTS_SUM (eq. 6.1, 6.3) or PR_OUTPUTS_RELATIVE */
 } pr_forest_opts;
 void pr_forest_opts_init(pr_forest_opts *o);
-/* Check the options; messages name "<prefix>.<key>" (prefix NULL: the bare
- * key), e.g. "forest.cuts: must be >= 1 (got 0)". */
-int pr_forest_opts_check(const pr_forest_opts *o, const char *prefix, char *err);
 
 typedef struct pr_forest pr_forest;
 
@@ -66,11 +63,6 @@ int pr_forest_active(const pr_forest *f, const double *x, int dq, int *leaves, i
 /* Training samples in global leaf `leaf`: returns the count and points *idx
  * at the forest's own index array (valid until pr_forest_free). */
 int pr_forest_leaf_samples(const pr_forest *f, int leaf, const int **idx);
-
-/* Active samples, eq. 5.6: phi (n values) = Phi^T phi(x) / M, i.e. phi[i] is
- * the fraction of trees in which sample i shares an active leaf with x.
- * Returns PR_OK, PR_EINVAL (bad dq) or PR_ENOMEM. */
-int pr_forest_active_samples(const pr_forest *f, const double *x, int dq, double *phi);
 
 /* Inspection. Tree t owns global leaves pr_forest_tree_leaf0(f, t) up to
  * pr_forest_tree_leaf0(f, t + 1) - 1 (t = M gives n_F), numbered left to

@@ -57,8 +57,6 @@ typedef struct {
  * the rest from pr_forest_opts_init, score RVR, cov PR_COV_QUERY,
  * cov_center PR_COV_CENTER_NEW. */
 void pr_policy_opts_init(pr_policy_opts *o);
-/* Check the options; messages name policy.<key>. */
-int pr_policy_opts_check(const pr_policy_opts *o, char *err);
 
 enum { PR_POLICY_GAUSSIAN = 0, PR_POLICY_LINEAR = 1, PR_POLICY_TREE = 2 };
 
@@ -68,12 +66,6 @@ enum {
 	PR_FEATURES_AFFINE = 1,    /* [1, s] */
 	PR_FEATURES_QUADRATIC = 2  /* [1, s, s_j s_k for j <= k] */
 };
-/* Number of features of a kind for ds state dimensions, or -1. */
-int pr_policy_features_count(int kind, int ds);
-/* Fill psi (pr_policy_features_count values) for state s. */
-void pr_policy_features(int kind, const double *s, int ds, double *psi);
-/* The quadratic features, [1, s, s_j s_k (j <= k)]. */
-void pr_policy_features_quadratic(const double *s, int ds, double *psi);
 
 /* Fallbacks and adjustments made by one query or fit (bit set; 0 = none). */
 enum {
@@ -124,11 +116,6 @@ pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double la
  * definite cov (da x da), both copied. */
 pr_policy *pr_policy_linear_new(int features, int ds, int da, const double *W,
                                 const double *cov, char *err);
-/* A linear (or Gaussian: nf = 1) policy's W (da x nf, for the features of s
- * itself: a fit's W psi(s - c) is expanded to W' psi(s)) and covariance (da x
- * da, after the floor), copied into caller buffers (either may be NULL).
- * PR_EINVAL for a tree policy. */
-int pr_policy_linear_params(const pr_policy *p, double *W, double *cov, char *err);
 
 /* The tree-LWR policy: fits the forest (inputs S; outputs A for target
  * action, Y for target reward_state) with weights w (eq. 6.3), keeps copies
@@ -161,11 +148,5 @@ int pr_policy_sample(const pr_policy *p, const double *s, int k, gsl_rng *rng,
 /* log pi(a|s). */
 int pr_policy_logpdf(const pr_policy *p, const double *s, const double *a,
                      double *logpdf, int *flags, pr_policy_work *ws, char *err);
-
-/* Gaussian helpers on a mean and covariance from pr_policy_eval. */
-int pr_policy_gauss_sample(int da, const double *mean, const double *cov, int k,
-                           gsl_rng *rng, double *a, char *err);
-int pr_policy_gauss_logpdf(int da, const double *mean, const double *cov,
-                           const double *a, double *logpdf, char *err);
 
 #endif

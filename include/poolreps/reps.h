@@ -136,14 +136,6 @@ int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
                   pr_reps_result **out, char *err);
 void pr_reps_result_free(pr_reps_result *r);
 
-/* The dual on the returns as given (no standardisation), q normalised to
- * sum 1, plus (ridge/2)|theta|^2, at x = (log eta, theta_1..theta_d).
- * grad (d+1 values, may be NULL) receives dg/dlog eta = eta*(eps - KL) and
- * dg/dtheta = phi_hat - sum_i p_i phi_i + ridge*theta. For tests and
- * diagnostics; returns NaN for an invalid problem. */
-double pr_reps_dual(const pr_reps_problem *pb, double epsilon, double ridge,
-                    const double *x, double *grad);
-
 /* Importance weights for sample reuse: a window of n samples
  * drawn by npol past policies, counts[k] of them by policy k (sum = n).
  * logpi is npol x n row-major: logpi[k*n + i] = log pi_k(a_i | s_i); logcur

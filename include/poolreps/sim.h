@@ -73,7 +73,6 @@ typedef struct {
 	int aim;              /* ghost.aim: PR_GHOST_AIM_CENTRE or PR_GHOST_AIM_CORRIDOR */
 	double aim_speed;     /* m/s, Experiment 1's aim-at-ball data policy */
 } pr_expert_opts;
-void pr_sim_expert_opts_init(pr_expert_opts *o);
 
 /* ---- Simulator --------------------------------------------------------- */
 
@@ -126,8 +125,6 @@ void pr_sim_pocket_xy(const pr_table *t, int id, double xy[2]);
  * another (centre distance at least 2R, 1e-12 m slack); else PR_EINVAL and a
  * message naming the ball(s). */
 int pr_sim_check_state(const pr_table *t, const double *state, int nballs, char *err);
-/* PR_OK if the action is finite and no faster than o->max_speed. */
-int pr_sim_check_action(const pr_sim_opts *o, const double action[2], char *err);
 
 /* Simulate one shot: state holds 2*nballs positions, action the cue ball's
  * initial velocity. Needs nballs >= 1 + table.reward_balls. Fills *res; if
@@ -152,17 +149,6 @@ int pr_sim_sample_start(const pr_table *t, const pr_start_opts *o, int nballs, g
 /* Experiment 1's data policy: the cue ball aimed at reward ball 1's centre
  * at e->aim_speed. */
 int pr_sim_aim_action(const pr_expert_opts *e, const double *state, double action[2], char *err);
-
-/* Centre of the entry of pocket id's corridor. The corridor is the part of
- * the pocket's capture disc (radius pocket_radius) that a ball centre can
- * reach without touching a cushion, |x| <= L/2 - R, |y| <= W/2 - R; a ball
- * entering the pocket crosses the disc's boundary arc inside that region,
- * and the arc's midpoint is the pocket centre + pocket_radius times the unit
- * vector pointing from the pocket into the table ((-+1,-+1)/sqrt 2 at a
- * corner, (0,-+1) at a middle pocket). PR_EINVAL when the arc is empty
- * (pocket_radius <= R sqrt 2 at a corner, <= R at the middle): no ball can
- * enter; xy is filled either way. */
-int pr_sim_pocket_entry(const pr_table *t, int id, double xy[2], char *err);
 
 /* Geometry of a ghost-ball shot (thesis Fig. 7.5). */
 typedef struct {

@@ -1,5 +1,6 @@
 /* cli.h — the command line's own header (src/cli, linked into the poolreps
- * executable alone, against the public headers only).
+ * executable alone, against the poolreps/ headers: the public ones, the
+ * library's private ones and the tool's).
  *
  * Each command declares its options in a table of cli_opt (name, kind,
  * where the value goes in that command's own struct, the value's name and
@@ -165,6 +166,9 @@ int cli_has(const cli_given *g, const char *name);
 int cli_stdout_done(void);
 /* --help: cmd NULL for every command. */
 void cli_usage(FILE *fp, const cli_command *const *cmds, size_t ncmds, const cli_command *cmd);
+/* poolreps help experiments: the registry as CSV (name, folder, kind,
+ * summary, title), the one list the pipeline scripts read. */
+void cli_experiments(FILE *fp);
 
 /* ---- shoot (the fuzz harness calls it too) ---- */
 

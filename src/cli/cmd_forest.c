@@ -25,6 +25,7 @@
 #include "poolreps/csvio.h"
 #include "poolreps/forest.h"
 #include "poolreps/query.h"
+#include "poolreps/internal.h"
 #include "cli.h"
 
 /* The options of `poolreps forest` (its table: cli_forest below). */

@@ -26,6 +26,7 @@
 #include "poolreps/csvio.h"
 #include "poolreps/policy.h"
 #include "poolreps/query.h"
+#include "poolreps/internal.h"
 #include "cli.h"
 
 /* The options of `poolreps policy` (its table: cli_policy below). */

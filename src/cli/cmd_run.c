@@ -6,6 +6,7 @@
 
 #include "poolreps/exp.h"
 #include "poolreps/rundir.h"
+#include "poolreps/internal.h"
 #include "cli.h"
 
 static int run_main(const pr_config *cfg, const void *opts, char *err)
@@ -100,7 +101,7 @@ static int sweep_main(const pr_config *cfg, const void *opts, char *err)
 {
 	const sweep_args *a = opts;
 
-	return a->missing ? pr_rundir_missing(a->missing, err) : pr_rundir_sweep(cfg, &a->r, err);
+	return a->missing ? pr_rundir_missing(a->missing, "-", err) : pr_rundir_sweep(cfg, &a->r, err);
 }
 
 static const cli_opt sweep_opts[] = {

@@ -14,6 +14,7 @@
 
 #include "poolreps/config.h"
 #include "poolreps/exp.h"
+#include "poolreps/internal.h"
 #include "cli.h"
 
 /* During a run or merge, the first signal asks the loops to stop (they
@@ -168,9 +169,18 @@ static int pick_command(int argc, char **argv, int *op, int *help, const cli_giv
 {
 	int i = *op;
 
-	/* poolreps help [COMMAND]: that command's --help */
+	/* poolreps help [COMMAND]: that command's --help; help experiments:
+	 * the registry (*help = 2) */
 	if (i < argc && strcmp(argv[i], "help") == 0) {
 		*help = 1;
+		if (i + 1 < argc && strcmp(argv[i + 1], "experiments") == 0) {
+			if (i + 2 < argc)
+				return snprintf(msg, CLI_MSGLEN, "help: unexpected argument '%.60s'",
+				                argv[i + 2]) > 0;
+			*help = 2;
+			*op = argc;
+			return 0;
+		}
 		if (++i < argc && !command_named(argv[i]))
 			return snprintf(msg, CLI_MSGLEN, "help: unknown command '%.60s' (see poolreps --help)",
 			                argv[i]) > 0;
@@ -330,6 +340,9 @@ static int run_command(const cli_command *cmd, const cli_common *c, const cli_gi
 	pr_config cfg;
 	int rc;
 
+	/* only now: a listing (--help, --help-keys, --version) writes no file,
+	 * and a closed pipe ends it silently, as it ends any filter */
+	install_handlers();
 	if ((graceful = (cmd->flags & CLI_GRACEFUL) != 0))
 		make_stop_timer();
 	progress = progress_for(c, &prog, t0);
@@ -359,7 +372,6 @@ int main(int argc, char **argv)
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
 	gsl_set_error_handler(pr_gsl_error_handler);
-	install_handlers();
 	if (!prov.argv) {
 		fail("out of memory");
 		return pr_exit_code(PR_ENOMEM);
@@ -368,7 +380,11 @@ int main(int argc, char **argv)
 	rc = cli_parse(argc, argv, cli_commands, cli_ncommands, &g, &c, &help, &op, &code, msg);
 	if (rc == 0)
 		rc = pick_command(argc, argv, &op, &help, &g, &c, &cmd, &nops, &ops, msg);
-	if (rc == 0 && help) {
+	if (rc == 0 && help == 2) {
+		cli_experiments(stdout);
+		rc = -1;
+		code = cli_stdout_done();
+	} else if (rc == 0 && help) {
 		cli_usage(stdout, cli_commands, cli_ncommands, cmd);
 		rc = -1;
 		code = cli_stdout_done();

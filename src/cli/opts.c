@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "poolreps/exp.h"
+#include "poolreps/internal.h"
 #include "cli.h"
 
 /* Options of no command's table: they act at once (help, help-keys,
@@ -397,6 +398,17 @@ static void print_common(FILE *fp)
 	            "  (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT, 141 SIGPIPE, 153 SIGXFSZ).\n");
 }
 
+void cli_experiments(FILE *fp)
+{
+	const pr_experiment *e;
+	int i;
+
+	fprintf(fp, "name,folder,kind,summary,title\n");
+	for (i = 0; (e = pr_exp_at(i)); ++i)
+		fprintf(fp, "%s,%s,%s,%s,%s\n", e->name, e->folder, e->kind, e->summary ? e->summary : "",
+		        e->title);
+}
+
 void cli_usage(FILE *fp, const cli_command *const *cmds, size_t ncmds, const cli_command *cmd)
 {
 	size_t i;
@@ -418,5 +430,6 @@ void cli_usage(FILE *fp, const cli_command *const *cmds, size_t ncmds, const cli
 	print_common(fp);
 	if (!cmd)
 		fprintf(fp, "\nParameter keys: poolreps --help-keys lists them all (also docs/parameters.md\n"
-		            "and the man page).\n");
+		            "and the man page). Experiments: poolreps help experiments lists them\n"
+		            "(CSV: name, folder, kind, summary, title).\n");
 }

@@ -9,6 +9,7 @@
 #include "fuzz_common.h"
 #include "poolreps/config.h"
 #include "poolreps/exp.h"
+#include "poolreps/internal.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {

@@ -12,6 +12,7 @@
 
 #include "poolreps/csvio.h"
 #include "poolreps/shoot.h"
+#include "poolreps/internal.h"
 #include "poolreps/shotparams.h"
 
 /* Column of each expected name, or an error naming the first missing one. */

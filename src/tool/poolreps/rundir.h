@@ -33,8 +33,9 @@ int pr_rundir_merge(const pr_rundir_args *a, char *err);
 int pr_rundir_config(const pr_config *cfg, const char *path, char *err);
 /* Write a sweep folder a->output: jobs over the grid a->grid (sweep.c). */
 int pr_rundir_sweep(const pr_config *cfg, const pr_rundir_args *a, char *err);
-/* Print to stdout the jobs of sweep folder dir that have not finished. */
-int pr_rundir_missing(const char *dir, char *err);
+/* The jobs of sweep folder dir that have not finished, one line of
+ * jobs.txt each, to the file output ("-": stdout, as the caller chooses). */
+int pr_rundir_missing(const char *dir, const char *output, char *err);
 /* Merge every grid point of the finished sweep a->inputs[0] and write its
  * sweep_summary.csv. */
 int pr_rundir_collect(const pr_rundir_args *a, char *err);

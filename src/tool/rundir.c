@@ -51,11 +51,10 @@ int pr_rundir_run(const pr_config *cfg, const pr_rundir_args *a, char *err)
 
 	if (a->output && snprintf(dir, sizeof dir, "%s", a->output) >= (int)sizeof dir)
 		return pr_err(err, PR_EINVAL, "%.100s...: path too long", a->output);
-	/* the simulator figures' data goes to results/sim: results/figures is
-	 * where `make reproduce` gathers the drawn figures */
+	/* the registry's folder (the simulator figures' data: results/sim, as
+	 * results/figures is where `make reproduce` gathers the drawn figures) */
 	if (!a->output)
-		snprintf(dir, sizeof dir, "results/%s",
-		         strcmp(cfg->run.name, "figures") ? cfg->run.name : "sim");
+		snprintf(dir, sizeof dir, "results/%s", pr_exp_find(cfg->run.name)->folder);
 	return pr_outdir_run(cfg, &a->prov, dir, run_work, a, err);
 }
 

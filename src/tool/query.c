@@ -11,6 +11,7 @@
 #include <time.h>
 
 #include "poolreps/query.h"
+#include "poolreps/internal.h"
 #include "csvio_priv.h"
 
 struct pr_query {

@@ -664,8 +664,8 @@ static int not_done(const char *root, const manifest *m, long nbad, char *err)
 }
 
 /* sweep --missing SWEEP_DIR: the lines of jobs.txt whose jobs are not
- * done, written to standard output (the command's data, like a CSV to "-"). */
-int pr_rundir_missing(const char *root, char *err)
+ * done, written to output (the command passes "-", like a CSV to stdout). */
+int pr_rundir_missing(const char *root, const char *output, char *err)
 {
 	manifest m;
 	char path[PR_PATHLEN], line[3 * PR_PATHLEN]; /* a job: three paths and options */
@@ -679,7 +679,7 @@ int pr_rundir_missing(const char *root, char *err)
 	fmt(path, sizeof path, "%s/jobs.txt", root);
 	if (rc == PR_OK && !(fp = fopen(path, "r")))
 		rc = pr_err(err, pr_errno_status(), "%s: cannot open: %s", path, strerror(errno));
-	if (rc == PR_OK && !(w = pr_csvw_open(NULL, err)))
+	if (rc == PR_OK && !(w = pr_csvw_open(output, err)))
 		rc = PR_EIO;
 	/* read in a fixed buffer: memory stays bounded whatever jobs.txt holds */
 	while (rc == PR_OK && fgets(line, sizeof line, fp)) {

@@ -21,6 +21,7 @@
 #include <unistd.h>
 
 #include "poolreps/csvio.h"
+#include "poolreps/internal.h"
 #include "outdir.h"
 
 
