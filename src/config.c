@@ -99,7 +99,7 @@ static const pr_config_key core_keys[] = {
 	{"value", "features", PR_KEY_ENUM, F(value_features), 0, 0, 0, "leaves|samples",
 	 "active leaves (eq. 5.4) or active samples (eq. 5.6)"},
 
-	{"reps", "epsilon", PR_KEY_DOUBLE, F(reps.epsilon), 0, 1e6, PR_KEY_OPEN_LO, "nats", "KL bound (eq. 3.2; sphere, rosenbrock: 1)"},
+	{"reps", "epsilon", PR_KEY_DOUBLE, F(reps.epsilon), PR_REPS_EPS_MIN, 1e6, 0, "nats", "KL bound (eq. 3.2; sphere, rosenbrock: 1)"},
 	{"reps", "ridge", PR_KEY_DOUBLE, F(reps.ridge), 0, 1e12, 0, "", "ridge on theta in the dual"},
 	{"reps", "eta_min", PR_KEY_DOUBLE, F(reps.eta_min), 0, 1, PR_KEY_OPEN_LO | PR_KEY_OPEN_HI, "",
 	 "eta (return standard deviations) below which the eta -> 0 limit decides if KL = epsilon is reachable"},

@@ -340,7 +340,7 @@ def test_reps_sparse_one_hot_features_agree_with_dense():
     ({"returns": [1, 2, 3], "base": [1, -1, 1]}, ValueError, r"base\[1\]: base weight must be >= 0"),
     ({"returns": [1, 2, 3], "base": [0, 0, 0]}, ValueError, "base weights"),
     ({"returns": [1, 2, 3], "epsilon": -1}, ValueError,
-     r"^--set: reps\.epsilon: -1 out of range: must be > 0 and <= 1000000$"),
+     r"^--set: reps\.epsilon: -1 out of range: must be >= 1e-12 and <= 1000000$"),
     ({"returns": [1, 2, 3], "epsilon": float("nan")}, ValueError, "reps.epsilon: not a finite"),
 ])
 def test_reps_bad_inputs(kw, exc, msg):
