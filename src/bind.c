@@ -200,15 +200,26 @@ int pr_bind_forest_fit(const pr_config *c, int n, int dx, int dy, const double *
                        const double *Y, const double *w, pr_forest **out, char *err)
 {
 	gsl_rng *rng;
+	double *wc = NULL;
 	int rc;
 
 	/* as cmd_forest.c: options first, so messages name forest.<key> */
 	if ((rc = pr_forest_opts_check(&c->forest, "forest", err)))
 		return rc;
-	if (!(rng = pr_bind_rng_new(c->run.seed)))
+	if (w && !(wc = malloc((size_t)(n > 0 ? n : 1) * sizeof *wc)))
 		return pr_err(err, PR_ENOMEM, "forest: out of memory");
-	*out = pr_forest_fit(&c->forest, X, n, dx, Y, dy, w, rng, err);
+	if (!(rng = pr_bind_rng_new(c->run.seed))) {
+		free(wc);
+		return pr_err(err, PR_ENOMEM, "forest: out of memory");
+	}
+	/* as cmd_forest.c: the weights' scale does not change a bit */
+	if (wc) {
+		memcpy(wc, w, (size_t)n * sizeof *wc);
+		pr_forest_weights_canonical(wc, n);
+	}
+	*out = pr_forest_fit(&c->forest, X, n, dx, Y, dy, wc, rng, err);
 	gsl_rng_free(rng);
+	free(wc);
 	return *out ? PR_OK : null_status(err);
 }
 

@@ -682,3 +682,16 @@ def test_reps_loop_example_learns():
     assert len(rows) >= 10
     # the initial policy N(0, 0.1^2 I) scores about -2.8; learning gains at least 0.5
     assert last > first + 0.5, p.stdout
+
+
+def test_forest_weight_scale_changes_no_bit():
+    """sample_weight times 1e-170 or 1e160 gives the same predictions, bit
+    for bit, as the command's --weight (test_forest_cli.py)."""
+    rng = np.random.default_rng(8)
+    X = rng.uniform(size=(200, 2))
+    y = X[:, 0] ** 2 + rng.normal(0, 0.1, 200)
+    w = rng.exponential(size=200)
+    Xt = rng.uniform(size=(50, 2))
+    preds = [poolreps.Forest(seed=3).fit(X, y, sample_weight=w * s).predict(Xt).tobytes()
+             for s in (1.0, 1e-170, 1e160)]
+    assert preds[0] == preds[1] == preds[2]
