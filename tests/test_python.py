@@ -695,3 +695,15 @@ def test_forest_weight_scale_changes_no_bit():
     preds = [poolreps.Forest(seed=3).fit(X, y, sample_weight=w * s).predict(Xt).tobytes()
              for s in (1.0, 1e-170, 1e160)]
     assert preds[0] == preds[1] == preds[2]
+
+
+def test_policy_failure_names_its_row():
+    """A numerical failure at one query state (1e155 on training states in
+    [-1, 1]) names the row and the state's value, as the command names its
+    line (test_ref_policy.py)."""
+    rng = np.random.default_rng(1)
+    S = rng.uniform(-1, 1, (200, 2))
+    A = S @ np.array([[1.0, 0.5], [0.2, -1.0]]) + 0.1 * rng.normal(size=(200, 2))
+    p = poolreps.Policy(seed=1).fit(S, A, rng.uniform(size=200))
+    with pytest.raises(poolreps.NumericalError, match=r"^row 1: state 1 = 1e\+155: policy: "):
+        p.mean_cov(np.array([[0.1, 0.2], [0.0, 1e155]]))
