@@ -1918,7 +1918,8 @@ static int consult_limit(prob *P, work *w, limit_t *L, double kl, double *thg, c
 {
 	int j, st;
 
-	if (P->rw) {
+	/* without free features the ridge has nothing to act on: the limit stands */
+	if (P->rw && P->nf > 0) {
 		snprintf(reason, rlen, "KL = %.6g < epsilon at eta near reps.eta_min, and with "
 		         "reps.ridge > 0 there is no eta -> 0 limit to certify", kl);
 		return V_FAILED;

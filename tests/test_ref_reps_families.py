@@ -142,3 +142,19 @@ def test_gap_beyond_a_double_refused(tmp_path):
     r = run_cmd([BIN, "reps", "--return", "R", "-i", str(inp), "-o", str(out)],
                 capture_output=True, text=True, env=ENV, timeout=60)
     assert r.returncode == 3 and "sample 2" in r.stderr and not out.exists(), r.stderr
+
+
+@pytest.mark.parametrize("name", ["far_return", "near_tie"])
+def test_ridge_without_features_keeps_the_limit(tmp_path, name):
+    """Without features a ridge has no theta to act on: the search still
+    consults the eta -> 0 limit and goes on below reps.eta_min (it failed
+    there with 'no eta -> 0 limit to certify'), to the 60-digit answer."""
+    R, q, phi, eps = AUDIT[name]
+    inp, out = tmp_path / "in.csv", tmp_path / "p.csv"
+    write_case(inp, R, q, phi)
+    r = run_cmd([BIN, "reps", "--return", "R", "-i", str(inp), "-o", str(out), "-q", "--epsilon",
+                 repr(eps), "--set", "reps.ridge=0.1"], capture_output=True, text=True, env=ENV,
+                timeout=60)
+    assert r.returncode == 0, r.stderr
+    p = np.loadtxt(out, skiprows=1, ndmin=1)
+    assert np.abs(p - np.array(ref_reps_mp.reps(R, q, phi, eps)["p"])).max() <= 1e-8

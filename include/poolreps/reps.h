@@ -27,8 +27,9 @@ typedef struct {
 	double epsilon;   /* KL bound, eq. 3.2; >= PR_REPS_EPS_MIN */
 	double ridge;     /* ridge (ridge/2)|theta'|^2 on theta in standardised
 	                     return units (so it does not depend on the return
-	                     scale); 0 = none. The eta -> 0 limit exists only
-	                     without it (an unreachable bound is then "failed") */
+	                     scale); 0 = none. With features the eta -> 0 limit
+	                     exists only without it (an unreachable bound is then
+	                     "failed") */
 	int max_iter;     /* dual evaluations per solve before it gives up */
 	double eta_min;   /* eta, in return standard deviations, below which the
 	                     solver consults the eta -> 0 limit (a linear
