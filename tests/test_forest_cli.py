@@ -6,6 +6,7 @@ with LC_ALL=C.
 import csv
 import os
 import random
+import sys
 from pathlib import Path
 
 import pytest
@@ -159,6 +160,6 @@ def test_constant_columns_block_matches_its_csv():
     """docs/forest.md's table of K = d without replacement against
     scikit-learn on inputs constant in many nodes is what
     scripts/bench_forest_constant.py makes of its committed CSV."""
-    r = run_cmd([os.environ.get("PYTHON", "python3"), str(ROOT / "scripts" / "bench_forest_constant.py"),
-                 "--check"], capture_output=True, text=True, timeout=60)
+    r = run_cmd([sys.executable, str(ROOT / "scripts" / "bench_forest_constant.py"), "--check"],
+                capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
