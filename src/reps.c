@@ -1302,13 +1302,52 @@ static size_t lp_nnz(const prob *P)
 	return P->bin ? (size_t)P->rfp[P->m] + (size_t)P->m : (size_t)P->m * ((size_t)P->nf + 1);
 }
 
+static int cmp_double(const void *a, const void *b)
+{
+	const double x = *(const double *)a, y = *(const double *)b;
+
+	return (x > y) - (x < y);
+}
+
+/* The power of two by which lp_match scales the returns: GLPK's reduced-cost
+ * tolerances are relative to the objective's terms, so when the median gap
+ * below the largest return is under 2^-20 of the returns' spread (one return
+ * far below the others, in standardised units) the other gaps are brought
+ * to about 1, and returns below -2^30 there are clipped to it (the far
+ * return's terms would swamp them), where GLPK resolves them; otherwise 0
+ * (no scaling). The face is judged on the exact reduced costs of the
+ * returns as they are (limit_face, limit_certificate). */
+static int lp_unit(const prob *P)
+{
+	double *g = malloc((size_t)P->m * sizeof *g), hi = -HUGE_VAL, lo = HUGE_VAL, med;
+	int i, k = 0, e = 0;
+
+	if (!g)
+		return 0;
+	for (i = 0; i < P->m; i++) {
+		hi = fmax(hi, P->R[i]);
+		lo = fmin(lo, P->R[i]);
+	}
+	for (i = 0; i < P->m; i++)
+		if (P->R[i] < hi)
+			g[k++] = hi - P->R[i];
+	if (k > 0) {
+		qsort(g, (size_t)k, sizeof *g, cmp_double);
+		med = g[(k - 1) / 2];
+		if (med < ldexp(hi - lo, -20))
+			frexp(med, &e);
+	}
+	free(g);
+	return -e;
+}
+
 /* The feature-matching LP: maximise sum p R subject to the free features'
  * targets and sum p = 1, p >= 0. Fills x (m), the row duals y (nf + 1);
  * returns 1 if optimal, 0 if not, PR_ENOMEM. */
 static int lp_match(const prob *P, double *x, double *y)
 {
 	const int nr = P->nf + 1;
-	int *ia, *ja, nnz = 0, i, ok;
+	int *ia, *ja, nnz = 0, i, ok, e = lp_unit(P);
 	double *ar;
 	glp_prob *lp;
 	jmp_buf jb;
@@ -1328,7 +1367,7 @@ static int lp_match(const prob *P, double *x, double *y)
 	glp_add_cols(lp, P->m);
 	for (i = 0; i < P->m; i++) {
 		glp_set_col_bnds(lp, i + 1, GLP_LO, 0.0, 0.0);
-		glp_set_obj_coef(lp, i + 1, P->R[i]);
+		glp_set_obj_coef(lp, i + 1, e > 0 ? fmax(ldexp(P->R[i], e), -0x1p30) : P->R[i]);
 		col_triplets(P, i, i + 1, ia, ja, ar, &nnz);
 	}
 	glp_load_matrix(lp, nnz, ia, ja, ar);
@@ -1336,7 +1375,7 @@ static int lp_match(const prob *P, double *x, double *y)
 	for (i = 0; ok && i < P->m; i++)
 		x[i] = glp_get_col_prim(lp, i + 1);
 	for (i = 0; ok && i < nr; i++)
-		y[i] = glp_get_row_dual(lp, i + 1);
+		y[i] = ldexp(glp_get_row_dual(lp, i + 1), -e);
 	glp_delete_prob(lp);
 	return lp_unguard(ok, ia, ja, ar, LP_DONE);
 }

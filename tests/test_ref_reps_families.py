@@ -73,11 +73,13 @@ def check_against_reference(tmp_path, kind, seed):
     assert abs(float(s["kl"]) - ref["kl"]) <= 1e-9
 
 
-@pytest.mark.parametrize("seed", range(40))
+@pytest.mark.parametrize("seed", list(range(40)) + [144, 172])
 def test_dynamic_family_against_mp_reference(tmp_path, seed):
     """One return 1e6 ... 1e14 of the spread away, near ties 1e-14 ...
     1e-10 of it apart, returns scaled by 1e+-280, KL bounds down to 1e-12:
-    the answer of the 60-digit reference."""
+    the answer of the 60-digit reference. Seeds 144 and 172 (a feature and
+    a return 1e14 below: GLPK's vertex was off by 1e-17 of the unit, the
+    eta -> 0 face came out empty) failed until the LP saw scaled returns."""
     check_against_mp(tmp_path, *make_family(DYNAMIC, seed))
 
 
