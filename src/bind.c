@@ -6,6 +6,7 @@
  * The REPS result is exposed through one table of named fields (below), the
  * only place that follows pr_reps_result's layout.
  */
+#include <math.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -236,15 +237,26 @@ int pr_bind_forest_fit(const pr_config *c, int n, int dx, int dy, const double *
                        const double *Y, const double *w, pr_forest **out, char *err)
 {
 	gsl_rng *rng;
+	double *wc = NULL;
 	int rc;
 
 	/* as cmd_forest.c: options first, so messages name forest.<key> */
 	if ((rc = pr_forest_opts_check(&c->forest, "forest", err)))
 		return rc;
-	if (!(rng = pr_bind_rng_new(c->run.seed)))
+	if (w && !(wc = malloc((size_t)(n > 0 ? n : 1) * sizeof *wc)))
 		return pr_err(err, PR_ENOMEM, "forest: out of memory");
-	*out = pr_forest_fit(&c->forest, X, n, dx, Y, dy, w, rng, err);
+	if (!(rng = pr_bind_rng_new(c->run.seed))) {
+		free(wc);
+		return pr_err(err, PR_ENOMEM, "forest: out of memory");
+	}
+	/* as cmd_forest.c: the weights' scale does not change a bit */
+	if (wc) {
+		memcpy(wc, w, (size_t)n * sizeof *wc);
+		pr_forest_weights_canonical(wc, n);
+	}
+	*out = pr_forest_fit(&c->forest, X, n, dx, Y, dy, wc, rng, err);
 	gsl_rng_free(rng);
+	free(wc);
 	return *out ? PR_OK : null_status(err);
 }
 
@@ -372,6 +384,21 @@ int pr_bind_policy_fit(const pr_config *c, int n, int ds, int da, int dy, const 
  * calls on one policy may run in parallel. With mean or cov NULL the row's
  * values go to scratch; with rng, k actions per state are drawn after its
  * evaluation, in the order of cmd_policy.c. */
+/* A numerical failure at query row i (state s, ds values): the row and
+ * the state's largest value by magnitude, then the message, as the policy
+ * command names its line. */
+static void name_row(const double *s, size_t ds, long i, char *err)
+{
+	char msg[PR_ERRLEN];
+	size_t big = 0;
+
+	for (size_t j = 1; j < ds; j++)
+		if (fabs(s[j]) > fabs(s[big]))
+			big = j;
+	snprintf(msg, sizeof msg, "%s", err ? err : "");
+	pr_err(err, PR_ENUM, "row %ld: state %zu = %.17g: %s", i, big, ds ? s[big] : 0.0, msg);
+}
+
 static int eval_rows(const pr_policy *p, long nq, const double *S, double *mean, double *cov,
                      int *status, int k, gsl_rng *rng, double *draws, char *err)
 {
@@ -393,6 +420,8 @@ static int eval_rows(const pr_policy *p, long nq, const double *S, double *mean,
 		rc = pr_policy_eval(p, S + (size_t)i * ds, mi, ci, status + i, ws, err);
 		if (!rc && rng)
 			rc = pr_policy_gauss_sample((int)da, mi, ci, k, rng, draws + (size_t)i * k * da, err);
+		if (rc == PR_ENUM)
+			name_row(S + (size_t)i * ds, ds, i, err);
 	}
 	pr_policy_work_free(ws);
 	free(tmp);

@@ -99,13 +99,13 @@ static const pr_config_key core_keys[] = {
 	{"value", "features", PR_KEY_ENUM, F(value_features), 0, 0, 0, "leaves|samples",
 	 "active leaves (eq. 5.4) or active samples (eq. 5.6)"},
 
-	{"reps", "epsilon", PR_KEY_DOUBLE, F(reps.epsilon), 0, 1e6, PR_KEY_OPEN_LO, "nats", "KL bound (eq. 3.2; sphere, rosenbrock: 1)"},
+	{"reps", "epsilon", PR_KEY_DOUBLE, F(reps.epsilon), PR_REPS_EPS_MIN, 1e6, 0, "nats", "KL bound (eq. 3.2; sphere, rosenbrock: 1)"},
 	{"reps", "ridge", PR_KEY_DOUBLE, F(reps.ridge), 0, 1e12, 0, "", "ridge on theta in the dual"},
 	{"reps", "eta_min", PR_KEY_DOUBLE, F(reps.eta_min), 0, 1, PR_KEY_OPEN_LO | PR_KEY_OPEN_HI, "",
 	 "eta (return standard deviations) below which the eta -> 0 limit decides if KL = epsilon is reachable"},
 	{"reps", "max_iter", PR_KEY_INT, F(reps.max_iter), 1, 10000000, 0, "", "dual evaluations per solve"},
 	{"reps", "solver", PR_KEY_ENUM, F(reps.solver), 0, 0, 0, "newton|nlopt",
-	 "dual solver: Newton with the eta -> 0 limit, or NLopt's L-BFGS (same certificate)"},
+	 "dual solver: Newton with the eta -> 0 limit, or NLopt's L-BFGS polished by it (same certificate)"},
 	{"reps", "allow_failed", PR_KEY_INT, F(reps.allow_failed), 0, 1, 0, "",
 	 "experiments: 1 records an uncertified REPS solve (status failed) and goes on; 0 fails the run"},
 

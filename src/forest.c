@@ -149,6 +149,7 @@ typedef struct {
 	const pr_forest_opts *o;
 	int n, dx, dy, weighted;
 	nodebuf root;         /* every tree's root: the data, inputs by column */
+	double *wn;           /* n: the weights scaled by a power of two (weighted fits) */
 	double root_sum;      /* unweighted single output: the sum of y */
 	nodebuf buf[2];
 	int *pos;             /* n: destinations in a large node's partition */
@@ -166,6 +167,7 @@ static void builder_free(builder *b)
 {
 	free(b->root.idx);
 	free(b->root.x);
+	free(b->wn);
 	for (int i = 0; i < 2; i++) {
 		free(b->buf[i].idx);
 		free(b->buf[i].x);
@@ -194,7 +196,8 @@ static int builder_alloc(builder *b)
 
 	b->root.idx = malloc(n * sizeof *b->root.idx);
 	b->root.x = malloc(dx * n * sizeof *b->root.x);
-	ok = b->root.idx && b->root.x;
+	b->wn = b->weighted ? malloc(n * sizeof *b->wn) : NULL;
+	ok = b->root.idx && b->root.x && (b->wn || !b->weighted);
 	for (int i = 0; i < 2; i++) {
 		nodebuf *nb = b->buf + i;
 		nb->idx = malloc(n * sizeof *nb->idx);
@@ -222,9 +225,45 @@ static int builder_alloc(builder *b)
 	       && b->sse && b->sl && b->sr && b->ym && b->stk && b->r;
 }
 
+void pr_forest_weights_canonical(double *w, int n)
+{
+	double wmax = 0;
+	int e;
+
+	for (int i = 0; i < n; i++) {
+		if (!(w[i] >= 0) || !isfinite(w[i]))
+			return;
+		wmax = fmax(wmax, w[i]);
+	}
+	if (!(wmax > 0))
+		return;
+	for (int i = 0; i < n; i++) {
+		double m = frexp(w[i] / wmax, &e);
+
+		w[i] = ldexp(nearbyint(ldexp(m, 24)), e - 24);
+	}
+}
+
+/* The weights times the power of two that brings the largest into [0.5, 1)
+ * (exact): the scores' squares of weighted sums, sl^2 / wl, neither
+ * underflow nor overflow whatever the weights' scale, and a power-of-two
+ * scale changes no bit of any score or leaf mean. */
+static double *scale_weights(const double *w, int n, double *wn)
+{
+	double wmax = 0;
+	int e;
+
+	for (int i = 0; i < n; i++)
+		wmax = fmax(wmax, w[i]);
+	frexp(wmax, &e);
+	for (int i = 0; i < n; i++)
+		wn[i] = ldexp(w[i], -e);
+	return wn;
+}
+
 /* The root node of every tree, built once per fit: sample indices in order,
- * the inputs column by column, and the caller's outputs and weights, which
- * are only read (a split writes the children into buf[1]). */
+ * the inputs column by column, the caller's outputs, which are only read (a
+ * split writes the children into buf[1]), and the weights scaled. */
 static void builder_root(builder *b, const double *X, const double *Y, const double *w)
 {
 	int n = b->n, dx = b->dx;
@@ -235,7 +274,7 @@ static void builder_root(builder *b, const double *X, const double *Y, const dou
 			b->root.x[(size_t)d * n + i] = X[(size_t)i * dx + d];
 	}
 	b->root.y = (double *)Y;
-	b->root.w = (double *)w;
+	b->root.w = w ? scale_weights(w, n, b->wn) : NULL;
 	b->root_sum = 0;
 	if (b->dy == 1 && !w)
 		for (int i = 0; i < n; i++)
@@ -298,8 +337,10 @@ static void examine(builder *b, const double *x, int m, int d)
 }
 
 /* Draw a test dimension uniformly among those not constant in the node
- * (rejection: a constant one leaves the candidates and we draw again), with
- * replacement or from a pool refilled once exhausted. -1 if all are constant.
+ * (rejection: a constant one leaves the candidates), with replacement or
+ * from a pool refilled once exhausted. With replacement a constant one is
+ * drawn again at once; without, -2 says one was drawn: as in scikit-learn's
+ * max_features, it counts as one of the K draws. -1 if all are constant.
  * xn is the node's first input column; columns are n apart. */
 static int draw_dim(builder *b, const double *xn, int m, int *nc, int *np)
 {
@@ -326,6 +367,8 @@ static int draw_dim(builder *b, const double *xn, int m, int *nc, int *np)
 		for (u = 0; b->cand[u] != d; u++)
 			;
 		b->cand[u] = b->cand[--*nc];
+		if (!b->o->with_replacement)
+			return -2;
 	}
 }
 
@@ -549,16 +592,22 @@ static int choose_split(builder *b, const nodebuf *nb, int lo, int m, double sum
 		b->cand[d] = d;
 		b->seen[d] = 0;
 	}
-	for (int k = 0; k < o->cuts; k += nt) {
+	/* skip: constant dimensions drawn without replacement, which count as
+	 * draws (draw_dim); beyond K only until one dimension varies */
+	for (int k = 0, skip = 0; k + skip < o->cuts || k == 0; k += nt) {
 		int dd[2], nn[2];
 		double tt[2], ss[2] = { 0, 0 };
 
-		for (nt = 0; nt < 2 && k + nt < o->cuts; nt++) {
+		for (nt = 0; nt < 2 && (k + nt + skip < o->cuts || k + nt == 0);) {
 			int d = draw_dim(b, xn, m, &nc, &np);
+			if (d == -2) {
+				skip++;
+				continue;
+			}
 			if (d < 0)
 				break;
 			dd[nt] = d;
-			tt[nt] = b->lo[d] + (b->hi[d] - b->lo[d]) * gsl_rng_uniform(b->r);
+			tt[nt++] = b->lo[d] + (b->hi[d] - b->lo[d]) * gsl_rng_uniform(b->r);
 		}
 		if (nt == 0)
 			break;
@@ -601,7 +650,7 @@ static int choose_split(builder *b, const nodebuf *nb, int lo, int m, double sum
 				*bsl = ss[i];
 			}
 		}
-		if (nt < 2 && k + nt < o->cuts)
+		if (nt < 2 && (k + nt + skip < o->cuts || k + nt == 0))
 			break;  /* every dimension is constant in the node */
 	}
 	return found;

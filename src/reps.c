@@ -69,6 +69,16 @@ const char *pr_reps_status_name(int status)
 /* Inner (theta) and outer (KL) targets, well inside PR_REPS_TOL. */
 #define THETA_TOL 1e-13
 #define KL_TOL 1e-12
+/* Below this eps, eval computes KL by kl_fine (eps 1e-4 leaves eu - log z
+ * 1e-12 of it). */
+#define KL_FINE_EPS 1e-4
+/* The solver's target for |KL - eps|: KL_TOL, or for eps above 1 KL_TOL
+ * eps, and well inside the certificate's relative tolerance for small eps. */
+static double kl_tol(double eps)
+{
+	return fmin(KL_TOL * fmax(1.0, eps), 1e-2 * PR_REPS_TOL * eps);
+}
+
 /* A residual that stops falling counts as converged below this (well inside
  * the certificate's PR_REPS_TOL; the certificate checks it again). */
 #define FLOOR_TOL 1e-10
@@ -327,6 +337,22 @@ static void dense_residuals(const prob *P, const work *w, const double *th, doub
  *   F = eta eps + th.tg + amax + eta log sum q exp((A - amax)/eta) + rw th^2/2,
  * A = R - psi th, amax = max A (so no exp overflows), p = q e^{u} / z with
  * u = (A - amax)/eta, KL(p||q) = sum p u - log z, g = dF/dth. */
+/* KL(p||q) for small eps, where eu - log z loses the 1e-16 that log z
+ * holds absolutely: with v = u - E_p[u] (E_p[v] = 0),
+ * KL = -log E_q[exp(v)] = -log1p(E_q[expm1(v)]), whose terms carry their
+ * own digits (the cancellation costs 1e-16 of |v|, not of 1). */
+static double kl_fine(const prob *P, const double *A, double amax, double eta, double eu)
+{
+	double s = 0.0, qs = 0.0;
+	int i;
+
+	for (i = 0; i < P->m; i++) {
+		s += P->q[i] * expm1((A[i] - amax) / eta - eu);
+		qs += P->q[i];
+	}
+	return -log1p(s / qs);
+}
+
 static void eval(const prob *P, work *w, double eta, point *x)
 {
 	const int m = P->m, nf = P->nf;
@@ -371,7 +397,7 @@ static void eval(const prob *P, work *w, double eta, point *x)
 		}
 	}
 	x->amax = amax;
-	x->kl = eu - log(z);
+	x->kl = P->eps < KL_FINE_EPS ? kl_fine(P, x->A, amax, eta, eu) : eu - log(z);
 	F = eta * P->eps + amax + eta * log(z);
 	x->res = 0.0;
 	for (j = 0; j < nf; j++) {
@@ -1079,6 +1105,10 @@ typedef struct {
 	double value;     /* the dual value at eta = 0: th.tg + max_i (R_i - psi_i th) */
 	double gap;       /* value - sum p_0 R: how far p_0 is from optimal */
 	double outside;   /* the largest mass an optimal solution can put outside supp p_0 */
+	double tie;       /* how far the reduced costs on supp p_0 fall below the
+	                     face's beyond their tolerance (TIE_ROUND, TIE_REL): > 0
+	                     when supp p_0 holds a near tie, not a face (the root may
+	                     lie below) */
 	int ok;           /* 0: the limit could not be computed (reason set) */
 } limit_t;
 
@@ -1272,13 +1302,52 @@ static size_t lp_nnz(const prob *P)
 	return P->bin ? (size_t)P->rfp[P->m] + (size_t)P->m : (size_t)P->m * ((size_t)P->nf + 1);
 }
 
+static int cmp_double(const void *a, const void *b)
+{
+	const double x = *(const double *)a, y = *(const double *)b;
+
+	return (x > y) - (x < y);
+}
+
+/* The power of two by which lp_match scales the returns: GLPK's reduced-cost
+ * tolerances are relative to the objective's terms, so when the median gap
+ * below the largest return is under 2^-20 of the returns' spread (one return
+ * far below the others, in standardised units) the other gaps are brought
+ * to about 1, and returns below -2^30 there are clipped to it (the far
+ * return's terms would swamp them), where GLPK resolves them; otherwise 0
+ * (no scaling). The face is judged on the exact reduced costs of the
+ * returns as they are (limit_face, limit_certificate). */
+static int lp_unit(const prob *P)
+{
+	double *g = malloc((size_t)P->m * sizeof *g), hi = -HUGE_VAL, lo = HUGE_VAL, med;
+	int i, k = 0, e = 0;
+
+	if (!g)
+		return 0;
+	for (i = 0; i < P->m; i++) {
+		hi = fmax(hi, P->R[i]);
+		lo = fmin(lo, P->R[i]);
+	}
+	for (i = 0; i < P->m; i++)
+		if (P->R[i] < hi)
+			g[k++] = hi - P->R[i];
+	if (k > 0) {
+		qsort(g, (size_t)k, sizeof *g, cmp_double);
+		med = g[(k - 1) / 2];
+		if (med < ldexp(hi - lo, -20))
+			frexp(med, &e);
+	}
+	free(g);
+	return -e;
+}
+
 /* The feature-matching LP: maximise sum p R subject to the free features'
  * targets and sum p = 1, p >= 0. Fills x (m), the row duals y (nf + 1);
  * returns 1 if optimal, 0 if not, PR_ENOMEM. */
 static int lp_match(const prob *P, double *x, double *y)
 {
 	const int nr = P->nf + 1;
-	int *ia, *ja, nnz = 0, i, ok;
+	int *ia, *ja, nnz = 0, i, ok, e = lp_unit(P);
 	double *ar;
 	glp_prob *lp;
 	jmp_buf jb;
@@ -1298,7 +1367,7 @@ static int lp_match(const prob *P, double *x, double *y)
 	glp_add_cols(lp, P->m);
 	for (i = 0; i < P->m; i++) {
 		glp_set_col_bnds(lp, i + 1, GLP_LO, 0.0, 0.0);
-		glp_set_obj_coef(lp, i + 1, P->R[i]);
+		glp_set_obj_coef(lp, i + 1, e > 0 ? fmax(ldexp(P->R[i], e), -0x1p30) : P->R[i]);
 		col_triplets(P, i, i + 1, ia, ja, ar, &nnz);
 	}
 	glp_load_matrix(lp, nnz, ia, ja, ar);
@@ -1306,7 +1375,7 @@ static int lp_match(const prob *P, double *x, double *y)
 	for (i = 0; ok && i < P->m; i++)
 		x[i] = glp_get_col_prim(lp, i + 1);
 	for (i = 0; ok && i < nr; i++)
-		y[i] = glp_get_row_dual(lp, i + 1);
+		y[i] = ldexp(glp_get_row_dual(lp, i + 1), -e);
 	glp_delete_prob(lp);
 	return lp_unguard(ok, ia, ja, ar, LP_DONE);
 }
@@ -1443,6 +1512,7 @@ typedef struct {
 	gsl_matrix *N;       /* nr x nr: lsq_fit's normal equations */
 	int ns, nb;          /* |S|; rows of Z in the vertex's support */
 	double rmax;         /* the largest reduced cost */
+	double tmax;         /* its terms' magnitude (limit_face) */
 } limit_ws;
 
 static void limit_ws_free(limit_ws *s)
@@ -1481,6 +1551,23 @@ static int limit_ws_alloc(limit_ws *s, int m, int nr)
 	return PR_OK;
 }
 
+/* A reduced cost on supp p_0 counts as 0 (the face's) within TIE_ROUND
+ * times its round-off bound plus TIE_REL of its terms and the largest
+ * one's: the digits of the LP's duals on which limit_face decides (on_top);
+ * without features only exact ties count (the terms are the returns, 0 at
+ * the largest). */
+#define TIE_ROUND 1024.0
+#define TIE_REL 1e-11
+
+/* Whether row i's reduced cost is the largest within the round-off of the
+ * LP's duals: 1e-11 of the terms of its own and of the largest one, row by
+ * row (a far return's terms would merge rows whose gaps are 1e-12 of it);
+ * without features (no duals) exactly. */
+static int on_top(const limit_ws *s, int i, int nf)
+{
+	return s->rr[i] - s->rmax >= (nf > 0 ? -TIE_REL * (s->mag[i] + s->tmax) : 0.0);
+}
+
 /* The optimal face of the feature-matching LP (see limit_solve): LP duals
  * y, reduced costs rr, Z, and the support S (s->ns rows; 0 with reason set
  * when an LP did not solve or the face came out empty); y shifted to a
@@ -1488,7 +1575,7 @@ static int limit_ws_alloc(limit_ws *s, int m, int nr)
 static int limit_face(const prob *P, limit_ws *s, char *reason, size_t rlen)
 {
 	const int m = P->m, nf = P->nf, nr = nf + 1;
-	double tscale = 1.0, *rr = s->rr, *y = s->y;
+	double *rr = s->rr, *y = s->y;
 	int i, k, nz = 0, rc;
 
 	/* GLPK's output is swallowed by lp_guard's hook */
@@ -1501,11 +1588,14 @@ static int limit_face(const prob *P, limit_ws *s, char *reason, size_t rlen)
 	s->rmax = -HUGE_VAL;
 	for (i = 0; i < m; i++) {
 		rr[i] = P->R[i] - col_dot(P, i, y, &s->mag[i]);
-		tscale = fmax(tscale, s->mag[i] + fabs(P->R[i]));
-		s->rmax = fmax(s->rmax, rr[i]);
+		s->mag[i] += fabs(P->R[i]);
+		if (rr[i] > s->rmax) {
+			s->rmax = rr[i];
+			s->tmax = s->mag[i];
+		}
 	}
 	for (i = 0; i < m; i++)
-		if (rr[i] - s->rmax >= -1e-11 * tscale) {
+		if (on_top(s, i, nf)) {
 			s->Z[nz++] = i;
 			if (nf == 0 || s->x[i] > 1e-15) {
 				s->sup[i] = 1;
@@ -1524,12 +1614,12 @@ static int limit_face(const prob *P, limit_ws *s, char *reason, size_t rlen)
 		 * smallest margin, min(delta c_min on Z \ S, rmax - rr_i + delta c_i
 		 * off Z), capped at 1 */
 		for (i = 0; i < m; i++)
-			if (s->sup[i] == 0 && rr[i] - s->rmax >= -1e-11 * tscale)
+			if (s->sup[i] == 0 && on_top(s, i, nf))
 				cmin = fmin(cmin, col_dot(P, i, s->wv, NULL));
 		for (i = 0; i < m; i++) {
 			double c = col_dot(P, i, s->wv, NULL);
 
-			if (rr[i] - s->rmax < -1e-11 * tscale && c < 0.0)
+			if (!on_top(s, i, nf) && c < 0.0)
 				delta = fmin(delta, (s->rmax - rr[i]) / (cmin - c));
 		}
 		for (k = 0; k < nr; k++)
@@ -1627,7 +1717,7 @@ done:
 static void limit_certificate(const prob *P, limit_ws *s, limit_t *L)
 {
 	const double *rr = s->rr, rmax = s->rmax;
-	double emax = 0.0, *err = s->err;
+	double emax = 0.0, tmax = 0.0, *err = s->err;
 	int i;
 
 	L->gap = 0.0;
@@ -1635,12 +1725,18 @@ static void limit_certificate(const prob *P, limit_ws *s, limit_t *L)
 		double nk = 2.0 * col_nnz(P, i) + 1.0;
 
 		err[i] = 2.0 * DBL_EPSILON * fabs(rr[i]) + 2.0 * nk * nk * DBL_EPSILON * DBL_EPSILON * s->mag[i];
-		if (rr[i] == rmax)
+		if (rr[i] == rmax) {
 			emax = fmax(emax, err[i]);
+			tmax = fmax(tmax, s->mag[i]);
+		}
 	}
+	L->tie = 0.0;
 	for (i = 0; i < P->m; i++)
-		if (L->p[i] > 0.0)
+		if (L->p[i] > 0.0) {
 			L->gap += L->p[i] * (rmax - rr[i] + err[i] + emax);
+			L->tie = fmax(L->tie, rmax - rr[i] - TIE_ROUND * (err[i] + emax) -
+			                      TIE_REL * (s->mag[i] + tmax));
+		}
 	L->outside = 0.0;
 	for (i = 0; i < P->m; i++)
 		if (L->p[i] == 0.0) {
@@ -1747,7 +1843,7 @@ static int chord_next(const prob *P, const work *w, const point *x, const point 
 static int joint_newton(const prob *P, work *w, double eta_min, double *eta)
 {
 	const int nf = P->nf;
-	const double ktol = KL_TOL * fmax(1.0, P->eps);
+	const double ktol = kl_tol(P->eps);
 	point *x = &w->pt[0], *t = &w->pt[1], tmp;
 	double *v1 = w->v1, *v2 = w->v2, *dth = w->dth, eh = 1.0;
 	int it, j, k, chord = 0;
@@ -1861,7 +1957,8 @@ static int consult_limit(prob *P, work *w, limit_t *L, double kl, double *thg, c
 {
 	int j, st;
 
-	if (P->rw) {
+	/* without free features the ridge has nothing to act on: the limit stands */
+	if (P->rw && P->nf > 0) {
 		snprintf(reason, rlen, "KL = %.6g < epsilon at eta near reps.eta_min, and with "
 		         "reps.ridge > 0 there is no eta -> 0 limit to certify", kl);
 		return V_FAILED;
@@ -1996,11 +2093,13 @@ static int search_advance(prob *P, work *w, const pr_reps_opts *o, limit_t *L, s
  * goes on with theta - th on the returns rr = R - psi th - const, the
  * limit's exact reduced costs (0 on the face), so A is small where p is
  * not negligible (L->shifted). Returns the verdict, with pt[0] at the
- * answer and *eta_out set for V_ACTIVE, or a negative error. */
-static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *eta_out,
+ * answer and *eta_out set for V_ACTIVE, or a negative error. With from,
+ * the fast path is skipped and the search starts at *eta_out and pt[0]'s
+ * theta (another solver's answer, which it polishes). */
+static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, int from, double *eta_out,
                   char *reason, size_t rlen)
 {
-	const double ktol = KL_TOL * fmax(1.0, P->eps);
+	const double ktol = kl_tol(P->eps);
 	const size_t nf1 = (size_t)(P->nf > 0 ? P->nf : 1);
 	search_t S = { 0.0, -HUGE_VAL, HUGE_VAL, 0.0, 1.0, HUGE_VAL, NULL, NULL, 0, 0, 0, 0 };
 	double gap = HUGE_VAL;
@@ -2010,7 +2109,7 @@ static int search(prob *P, work *w, const pr_reps_opts *o, limit_t *L, double *e
 		return PR_ENOMEM;
 	S.bg = S.thg + nf1;
 	snprintf(reason, rlen, "the search for eta did not converge");
-	st = joint_newton(P, w, o->eta_min, eta_out);
+	st = from ? 0 : joint_newton(P, w, o->eta_min, eta_out);
 	if (st != 0) {
 		free(S.thg);
 		w->path |= PATH_JOINT;
@@ -2141,8 +2240,9 @@ static void certify_features(const pr_reps_problem *pb, const int *rows, int m,
 
 static int check_opts(const pr_reps_opts *o, char *err)
 {
-	if (!(o->epsilon > 0.0) || !isfinite(o->epsilon))
-		return pr_err(err, PR_EINVAL, "reps.epsilon: must be > 0 (got %g)", o->epsilon);
+	if (!(o->epsilon >= PR_REPS_EPS_MIN) || !isfinite(o->epsilon))
+		return pr_err(err, PR_EINVAL, "reps.epsilon: must be >= %g (got %g)", PR_REPS_EPS_MIN,
+		              o->epsilon);
 	if (!(o->ridge >= 0.0) || !isfinite(o->ridge))
 		return pr_err(err, PR_EINVAL, "reps.ridge: must be >= 0 (got %g)", o->ridge);
 	if (o->max_iter < 1)
@@ -2258,6 +2358,20 @@ static int standardise(const double *R, const int *rows, const double *q, int m,
 		Rs[i] /= sd;
 	*scale = ldexp(sd, e0 + e1);
 	return 1;
+}
+
+/* A row whose return lies below the largest (rmax) but whose standardised
+ * return underflowed to 0 or a subnormal: it would tie with the largest,
+ * although the answer can hinge on that gap (its eta -> 0 face). Its index
+ * into rows, or -1. */
+static int lost_gap(const double *R, const int *rows, const double *Rs, int m, double rmax)
+{
+	int i;
+
+	for (i = 0; i < m; i++)
+		if (R[rows[i]] < rmax && Rs[i] > -DBL_MIN)
+			return i;
+	return -1;
 }
 
 /* The answer in feature and return units: p on all n samples, theta from
@@ -2400,8 +2514,9 @@ static double nl_dual(unsigned n, const double *x, double *grad, void *data)
 
 /* Minimises the dual with NLopt's L-BFGS from (log eta, theta) = (0, 0),
  * at most w->max_evals evaluations, until the relative change of x falls
- * to round-off. Leaves pt[0] at the best point and claims V_ACTIVE: the
- * certificate decides. Returns a negative error on interrupt or memory. */
+ * to round-off. Leaves pt[0] at the best point, *eta there, and returns 0
+ * (the search polishes it and decides), or a negative error on interrupt
+ * or memory. */
 static int nlopt_dual(const prob *P, work *w, double *eta, char *reason, size_t rlen)
 {
 	const unsigned n = (unsigned)P->nf + 1;
@@ -2438,7 +2553,7 @@ static int nlopt_dual(const prob *P, work *w, double *eta, char *reason, size_t 
 	snprintf(reason, rlen, "NLopt L-BFGS stopped with code %d", (int)rc);
 	free(x);
 	free(lo);
-	return V_ACTIVE;
+	return 0;
 }
 
 /* What the attempts of one solve share: the problem, its rows with q > 0,
@@ -2617,7 +2732,7 @@ static void path_name(int path, char *buf, size_t len)
 static void certify(const ctx_t *c, const limit_t *L, int verdict, int exact, pr_reps_result *r)
 {
 	const pr_reps_opts *o = c->o;
-	double res_exact = 0.0;
+	double res_exact = 0.0, ktol;
 
 	r->status = verdict;
 	if (!weights_ok(r->p, c->pb->n)) {
@@ -2628,6 +2743,7 @@ static void certify(const ctx_t *c, const limit_t *L, int verdict, int exact, pr
 		r->kl = 0.0;
 	}
 	r->kl_gap = fabs(r->kl - o->epsilon);
+	ktol = PR_REPS_TOL * fmin(1.0, o->epsilon);
 	if (c->corr) {
 		certify_features(c->pb, c->rows, c->m, c->phat, c->fs, c->corr, o->ridge / c->scale, r,
 		                 c->tmp);
@@ -2644,17 +2760,17 @@ static void certify(const ctx_t *c, const limit_t *L, int verdict, int exact, pr
 		         "(tolerance %g)", res_exact, PR_REPS_TOL);
 	} else if (r->status == PR_REPS_FAILED) {
 		/* said above or by the search */
-	} else if (verdict == V_ACTIVE && !(r->kl_gap <= PR_REPS_TOL && r->residual_rel <= PR_REPS_TOL)) {
+	} else if (verdict == V_ACTIVE && !(r->kl_gap <= ktol && r->residual_rel <= PR_REPS_TOL)) {
 		r->status = PR_REPS_FAILED;
-		snprintf(r->reason, sizeof r->reason, "|KL - epsilon| = %.3g, feature residual %.3g "
-		         "(tolerance %g)", r->kl_gap, r->residual_rel, PR_REPS_TOL);
+		snprintf(r->reason, sizeof r->reason, "|KL - epsilon| = %.3g (tolerance %.3g), feature "
+		         "residual %.3g (tolerance %g)", r->kl_gap, ktol, r->residual_rel, PR_REPS_TOL);
 	} else if (verdict == V_UNREACHABLE &&
 	           !(r->residual_rel <= PR_REPS_TOL && L->gap <= PR_REPS_TOL &&
-	             L->outside <= PR_REPS_TOL)) {
+	             L->outside <= PR_REPS_TOL && L->tie <= 0.0)) {
 		r->status = PR_REPS_FAILED;
 		snprintf(r->reason, sizeof r->reason, "eta -> 0 limit not certified: feature residual "
-		         "%.3g, LP gap %.3g, mass outside the face up to %.3g (tolerance %g)",
-		         r->residual_rel, L->gap, L->outside, PR_REPS_TOL);
+		         "%.3g, LP gap %.3g, mass outside the face up to %.3g (tolerance %g), "
+		         "near tie %.3g", r->residual_rel, L->gap, L->outside, PR_REPS_TOL, L->tie);
 	}
 	if (r->status == PR_REPS_ACTIVE)
 		r->reason[0] = '\0';
@@ -2684,10 +2800,13 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, int
 	L.rr = malloc((size_t)P->m * sizeof *L.rr);
 	if (!L.p || !L.th || !L.lam || !L.rr)
 		goto done;
-	if (c->o->solver == PR_REPS_SOLVER_NLOPT)
-		verdict = nlopt_dual(P, &w, &eta, r->reason, sizeof r->reason);
-	else
-		verdict = search(P, &w, c->o, &L, &eta, r->reason, sizeof r->reason);
+	/* NLopt's answer is polished by the search from where it stopped: an
+	 * answer gets Newton's certificate, and its Hessian's condition, or none */
+	verdict = c->o->solver == PR_REPS_SOLVER_NLOPT ?
+	          nlopt_dual(P, &w, &eta, r->reason, sizeof r->reason) : 0;
+	if (verdict >= 0)
+		verdict = search(P, &w, c->o, &L, c->o->solver == PR_REPS_SOLVER_NLOPT, &eta, r->reason,
+		                 sizeof r->reason);
 	if ((st = verdict) < 0)
 		goto done;
 	st = PR_OK;
@@ -2860,6 +2979,12 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		solve_constant(&c, r);
 		*out = r;
 		r = NULL;
+		goto done;
+	}
+	if ((i = lost_gap(pb->R, rows, Rs, m, c.rmax)) >= 0) {
+		st = pr_err(err, PR_ENUM, "reps: sample %d: its return %.17g lies below the largest, "
+		            "%.17g, by less than 2^-1022 of the returns' spread: no unit of a double "
+		            "holds both", rows[i] + 1, pb->R[rows[i]], c.rmax);
 		goto done;
 	}
 	if ((st = prob_main(&P, pb, rows, qs, Rs, m, phat, fs, o->epsilon, o->ridge, fx)) != PR_OK) {

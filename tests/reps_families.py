@@ -7,13 +7,20 @@ FAMILIES = ["collinear", "extreme", "offsets"]
 # rank-k Hessian kernel and the least-squares start); not one of the three
 # hard families, so it has its own, smaller test
 WIDE = "wide_dense"
+# returns and KL bounds beyond a double's digits side by side (one return
+# 1e6 ... 1e14 of the others' spread away, near ties 1e-14 ... 1e-10 of it
+# apart, returns scaled by up to 1e+-280, KL bounds down to 1e-12): their
+# reference is the 60-digit ref_reps_mp.py, which the family test uses
+DYNAMIC = "dynamic"
 
 
 def make_family(kind, seed):
     """(R, q, phi, eps) of problem `seed` of family `kind`."""
-    rng = np.random.default_rng([23, (FAMILIES + [WIDE]).index(kind), seed])
+    rng = np.random.default_rng([23, (FAMILIES + [WIDE, DYNAMIC]).index(kind), seed])
     if kind == WIDE:
         return wide_dense(rng)
+    if kind == DYNAMIC:
+        return dynamic(rng, seed % 4)
     if kind == "collinear":
         n = int(rng.integers(20, 201))
         d = int(rng.integers(2, 7))
@@ -66,4 +73,31 @@ def wide_dense(rng):
         R = R + rng.standard_t(2, size=n)
     q = np.exp(rng.normal(0.0, 0.5, size=n)) if rng.random() < 0.5 else None
     eps = float(10 ** rng.uniform(-3, 0.5))
+    return R, q, phi, eps
+
+
+def dynamic(rng, variant):
+    """n in 3..60, 0-2 dense features; variant 0: one return 1e6 ... 1e14
+    of the spread below the others; 1: the largest return tied to 1e-14 ...
+    1e-10 of the spread by another; 2: eps from 1e-12 to 1e-6; 3: the
+    returns scaled by 1e+-280 with one 1e4 ... 1e10 of their spread below."""
+    n = int(rng.integers(3, 61))
+    d = int(rng.integers(0, 3)) if n > 8 else 0
+    S = rng.uniform(size=(n, 2))
+    phi = np.c_[S, S[:, 0] * S[:, 1]][:, :d]
+    R = np.sin(3 * S[:, 0]) - S[:, 1] + rng.normal(size=n) * 0.5
+    spread = R.max() - R.min()
+    eps = float(10 ** rng.uniform(-2, 0.3))
+    far = int(rng.integers(n))
+    if variant == 0:
+        R[far] = R.min() - 10 ** rng.uniform(6, 14) * spread
+    elif variant == 1:
+        top = int(np.argmax(R))
+        R[(top + 1) % n] = R[top] - 10 ** rng.uniform(-14, -10) * spread
+    elif variant == 2:
+        eps = float(10 ** rng.uniform(-12, -6))
+    else:
+        R[far] = R.min() - 10 ** rng.uniform(4, 10) * spread
+        R = R * 10 ** rng.uniform(-280, 280)
+    q = np.exp(rng.normal(0.0, 0.5, size=n)) if rng.random() < 0.4 else None
     return R, q, phi, eps

@@ -6,6 +6,7 @@ with LC_ALL=C.
 import csv
 import os
 import random
+import sys
 from pathlib import Path
 
 import pytest
@@ -86,6 +87,30 @@ def test_weight_column(tmp_path):
     assert [float(row["pred_y"]) for row in rows] == [0.0, 1.0]
 
 
+@pytest.mark.parametrize("multi", [False, True])
+def test_weight_scale_changes_no_byte(tmp_path, multi):
+    """Weights times 1e-170, 1e160, 1e-300, 1e300 or 2^-500 (one weight
+    in eight 1e-3 of the others) give the same predictions, byte for byte:
+    a weighted score squares weighted sums, which underflowed or overflowed
+    at those scales and grew other trees (predictions 0.7 apart)."""
+    rnd = random.Random(11)
+    rows = []
+    for _ in range(300):
+        x = [rnd.random() for _ in range(3)]
+        y = [x[0] ** 2 + x[1] + rnd.gauss(0, 0.1), x[2] - x[0] + rnd.gauss(0, 0.1)]
+        rows.append((x, y, rnd.expovariate(1.0) * (1e-3 if rnd.random() < 0.125 else 1.0)))
+    test = "x0,x1,x2\n" + "".join(",".join(repr(rnd.random()) for _ in range(3)) + "\n"
+                                   for _ in range(60))
+    target = "y0,y1" if multi else "y0"
+    preds = set()
+    for scale in (1.0, 1e-170, 1e160, 1e-300, 1e300, 2.0 ** -500):
+        train = f"x0,x1,x2,{target},w\n" + "".join(
+            ",".join(repr(v) for v in [*x, *y[:1 + multi], w * scale]) + "\n" for x, y, w in rows)
+        forest(tmp_path, train, test, target, "--weight", "w", "-q")
+        preds.add((tmp_path / "pred.csv").read_bytes())
+    assert len(preds) == 1
+
+
 def test_seed(tmp_path):
     rnd = random.Random(5)
     train = "a,b,y\n" + "".join(f"{rnd.random()},{rnd.random()},{rnd.random()}\n"
@@ -129,3 +154,12 @@ def test_bad_input(tmp_path, train, test, extra, words):
     for w in words:
         assert w in lines[0], lines[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["test.csv", "train.csv"]
+
+
+def test_constant_columns_block_matches_its_csv():
+    """docs/forest.md's table of K = d without replacement against
+    scikit-learn on inputs constant in many nodes is what
+    scripts/bench_forest_constant.py makes of its committed CSV."""
+    r = run_cmd([sys.executable, str(ROOT / "scripts" / "bench_forest_constant.py"), "--check"],
+                capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr

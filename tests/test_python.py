@@ -340,7 +340,7 @@ def test_reps_sparse_one_hot_features_agree_with_dense():
     ({"returns": [1, 2, 3], "base": [1, -1, 1]}, ValueError, r"base\[1\]: base weight must be >= 0"),
     ({"returns": [1, 2, 3], "base": [0, 0, 0]}, ValueError, "base weights"),
     ({"returns": [1, 2, 3], "epsilon": -1}, ValueError,
-     r"^--set: reps\.epsilon: -1 out of range: must be > 0 and <= 1000000$"),
+     r"^--set: reps\.epsilon: -1 out of range: must be >= 1e-12 and <= 1000000$"),
     ({"returns": [1, 2, 3], "epsilon": float("nan")}, ValueError, "reps.epsilon: not a finite"),
 ])
 def test_reps_bad_inputs(kw, exc, msg):
@@ -682,3 +682,28 @@ def test_reps_loop_example_learns():
     assert len(rows) >= 10
     # the initial policy N(0, 0.1^2 I) scores about -2.8; learning gains at least 0.5
     assert last > first + 0.5, p.stdout
+
+
+def test_forest_weight_scale_changes_no_bit():
+    """sample_weight times 1e-170 or 1e160 gives the same predictions, bit
+    for bit, as the command's --weight (test_forest_cli.py)."""
+    rng = np.random.default_rng(8)
+    X = rng.uniform(size=(200, 2))
+    y = X[:, 0] ** 2 + rng.normal(0, 0.1, 200)
+    w = rng.exponential(size=200)
+    Xt = rng.uniform(size=(50, 2))
+    preds = [poolreps.Forest(seed=3).fit(X, y, sample_weight=w * s).predict(Xt).tobytes()
+             for s in (1.0, 1e-170, 1e160)]
+    assert preds[0] == preds[1] == preds[2]
+
+
+def test_policy_failure_names_its_row():
+    """A numerical failure at one query state (1e155 on training states in
+    [-1, 1]) names the row and the state's value, as the command names its
+    line (test_ref_policy.py)."""
+    rng = np.random.default_rng(1)
+    S = rng.uniform(-1, 1, (200, 2))
+    A = S @ np.array([[1.0, 0.5], [0.2, -1.0]]) + 0.1 * rng.normal(size=(200, 2))
+    p = poolreps.Policy(seed=1).fit(S, A, rng.uniform(size=200))
+    with pytest.raises(poolreps.NumericalError, match=r"^row 1: state 1 = 1e\+155: policy: "):
+        p.mean_cov(np.array([[0.1, 0.2], [0.0, 1e155]]))

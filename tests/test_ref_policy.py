@@ -262,3 +262,22 @@ def test_policy_invariance(tmp_path, seed):
     for k in range(len(Q)):
         big = max(base[k, 4], base[k, 6])
         assert np.abs(c[k] - base[k, 4:7]).max() <= 1e-9 * big + 16 * np.finfo(float).eps * size * np.sqrt(big)
+
+
+@pytest.mark.parametrize("far", [1e155, -1e200])
+def test_policy_failure_names_its_row(tmp_path, far):
+    """A query state far outside the training states (1e155, -1e200 on
+    states in [-1, 1]) overflows the covariance's eigen-decomposition: exit
+    3 with one line naming the file, the line and the state's value, and no
+    output file (the earlier rows are not committed)."""
+    rng = np.random.default_rng(17)
+    S = rng.uniform(-1, 1, size=(200, 2))
+    A = S @ np.array([[1.0, 0.5], [0.2, -1.0]]) + 0.1 * rng.normal(size=(200, 2))
+    targs = train_args(tmp_path, S, A, rng.uniform(size=200), None)
+    write(tmp_path / "q.csv", ["s0", "s1"], [[0.1, 0.2], [0.5, -0.5], [0.0, far], [0.3, 0.3]])
+    out = tmp_path / "out.csv"
+    r = run_cmd([BIN, "policy"] + targs + ["-i", str(tmp_path / "q.csv"), "-o", str(out)],
+                capture_output=True, text=True, env=ENV, timeout=60)
+    assert r.returncode == 3 and not out.exists(), r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+    assert f"q.csv:4: state s1 = {far:.17g}" in r.stderr, r.stderr

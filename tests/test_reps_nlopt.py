@@ -1,10 +1,12 @@
-"""reps.solver = nlopt: NLopt's L-BFGS on the same dual, through the same
-certificate. On the oracle problems of test_ref_reps.py and the hard
-families of reps_families.py, wherever NLopt's answer is certified it
-agrees with the Newton solver's to 1e-8 in every weight (except on nearly
-collinear features, where only the certificate is asserted: see the test); an uncertified
-NLopt answer exits 3 (never a silent wrong p), and at least half of the
-active problems must certify. The Python reps(solver=...) reaches the key."""
+"""reps.solver = nlopt: NLopt's L-BFGS on the same dual, its answer then
+polished by the Newton search, so that it carries Newton's certificate or
+none. On the oracle problems of test_ref_reps.py and the hard and dynamic
+families of reps_families.py, wherever the nlopt solver answers, its
+status is Newton's and its weights agree with Newton's to 1e-8 (Newton's
+agree with the independent references: test_ref_reps*.py); an uncertified
+answer exits 3 (never a silent wrong p), and at least 95 % of the active
+problems Newton answers must certify. The Python reps(solver=...) reaches
+the key."""
 import os
 
 import numpy as np
@@ -44,6 +46,8 @@ def cases():
     for kind in ("collinear", "extreme", "offsets"):
         for seed in range(0, 100, 10):
             yield f"{kind}-{seed}", make_family(kind, seed)
+    for seed in range(0, 40, 2):
+        yield f"dynamic-{seed}", make_family("dynamic", seed)
 
 
 CASES = dict(cases())
@@ -60,24 +64,18 @@ def test_nlopt_agrees_with_newton(tmp_path, name):
         TALLY["active"] += 1
     if s1 is None:
         return
-    assert s1["status"] == "active" and "nlopt" in s1["path"], s1
-    assert float(s1["kl_gap"]) <= 1e-9 and float(s1["residual_rel"]) <= 1e-9
-    assert s0["status"] == "active", (s0, s1)
-    TALLY["certified"] += 1
-    if name.startswith("collinear"):
-        # a direction in which two columns differ by 1e-10 of their spread
-        # moves the original features' residual by only 1e-10 of its own
-        # violation: the certificate holds for answers that differ from the
-        # exact one (up to 7e-4 here); Newton's reduced basis is exact to
-        # 1e-8 (test_ref_reps_families.py), NLopt's answer is only certified
-        return
+    assert "nlopt" in s1["path"] and s1["status"] == s0["status"], (s0, s1)
+    assert float(s1["kl_gap"]) <= 1e-9 or s1["status"] == "unreachable"
+    assert float(s1["residual_rel"]) <= 1e-9
+    if s1["status"] == "active":
+        TALLY["certified"] += 1
     assert np.abs(p1 - p0).max() <= 1e-8, np.abs(p1 - p0).max()
 
 
 def test_nlopt_certifies_most_active_problems():
     if TALLY["active"] < 20:
         pytest.skip("run with the agreement tests (same session, no -n)")
-    assert TALLY["certified"] >= TALLY["active"] / 2, TALLY
+    assert TALLY["certified"] >= 0.95 * TALLY["active"], TALLY
 
 
 def test_python_solver_argument():

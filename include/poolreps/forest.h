@@ -32,10 +32,20 @@ typedef struct pr_forest pr_forest;
  * forest; tree t's stream derives from (that draw, t). Caller frees.
  * NULL with a message in err for bad options or data (non-finite values,
  * negative weights or weights summing to 0, n < n_c), out of memory, or
- * when pr_interrupted is set. Safe to call from several threads. */
+ * when pr_interrupted is set. Safe to call from several threads.
+ * The weights' scale does not matter: they are used times the power of two
+ * that brings the largest into [0.5, 1), exactly. */
 pr_forest *pr_forest_fit(const pr_forest_opts *o, const double *X, int n, int dx,
                          const double *Y, int dy, const double *w, gsl_rng *rng,
                          char *err);
+/* Weights a user gives (`forest --weight`, the Python forest), in place:
+ * w_i / max w rounded to 24 significant bits (6e-8 of each weight). The same
+ * column times any factor (1e-170, 1e160) then gives the same weights bit
+ * for bit, so the same trees and leaf means, except where the factor's
+ * rounding moves a weight across a rounding edge of the 24 bits (about 1
+ * weight in 2^25). Weights pr_forest_fit refuses (negative, not finite,
+ * all 0): left as they are. */
+void pr_forest_weights_canonical(double *w, int n);
 void pr_forest_free(pr_forest *f);
 
 int pr_forest_ntrees(const pr_forest *f);

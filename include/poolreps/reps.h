@@ -24,11 +24,12 @@
 
 /* REPS parameters (keys reps.*). */
 typedef struct {
-	double epsilon;   /* KL bound, eq. 3.2; > 0 */
+	double epsilon;   /* KL bound, eq. 3.2; >= PR_REPS_EPS_MIN */
 	double ridge;     /* ridge (ridge/2)|theta'|^2 on theta in standardised
 	                     return units (so it does not depend on the return
-	                     scale); 0 = none. The eta -> 0 limit exists only
-	                     without it (an unreachable bound is then "failed") */
+	                     scale); 0 = none. With features the eta -> 0 limit
+	                     exists only without it (an unreachable bound is then
+	                     "failed") */
 	int max_iter;     /* dual evaluations per solve before it gives up */
 	double eta_min;   /* eta, in return standard deviations, below which the
 	                     solver consults the eta -> 0 limit (a linear
@@ -43,19 +44,24 @@ typedef struct {
 	                     one) */
 } pr_reps_opts;
 /* reps.solver: newton = the Newton path and eta -> 0 limit described at
- * pr_reps_solve; nlopt = NLopt's L-BFGS on the dual over (log eta, theta),
- * its answer certified the same way (it has no eta -> 0 limit, so an
- * unreachable bound is a failed certificate). */
+ * pr_reps_solve; nlopt = NLopt's L-BFGS on the dual over (log eta, theta)
+ * first, then the Newton search (and limit) from NLopt's answer instead of
+ * from (1, 0): an answer is returned only with Newton's certificate. */
 enum { PR_REPS_SOLVER_NEWTON = 0, PR_REPS_SOLVER_NLOPT = 1 };
 void pr_reps_opts_init(pr_reps_opts *o);
 
-/* Certificate tolerance: |KL - eps|, the relative feature residual, and the
- * distance of p to the eta -> 0 solution must each be within it. */
+/* Certificate tolerance: |KL - eps| / min(1, eps), the relative feature
+ * residual, and the distance of p to the eta -> 0 solution must each be
+ * within it. */
 #define PR_REPS_TOL 1e-9
+/* The smallest KL bound accepted: KL = E_p[u] - log sum q exp(u) loses
+ * about 1e-16 sqrt(eps) to cancellation, 1e-10 of eps here, which the
+ * relative tolerance still holds. */
+#define PR_REPS_EPS_MIN 1e-12
 
 /* Certificate status of a solve. */
 enum {
-	PR_REPS_ACTIVE = 0,      /* |KL - eps| <= PR_REPS_TOL, residual <= PR_REPS_TOL */
+	PR_REPS_ACTIVE = 0,      /* |KL - eps| <= PR_REPS_TOL min(1, eps), residual <= PR_REPS_TOL */
 	PR_REPS_UNREACHABLE = 1, /* eta = 0 (its floor), KL < eps, p = the eta -> 0
 	                            solution within PR_REPS_TOL, residual <= PR_REPS_TOL */
 	PR_REPS_FAILED = 2       /* neither could be certified; `reason` says why */

@@ -248,6 +248,8 @@ static int pr_cmd_forest(const pr_config *cfg, const forest_args *a, char *err)
 	}
 	if (t.wc >= 0 && (rc = pr_cmd_weights(t.tr, t.wc, a->weight, "weight", &W, err)))
 		goto done;
+	if (W)
+		pr_forest_weights_canonical(W, (int)n);
 	if (!(rng = gsl_rng_alloc(gsl_rng_mt19937))) {
 		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
 		goto done;

@@ -116,8 +116,9 @@ static int pr_cmd_reps(const pr_config *cfg, const reps_args *a, char *err)
 
 	if (a->epsilon_set) {
 		o.epsilon = a->epsilon;
-		if (!(o.epsilon > 0.0) || !isfinite(o.epsilon))
-			return pr_err(err, PR_EINVAL, "--epsilon: must be > 0 (got %g)", o.epsilon);
+		if (!(o.epsilon >= PR_REPS_EPS_MIN) || !isfinite(o.epsilon))
+			return pr_err(err, PR_EINVAL, "--epsilon (reps.epsilon): must be >= %g (got %g)",
+			              PR_REPS_EPS_MIN, o.epsilon);
 	}
 	if (a->threads_set)
 		o.threads = (int)a->threads;
@@ -162,14 +163,15 @@ static int reps_main(const pr_config *cfg, const void *opts, char *err)
 	return pr_cmd_reps(cfg, opts, err);
 }
 
-/* --epsilon E: a number in (0, 1e6] */
+/* --epsilon E: a number in [PR_REPS_EPS_MIN, 1e6] */
 static const char *parse_epsilon(const char *arg, void *target)
 {
 	double *v = target;
 	char *end;
 
 	*v = strtod(arg, &end);
-	return end == arg || *end || !(*v > 0) || *v > 1e6 ? "a number > 0 and <= 1e6" : NULL;
+	return end == arg || *end || !(*v >= PR_REPS_EPS_MIN) || *v > 1e6 ?
+	       "a number >= 1e-12 (reps.epsilon's least) and <= 1e6" : NULL;
 }
 
 /* --threads N: decimal digits only, 0 .. 64 */

@@ -6,6 +6,7 @@
  * every result (and every random draw) is the one an all-in-memory pass
  * would give.
  */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
@@ -278,13 +279,31 @@ static int policy_state(const pr_policy *p, const double *s, long ns, gsl_rng *r
 	return PR_OK;
 }
 
+/* A numerical failure at the state of row i of chunk: the file and line,
+ * the state's largest value by magnitude and its column, then the message
+ * (a state such as 1e155 beyond the training data's range makes the
+ * weights or the covariance overflow). */
+static void name_state(const pr_query *q, const pr_csv *chunk, long i, char *err)
+{
+	char msg[PR_ERRLEN];
+	const double *s = q->X + (size_t)i * q->k;
+	int big = 0;
+
+	for (int j = 1; j < q->k; j++)
+		if (fabs(s[j]) > fabs(s[big]))
+			big = j;
+	snprintf(msg, sizeof msg, "%s", err ? err : "");
+	pr_err(err, PR_ENUM, "%s:%ld: state %s = %.17g: %s", pr_query_path(q), pr_csv_line(chunk, i),
+	       q->k > 0 ? q->names[big] : "-", q->k > 0 ? s[big] : 0.0, msg);
+}
+
 int pr_query_policy(pr_query *q, const pr_policy *p, const char *const *anames, long ns,
                     gsl_rng *rng, pr_csvw *w, char *err)
 {
 	const int da = pr_policy_da(p);
 	const pr_csv *chunk;
 	policy_scratch b = { 0 };
-	long n;
+	long n, i;
 	int rc = PR_OK;
 
 	b.mean = malloc((size_t)da * sizeof *b.mean);
@@ -304,8 +323,10 @@ int pr_query_policy(pr_query *q, const pr_policy *p, const char *const *anames, 
 			rc = pr_err(err, PR_EINTR, "policy: interrupted");
 			break;
 		}
-		for (long i = 0; i < n && !rc && !pr_csvw_status(w); i++)
+		for (i = 0; i < n && !rc && !pr_csvw_status(w); i++)
 			rc = policy_state(p, q->X + (size_t)i * q->k, ns, rng, &b, w, err);
+		if (rc == PR_ENUM)
+			name_state(q, chunk, i - 1, err);
 		if (rc)
 			break;
 		pr_csvw_flush(w);
