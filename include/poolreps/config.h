@@ -20,6 +20,7 @@
 #include "poolreps/forest.h"
 #include "poolreps/reps.h"
 #include "poolreps/policy.h"
+#include "poolreps/learner.h"
 
 #define PR_CONFIG_MAXKEYS 128       /* keys of the modules and every experiment */
 #define PR_CONFIG_MAXBLOCKS 16      /* experiments' option blocks */
@@ -49,11 +50,6 @@ typedef struct {
 } pr_run_opts;
 void pr_run_opts_init(pr_run_opts *o);
 
-/* value.features: which features of the value-feature forest REPS uses. */
-typedef enum {
-	PR_VALUE_LEAVES = 0,   /* active leaves, one-hot (eq. 5.4) */
-	PR_VALUE_SAMPLES = 1   /* active samples (eq. 5.6) */
-} pr_value_features;
 
 /* An experiment's option block and per-experiment defaults (config_priv.h). */
 struct pr_config_block;

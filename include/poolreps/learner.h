@@ -1,0 +1,161 @@
+/* learner.h — the method as an ask/tell learner for any task: value
+ * features from extremely randomized trees (thesis ch. 5), episodic
+ * contextual REPS (ch. 3) and a tree-LWR or linear Gaussian policy (ch. 6),
+ * refitted each iteration over a window of past episodes (7.5.1).
+ *
+ * The loop (docs/learner.md):
+ *   ask:  one action per context from the current policy pi_t;
+ *   (the caller plays the episodes and measures their returns)
+ *   tell: the episodes join the window (the latest `window` ones, drawn by
+ *         pi_pmin .. pi_t); importance weights q = pi_t / pi_mix, pi_mix the
+ *         sample-count mixture of the drawing policies; value features of
+ *         the window contexts; REPS weights p with base weights q (eq.
+ *         3.7-3.8); pi_{t+1} fitted to the window with weights p.
+ * Told episodes count as drawn by the current policy. A tell that fails
+ * leaves the learner as it was (its random stream included).
+ *
+ * log pi_m(a_i|s_i) never changes once both exist, so it is computed once:
+ * at ask for the asked actions (kept until the next tell, which reuses them
+ * for the episodes whose context and action are the asked ones, bit for
+ * bit), at tell for the others and for a new policy on the window. */
+#ifndef POOLREPS_LEARNER_H
+#define POOLREPS_LEARNER_H
+#include <stdio.h>
+#include <gsl/gsl_rng.h>
+#include "poolreps/common.h"
+#include "poolreps/forest.h"
+#include "poolreps/policy.h"
+#include "poolreps/reps.h"
+
+/* value.features: which features of the value-feature forest REPS uses. */
+typedef enum {
+	PR_VALUE_LEAVES = 0,   /* active leaves, one-hot (eq. 5.4) */
+	PR_VALUE_SAMPLES = 1   /* active samples (eq. 5.6) */
+} pr_value_features;
+
+/* learner.value: the value features of the contexts. trees: a forest
+ * contexts -> returns scored by value.score; nrvr / rvr: the same with that
+ * score (thesis 7.5.1); linear: [1, s]; quadratic: [1, s, s_j s_k]; given:
+ * the caller's own features, passed to tell. */
+enum {
+	PR_LEARNER_VALUE_TREES = 0,
+	PR_LEARNER_VALUE_NRVR = 1,
+	PR_LEARNER_VALUE_RVR = 2,
+	PR_LEARNER_VALUE_LINEAR = 3,
+	PR_LEARNER_VALUE_QUADRATIC = 4,
+	PR_LEARNER_VALUE_GIVEN = 5
+};
+/* learner.policy: tree-LWR (ch. 6, policy.*) or linear-Gaussian on [1, s]. */
+enum { PR_LEARNER_POLICY_TREE = 0, PR_LEARNER_POLICY_LINEAR = 1 };
+/* learner.truncation, with learner.max_norm > 0: an action whose Euclidean
+ * norm exceeds max_norm is drawn again, its density the untruncated one
+ * (redraw); scaled onto the limit (clip); or drawn again with the density
+ * divided by the mass inside the limit (corrected; two action dimensions). */
+enum { PR_LEARNER_REDRAW = 0, PR_LEARNER_CLIP = 1, PR_LEARNER_CORRECTED = 2 };
+
+typedef struct {
+	int value;             /* PR_LEARNER_VALUE_* */
+	int policy_type;       /* PR_LEARNER_POLICY_* */
+	int window;            /* episodes REPS and the fit reuse, >= 2 */
+	double init_std;       /* pi_0 = N(0, init_std^2 I) */
+	double max_norm;       /* > 0: actions are kept within this norm; 0: no limit */
+	int truncation;        /* PR_LEARNER_REDRAW, _CLIP or _CORRECTED */
+	int refit;             /* 1: no REPS, p = q (a control: pi refitted to its own samples) */
+	pr_forest_opts value_forest; /* value.* */
+	int value_features;    /* value.features: PR_VALUE_* */
+	pr_reps_opts reps;     /* reps.* */
+	pr_policy_opts policy; /* policy.* */
+} pr_learner_opts;
+/* Defaults: trees, tree policy, window 200, init_std 1, no norm limit,
+ * and the module defaults of value.*, reps.* and policy.*. */
+void pr_learner_opts_init(pr_learner_opts *o);
+/* Check the options; messages name the key (learner.window, reps.epsilon ...). */
+int pr_learner_opts_check(const pr_learner_opts *o, char *err);
+
+/* The last tell's REPS certificate and fit. */
+typedef struct {
+	int iteration;   /* tells so far */
+	int n;           /* episodes in the window */
+	double eta, kl, ess, q_ess, residual, kl_gap, residual_rel;
+	int bound;       /* the KL bound is active */
+	int nfeat;       /* value features */
+	int evals;       /* dual evaluations */
+	int status;      /* PR_REPS_* (PR_REPS_ACTIVE before the first tell and under refit) */
+	int flags;       /* PR_POLICY_* of the fit and the window's densities, or-ed */
+	char reason[160];
+} pr_learner_summary;
+
+typedef struct pr_learner pr_learner;
+
+/* A learner of contexts of dx >= 1 and actions of da >= 1 dimensions. It
+ * draws actions and forests from rng, which it borrows (the caller frees it
+ * after pr_learner_free). NULL with err on bad options. */
+pr_learner *pr_learner_new(const pr_learner_opts *o, int dx, int da, gsl_rng *rng, char *err);
+void pr_learner_free(pr_learner *L);
+/* Draw from rng from now on (borrowed as in pr_learner_new). */
+void pr_learner_set_rng(pr_learner *L, gsl_rng *rng);
+/* pi_0 = p (dx states, da actions) instead of N(0, init_std^2 I), before
+ * the first tell. The learner owns p from this call on, whether it succeeds
+ * or not. A learner with such a pi_0 is not saved while pi_0 is live. */
+int pr_learner_set_policy(pr_learner *L, pr_policy *p, char *err);
+
+/* Other options before the first tell (after an ask, with the same
+ * policy.cov_center, max_norm and truncation). */
+int pr_learner_set_options(pr_learner *L, const pr_learner_opts *o, char *err);
+
+/* One action per context: contexts n x dx, actions n x da, row-major. */
+int pr_learner_ask(pr_learner *L, int n, const double *contexts, double *actions, char *err);
+/* What the last ask did: actions drawn again (or clipped) for exceeding
+ * max_norm, and the PR_POLICY_* flags of its queries. */
+void pr_learner_ask_info(const pr_learner *L, int *redraws, int *flags);
+/* The mean action of the current policy at n contexts (no sampling, no
+ * norm limit applied). */
+int pr_learner_mean(pr_learner *L, int n, const double *contexts, double *actions, char *err);
+
+/* One iteration: n episodes (contexts n x dx, actions n x da, returns n),
+ * features n x d for value given (else NULL; d fixed by the first tell).
+ * PR_EINVAL for bad shapes or non-finite values, naming the argument and
+ * row; PR_ENUM for an uncertified REPS solve unless reps.allow_failed. */
+int pr_learner_tell(pr_learner *L, int n, const double *contexts, const double *actions,
+                    const double *returns, const double *features, int d, char *err);
+/* A tell's episodes in full: n rows of contexts (n x dx), actions (n x
+ * da) and returns; features (n x d) for value given, else NULL; targets (n
+ * x dy) for policy.target = reward_state (the tree policy's forest predicts
+ * them instead of the actions), else NULL (dy fixed by the first tell);
+ * logq (n), log-density of each action under the distribution that drew
+ * it, or NULL: from the current policy (or from the last ask). */
+typedef struct {
+	int n, d, dy;
+	const double *contexts, *actions, *returns, *features, *targets, *logq;
+} pr_learner_batch;
+int pr_learner_tell_batch(pr_learner *L, const pr_learner_batch *b, char *err);
+
+int pr_learner_iteration(const pr_learner *L);
+int pr_learner_context_dim(const pr_learner *L);
+int pr_learner_action_dim(const pr_learner *L);
+const pr_learner_summary *pr_learner_last(const pr_learner *L);
+/* The current policy (the one ask draws from); valid until the next tell. */
+const pr_policy *pr_learner_policy(const pr_learner *L);
+const pr_learner_opts *pr_learner_options(const pr_learner *L);
+
+/* log P(|a| <= vmax) for a ~ N(mean, cov), 2-D (truncation corrected): 0
+ * when the disc holds the Gaussian's 8-sigma ellipse, else quadrature over
+ * the directions of the whitened Gaussian, -HUGE_VAL if it holds none. */
+double pr_learner_disc_logmass(const double mean[2], const double cov[4], double vmax);
+
+/* Saving and loading (docs/learner.md, "State file"): a byte format that
+ * starts "poolreps-learner\n" and a version; everything little-endian. It
+ * holds the options, the window, the last ask, the random stream's state
+ * and each live policy's fit (refitted on load, bit for bit).
+ * PR_LEARNER_FORMAT is the version this library writes and the only one it
+ * reads. */
+#define PR_LEARNER_FORMAT 1
+/* The state into a new buffer *buf of *len bytes (free()). */
+int pr_learner_save(const pr_learner *L, unsigned char **buf, size_t *len, char *err);
+/* A learner from len bytes in that format, drawing from rng, whose state is
+ * set to the saved one (same generator type); `what` names the source in
+ * messages. NULL with err: PR_EINVAL for another version, PR_EIO for a
+ * truncated or malformed state, PR_ENOMEM. */
+pr_learner *pr_learner_load(const unsigned char *buf, size_t len, const char *what, gsl_rng *rng,
+                            char *err);
+#endif
