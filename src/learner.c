@@ -1266,7 +1266,7 @@ pr_learner *pr_learner_load(const unsigned char *buf, size_t len, const char *wh
 		get_pol(&r, L, k);
 	}
 	if (r.rc == PR_OK)
-		get_win(&r, L, &L->w, L->niter ? L->npol + 1 : 0, L->dy, L->dg);
+		get_win(&r, L, &L->w, L->niter ? L->npol : 0, L->dy, L->dg);
 	if (r.rc == PR_OK)
 		get_win(&r, L, &L->ask, L->npol, 0, 0);
 	if (r.rc == PR_OK)
