@@ -109,6 +109,18 @@ static const pr_config_key core_keys[] = {
 	{"reps", "allow_failed", PR_KEY_INT, F(reps.allow_failed), 0, 1, 0, "",
 	 "experiments: 1 records an uncertified REPS solve (status failed) and goes on; 0 fails the run"},
 
+	{"learner", "value", PR_KEY_ENUM, F(learner.value), 0, 0, 0, "trees|nrvr|rvr|linear|quadratic|given",
+	 "learner: value features (a forest scored by value.score, NRVR, RVR; [1, s]; [1, s, s s]; the caller's)"},
+	{"learner", "policy", PR_KEY_ENUM, F(learner.policy_type), 0, 0, 0, "tree|linear",
+	 "learner: tree-LWR policy (policy.*) or linear-Gaussian on [1, s]"},
+	{"learner", "window", PR_KEY_INT, F(learner.window), 2, 10000000, 0, "", "learner: latest episodes REPS and the fit reuse"},
+	{"learner", "init_std", PR_KEY_DOUBLE, F(learner.init_std), 0, 1e6, PR_KEY_OPEN_LO, "",
+	 "learner: pi_0 = N(0, init_std^2 I)"},
+	{"learner", "max_norm", PR_KEY_DOUBLE, F(learner.max_norm), 0, 1e12, 0, "",
+	 "learner: actions kept within this Euclidean norm (0: no limit)"},
+	{"learner", "truncation", PR_KEY_ENUM, F(learner.truncation), 0, 0, 0, "redraw|clip|corrected",
+	 "learner: an action beyond max_norm is drawn again, scaled onto it, or drawn again with corrected densities"},
+
 	{"policy", "target", PR_KEY_ENUM, F(policy.target), 0, 0, 0, "action|reward_state", "policy forest output"},
 	{"policy", "lambda", PR_KEY_DOUBLE, F(policy.lambda), 0, 1e12, 0, "", "ridge of eq. 6.6"},
 	{"policy", "min_std", PR_KEY_DOUBLE, F(policy.min_std), 1e-100, 100, 0, "m/s", "floor on action standard deviations"},
@@ -253,6 +265,7 @@ static void base_init(pr_config *c, pr_config_schema schema)
 	pr_policy_opts_init(&c->policy);
 	pr_forest_opts_init(&c->value);
 	c->value_features = PR_VALUE_LEAVES;
+	pr_learner_opts_init(&c->learner);
 	c->schema = schema;
 	for (i = 0; schema && schema(i, &e); ++i) {
 		const size_t align = sizeof(max_align_t);
@@ -1075,4 +1088,13 @@ void pr_config_help(pr_config_schema schema, const char *only, FILE *fp)
 		}
 		fprintf(fp, ": %s\n", k->help);
 	}
+}
+
+void pr_config_learner_opts(const pr_config *c, pr_learner_opts *o)
+{
+	*o = c->learner;
+	o->value_forest = c->value;
+	o->value_features = c->value_features;
+	o->reps = c->reps;
+	o->policy = c->policy;
 }

@@ -46,6 +46,7 @@ struct pr_learner {
 	int ask_iter;            /* iteration of the last ask, -1: none */
 	int redraws, ask_flags;
 	pr_learner_summary last;
+	char **names;            /* dx + da column names, or NULL */
 };
 
 void pr_learner_opts_init(pr_learner_opts *o)
@@ -142,6 +143,15 @@ static void lpol_free(lpol *p)
 	memset(p, 0, sizeof *p);
 }
 
+static void free_names(char **names, int n)
+{
+	int j;
+
+	for (j = 0; names && j < n; ++j)
+		free(names[j]);
+	free(names);
+}
+
 void pr_learner_free(pr_learner *L)
 {
 	int k;
@@ -153,6 +163,7 @@ void pr_learner_free(pr_learner *L)
 	free(L->pol);
 	win_free(&L->w);
 	win_free(&L->ask);
+	free_names(L->names, L->dx + L->da);
 	free(L);
 }
 
@@ -879,6 +890,38 @@ int pr_learner_tell(pr_learner *L, int n, const double *contexts, const double *
 	return pr_learner_tell_batch(L, &b, err);
 }
 
+#define NAME_MAX_LEN 255
+
+int pr_learner_set_names(pr_learner *L, const char *const *names, char *err)
+{
+	const int n = L->dx + L->da;
+	char **c = calloc((size_t)n, sizeof *c);
+	int j;
+
+	if (!c)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	for (j = 0; j < n; ++j) {
+		size_t len = strlen(names[j]);
+		if (len < 1 || len > NAME_MAX_LEN || strpbrk(names[j], "\n\r")) {
+			free_names(c, n);
+			return pr_err(err, PR_EINVAL, "learner: column name %d must be 1 .. %d bytes without "
+			              "a line break", j, NAME_MAX_LEN);
+		}
+		if (!(c[j] = strdup(names[j]))) {
+			free_names(c, n);
+			return pr_err(err, PR_ENOMEM, "out of memory");
+		}
+	}
+	free_names(L->names, n);
+	L->names = c;
+	return PR_OK;
+}
+
+const char *const *pr_learner_names(const pr_learner *L)
+{
+	return (const char *const *)L->names;
+}
+
 int pr_learner_iteration(const pr_learner *L)
 {
 	return L->niter;
@@ -1035,6 +1078,11 @@ int pr_learner_save(const pr_learner *L, unsigned char **buf, size_t *len, char 
 	PUT_D(s->eta) PUT_D(s->kl) PUT_D(s->ess) PUT_D(s->q_ess) PUT_D(s->residual)
 	PUT_D(s->kl_gap) PUT_D(s->residual_rel)
 	put(&b, s->reason, sizeof s->reason);
+	put_i(&b, L->names ? L->dx + L->da : 0);
+	for (k = 0; L->names && k < L->dx + L->da; ++k) {
+		put_i(&b, (int)strlen(L->names[k]));
+		put(&b, L->names[k], strlen(L->names[k]));
+	}
 #undef PUT_I
 #undef PUT_D
 	if (b.fail) {
@@ -1234,6 +1282,27 @@ static void get_summary(rbuf *r, pr_learner_summary *s)
 	s->reason[sizeof s->reason - 1] = '\0';
 }
 
+static void get_names(rbuf *r, pr_learner *L)
+{
+	const int n = L->dx + L->da;
+	int k, len;
+
+	if (get_i(r, 0, n, "names") == 0 || r->rc)
+		return;
+	if (!(L->names = calloc((size_t)n, sizeof *L->names))) {
+		r->rc = pr_err(r->err, PR_ENOMEM, "out of memory");
+		return;
+	}
+	for (k = 0; k < n && r->rc == PR_OK; ++k) {
+		len = get_i(r, 1, NAME_MAX_LEN, "name length");
+		if (r->rc == PR_OK && !(L->names[k] = calloc((size_t)len + 1, 1)))
+			r->rc = pr_err(r->err, PR_ENOMEM, "out of memory");
+		get(r, L->names[k], (size_t)len);
+		if (r->rc == PR_OK && (strlen(L->names[k]) != (size_t)len || strpbrk(L->names[k], "\n\r")))
+			bad(r, "a column name");
+	}
+}
+
 pr_learner *pr_learner_load(const unsigned char *buf, size_t len, const char *what, gsl_rng *rng,
                             char *err)
 {
@@ -1271,6 +1340,8 @@ pr_learner *pr_learner_load(const unsigned char *buf, size_t len, const char *wh
 		get_win(&r, L, &L->ask, L->npol, 0, 0);
 	if (r.rc == PR_OK)
 		get_summary(&r, &L->last);
+	if (r.rc == PR_OK)
+		get_names(&r, L);
 	if (r.rc == PR_OK && r.at != len)
 		bad(&r, "bytes after the end");
 	if (r.rc == PR_OK && L->ask_iter < 0 && L->ask.n)

@@ -71,6 +71,7 @@ typedef struct pr_config {
 	pr_policy_opts policy;    /* policy.* */
 	pr_forest_opts value;     /* value.*: forests for REPS value features */
 	int value_features;       /* value.features: PR_VALUE_* */
+	pr_learner_opts learner;  /* learner.* (its value, reps and policy parts unused) */
 	/* the experiments' option blocks, read through pr_config_opts */
 	pr_config_schema schema;
 	int nblocks;
@@ -94,6 +95,8 @@ const void *pr_config_opts(const pr_config *c, const struct pr_config_block *b);
 int pr_config_load(pr_config *c, const char *path, char *err);
 /* Apply "section.key=value" from --set. */
 int pr_config_set(pr_config *c, const char *assignment, char *err);
+/* The options of a learner: learner.*, value.*, reps.* and policy.*. */
+void pr_config_learner_opts(const pr_config *c, pr_learner_opts *o);
 /* Checks that involve several keys (e.g. n_c <= n_min, boxes inside the table). */
 int pr_config_validate(const pr_config *c, char *err);
 /* Where key "section.key" got its value, for messages: "file:line", "--set",

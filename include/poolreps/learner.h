@@ -130,6 +130,12 @@ typedef struct {
 } pr_learner_batch;
 int pr_learner_tell_batch(pr_learner *L, const pr_learner_batch *b, char *err);
 
+/* Names of the dx context then da action columns, kept in the saved
+ * state for the caller (the command line's CSV columns); each 1 .. 255
+ * bytes without a NUL or line break. pr_learner_names: NULL if none. */
+int pr_learner_set_names(pr_learner *L, const char *const *names, char *err);
+const char *const *pr_learner_names(const pr_learner *L);
+
 int pr_learner_iteration(const pr_learner *L);
 int pr_learner_context_dim(const pr_learner *L);
 int pr_learner_action_dim(const pr_learner *L);
