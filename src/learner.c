@@ -727,7 +727,8 @@ static int reps_weights(pr_learner *L, stage *S, char *err)
 	s->kl_gap = res->kl_gap;
 	s->residual_rel = res->residual_rel;
 	s->status = res->status;
-	snprintf(s->reason, sizeof s->reason, "%s", res->reason);
+	if (res->status == PR_REPS_FAILED)
+		snprintf(s->reason, sizeof s->reason, "%s", res->reason);
 	if (res->status == PR_REPS_FAILED && !L->o.reps.allow_failed)
 		rc = pr_err(err, PR_ENUM, "iteration %d: REPS answer not certified: %s "
 		            "(reps.allow_failed = 1 records such solves and goes on)", S->t, res->reason);
