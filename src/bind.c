@@ -426,17 +426,8 @@ pr_learner *pr_bind_learner_new(const pr_config *c, int dx, int da, gsl_rng *rng
 int pr_bind_learner_tell(pr_learner *L, int n, const double *X, const double *A, const double *R,
                          const double *G, int d, const double *Y, int dy, char *err)
 {
-	pr_learner_batch b;
+	const pr_learner_batch b = {n, G ? d : 0, Y ? dy : 0, X, A, R, G, Y, NULL};
 
-	memset(&b, 0, sizeof b);
-	b.n = n;
-	b.contexts = X;
-	b.actions = A;
-	b.returns = R;
-	b.features = G;
-	b.d = G ? d : 0;
-	b.targets = Y;
-	b.dy = Y ? dy : 0;
 	return pr_learner_tell_batch(L, &b, err);
 }
 
