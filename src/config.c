@@ -89,9 +89,9 @@ static const pr_config_key core_keys[] = {
 	{"forest", "outputs", PR_KEY_ENUM, F(forest.outputs), 0, 0, 0, "sum|relative",
 	 "several outputs: add variance reductions (eq. 6.1) or each relative to its node variance"},
 
-	{"value", "trees", PR_KEY_INT, F(value.trees), 1, 10000, 0, "", "value-feature forest: M (exp3: 10)"},
+	{"value", "trees", PR_KEY_INT, F(value.trees), 1, 10000, 0, "", "value-feature forest: M"},
 	{"value", "cuts", PR_KEY_INT, F(value.cuts), 1, 10000, 0, "", "value-feature forest: K"},
-	{"value", "n_min", PR_KEY_INT, F(value.n_min), 1, PR_KEY_COUNT_MAX, 0, "", "value-feature forest: n_min (exp3: 60)"},
+	{"value", "n_min", PR_KEY_INT, F(value.n_min), 1, PR_KEY_COUNT_MAX, 0, "", "value-feature forest: n_min"},
 	{"value", "n_c", PR_KEY_INT, F(value.n_c), 1, PR_KEY_COUNT_MAX, 0, "", "value-feature forest: n_c"},
 	{"value", "score", PR_KEY_ENUM, F(value.score), 0, 0, 0, "rvr|nrvr", "value-feature forest score (exp3: nrvr)"},
 	{"value", "replacement", PR_KEY_ENUM, F(value.with_replacement), 0, 0, 0, "without|with", "value-feature forest cut draws"},
@@ -263,9 +263,10 @@ static void base_init(pr_config *c, pr_config_schema schema)
 	pr_forest_opts_init(&c->forest);
 	pr_reps_opts_init(&c->reps);
 	pr_policy_opts_init(&c->policy);
-	pr_forest_opts_init(&c->value);
-	c->value_features = PR_VALUE_LEAVES;
+	/* the value forests of thesis 7.5.1, as the learner's own defaults */
 	pr_learner_opts_init(&c->learner);
+	c->value = c->learner.value_forest;
+	c->value_features = c->learner.value_features;
 	c->schema = schema;
 	for (i = 0; schema && schema(i, &e); ++i) {
 		const size_t align = sizeof(max_align_t);

@@ -54,10 +54,16 @@ void pr_learner_opts_init(pr_learner_opts *o)
 	memset(o, 0, sizeof *o);
 	o->value = PR_LEARNER_VALUE_TREES;
 	o->policy_type = PR_LEARNER_POLICY_TREE;
-	o->window = 200;
+	o->window = 400;
 	o->init_std = 1.0;
 	o->truncation = PR_LEARNER_REDRAW;
+	/* Experiment 3's value forests (thesis 7.5.1): about 7 leaves per tree
+	 * on 200 episodes; with n_min 20 the forest has more leaves than
+	 * episodes and REPS's bound is often out of reach */
 	pr_forest_opts_init(&o->value_forest);
+	o->value_forest.trees = 10;
+	o->value_forest.cuts = 10;
+	o->value_forest.n_min = 60;
 	o->value_features = PR_VALUE_LEAVES;
 	pr_reps_opts_init(&o->reps);
 	pr_policy_opts_init(&o->policy);

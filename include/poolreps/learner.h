@@ -66,8 +66,9 @@ typedef struct {
 	pr_reps_opts reps;     /* reps.* */
 	pr_policy_opts policy; /* policy.* */
 } pr_learner_opts;
-/* Defaults: trees, tree policy, window 200, init_std 1, no norm limit,
- * and the module defaults of value.*, reps.* and policy.*. */
+/* Defaults: trees, tree policy, window 400, init_std 1, no norm limit,
+ * the value forests of thesis 7.5.1 (M 10, K 10, n_min 60) and the module
+ * defaults of reps.* and policy.*. */
 void pr_learner_opts_init(pr_learner_opts *o);
 /* Check the options; messages name the key (learner.window, reps.epsilon ...). */
 int pr_learner_opts_check(const pr_learner_opts *o, char *err);
