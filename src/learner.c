@@ -19,6 +19,7 @@
 #define MAX_REDRAW 100   /* draws of an action beyond max_norm */
 #define MAX_DIM 100000   /* context, action, target and feature dimensions */
 #define MAX_WINDOW 10000000
+#define MAX_ACTION 64    /* action dimensions (a query's covariance lives on the stack) */
 
 typedef struct {
 	pr_policy *p;
@@ -197,9 +198,9 @@ pr_learner *pr_learner_new(const pr_learner_opts *o, int dx, int da, gsl_rng *rn
 
 	if (pr_learner_opts_check(o, err))
 		return NULL;
-	if (dx < 1 || dx > MAX_DIM || da < 1 || da > MAX_DIM) {
-		pr_err(err, PR_EINVAL, "learner: context and action dimensions must be in 1 .. %d "
-		       "(got %d and %d)", MAX_DIM, dx, da);
+	if (dx < 1 || dx > MAX_DIM || da < 1 || da > MAX_ACTION) {
+		pr_err(err, PR_EINVAL, "learner: context dimensions must be in 1 .. %d and action "
+		       "dimensions in 1 .. %d (got %d and %d)", MAX_DIM, MAX_ACTION, dx, da);
 		return NULL;
 	}
 	if (o->truncation == PR_LEARNER_CORRECTED && o->max_norm > 0 && da != 2) {
@@ -325,7 +326,7 @@ static int gauss_lp(const pr_learner *L, const double *mean, const double *cov, 
 static int pol_lp(const pr_learner *L, const lpol *P, const double *x, const double *a,
                   double *lp, int *flags, char *err)
 {
-	double mean[64], cov[64 * 64], *m = mean, *c = cov;
+	double mean[MAX_ACTION], cov[MAX_ACTION * MAX_ACTION], *m = mean, *c = cov;
 	int rc;
 
 	if (!corrected(L))
@@ -392,7 +393,8 @@ static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 {
 	const lpol *cur = &L->pol[L->npol - 1];
 	const double *x = w->X + (size_t)i * L->dx;
-	double mean[64], cov[64 * 64], *m = mean, *c = cov, *a = w->A + (size_t)i * L->da;
+	double mean[MAX_ACTION], cov[MAX_ACTION * MAX_ACTION], *m = mean, *c = cov;
+	double *a = w->A + (size_t)i * L->da;
 	double *lp = w->lp + (size_t)i * w->lc;
 	int rc, k, f = 0;
 
@@ -412,7 +414,7 @@ static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 	return PR_OK;
 }
 
-static int check_dims(const pr_learner *L, int n, const void *x, const void *a, char *err)
+static int check_rows(int n, const void *x, const void *a, char *err)
 {
 	if (n < 1)
 		return pr_err(err, PR_EINVAL, "learner: no episodes (n = %d)", n);
@@ -420,9 +422,6 @@ static int check_dims(const pr_learner *L, int n, const void *x, const void *a, 
 		return pr_err(err, PR_EINVAL, "learner: %d rows, at most %d at once", n, MAX_WINDOW);
 	if (!x || !a)
 		return pr_err(err, PR_EINVAL, "learner: contexts and actions are required");
-	if (L->da > 64)
-		return pr_err(err, PR_EINVAL, "learner: at most 64 action dimensions to draw (got %d)",
-		              L->da);
 	return PR_OK;
 }
 
@@ -432,7 +431,7 @@ int pr_learner_ask(pr_learner *L, int n, const double *contexts, double *actions
 	win w;
 	int i, rc, flags = 0;
 
-	if ((rc = check_dims(L, n, contexts, actions, err)) ||
+	if ((rc = check_rows(n, contexts, actions, err)) ||
 	    (rc = finite_rows(contexts, n, L->dx, "contexts", err)))
 		return rc;
 	if ((rc = win_alloc(L, &w, n, L->npol, 0, 0, err)))
@@ -472,10 +471,10 @@ void pr_learner_ask_info(const pr_learner *L, int *redraws, int *flags)
 int pr_learner_mean(pr_learner *L, int n, const double *contexts, double *actions, char *err)
 {
 	const lpol *cur = &L->pol[L->npol - 1];
-	double cov[64 * 64];
+	double cov[MAX_ACTION * MAX_ACTION];
 	int i, rc;
 
-	if ((rc = check_dims(L, n, contexts, actions, err)) ||
+	if ((rc = check_rows(n, contexts, actions, err)) ||
 	    (rc = finite_rows(contexts, n, L->dx, "contexts", err)))
 		return rc;
 	for (i = 0; i < n; ++i)
@@ -517,7 +516,7 @@ static int check_told(const pr_learner *L, const told *b, char *err)
 {
 	int rc;
 
-	if ((rc = check_dims(L, b->n, b->contexts, b->actions, err)))
+	if ((rc = check_rows(b->n, b->contexts, b->actions, err)))
 		return rc;
 	if (!b->returns)
 		return pr_err(err, PR_EINVAL, "learner: returns are required");
@@ -555,7 +554,7 @@ static int told_densities(pr_learner *L, stage *S, const told *b, int i, int j, 
 	const lpol *cur = &L->pol[L->npol - 1];
 	const double *x = b->contexts + (size_t)i * L->dx, *a = b->actions + (size_t)i * L->da;
 	double *lp = S->w.lp + (size_t)j * S->w.lc, *mu = S->w.mu ? S->w.mu + (size_t)j * L->da : NULL;
-	double cov[64 * 64];
+	double cov[MAX_ACTION * MAX_ACTION];
 	int k, rc, f = 0, off = S->pmin - L->pbase;
 
 	if (L->ask_iter == L->niter && i < L->ask.n &&
@@ -1321,7 +1320,7 @@ pr_learner *pr_learner_load(const unsigned char *buf, size_t len, const char *wh
 
 	get_head(&r, &o);
 	dx = get_i(&r, 1, MAX_DIM, "context dimensions");
-	da = get_i(&r, 1, MAX_DIM, "action dimensions");
+	da = get_i(&r, 1, MAX_ACTION, "action dimensions");
 	if (r.rc == PR_OK && !(L = pr_learner_new(&o, dx, da, rng, err)))
 		r.rc = PR_EIO;
 	if (r.rc == PR_OK)

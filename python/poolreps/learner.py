@@ -44,9 +44,9 @@ STATUS = ("active", "unreachable", "failed")
 PICKLE_FORMAT = 1
 
 
-def _dim(name, v):
-    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or not 1 <= v <= 100000:
-        raise ValueError(f"{name}: must be an integer in 1..100000 (got {v!r})")
+def _dim(name, v, hi):
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or not 1 <= v <= hi:
+        raise ValueError(f"{name}: must be an integer in 1..{hi} (got {v!r})")
     return int(v)
 
 
@@ -57,7 +57,7 @@ class Learner:
 
     def __init__(self, context_dim: int, action_dim: int, *, value: str = "trees",
                  policy: str = "tree", seed: int = 0, set: Optional[Dict[str, Any]] = None):
-        dx, da = _dim("context_dim", context_dim), _dim("action_dim", action_dim)
+        dx, da = _dim("context_dim", context_dim, 100000), _dim("action_dim", action_dim, 64)
         keys = {"learner.value": value, "learner.policy": policy,
                 "experiment.seed": _lib.seed_value("seed", seed)}
         keys.update(set or {})
