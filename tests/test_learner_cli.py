@@ -148,3 +148,18 @@ def test_usage_errors(tmp_path):
         assert want in r.stderr.decode(), (args, r.stderr)
     assert not (tmp_path / "s2").exists()
     assert sorted(os.listdir(tmp_path)) == ["st"]
+
+
+def test_an_uncertified_solve_exits_3_and_changes_nothing(tmp_path):
+    """reps.max_iter = 1 (from a parameter file: -c sets any key) cannot
+    certify the first solve: exit 3, one line, STATE as before."""
+    ini = tmp_path / "r.ini"
+    ini.write_text("[reps]\nmax_iter = 1\n")
+    st = new(tmp_path, "-c", ini)
+    e = one_round(tmp_path, st, np.random.default_rng(4))
+    before = snapshot(tmp_path)
+    r = run_poolreps(["learner", "tell", st, "--return", "ret", "-i", e])
+    assert r.returncode == 3, r.stderr
+    lines = r.stderr.decode().splitlines()
+    assert len(lines) == 1 and "REPS answer not certified" in lines[0], lines
+    assert snapshot(tmp_path) == before
