@@ -152,3 +152,13 @@ def test_a_discontinuous_optimum_at_default_settings():
     d1 = -ret(T, L.mean(T)).mean()
     assert d0 == 1.0 and L.iteration == 200
     assert d1 * 5 < d0, d1
+
+
+def test_an_uncertified_solve_is_a_numerical_error_and_changes_nothing():
+    L = poolreps.Learner(2, 2, seed=1, set={"reps.max_iter": 1})
+    X = np.random.default_rng(1).uniform(-1, 1, (30, 2))
+    A = L.ask(X)
+    before = L.save()
+    with pytest.raises(poolreps.NumericalError, match="not certified"):
+        L.tell(X, A, returns(X, A))
+    assert L.save() == before and L.iteration == 0
