@@ -365,9 +365,9 @@ static int learner_main(const pr_config *cfg, const void *opts, char *err)
 static const cli_opt learner_opts[] = {
 	CLI_COMMON_C,
 	CLI_OPT("i", "IN.csv", learner_args, input,
-	        "ask, mean: the contexts; tell: the episodes (default stdin)"),
+	        "contexts (ask, mean) or episodes (tell); default stdin"),
 	CLI_OPT("o", "OUT.csv", learner_args, output,
-	        "ask, mean: contexts then actions (default stdout)"),
+	        "contexts then actions (ask, mean); default stdout"),
 	CLI_COMMON_SET, CLI_COMMON_SEED,
 	CLI_OPT("context", "COLS", learner_args, context, "new: the context columns (comma list)"),
 	CLI_OPT("action", "COLS", learner_args, action, "new: the action columns (comma list)"),
