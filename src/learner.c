@@ -697,7 +697,8 @@ static int value_features(pr_learner *L, stage *S, pr_reps_problem *pb, char *er
 		rc = rc == M ? PR_OK : rc < 0 ? rc : pr_err(err, PR_ENUM, "internal: %d active leaves, "
 		                                             "%d trees", rc, M);
 	}
-	S->rowptr[n] = n * M;
+	if (rc == PR_OK)
+		S->rowptr[n] = n * M;
 	pb->d = pr_forest_nleaves(f);
 	pb->rowptr = S->rowptr;
 	pb->col = S->col;
