@@ -50,7 +50,8 @@ static int read_state(const char *path, unsigned char **buf, size_t *len, char *
 
 	*buf = NULL;
 	if (!fp)
-		return pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
+		return pr_err(err, errno == ENOMEM ? PR_ENOMEM : PR_EIO, "%s: cannot open: %s", path,
+		              strerror(errno));
 	if (fseek(fp, 0, SEEK_END) || (size = ftell(fp)) < 0 || fseek(fp, 0, SEEK_SET))
 		rc = pr_err(err, PR_EIO, "%s: not a regular file", path);
 	else if (!(*buf = malloc(size > 0 ? (size_t)size : 1)))
