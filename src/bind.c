@@ -479,3 +479,30 @@ int pr_bind_policy_logpdf(const pr_policy *p, long nq, const double *S, const do
 	pr_policy_work_free(ws);
 	return rc;
 }
+
+pr_learner *pr_bind_learner_new(const pr_config *c, int dx, int da, gsl_rng *rng, char *err)
+{
+	pr_learner_opts o;
+
+	pr_config_learner_opts(c, &o);
+	return pr_learner_new(&o, dx, da, rng, err);
+}
+
+int pr_bind_learner_tell(pr_learner *L, int n, const double *X, const double *A, const double *R,
+                         const double *G, int d, const double *Y, int dy, char *err)
+{
+	const pr_learner_batch b = {n, G ? d : 0, Y ? dy : 0, X, A, R, G, Y, NULL};
+
+	return pr_learner_tell_batch(L, &b, err);
+}
+
+const char *pr_bind_learner_summary(const pr_learner *L, double *d, int *i)
+{
+	const pr_learner_summary *s = pr_learner_last(L);
+	const double dv[7] = {s->eta, s->kl, s->ess, s->q_ess, s->residual, s->kl_gap, s->residual_rel};
+	const int iv[7] = {s->iteration, s->n, s->bound, s->nfeat, s->evals, s->status, s->flags};
+
+	memcpy(d, dv, sizeof dv);
+	memcpy(i, iv, sizeof iv);
+	return s->reason;
+}

@@ -89,9 +89,9 @@ static const pr_config_key core_keys[] = {
 	{"forest", "outputs", PR_KEY_ENUM, F(forest.outputs), 0, 0, 0, "sum|relative",
 	 "several outputs: add variance reductions (eq. 6.1) or each relative to its node variance"},
 
-	{"value", "trees", PR_KEY_INT, F(value.trees), 1, 10000, 0, "", "value-feature forest: M (exp3: 10)"},
+	{"value", "trees", PR_KEY_INT, F(value.trees), 1, 10000, 0, "", "value-feature forest: M"},
 	{"value", "cuts", PR_KEY_INT, F(value.cuts), 1, 10000, 0, "", "value-feature forest: K"},
-	{"value", "n_min", PR_KEY_INT, F(value.n_min), 1, PR_KEY_COUNT_MAX, 0, "", "value-feature forest: n_min (exp3: 60)"},
+	{"value", "n_min", PR_KEY_INT, F(value.n_min), 1, PR_KEY_COUNT_MAX, 0, "", "value-feature forest: n_min"},
 	{"value", "n_c", PR_KEY_INT, F(value.n_c), 1, PR_KEY_COUNT_MAX, 0, "", "value-feature forest: n_c"},
 	{"value", "score", PR_KEY_ENUM, F(value.score), 0, 0, 0, "rvr|nrvr", "value-feature forest score (exp3: nrvr)"},
 	{"value", "replacement", PR_KEY_ENUM, F(value.with_replacement), 0, 0, 0, "without|with", "value-feature forest cut draws"},
@@ -108,6 +108,18 @@ static const pr_config_key core_keys[] = {
 	 "dual solver: Newton with the eta -> 0 limit, or NLopt's L-BFGS polished by it (same certificate)"},
 	{"reps", "allow_failed", PR_KEY_INT, F(reps.allow_failed), 0, 1, 0, "",
 	 "experiments: 1 records an uncertified REPS solve (status failed) and goes on; 0 fails the run"},
+
+	{"learner", "value", PR_KEY_ENUM, F(learner.value), 0, 0, 0, "trees|nrvr|rvr|linear|quadratic|given",
+	 "learner: value features (a forest scored by value.score, NRVR, RVR; [1, s]; [1, s, s s]; the caller's)"},
+	{"learner", "policy", PR_KEY_ENUM, F(learner.policy_type), 0, 0, 0, "tree|linear",
+	 "learner: tree-LWR policy (policy.*) or linear-Gaussian on [1, s]"},
+	{"learner", "window", PR_KEY_INT, F(learner.window), 2, 10000000, 0, "", "learner: latest episodes REPS and the fit reuse"},
+	{"learner", "init_std", PR_KEY_DOUBLE, F(learner.init_std), 0, 1e6, PR_KEY_OPEN_LO, "",
+	 "learner: pi_0 = N(0, init_std^2 I)"},
+	{"learner", "max_norm", PR_KEY_DOUBLE, F(learner.max_norm), 0, 1e12, 0, "",
+	 "learner: actions kept within this Euclidean norm (0: no limit)"},
+	{"learner", "truncation", PR_KEY_ENUM, F(learner.truncation), 0, 0, 0, "redraw|clip|corrected",
+	 "learner: an action beyond max_norm is drawn again, scaled onto it, or drawn again with corrected densities"},
 
 	{"policy", "target", PR_KEY_ENUM, F(policy.target), 0, 0, 0, "action|reward_state", "policy forest output"},
 	{"policy", "lambda", PR_KEY_DOUBLE, F(policy.lambda), 0, 1e12, 0, "", "ridge of eq. 6.6"},
@@ -251,8 +263,10 @@ static void base_init(pr_config *c, pr_config_schema schema)
 	pr_forest_opts_init(&c->forest);
 	pr_reps_opts_init(&c->reps);
 	pr_policy_opts_init(&c->policy);
-	pr_forest_opts_init(&c->value);
-	c->value_features = PR_VALUE_LEAVES;
+	/* the value forests of thesis 7.5.1, as the learner's own defaults */
+	pr_learner_opts_init(&c->learner);
+	c->value = c->learner.value_forest;
+	c->value_features = c->learner.value_features;
 	c->schema = schema;
 	for (i = 0; schema && schema(i, &e); ++i) {
 		const size_t align = sizeof(max_align_t);
@@ -1106,4 +1120,13 @@ int pr_config_set_number(pr_config *c, int i, double v, char *err)
 	*(double *)(base + k->off) = v;
 	c->key_line[i] = -1;
 	return PR_OK;
+}
+
+void pr_config_learner_opts(const pr_config *c, pr_learner_opts *o)
+{
+	*o = c->learner;
+	o->value_forest = c->value;
+	o->value_features = c->value_features;
+	o->reps = c->reps;
+	o->policy = c->policy;
 }

@@ -52,11 +52,6 @@ enum { PR_EXP3_STATE_VARYING = 0, PR_EXP3_STATE_FULL = 1 };
  * onto the limit and shot (clip), or drawn again with each density divided by
  * the policy's mass inside the limit, P(|a| <= max_speed | s) (corrected). */
 enum { PR_EXP3_TRUNC_REDRAW = 0, PR_EXP3_TRUNC_CLIP = 1, PR_EXP3_TRUNC_CORRECTED = 2 };
-/* log P(|a| <= vmax) for a ~ N(mean, cov), 2-D (exp3.truncation = corrected):
- * 0 when the disc holds the Gaussian's 8-sigma ellipse, else quadrature over
- * the directions of the whitened Gaussian (each ray's mass inside the disc in
- * closed form), -HUGE_VAL if it holds none. */
-double pr_exp3_disc_logmass(const double mean[2], const double cov[4], double vmax);
 void pr_exp3_opts_init(pr_exp3_opts *o);
 /* cfg's exp3.* options. */
 const pr_exp3_opts *pr_exp3_opts_of(const pr_config *cfg);

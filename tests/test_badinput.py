@@ -312,6 +312,7 @@ MISSING_INPUT = {
     "merge": ["merge", "-o", "outdir", "nosuch", "-q"],
     "sweep": ["sweep", "nosuch.ini", "-o", "outdir", "-q"],
     "collect": ["collect", "nosuch", "-q"],
+    "learner": ["learner", "ask", "nosuch.state", "-i", "nosuch.csv", "-o", "out.csv", "-q"],
 }
 
 

@@ -209,7 +209,7 @@ static void test_experiment_defaults(void **state)
 	assert_int_equal(c.policy.forest.trees, 10);
 	assert_int_equal(pr_config_set(&c, "experiment.name=exp2", err), PR_OK);
 	assert_float_equal(c.start.reward_box[1], 0.45, 0);
-	assert_int_equal(c.value.trees, 30);
+	assert_int_equal(c.value.score, PR_SCORE_RVR);
 	assert_int_equal(c.value.n_min, 33);
 	assert_int_equal(c.policy.forest.trees, 30);
 	assert_int_equal(c.policy.forest.cuts, 10);

@@ -329,7 +329,7 @@ static void test_repeat_draws_from_pi0(void **state)
 /* Every registered experiment's defaults are valid keys and values, and
  * every block fits into a pr_config. */
 /* log P(|a| <= V), a ~ N(mean, cov), by a midpoint rule on a polar grid of
- * the disc itself (the method of pr_exp3_disc_logmass integrates over the
+ * the disc itself (the method of pr_learner_disc_logmass integrates over the
  * Gaussian's directions instead). */
 static double disc_logmass_grid(const double m[2], const double c[4], double V)
 {
@@ -367,15 +367,15 @@ static void test_disc_logmass(void **state)
 
 	(void)state;
 	/* centred, isotropic: P = 1 - exp(-V^2 / 2 sigma^2) */
-	assert_true(fabs(pr_exp3_disc_logmass(m, c, 1.0) - log(-expm1(-0.5 / 0.25))) < 1e-12);
+	assert_true(fabs(pr_learner_disc_logmass(m, c, 1.0) - log(-expm1(-0.5 / 0.25))) < 1e-12);
 	/* far inside: exactly 0 */
 	c[0] = c[3] = 1e-4;
 	m[0] = 0.3;
-	assert_true(pr_exp3_disc_logmass(m, c, 10.0) == 0);
+	assert_true(pr_learner_disc_logmass(m, c, 10.0) == 0);
 	for (k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
 		const double *q = cases[k];
 		double mm[2] = {q[0], q[1]}, cc[4] = {q[2], q[3], q[3], q[4]};
-		double got = pr_exp3_disc_logmass(mm, cc, q[5]), ref = disc_logmass_grid(mm, cc, q[5]);
+		double got = pr_learner_disc_logmass(mm, cc, q[5]), ref = disc_logmass_grid(mm, cc, q[5]);
 		print_message("disc mass case %zu: %.8f (grid %.8f)\n", k, got, ref);
 		assert_true(fabs(got - ref) < 1e-4);
 	}

@@ -20,6 +20,7 @@
 #include "poolreps/forest.h"
 #include "poolreps/reps.h"
 #include "poolreps/policy.h"
+#include "poolreps/learner.h"
 
 #define PR_CONFIG_MAXKEYS 128       /* keys of the modules and every experiment */
 #define PR_CONFIG_MAXBLOCKS 16      /* experiments' option blocks */
@@ -48,11 +49,6 @@ typedef struct {
 	int threads;          /* repetitions run on this many threads */
 } pr_run_opts;
 
-/* value.features: which features of the value-feature forest REPS uses. */
-typedef enum {
-	PR_VALUE_LEAVES = 0,   /* active leaves, one-hot (eq. 5.4) */
-	PR_VALUE_SAMPLES = 1   /* active samples (eq. 5.6) */
-} pr_value_features;
 
 /* An experiment's option block and per-experiment defaults (config_priv.h). */
 struct pr_config_block;
@@ -74,6 +70,7 @@ typedef struct pr_config {
 	pr_policy_opts policy;    /* policy.* */
 	pr_forest_opts value;     /* value.*: forests for REPS value features */
 	int value_features;       /* value.features: PR_VALUE_* */
+	pr_learner_opts learner;  /* learner.* (its value, reps and policy parts unused) */
 	/* the experiments' option blocks, read through pr_config_opts */
 	pr_config_schema schema;
 	int nblocks;
@@ -95,6 +92,8 @@ void pr_config_init(pr_config *c, pr_config_schema schema);
 int pr_config_load(pr_config *c, const char *path, char *err);
 /* Apply "section.key=value" from --set. */
 int pr_config_set(pr_config *c, const char *assignment, char *err);
+/* The options of a learner: learner.*, value.*, reps.* and policy.*. */
+void pr_config_learner_opts(const pr_config *c, pr_learner_opts *o);
 /* Checks that involve several keys (e.g. n_c <= n_min, boxes inside the table). */
 int pr_config_validate(const pr_config *c, char *err);
 

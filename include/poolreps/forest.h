@@ -38,14 +38,6 @@ typedef struct pr_forest pr_forest;
 pr_forest *pr_forest_fit(const pr_forest_opts *o, const double *X, int n, int dx,
                          const double *Y, int dy, const double *w, gsl_rng *rng,
                          char *err);
-/* Weights a user gives (`forest --weight`, the Python forest), in place:
- * w_i / max w rounded to 24 significant bits (6e-8 of each weight). The same
- * column times any factor (1e-170, 1e160) then gives the same weights bit
- * for bit, so the same trees and leaf means, except where the factor's
- * rounding moves a weight across a rounding edge of the 24 bits (about 1
- * weight in 2^25). Weights pr_forest_fit refuses (negative, not finite,
- * all 0): left as they are. */
-void pr_forest_weights_canonical(double *w, int n);
 void pr_forest_free(pr_forest *f);
 
 int pr_forest_ntrees(const pr_forest *f);
@@ -81,13 +73,6 @@ int pr_forest_tree_leaf0(const pr_forest *f, int t);
 /* The dy leaf values of a global leaf (eq. 4.2; weighted mean when fitted
  * with weights). Owned by the forest. */
 const double *pr_forest_leaf_mean(const pr_forest *f, int leaf);
-/* Nodes of all trees in preorder; tree t's root is node pr_forest_tree_node0(f, t).
- * pr_forest_node gives an internal node's test [x_dim < thr] and its right
- * child (the left child is node + 1), or for a leaf dim = -1, thr = 0 and
- * right = its global leaf id. Returns PR_OK or PR_EINVAL for a bad node. */
-int pr_forest_nnodes(const pr_forest *f);
-int pr_forest_tree_node0(const pr_forest *f, int t);
-int pr_forest_node(const pr_forest *f, int node, int *dim, double *thr, int *right);
 
 /* Saving and loading a fitted forest (docs/forest.md, "File format"): a
  * text format whose first line is "poolreps-forest V"; numbers are written

@@ -128,8 +128,6 @@ void pr_policy_free(pr_policy *p);
 
 int pr_policy_ds(const pr_policy *p);
 int pr_policy_da(const pr_policy *p);
-/* The tree policy's forest (NULL for the other kinds); owned by the policy. */
-const pr_forest *pr_policy_forest(const pr_policy *p);
 
 /* Scratch space for queries, so hot loops do not allocate. One per thread;
  * fits the policy it was made for (or any policy of the same n, ds, da). */

@@ -142,15 +142,5 @@ int pr_reps_solve(const pr_reps_opts *o, const pr_reps_problem *pb,
                   pr_reps_result **out, char *err);
 void pr_reps_result_free(pr_reps_result *r);
 
-/* Importance weights for sample reuse: a window of n samples
- * drawn by npol past policies, counts[k] of them by policy k (sum = n).
- * logpi is npol x n row-major: logpi[k*n + i] = log pi_k(a_i | s_i); logcur
- * (n) holds log pi_current(a_i | s_i). In log space,
- *   log r_i = logcur_i - log sum_k (counts[k]/n) pi_k(a_i|s_i),
- * q_i = r_i / sum_j r_j. Writes q (n, sum 1), logratio (n, may be NULL) and
- * *ess = 1 / sum q_i^2 (may be NULL). Counts of 0 are allowed. */
-int pr_reps_importance(int npol, int n, const double *logpi, const int *counts,
-                       const double *logcur, double *q, double *logratio,
-                       double *ess, char *err);
 
 #endif

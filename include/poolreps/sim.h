@@ -110,21 +110,8 @@ typedef struct {
 	int ball;
 } pr_sim_trace_row;
 typedef struct pr_sim_trace pr_sim_trace;
-pr_sim_trace *pr_sim_trace_new(char *err);
-void pr_sim_trace_free(pr_sim_trace *tr);
-long pr_sim_trace_len(const pr_sim_trace *tr);
-/* The rows, owned by tr, valid until its next use or free. */
-const pr_sim_trace_row *pr_sim_trace_rows(const pr_sim_trace *tr);
 
-/* Pocket centre of pocket id (0..5): 0-2 along y = -W/2 from x = -L/2, 3-5 along y = +W/2. */
-void pr_sim_pocket_xy(const pr_table *t, int id, double xy[2]);
 
-/* PR_OK if nballs is in 1..PR_SIM_MAX_BALLS and every ball is finite, on the
- * table (centre at least R from every cushion line, 1e-12 m slack), outside
- * every pocket (centre farther than the pocket radius) and not overlapping
- * another (centre distance at least 2R, 1e-12 m slack); else PR_EINVAL and a
- * message naming the ball(s). */
-int pr_sim_check_state(const pr_table *t, const double *state, int nballs, char *err);
 
 /* Simulate one shot: state holds 2*nballs positions, action the cue ball's
  * initial velocity. Needs nballs >= 1 + table.reward_balls. Fills *res; if
@@ -146,9 +133,6 @@ double pr_sim_reward(const pr_table *t, const pr_reward_opts *o, const pr_shot *
 int pr_sim_sample_start(const pr_table *t, const pr_start_opts *o, int nballs, gsl_rng *rng,
                         double *state, char *err);
 
-/* Experiment 1's data policy: the cue ball aimed at reward ball 1's centre
- * at e->aim_speed. */
-int pr_sim_aim_action(const pr_expert_opts *e, const double *state, double action[2], char *err);
 
 /* Geometry of a ghost-ball shot (thesis Fig. 7.5). */
 typedef struct {

@@ -8,6 +8,7 @@ Search*, on numpy arrays, at the C library's speed.
     Policy(**keys).fit(S, A, w).mean_cov(S) / .sample / .log_prob   # poolreps policy
     PocketEnv(set=None, render_mode=None, normalize_actions=False)  # Gymnasium API
     gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=N)   # PocketVectorEnv, batched
+    Learner(context_dim, action_dim).ask(X) / .tell(X, A, R)   # poolreps learner
 
 Keys are the CLI's (`poolreps --help`), given as a dict {'section.key':
 value} (or, for Forest and Policy, as keyword arguments of their own
@@ -19,9 +20,10 @@ importing the package registers the environment as "poolreps/PocketEnv-v0".
 from ._lib import LIBRARY_PATH, LIBRARY_VERSION, NumericalError
 from .core import PICKLE_FORMAT, REPS_FIELDS, Forest, Policy, reps, shoot
 from .env import ENV_ID, Bounds, PocketEnv
+from .learner import Learner
 
 __version__ = "0.1.0"
-__all__ = ["shoot", "reps", "Forest", "Policy", "PocketEnv", "Bounds", "NumericalError",
+__all__ = ["shoot", "reps", "Forest", "Policy", "Learner", "PocketEnv", "Bounds", "NumericalError",
            "library_path", "library_version", "register_envs", "ENV_ID", "FOREST_FORMAT",
            "PICKLE_FORMAT"]
 

@@ -127,7 +127,7 @@ typedef struct cli_command {
 #define CLI_END { NULL, -1, 0, 0, 0, NULL, NULL, NULL }
 
 extern const cli_command cli_run, cli_shoot, cli_forest, cli_reps, cli_policy, cli_config,
-	cli_merge, cli_sweep, cli_collect;
+	cli_merge, cli_sweep, cli_collect, cli_learner;
 /* All of them, in the order --help lists them; the first runs a parameter
  * file (commands.c). */
 extern const cli_command *const cli_commands[];

@@ -18,6 +18,7 @@
 #include "poolreps/policy.h"
 #include "poolreps/reps.h"
 #include "poolreps/sim.h"
+#include "poolreps/learner.h"
 
 /* ---- beside common.h ---- */
 
@@ -92,6 +93,21 @@ const pr_experiment *pr_exp_at(int i);
 int pr_exp_check_variant(const pr_config *cfg, int n, char *err);
 
 /* ---- beside forest.h ---- */
+/* Nodes of all trees in preorder; tree t's root is node pr_forest_tree_node0(f, t).
+ * pr_forest_node gives an internal node's test [x_dim < thr] and its right
+ * child (the left child is node + 1), or for a leaf dim = -1, thr = 0 and
+ * right = its global leaf id. Returns PR_OK or PR_EINVAL for a bad node. */
+int pr_forest_nnodes(const pr_forest *f);
+int pr_forest_tree_node0(const pr_forest *f, int t);
+int pr_forest_node(const pr_forest *f, int node, int *dim, double *thr, int *right);
+/* Weights a user gives (`forest --weight`, the Python forest), in place:
+ * w_i / max w rounded to 24 significant bits (6e-8 of each weight). The same
+ * column times any factor (1e-170, 1e160) then gives the same weights bit
+ * for bit, so the same trees and leaf means, except where the factor's
+ * rounding moves a weight across a rounding edge of the 24 bits (about 1
+ * weight in 2^25). Weights pr_forest_fit refuses (negative, not finite,
+ * all 0): left as they are. */
+void pr_forest_weights_canonical(double *w, int n);
 
 /* Check the options; messages name "<prefix>.<key>" (prefix NULL: the bare
  * key), e.g. "forest.cuts: must be >= 1 (got 0)". */
@@ -102,6 +118,8 @@ int pr_forest_opts_check(const pr_forest_opts *o, const char *prefix, char *err)
 int pr_forest_active_samples(const pr_forest *f, const double *x, int dq, double *phi);
 
 /* ---- beside policy.h ---- */
+/* The tree policy's forest (NULL for the other kinds); owned by the policy. */
+const pr_forest *pr_policy_forest(const pr_policy *p);
 
 /* Check the options; messages name policy.<key>. */
 int pr_policy_opts_check(const pr_policy_opts *o, char *err);
@@ -123,6 +141,16 @@ int pr_policy_gauss_logpdf(int da, const double *mean, const double *cov,
                            const double *a, double *logpdf, char *err);
 
 /* ---- beside reps.h ---- */
+/* Importance weights for sample reuse: a window of n samples
+ * drawn by npol past policies, counts[k] of them by policy k (sum = n).
+ * logpi is npol x n row-major: logpi[k*n + i] = log pi_k(a_i | s_i); logcur
+ * (n) holds log pi_current(a_i | s_i). In log space,
+ *   log r_i = logcur_i - log sum_k (counts[k]/n) pi_k(a_i|s_i),
+ * q_i = r_i / sum_j r_j. Writes q (n, sum 1), logratio (n, may be NULL) and
+ * *ess = 1 / sum q_i^2 (may be NULL). Counts of 0 are allowed. */
+int pr_reps_importance(int npol, int n, const double *logpi, const int *counts,
+                       const double *logcur, double *q, double *logratio,
+                       double *ess, char *err);
 
 /* The dual on the returns as given (no standardisation), q normalised to
  * sum 1, plus (ridge/2)|theta|^2, at x = (log eta, theta_1..theta_d).
@@ -133,6 +161,22 @@ double pr_reps_dual(const pr_reps_problem *pb, double epsilon, double ridge,
                     const double *x, double *grad);
 
 /* ---- beside sim.h ---- */
+pr_sim_trace *pr_sim_trace_new(char *err);
+void pr_sim_trace_free(pr_sim_trace *tr);
+long pr_sim_trace_len(const pr_sim_trace *tr);
+/* The rows, owned by tr, valid until its next use or free. */
+const pr_sim_trace_row *pr_sim_trace_rows(const pr_sim_trace *tr);
+/* Experiment 1's data policy: the cue ball aimed at reward ball 1's centre
+ * at e->aim_speed. */
+int pr_sim_aim_action(const pr_expert_opts *e, const double *state, double action[2], char *err);
+/* Pocket centre of pocket id (0..5): 0-2 along y = -W/2 from x = -L/2, 3-5 along y = +W/2. */
+void pr_sim_pocket_xy(const pr_table *t, int id, double xy[2]);
+/* PR_OK if nballs is in 1..PR_SIM_MAX_BALLS and every ball is finite, on the
+ * table (centre at least R from every cushion line, 1e-12 m slack), outside
+ * every pocket (centre farther than the pocket radius) and not overlapping
+ * another (centre distance at least 2R, 1e-12 m slack); else PR_EINVAL and a
+ * message naming the ball(s). */
+int pr_sim_check_state(const pr_table *t, const double *state, int nballs, char *err);
 
 void pr_sim_expert_opts_init(pr_expert_opts *o);
 /* PR_OK if the action is finite and no faster than o->max_speed. */
@@ -147,5 +191,44 @@ int pr_sim_check_action(const pr_sim_opts *o, const double action[2], char *err)
  * (pocket_radius <= R sqrt 2 at a corner, <= R at the middle): no ball can
  * enter; xy is filled either way. */
 int pr_sim_pocket_entry(const pr_table *t, int id, double xy[2], char *err);
+
+/* ---- beside learner.h ---- */
+/* Draw from rng from now on (borrowed as in pr_learner_new). */
+void pr_learner_set_rng(pr_learner *L, gsl_rng *rng);
+/* pi_0 = p (dx states, da actions) instead of N(0, init_std^2 I), before
+ * the first tell. The learner owns p from this call on, whether it succeeds
+ * or not. A learner with such a pi_0 is not saved while pi_0 is live. */
+int pr_learner_set_policy(pr_learner *L, pr_policy *p, char *err);
+/* Other options before the first tell (after an ask, with the same
+ * policy.cov_center, max_norm and truncation). */
+int pr_learner_set_options(pr_learner *L, const pr_learner_opts *o, char *err);
+/* What the last ask did: actions drawn again (or clipped) for exceeding
+ * max_norm, and the PR_POLICY_* flags of its queries. */
+void pr_learner_ask_info(const pr_learner *L, int *redraws, int *flags);
+/* A tell's episodes in full: n rows of contexts (n x dx), actions (n x
+ * da) and returns; features (n x d) for value given, else NULL; targets (n
+ * x dy) for policy.target = reward_state (the tree policy's forest predicts
+ * them instead of the actions), else NULL (dy fixed by the first tell);
+ * logq (n), log-density of each action under the distribution that drew
+ * it, or NULL: from the current policy (or from the last ask). */
+typedef struct {
+	int n, d, dy;
+	const double *contexts, *actions, *returns, *features, *targets, *logq;
+} pr_learner_batch;
+int pr_learner_tell_batch(pr_learner *L, const pr_learner_batch *b, char *err);
+/* Names of the dx context then da action columns, kept in the saved
+ * state for the caller (the command line's CSV columns); each 1 .. 255
+ * bytes without a NUL or line break. pr_learner_names: NULL if none. */
+int pr_learner_set_names(pr_learner *L, const char *const *names, char *err);
+const char *const *pr_learner_names(const pr_learner *L);
+/* The current policy (the one ask draws from); valid until the next tell. */
+const pr_policy *pr_learner_policy(const pr_learner *L);
+const pr_learner_opts *pr_learner_options(const pr_learner *L);
+/* log P(|a| <= vmax) for a ~ N(mean, cov), 2-D (truncation corrected): 0
+ * when the disc holds the Gaussian's 8-sigma ellipse, else quadrature over
+ * the directions of the whitened Gaussian, -HUGE_VAL if it holds none. */
+double pr_learner_disc_logmass(const double mean[2], const double cov[4], double vmax);
+/* Check the options; messages name the key (learner.window, reps.epsilon ...). */
+int pr_learner_opts_check(const pr_learner_opts *o, char *err);
 
 #endif

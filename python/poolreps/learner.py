@@ -1,0 +1,171 @@
+"""poolreps.Learner: the ask/tell learner of the C library (learner.h) on
+numpy arrays.
+
+    L = Learner(context_dim, action_dim, value="trees", policy="tree", seed=0, set=None)
+    A = L.ask(contexts)                  # (n, action_dim): one draw per context
+    L.tell(contexts, actions, returns)   # one iteration: REPS and a new policy
+    L.mean(contexts), L.iteration, L.summary
+
+Keys are the CLI's ({'section.key': value}, checked as --set checks them);
+value and policy are learner.value and learner.policy, seed is
+experiment.seed. The stream is a GSL mt19937 set to the seed, as `poolreps
+learner new --seed` sets it, so the same seed and keys give the same bits
+as the command line. A pickled or deep-copied learner goes on with the same
+draws (its state is the library's saved state, random stream included).
+"""
+import ctypes
+from ctypes import POINTER, c_char_p, c_double, c_int, c_size_t, c_void_p
+from typing import Any, Dict, Optional
+
+import numpy as np
+
+from . import _lib
+from ._lib import Handle, addr, array, assignments, check, config, errbuf, lib, rng_handle
+
+_P = c_void_p
+for _name, (_res, _args) in {
+    "pr_bind_learner_new": (_P, [_P, c_int, c_int, _P, c_char_p]),
+    "pr_bind_learner_tell": (c_int, [_P, c_int, _P, _P, _P, _P, c_int, _P, c_int, c_char_p]),
+    "pr_bind_learner_summary": (c_char_p, [_P, _P, _P]),
+    "pr_learner_ask": (c_int, [_P, c_int, _P, _P, c_char_p]),
+    "pr_learner_mean": (c_int, [_P, c_int, _P, _P, c_char_p]),
+    "pr_learner_save": (c_int, [_P, POINTER(_P), POINTER(c_size_t), c_char_p]),
+    "pr_learner_load": (_P, [c_char_p, c_size_t, c_char_p, _P, c_char_p]),
+    "pr_learner_free": (None, [_P]),
+    "pr_learner_iteration": (c_int, [_P]),
+    "pr_learner_context_dim": (c_int, [_P]),
+    "pr_learner_action_dim": (c_int, [_P]),
+}.items():
+    _f = getattr(lib, _name)
+    _f.restype = _res
+    _f.argtypes = _args
+
+STATUS = ("active", "unreachable", "failed")
+PICKLE_FORMAT = 1
+
+
+def _dim(name, v, hi):
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or not 1 <= v <= hi:
+        raise ValueError(f"{name}: must be an integer in 1..{hi} (got {v!r})")
+    return int(v)
+
+
+class Learner:
+    """The thesis's method as an ask/tell learner: value features from
+    extremely randomized trees, episodic contextual REPS over a window of
+    past episodes, a tree-LWR (or linear) Gaussian policy refitted each tell."""
+
+    def __init__(self, context_dim: int, action_dim: int, *, value: str = "trees",
+                 policy: str = "tree", seed: int = 0, set: Optional[Dict[str, Any]] = None):
+        dx, da = _dim("context_dim", context_dim, 100000), _dim("action_dim", action_dim, 64)
+        keys = {"learner.value": value, "learner.policy": policy,
+                "experiment.seed": _lib.seed_value("seed", seed)}
+        keys.update(set or {})
+        cfg = config(assignments(keys))
+        self._rng = rng_handle(lib.pr_bind_rng_new(int(float(cfg.number("experiment.seed")))))
+        err = errbuf()
+        ptr = lib.pr_bind_learner_new(cfg.ptr, dx, da, self._rng.ptr, err)
+        if not ptr:
+            check(_lib.PR_EINVAL, err)
+        self._h = Handle(ptr, lib.pr_learner_free)
+        self._dx, self._da = dx, da
+
+    # ---- the loop ----
+
+    def _contexts(self, contexts):
+        return array("contexts", contexts, 2, cols=self._dx)
+
+    def ask(self, contexts) -> np.ndarray:
+        """One action per context row, drawn from the current policy: (n, action_dim)."""
+        X = self._contexts(contexts)
+        A = np.empty((X.shape[0], self._da))
+        err = errbuf()
+        check(lib.pr_learner_ask(self._h.ptr, _lib.count("contexts", X.shape[0]), addr(X), addr(A),
+                                 err), err)
+        return A
+
+    def mean(self, contexts) -> np.ndarray:
+        """The current policy's mean action per context row: (n, action_dim)."""
+        X = self._contexts(contexts)
+        A = np.empty((X.shape[0], self._da))
+        err = errbuf()
+        check(lib.pr_learner_mean(self._h.ptr, _lib.count("contexts", X.shape[0]), addr(X),
+                                  addr(A), err), err)
+        return A
+
+    def tell(self, contexts, actions, returns, features=None, targets=None) -> None:
+        """One iteration on n episodes: they join the window, the value
+        features are built, REPS weighs the window, the policy is refitted.
+        features (n, d): for value="given"; targets (n, dy): for
+        policy.target = reward_state. A failed tell changes nothing."""
+        X = self._contexts(contexts)
+        n = X.shape[0]
+        A = array("actions", actions, 2, cols=self._da, rows=n)
+        R = array("returns", returns, 1, rows=n)
+        G = None if features is None else array("features", features, 2, rows=n)
+        Y = None if targets is None else array("targets", targets, 2, rows=n)
+        err = errbuf()
+        check(lib.pr_bind_learner_tell(self._h.ptr, _lib.count("contexts", n), addr(X), addr(A),
+                                       addr(R), addr(G), 0 if G is None else G.shape[1], addr(Y),
+                                       0 if Y is None else Y.shape[1], err), err)
+
+    @property
+    def iteration(self) -> int:
+        """Tells so far."""
+        return lib.pr_learner_iteration(self._h.ptr)
+
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """The last tell's REPS certificate and fit."""
+        d = (c_double * 7)()
+        i = (c_int * 7)()
+        reason = lib.pr_bind_learner_summary(self._h.ptr, d, i).decode(errors="replace")
+        out = dict(zip(("eta", "kl", "ess", "q_ess", "residual", "kl_gap", "residual_rel"),
+                       (float(v) for v in d)))
+        out.update(zip(("iteration", "n", "bound", "features", "dual_evals"), (int(v) for v in i[:5])))
+        out["status"] = STATUS[i[5]] if 0 <= i[5] < len(STATUS) else str(i[5])
+        out["policy_flags"] = int(i[6])
+        out["reason"] = reason
+        return out
+
+    # ---- saving ----
+
+    def save(self) -> bytes:
+        """The library's state bytes (what `poolreps learner` keeps in STATE)."""
+        buf, n, err = _P(), c_size_t(), errbuf()
+        check(lib.pr_learner_save(self._h.ptr, ctypes.byref(buf), ctypes.byref(n), err), err)
+        try:
+            return ctypes.string_at(buf, n.value)
+        finally:
+            lib.pr_bind_free(buf)
+
+    @classmethod
+    def load(cls, state: bytes, what: str = "state") -> "Learner":
+        """A learner from save()'s bytes (or a STATE file's), with its stream."""
+        self = cls.__new__(cls)
+        self._restore(bytes(state), what)
+        return self
+
+    def _restore(self, state, what):
+        self._rng = rng_handle(lib.pr_bind_rng_new(0))
+        err = errbuf()
+        ptr = lib.pr_learner_load(state, len(state), what.encode(), self._rng.ptr, err)
+        if not ptr:
+            msg = err.value.decode(errors="replace")
+            raise ValueError(msg) if "version" in msg else OSError(msg)
+        self._h = Handle(ptr, lib.pr_learner_free)
+        self._dx = lib.pr_learner_context_dim(ptr)
+        self._da = lib.pr_learner_action_dim(ptr)
+
+    def __getstate__(self):
+        return {"format": PICKLE_FORMAT, "state": self.save()}
+
+    def __setstate__(self, st):
+        if not isinstance(st, dict) or st.get("format") != PICKLE_FORMAT:
+            raise ValueError(f"Learner: pickle format {st.get('format') if isinstance(st, dict) else st!r}, "
+                             f"this package reads {PICKLE_FORMAT}")
+        self._restore(st["state"], "pickle")
+
+    def __repr__(self):
+        return (f"Learner(context_dim={self._dx}, action_dim={self._da}, "
+                f"iteration={self.iteration})")

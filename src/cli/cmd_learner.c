@@ -1,0 +1,396 @@
+/* cmd_learner.c — `poolreps learner new|ask|tell|mean STATE`: the ask/tell
+ * learner (learner.h) across processes, so that episodes can be played
+ * anywhere between ask and tell.
+ *
+ * STATE is the learner's saved state (docs/learner.md). new writes it with
+ * the names of the context and action columns; ask reads the context
+ * columns by name and writes them followed by the drawn action columns;
+ * tell reads the context, action and return columns (and the features or
+ * targets the options need); mean writes the mean actions. ask and tell
+ * rewrite STATE together with their output, each under a temporary name
+ * renamed only when everything succeeded, so a failed command leaves
+ * STATE and every other path as they were. The random stream is
+ * mt19937 seeded with experiment.seed, as poolreps.Learner's.
+ */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <gsl/gsl_rng.h>
+
+#include "poolreps/internal.h"
+#include "poolreps/learner.h"
+#include "cli.h"
+
+typedef struct {
+	char **ops;
+	int nops;
+	const char *input, *output, *context, *action, *ret, *features, *target;
+} learner_args;
+
+enum { NEW, ASK, TELL, MEAN, NVERB };
+static const char *const verb_name[NVERB] = {"new", "ask", "tell", "mean"};
+
+static int verb_of(const learner_args *a)
+{
+	int v;
+
+	for (v = 0; a->nops >= 1 && v < NVERB; ++v)
+		if (!strcmp(a->ops[0], verb_name[v]))
+			return v;
+	return -1;
+}
+
+/* The whole of STATE into memory. */
+static int read_state(const char *path, unsigned char **buf, size_t *len, char *err)
+{
+	FILE *fp = fopen(path, "rb");
+	long size = 0;
+	int rc = PR_OK;
+
+	*buf = NULL;
+	if (!fp)
+		return pr_err(err, errno == ENOMEM ? PR_ENOMEM : PR_EIO, "%s: cannot open: %s", path,
+		              strerror(errno));
+	if (fseek(fp, 0, SEEK_END) || (size = ftell(fp)) < 0 || fseek(fp, 0, SEEK_SET))
+		rc = pr_err(err, PR_EIO, "%s: not a regular file", path);
+	else if (!(*buf = malloc(size > 0 ? (size_t)size : 1)))
+		rc = pr_err(err, PR_ENOMEM, "learner: out of memory");
+	else if (fread(*buf, 1, (size_t)size, fp) != (size_t)size)
+		rc = pr_err(err, PR_EIO, "%s: cannot read", path);
+	fclose(fp);
+	*len = rc ? 0 : (size_t)size;
+	return rc;
+}
+
+/* The learner saved in STATE, drawing from rng. */
+static pr_learner *load(const char *path, gsl_rng *rng, char *err)
+{
+	unsigned char *buf;
+	size_t len = 0;
+	pr_learner *L = NULL;
+
+	if (read_state(path, &buf, &len, err) == PR_OK)
+		L = pr_learner_load(buf, len, path, rng, err);
+	free(buf);
+	if (L && !pr_learner_names(L)) {
+		pr_err(err, PR_EIO, "%s: a learner state without column names (not written by "
+		       "poolreps learner new)", path);
+		pr_learner_free(L);
+		L = NULL;
+	}
+	return L;
+}
+
+/* The state of L into path, committed with the set. */
+static int add_state(pr_outset *set, const char *path, const pr_learner *L, char *err)
+{
+	unsigned char *buf;
+	size_t len;
+	pr_csvw *w;
+	int rc;
+
+	if ((rc = pr_learner_save(L, &buf, &len, err)))
+		return rc;
+	if ((rc = pr_outset_add(set, path, &w, err)) == PR_OK)
+		rc = pr_csvw_raw(w, (const char *)buf, len);
+	free(buf);
+	return rc;
+}
+
+/* A comma list of column names into names[*n] (pointers into *copy). */
+static int split(const char *list, const char *opt, char **copy, const char ***names, int *n,
+                 char *err)
+{
+	char *p;
+	int k, j;
+
+	if (!list || !*list)
+		return pr_err(err, PR_EINVAL, "learner new: %s COLS is required", opt);
+	if (!(*copy = strdup(list)) || !(*names = malloc((strlen(list) + 1) * sizeof **names)))
+		return pr_err(err, PR_ENOMEM, "learner: out of memory");
+	for (*n = 0, p = *copy;; ++p) {
+		(*names)[(*n)++] = p;
+		if (!(p = strchr(p, ',')))
+			break;
+		*p = '\0';
+	}
+	for (k = 0; k < *n; ++k) {
+		if (!*(*names)[k])
+			return pr_err(err, PR_EINVAL, "learner new: %s '%s': an empty column name", opt, list);
+		for (j = 0; j < k; ++j)
+			if (!strcmp((*names)[j], (*names)[k]))
+				return pr_err(err, PR_EINVAL, "learner new: %s '%s': column '%s' twice", opt,
+				              list, (*names)[k]);
+	}
+	return PR_OK;
+}
+
+static int learner_new(const pr_config *cfg, const learner_args *a, gsl_rng *rng, char *err)
+{
+	char *cc = NULL, *ac = NULL;
+	const char **cn = NULL, **an = NULL, **all = NULL;
+	int dx = 0, da = 0, rc;
+	pr_learner_opts o;
+	pr_learner *L = NULL;
+	pr_outset *set = NULL;
+
+	pr_config_learner_opts(cfg, &o);
+	if (!(rc = split(a->context, "--context", &cc, &cn, &dx, err)) &&
+	    !(rc = split(a->action, "--action", &ac, &an, &da, err))) {
+		if (!(all = malloc((size_t)(dx + da) * sizeof *all)))
+			rc = pr_err(err, PR_ENOMEM, "learner: out of memory");
+		else if (!(L = pr_learner_new(&o, dx, da, rng, err)))
+			rc = PR_EINVAL;
+	}
+	if (rc == PR_OK) {
+		memcpy(all, cn, (size_t)dx * sizeof *all);
+		memcpy(all + dx, an, (size_t)da * sizeof *all);
+		rc = pr_learner_set_names(L, all, err);
+	}
+	if (rc == PR_OK && !(set = pr_outset_new(err)))
+		rc = PR_ENOMEM;
+	if (rc == PR_OK)
+		rc = add_state(set, a->ops[1], L, err);
+	rc = pr_outset_commit(set, rc, err);
+	pr_learner_free(L);
+	free(cc);
+	free(ac);
+	free(cn);
+	free(an);
+	free(all);
+	return rc;
+}
+
+/* The table of -i and the matrix of the named columns (n x k). */
+static double *columns(const pr_csv *t, const char *const *names, int k, const char *what,
+                       char *err)
+{
+	int *cols = malloc((size_t)k * sizeof *cols), j;
+	double *m = NULL;
+
+	if (!cols) {
+		pr_err(err, PR_ENOMEM, "learner: out of memory");
+		return NULL;
+	}
+	for (j = 0; j < k; ++j)
+		if ((cols[j] = pr_cmd_column(t, names[j], what, err)) < 0)
+			break;
+	if (j == k)
+		m = pr_cmd_matrix(t, cols, k, err);
+	free(cols);
+	return m;
+}
+
+/* Rows of names[0..k) from the matrices X (n x dx) then Y (n x dy). */
+static int write_rows(pr_csvw *w, const char *const *names, const double *X, int dx,
+                      const double *Y, int dy, long n)
+{
+	long i;
+	int j;
+
+	for (j = 0; j < dx + dy; ++j)
+		pr_csvw_str(w, names[j]);
+	pr_csvw_endrow(w);
+	for (i = 0; i < n; ++i) {
+		for (j = 0; j < dx; ++j)
+			pr_csvw_num(w, X[i * dx + j]);
+		for (j = 0; j < dy; ++j)
+			pr_csvw_num(w, Y[i * dy + j]);
+		pr_csvw_endrow(w);
+	}
+	return pr_csvw_status(w);
+}
+
+/* ask or mean: actions for the contexts of -i into -o (ask: STATE too). */
+static int learner_act(const learner_args *a, int verb, pr_learner *L, char *err)
+{
+	const int dx = pr_learner_context_dim(L), da = pr_learner_action_dim(L);
+	const char *const *names = pr_learner_names(L);
+	pr_csv *t = NULL;
+	pr_outset *set = NULL;
+	pr_csvw *w = NULL;
+	double *X = NULL, *A = NULL;
+	long n = 0;
+	int rc;
+
+	if (!(rc = pr_csv_read(a->input, &t, err)) && !(rc = pr_cmd_check_rows(t, err))) {
+		n = pr_csv_nrows(t);
+		if (!(X = columns(t, names, dx, "a context column of the learner", err)))
+			rc = PR_EIO;
+		else if (!(A = malloc((size_t)n * da * sizeof *A)))
+			rc = pr_err(err, PR_ENOMEM, "learner: out of memory");
+	}
+	if (rc == PR_OK)
+		rc = verb == ASK ? pr_learner_ask(L, (int)n, X, A, err)
+		                 : pr_learner_mean(L, (int)n, X, A, err);
+	if (rc == PR_OK && !(set = pr_outset_new(err)))
+		rc = PR_ENOMEM;
+	if (rc == PR_OK && !(rc = pr_outset_add(set, a->output, &w, err)))
+		rc = write_rows(w, names, X, dx, A, da, n);
+	if (rc == PR_OK && verb == ASK)
+		rc = add_state(set, a->ops[1], L, err);
+	rc = pr_outset_commit(set, rc, err);
+	pr_csv_free(t);
+	free(X);
+	free(A);
+	return rc;
+}
+
+/* The optional columns of a tell: --features (value given), --target. */
+static int tell_extra(const learner_args *a, const pr_csv *t, pr_learner_batch *b, double **G,
+                      double **Y, char *err)
+{
+	int *cols = NULL, rc = PR_OK;
+
+	if (a->features && (b->d = pr_cmd_columns(t, a->features, &cols, err)) < 0)
+		return b->d;
+	if (a->features && !(*G = pr_cmd_matrix(t, cols, b->d, err)))
+		rc = PR_ENOMEM;
+	free(cols);
+	cols = NULL;
+	if (rc == PR_OK && a->target && (b->dy = pr_cmd_columns(t, a->target, &cols, err)) < 0)
+		rc = b->dy;
+	else if (rc == PR_OK && a->target && !(*Y = pr_cmd_matrix(t, cols, b->dy, err)))
+		rc = PR_ENOMEM;
+	free(cols);
+	b->features = *G;
+	b->targets = *Y;
+	return rc;
+}
+
+static int learner_tell(const learner_args *a, pr_learner *L, char *err)
+{
+	const int dx = pr_learner_context_dim(L), da = pr_learner_action_dim(L);
+	const char *const *names = pr_learner_names(L);
+	pr_learner_batch b;
+	pr_csv *t = NULL;
+	pr_outset *set = NULL;
+	double *X = NULL, *A = NULL, *R = NULL, *G = NULL, *Y = NULL;
+	int rc, rcol = -1;
+
+	memset(&b, 0, sizeof b);
+	if (!a->ret)
+		return pr_err(err, PR_EINVAL, "learner tell: --return COL is required");
+	if (!(rc = pr_csv_read(a->input, &t, err)) && !(rc = pr_cmd_check_rows(t, err))) {
+		if (!(X = columns(t, names, dx, "a context column of the learner", err)) ||
+		    !(A = columns(t, names + dx, da, "an action column of the learner", err)))
+			rc = PR_EIO;
+		else if ((rcol = pr_cmd_column(t, a->ret, "--return", err)) < 0)
+			rc = rcol;
+		else if (!(R = pr_cmd_matrix(t, &rcol, 1, err)))
+			rc = PR_ENOMEM;
+		else
+			rc = tell_extra(a, t, &b, &G, &Y, err);
+	}
+	if (rc == PR_OK) {
+		b.n = (int)pr_csv_nrows(t);
+		b.contexts = X;
+		b.actions = A;
+		b.returns = R;
+		rc = pr_learner_tell_batch(L, &b, err);
+	}
+	if (rc == PR_OK && !(set = pr_outset_new(err)))
+		rc = PR_ENOMEM;
+	if (rc == PR_OK)
+		rc = add_state(set, a->ops[1], L, err);
+	rc = pr_outset_commit(set, rc, err);
+	pr_csv_free(t);
+	free(X);
+	free(A);
+	free(R);
+	free(G);
+	free(Y);
+	return rc;
+}
+
+/* 1 if a parameter file, --set or --seed was given. */
+static int config_given(const pr_config *cfg)
+{
+	int i;
+
+	for (i = 0; i < PR_CONFIG_MAXKEYS; ++i)
+		if (cfg->key_line[i])
+			return 1;
+	return cfg->source[0] != '\0';
+}
+
+/* The verb and STATE; the options each verb takes. */
+static int check_verb(const pr_config *cfg, const learner_args *a, int verb, char *err)
+{
+	if (a->nops != 2 || verb < 0)
+		return pr_err(err, PR_EINVAL, "learner: usage: poolreps learner new|ask|tell|mean STATE "
+		              "[options]");
+	if (!strcmp(a->ops[1], "-") || !*a->ops[1])
+		return pr_err(err, PR_EINVAL, "learner: STATE must name a file");
+	if (verb != NEW && (config_given(cfg) || a->context || a->action))
+		return pr_err(err, PR_EINVAL, "learner %s: -c, --set, --seed, --context and --action "
+		              "belong to learner new (STATE holds them)", verb_name[verb]);
+	if (verb == NEW && (a->input || a->output || a->ret || a->features || a->target))
+		return pr_err(err, PR_EINVAL, "learner new: -i, -o, --return, --features and --target "
+		              "belong to ask, tell and mean");
+	if (verb != TELL && (a->ret || a->features || a->target))
+		return pr_err(err, PR_EINVAL, "learner %s: --return, --features and --target belong to "
+		              "learner tell", verb_name[verb]);
+	if (verb == TELL && a->output)
+		return pr_err(err, PR_EINVAL, "learner tell: writes only STATE (no -o)");
+	return PR_OK;
+}
+
+static int learner_main(const pr_config *cfg, const void *opts, char *err)
+{
+	const learner_args *a = opts;
+	const int verb = verb_of(a);
+	gsl_rng *rng;
+	pr_learner *L = NULL;
+	int rc = check_verb(cfg, a, verb, err);
+
+	if (rc)
+		return rc;
+	if (!(rng = gsl_rng_alloc(gsl_rng_mt19937)))
+		return pr_err(err, PR_ENOMEM, "learner: out of memory");
+	gsl_rng_set(rng, cfg->run.seed);
+	if (verb == NEW)
+		rc = learner_new(cfg, a, rng, err);
+	else if (!(L = load(a->ops[1], rng, err)))
+		rc = pr_out_of_memory ? PR_ENOMEM : strstr(err, "version") ? PR_EINVAL : PR_EIO;
+	else if (verb == TELL)
+		rc = learner_tell(a, L, err);
+	else
+		rc = learner_act(a, verb, L, err);
+	pr_learner_free(L);
+	gsl_rng_free(rng);
+	return rc;
+}
+
+static const cli_opt learner_opts[] = {
+	CLI_COMMON_C,
+	CLI_OPT("i", "IN.csv", learner_args, input,
+	        "contexts (ask, mean) or episodes (tell); default stdin"),
+	CLI_OPT("o", "OUT.csv", learner_args, output,
+	        "contexts then actions (ask, mean); default stdout"),
+	CLI_COMMON_SET, CLI_COMMON_SEED,
+	CLI_OPT("context", "COLS", learner_args, context, "new: the context columns (comma list)"),
+	CLI_OPT("action", "COLS", learner_args, action, "new: the action columns (comma list)"),
+	CLI_OPT("return", "COL", learner_args, ret, "tell: the return column"),
+	CLI_OPT("features", "COLS", learner_args, features,
+	        "tell: value features (learner.value = given)"),
+	CLI_OPT("target", "COLS", learner_args, target,
+	        "tell: policy targets (policy.target = reward_state)"),
+	CLI_GIVEN_LIST(CLI_OPERANDS, learner_args, ops, nops),
+	CLI_END
+};
+
+/* --set takes the keys one tunes most; a parameter file (-c) sets any key */
+const cli_command cli_learner = {
+	"learner",
+	"poolreps learner new|ask|tell|mean STATE [options]\n"
+	"  The ask/tell learner kept in STATE: new makes it (-c FILE sets any key),\n"
+	"  ask draws an action per context, tell (--return COL) is one iteration,\n"
+	"  mean gives the mean actions.",
+	learner_opts, sizeof(learner_args),
+	"learner.,experiment.seed,reps.epsilon,value.trees,value.n_min,policy.trees,policy.n_min,"
+	"policy.lambda,policy.min_std",
+	CLI_OPS_ALL, 0, NULL, learner_main
+};

@@ -1,0 +1,165 @@
+"""`poolreps learner new|ask|tell|mean STATE`: the ask/tell learner across
+processes. The loop learns; a failed command changes no file and leaves no
+temporary file; bad input gets one line naming file, line and column; a
+truncated, foreign or other-version state is refused."""
+import csv
+import os
+
+import numpy as np
+import pytest
+from conftest import run_poolreps
+
+pytestmark = pytest.mark.usefixtures("poolreps")
+
+SETS = ["learner.window=40", "policy.n_min=15", "value.n_min=10"]
+
+
+def best(x):
+    return np.stack([0.5 + x[:, 0] - x[:, 1], -0.3 + 0.8 * x[:, 1]], axis=1)
+
+
+def write_contexts(path, x):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["x", "y"])
+        w.writerows([[repr(v) for v in row] for row in x])
+
+
+def read(path):
+    with open(path, newline="") as f:
+        r = csv.reader(f)
+        head = next(r)
+        return head, np.array([[float(v) for v in row] for row in r])
+
+
+def new(tmp_path, *extra):
+    st = tmp_path / "st"
+    r = run_poolreps(["learner", "new", st, "--context", "x,y", "--action", "a,b",
+                      "--seed", "3"] + [a for s in SETS for a in ("--set", s)] + list(extra))
+    assert r.returncode == 0, r.stderr
+    return st
+
+
+def one_round(tmp_path, st, rng, n=15):
+    """ask at n contexts, return the episodes file told back."""
+    write_contexts(tmp_path / "c.csv", rng.uniform(-1, 1, (n, 2)))
+    r = run_poolreps(["learner", "ask", st, "-i", tmp_path / "c.csv", "-o", tmp_path / "a.csv"])
+    assert r.returncode == 0, r.stderr
+    head, m = read(tmp_path / "a.csv")
+    assert head == ["x", "y", "a", "b"]
+    ret = -((m[:, 2:] - best(m[:, :2])) ** 2).sum(axis=1)
+    with open(tmp_path / "a.csv") as f, open(tmp_path / "e.csv", "w") as g:
+        rows = f.read().splitlines()
+        g.write(rows[0] + ",ret\n")
+        for line, v in zip(rows[1:], ret):
+            g.write(f"{line},{v!r}\n")
+    return tmp_path / "e.csv"
+
+
+def mean_distance(tmp_path, st, x):
+    write_contexts(tmp_path / "m.csv", x)
+    r = run_poolreps(["learner", "mean", st, "-i", tmp_path / "m.csv"])
+    assert r.returncode == 0, r.stderr
+    rows = r.stdout.decode().splitlines()
+    assert rows[0] == "x,y,a,b"
+    m = np.array([[float(v) for v in line.split(",")] for line in rows[1:]])
+    assert np.array_equal(m[:, :2], x)
+    return ((m[:, 2:] - best(x)) ** 2).sum(axis=1).mean()
+
+
+def test_the_loop_learns(tmp_path):
+    st = new(tmp_path, "--set", "learner.policy=linear", "--set", "learner.value=linear")
+    rng = np.random.default_rng(1)
+    x = rng.uniform(-1, 1, (50, 2))
+    d0 = mean_distance(tmp_path, st, x)
+    for _ in range(25):
+        e = one_round(tmp_path, st, rng)
+        r = run_poolreps(["learner", "tell", st, "--return", "ret", "-i", e])
+        assert r.returncode == 0, r.stderr
+    d1 = mean_distance(tmp_path, st, x)
+    assert d1 * 5 < d0, (d0, d1)
+
+
+def snapshot(folder):
+    return {p.name: p.read_bytes() for p in folder.iterdir()}
+
+
+@pytest.mark.parametrize("case", ["missing_return", "bad_number", "missing_action", "no_rows",
+                                  "features_not_given"])
+def test_a_failed_tell_changes_nothing(tmp_path, case):
+    st = new(tmp_path)
+    rng = np.random.default_rng(2)
+    e = one_round(tmp_path, st, rng)
+    text = e.read_text().splitlines()
+    args = ["--return", "ret"]
+    if case == "missing_return":
+        args = ["--return", "nope"]
+        want = "e.csv:1: missing column 'nope'"
+    elif case == "bad_number":
+        text[3] = text[3].rsplit(",", 1)[0] + ",zz"
+        want = "e.csv:4: column 'ret': not a finite number: 'zz'"
+    elif case == "missing_action":
+        text = [",".join(c for i, c in enumerate(line.split(",")) if i != 3) for line in text]
+        want = "e.csv:1: missing column 'b'"
+    elif case == "no_rows":
+        text = text[:1]
+        want = "e.csv"
+    else:
+        args += ["--features", "x"]
+        want = "features"
+    e.write_text("\n".join(text) + "\n")
+    before = snapshot(tmp_path)
+    r = run_poolreps(["learner", "tell", st, "-i", e] + args)
+    assert r.returncode in (1, 2)
+    lines = r.stderr.decode().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("poolreps: ") and want in lines[0], lines
+    assert snapshot(tmp_path) == before
+
+
+def test_states_that_are_not_ours_are_refused(tmp_path):
+    st = new(tmp_path)
+    good = st.read_bytes()
+    write_contexts(tmp_path / "c.csv", np.zeros((3, 2)))
+    for name, data, code, want in [
+            ("trunc", good[:len(good) // 2], 2, "truncated"),
+            ("text", b"x,y\n1,2\n", 2, "not a poolreps learner state"),
+            ("version", good[:17] + b"\x09" + good[18:], 1, "version 9"),
+            ("tail", good + b"\0", 2, "bytes after the end")]:
+        p = tmp_path / name
+        p.write_bytes(data)
+        before = snapshot(tmp_path)
+        r = run_poolreps(["learner", "ask", p, "-i", tmp_path / "c.csv", "-o", tmp_path / "o.csv"])
+        assert r.returncode == code, (name, r.stderr)
+        assert want in r.stderr.decode(), (name, r.stderr)
+        assert snapshot(tmp_path) == before, name
+
+
+def test_usage_errors(tmp_path):
+    st = new(tmp_path)
+    for args, want in [(["learner", "fly", st], "usage"),
+                       (["learner", "ask", st, "--set", "learner.window=5"], "belong to learner new"),
+                       (["learner", "new", tmp_path / "s2", "--context", "x,x", "--action", "a"],
+                        "column 'x' twice"),
+                       (["learner", "new", tmp_path / "s2", "--context", "x"], "--action"),
+                       (["learner", "new", tmp_path / "s2", "--context", "x", "--action", "a",
+                         "--set", "learner.window=1"], "learner.window")]:
+        r = run_poolreps(args)
+        assert r.returncode == 1, (args, r.stderr)
+        assert want in r.stderr.decode(), (args, r.stderr)
+    assert not (tmp_path / "s2").exists()
+    assert sorted(os.listdir(tmp_path)) == ["st"]
+
+
+def test_an_uncertified_solve_exits_3_and_changes_nothing(tmp_path):
+    """reps.max_iter = 1 (from a parameter file: -c sets any key) cannot
+    certify the first solve: exit 3, one line, STATE as before."""
+    ini = tmp_path / "r.ini"
+    ini.write_text("[reps]\nmax_iter = 1\n")
+    st = new(tmp_path, "-c", ini)
+    e = one_round(tmp_path, st, np.random.default_rng(4))
+    before = snapshot(tmp_path)
+    r = run_poolreps(["learner", "tell", st, "--return", "ret", "-i", e])
+    assert r.returncode == 3, r.stderr
+    lines = r.stderr.decode().splitlines()
+    assert len(lines) == 1 and "REPS answer not certified" in lines[0], lines
+    assert snapshot(tmp_path) == before
