@@ -44,6 +44,7 @@
 
 #include "poolreps/reps.h"
 #include "common_priv.h"
+#include "reps_wide_priv.h"
 #include "syrk_priv.h"
 
 void pr_reps_opts_init(pr_reps_opts *o)
@@ -81,7 +82,7 @@ const char *pr_reps_status_name(int status)
 #define SHIFT 1e-10
 /* Steps a solve took (pr_reps_result.path). */
 enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCED = 16,
-       PATH_NLOPT = 32, PATH_CHORD = 64 };
+       PATH_NLOPT = 32, PATH_CHORD = 64, PATH_SPAN = 128 };
 /* Rank tolerance of the reduced basis: singular values of the
  * sqrt(q)-weighted solver features below RANK_TOL of the largest are the
  * round-off of an exact dependence (1e-16 ... 1e-14 of it, whatever the
@@ -93,6 +94,11 @@ enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCE
  * to dependent for the digits of psi (the pivots below 1e-8 of the largest
  * come from directions that only the last digits of the data hold). */
 #define COND_RETRY 1e8
+/* Directions of the wide reduced basis (prob_reduce_wide) whose singular
+ * value is below this fraction of the largest are formed from the exact
+ * features: a product of the rounded ones would keep fewer than 12 of
+ * their digits. */
+#define EXACT_BELOW 1e-4
 /* Dense problems with at least this many free features form Cov_p(psi) as
  * a rank-k update (pr_syrk_acc_rows on the sqrt(p)-weighted rows) instead
  * of row by row: other products (sqrt p dv_j sqrt p dv_k for p dv_j dv_k),
@@ -627,7 +633,8 @@ static int psd_factor(gsl_matrix *H, int n, double *dsc)
 				h[(size_t)j * td + k] = h[(size_t)k * td + j] * dsc[j] * dsc[k];
 			h[(size_t)j * td + j] = 1.0 + shift;
 		}
-		if (gsl_linalg_cholesky_decomp1(&hv.matrix) == GSL_SUCCESS)
+		if (n >= PR_LAPACK_MIN ? !pr_lapack_cholesky(h, n, td) :
+		    gsl_linalg_cholesky_decomp1(&hv.matrix) == GSL_SUCCESS)
 			return PR_OK;
 	}
 	return PR_ENUM;
@@ -2452,7 +2459,19 @@ typedef struct {
 	double rmax, scale;
 	double *tmp;         /* d + nf scratch */
 	double *corr;        /* dense features: d, sum q (phi - phat) (certify); else NULL */
+	int span;            /* the reduced basis is solve_wide's (path "span") */
 } ctx_t;
+
+/* Column r of Q less mean, and its target sum q zeta_r, which p = q meets. */
+static void centre_column(const prob *P, prob *Q, int r, double mean)
+{
+	int i;
+
+	for (i = 0; i < P->m; i++) {
+		Q->psi[(size_t)i * Q->nf + r] -= mean;
+		Q->tg[r] += P->q[i] * Q->psi[(size_t)i * Q->nf + r];
+	}
+}
 
 /* Column r of Q: z_i = sum_j (phi_ij - phat_j) t_j, centred on its q-mean,
  * which is its target. phi - phat is exact as xh + xl, and the sum is
@@ -2480,10 +2499,7 @@ static void reduced_column(const prob *P, const double *xh, const double *xl, co
 		Q->psi[(size_t)i * Q->nf + r] = s + e;
 		mean += P->q[i] * (s + e);
 	}
-	for (i = 0; i < m; i++) {
-		Q->psi[(size_t)i * Q->nf + r] -= mean;
-		Q->tg[r] += P->q[i] * Q->psi[(size_t)i * Q->nf + r];
-	}
+	centre_column(P, Q, r, mean);
 }
 
 /* gsl_linalg_SV_decomp: PR_OK, PR_ENUM, or PR_ENOMEM when it ran out of
@@ -2506,6 +2522,59 @@ static int svd_guarded(gsl_matrix *A, gsl_matrix *V, gsl_vector *S, gsl_vector *
 	return st;
 }
 
+/* phi - phat exactly as xh + xl (TwoSum), m x nf, for P's rows and features. */
+static void exact_deviations(const prob *P, const ctx_t *c, double *xh, double *xl)
+{
+	const int m = P->m, nf = P->nf;
+	int i, j;
+
+	for (i = 0; i < m; i++)
+		for (j = 0; j < nf; j++) {
+			const int f = P->fr[j];
+			const double a = feat(c->pb, P->rowid[i], f), b = -c->phat[f];
+			double h = a + b, z = h - a;
+
+			xh[(size_t)i * nf + j] = h;
+			xl[(size_t)i * nf + j] = (a - (h - z)) + (b - z);
+		}
+}
+
+/* Q with P's rows, returns and weights and r dense features (unit
+ * residual scale, no blocks), and T (P->nf x r) zeroed. */
+static int reduced_alloc(prob *Q, const prob *P, int r, double **T)
+{
+	const int m = P->m;
+	int k;
+
+	if (prob_alloc(Q, m, r, 0, 0, 0) != PR_OK ||
+	    !(*T = calloc((size_t)P->nf * (r > 0 ? r : 1), sizeof **T)))
+		return PR_ENOMEM;
+	Q->eps = P->eps;
+	memcpy(Q->R, P->R, (size_t)m * sizeof *Q->R);
+	memcpy(Q->q, P->q, (size_t)m * sizeof *Q->q);
+	memcpy(Q->rowid, P->rowid, (size_t)m * sizeof *Q->rowid);
+	for (k = 0; k < r; k++) {
+		Q->fr[k] = k;
+		Q->gs[k] = 1.0;
+		Q->blk[k] = -1;
+	}
+	return PR_OK;
+}
+
+/* W = diag(sqrt q) (psi - mu), mu = sum q psi (m x nf, row-major). */
+static void weighted_centred(const prob *P, double *mu, double *W)
+{
+	const int m = P->m, nf = P->nf;
+	int i, j;
+
+	for (i = 0; i < m; i++)
+		for (j = 0; j < nf; j++)
+			mu[j] += P->q[i] * P->psi[(size_t)i * nf + j];
+	for (i = 0; i < m; i++)
+		for (j = 0; j < nf; j++)
+			W[(size_t)i * nf + j] = sqrt(P->q[i]) * (P->psi[(size_t)i * nf + j] - mu[j]);
+}
+
 /* A well-conditioned basis of P's dense features: W = diag(sqrt q) (psi -
  * sum q psi) = U S V^T (Golub-Reinsch SVD, GSL); directions with singular
  * value below RANK_TOL of the largest are dropped, and Q's features are
@@ -2517,65 +2586,38 @@ static int svd_guarded(gsl_matrix *A, gsl_matrix *V, gsl_vector *S, gsl_vector *
  * *cond = s_1 / s_r. */
 static int prob_reduce(prob *Q, const prob *P, const ctx_t *c, double **T, double *cond)
 {
-	const int m = P->m, nf = P->nf, tall = m >= nf, mn = tall ? nf : m;
+	const int m = P->m, nf = P->nf;
 	double *xh = malloc((size_t)m * nf * sizeof *xh), *xl = malloc((size_t)m * nf * sizeof *xl);
 	double *t = malloc((size_t)nf * sizeof *t);
-	gsl_matrix *A = gsl_matrix_alloc((size_t)(tall ? m : nf), (size_t)mn);
-	gsl_matrix *B = gsl_matrix_alloc((size_t)mn, (size_t)mn);
-	gsl_vector *S = gsl_vector_alloc((size_t)mn), *wk = gsl_vector_alloc((size_t)mn);
+	gsl_matrix *A = gsl_matrix_alloc((size_t)m, (size_t)nf);
+	gsl_matrix *B = gsl_matrix_alloc((size_t)nf, (size_t)nf);
+	gsl_vector *S = gsl_vector_alloc((size_t)nf), *wk = gsl_vector_alloc((size_t)nf);
 	double *mu = calloc((size_t)nf, sizeof *mu), smax = 0.0, smin = HUGE_VAL;
-	int i, j, k, r = 0, st = PR_ENOMEM;
+	int j, k, r = 0, st = PR_ENOMEM;
 
 	*T = NULL;
 	if (!A || !B || !S || !wk || !mu || !xh || !xl || !t)
 		goto done;
-	for (i = 0; i < m; i++)
-		for (j = 0; j < nf; j++) {
-			const int f = P->fr[j];
-			const double a = feat(c->pb, P->rowid[i], f), b = -c->phat[f];
-			double h = a + b, z = h - a;
-
-			/* TwoSum: phi - phat exactly as h + l */
-			xh[(size_t)i * nf + j] = h;
-			xl[(size_t)i * nf + j] = (a - (h - z)) + (b - z);
-			mu[j] += P->q[i] * P->psi[(size_t)i * nf + j];
-		}
-	for (i = 0; i < m; i++)
-		for (j = 0; j < nf; j++) {
-			double v = sqrt(P->q[i]) * (P->psi[(size_t)i * nf + j] - mu[j]);
-
-			gsl_matrix_set(A, (size_t)(tall ? i : j), (size_t)(tall ? j : i), v);
-		}
+	exact_deviations(P, c, xh, xl);
+	weighted_centred(P, mu, A->data);
 	if ((st = svd_guarded(A, B, S, wk)) != PR_OK)
 		goto done;
-	for (k = 0; k < mn; k++)
+	for (k = 0; k < nf; k++)
 		smax = fmax(smax, gsl_vector_get(S, (size_t)k));
-	for (k = 0; k < mn; k++)
+	for (k = 0; k < nf; k++)
 		r += gsl_vector_get(S, (size_t)k) > RANK_TOL * smax;
 
-	if ((st = prob_alloc(Q, m, r, 0, 0, 0)) != PR_OK)
+	if ((st = reduced_alloc(Q, P, r, T)) != PR_OK)
 		goto done;
-	if (!(*T = calloc((size_t)nf * (r > 0 ? r : 1), sizeof **T))) {
-		st = PR_ENOMEM;
-		goto done;
-	}
-	Q->eps = P->eps;
-	memcpy(Q->R, P->R, (size_t)m * sizeof *Q->R);
-	memcpy(Q->q, P->q, (size_t)m * sizeof *Q->q);
-	memcpy(Q->rowid, P->rowid, (size_t)m * sizeof *Q->rowid);
-	/* W = A S B^T (tall) or W^T = A S B^T: U and V are A, B or B, A */
-	for (k = 0, r = 0; k < mn; k++) {
+	/* W = A S B^T: U = A, V = B */
+	for (k = 0, r = 0; k < nf; k++) {
 		const double sk = gsl_vector_get(S, (size_t)k);
 
 		if (!(sk > RANK_TOL * smax))
 			continue;
 		smin = fmin(smin, sk);
-		Q->fr[r] = r;
-		Q->gs[r] = 1.0;
-		Q->blk[r] = -1;
 		for (j = 0; j < nf; j++) {
-			(*T)[(size_t)j * Q->nf + r] = (tall ? gsl_matrix_get(B, (size_t)j, (size_t)k) :
-			                              gsl_matrix_get(A, (size_t)j, (size_t)k)) / sk;
+			(*T)[(size_t)j * Q->nf + r] = gsl_matrix_get(B, (size_t)j, (size_t)k) / sk;
 			t[j] = (*T)[(size_t)j * Q->nf + r] / c->fs[P->fr[j]];
 		}
 		reduced_column(P, xh, xl, t, Q, r);
@@ -2595,11 +2637,79 @@ done:
 	return st;
 }
 
+/* prob_reduce for nf >= m (the primary path of wide dense problems): the
+ * span of W = diag(sqrt q) (psi - mu) = U S V^T from LAPACK
+ * (pr_wide_span), at O(m^2 nf + m^3) instead of a Newton step's O(m nf^2 +
+ * nf^3); rank as prob_reduce. T = V_r S_r^-1, and Q's features zeta = psi
+ * T, centred: combinations of the features themselves, so errors of V only
+ * mix the kept directions. A product of the rounded psi keeps about 1e-16
+ * s_1 / s_k of direction k's digits: below EXACT_BELOW s_1, zeta is formed
+ * from the exact features as in prob_reduce (reduced_column). */
+static int prob_reduce_wide(prob *Q, const prob *P, const ctx_t *c, double **T, double *cond)
+{
+	const int m = P->m, nf = P->nf;
+	double *W = malloc((size_t)m * nf * sizeof *W), *V = malloc((size_t)m * nf * sizeof *V);
+	double *s = malloc((size_t)m * sizeof *s), *mu = calloc((size_t)nf, sizeof *mu);
+	double *xh = NULL, *xl = NULL, *t = NULL;
+	int i, j, k, r = 0, st = PR_ENOMEM;
+
+	*T = NULL;
+	if (!W || !V || !s || !mu)
+		goto done;
+	weighted_centred(P, mu, W);
+	if ((st = pr_wide_span(m, nf, W, s, V)) != PR_OK)
+		goto done;
+	free(W);
+	W = NULL;
+	while (r < m && s[r] > RANK_TOL * s[0])
+		r++;
+	if ((st = reduced_alloc(Q, P, r, T)) != PR_OK)
+		goto done;
+	for (j = 0; j < nf; j++)
+		for (k = 0; k < r; k++)
+			(*T)[(size_t)j * r + k] = V[(size_t)k * nf + j] / s[k];
+	pr_wide_mul(m, nf, r, P->psi, *T, Q->psi);
+	if (r > 0 && s[r - 1] < EXACT_BELOW * s[0]) {
+		xh = malloc((size_t)m * nf * sizeof *xh);
+		xl = malloc((size_t)m * nf * sizeof *xl);
+		t = malloc((size_t)nf * sizeof *t);
+		st = PR_ENOMEM;
+		if (!xh || !xl || !t)
+			goto done;
+		exact_deviations(P, c, xh, xl);
+	}
+	for (k = 0; k < r; k++) {
+		double mean = 0.0;
+
+		if (s[k] < EXACT_BELOW * s[0]) {
+			for (j = 0; j < nf; j++)
+				t[j] = (*T)[(size_t)j * r + k] / c->fs[P->fr[j]];
+			reduced_column(P, xh, xl, t, Q, k);
+			continue;
+		}
+		for (i = 0; i < m; i++)
+			mean += P->q[i] * Q->psi[(size_t)i * r + k];
+		centre_column(P, Q, k, mean);
+	}
+	*cond = r > 0 ? s[0] / s[r - 1] : 1.0;
+	st = PR_OK;
+done:
+	free(W);
+	free(V);
+	free(s);
+	free(mu);
+	free(xh);
+	free(xl);
+	free(t);
+	return st;
+}
+
 static void path_name(int path, char *buf, size_t len)
 {
 	static const struct { int bit; const char *word; } step[] = {
 		{PATH_JOINT, "joint"}, {PATH_CHORD, "chord"}, {PATH_SEARCH, "search"}, {PATH_UP, "up"},
-		{PATH_LIMIT, "limit"}, {PATH_REDUCED, "reduced"}, {PATH_NLOPT, "nlopt"}};
+		{PATH_LIMIT, "limit"}, {PATH_REDUCED, "reduced"}, {PATH_NLOPT, "nlopt"},
+		{PATH_SPAN, "span"}};
 	size_t k, at = 0;
 
 	buf[0] = '\0';
@@ -2724,7 +2834,7 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, int
 	r->iterations += w.evals;
 	r->rank = P->nf;
 	r->cond = hess_cond(&w, P->nf);
-	path_name(w.path | (T ? PATH_REDUCED : 0), r->path, sizeof r->path);
+	path_name(w.path | (T ? (c->span ? PATH_SPAN : PATH_REDUCED) : 0), r->path, sizeof r->path);
 	certify(c, &L, verdict, T != NULL, r);
 	if (bailed)
 		*bailed = verdict == V_FAILED && w.stalled;
@@ -2791,6 +2901,26 @@ static void solve_constant(const ctx_t *c, pr_reps_result *r)
 	}
 }
 
+/* Dense features at least as many as the samples: the dual lives on
+ * their span, of dimension below m, so the reduced basis of
+ * prob_reduce_wide is the one attempt (the span first, not a retry after a
+ * Hessian of order nf). */
+static int solve_wide(ctx_t *c, const prob *P, pr_reps_result *r)
+{
+	double *T = NULL, cond = 1.0;
+	prob Q;
+	int st;
+
+	memset(&Q, 0, sizeof Q);
+	c->span = 1;
+	st = prob_reduce_wide(&Q, P, c, &T, &cond);
+	if (st == PR_OK)
+		st = attempt(c, &Q, P, T, 0, NULL, r);
+	prob_free(&Q);
+	free(T);
+	return st;
+}
+
 /* The attempt on P's own features, then the reduced basis if it failed or
  * left a Hessian too ill-conditioned to trust (cond > COND_RETRY) on dense
  * features (retry). With retry, the first attempt also gives up when it
@@ -2800,6 +2930,8 @@ static int two_attempts(ctx_t *c, prob *P, int retry, int *bailed, pr_reps_resul
 	int st;
 
 	*bailed = 0;
+	if (retry && P->nf >= P->m)
+		return solve_wide(c, P, *r);
 	st = attempt(c, P, P, NULL, retry, bailed, *r);
 	if (st == PR_OK && ((*r)->status == PR_REPS_FAILED || (*r)->cond > COND_RETRY) && retry) {
 		/* standardise again: the search shifted P's returns */
@@ -2847,7 +2979,7 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		}
 	if (d > 0)
 		feature_stats(pb, rows, qs, m, phat, fs);
-	c = (ctx_t){o, pb, rows, m, qn, phat, fs, 0.0, 1.0, fs + d, NULL};
+	c = (ctx_t){o, pb, rows, m, qn, phat, fs, 0.0, 1.0, fs + d, NULL, 0};
 	if (d > 0 && (pb->phi || pb->val)) {
 		/* dense features: what phat, a double, leaves of sum q phi */
 		c.corr = fs + 3 * d + 2;

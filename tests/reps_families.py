@@ -7,13 +7,18 @@ FAMILIES = ["collinear", "extreme", "offsets"]
 # rank-k Hessian kernel and the least-squares start); not one of the three
 # hard families, so it has its own, smaller test
 WIDE = "wide_dense"
+# at least as many dense features as samples, of low rank, some with a near
+# duplicate column: the solver's span path (d >= n)
+WIDE_SPAN = "wide_span"
 
 
 def make_family(kind, seed):
     """(R, q, phi, eps) of problem `seed` of family `kind`."""
-    rng = np.random.default_rng([23, (FAMILIES + [WIDE]).index(kind), seed])
+    rng = np.random.default_rng([23, (FAMILIES + [WIDE, WIDE_SPAN]).index(kind), seed])
     if kind == WIDE:
         return wide_dense(rng)
+    if kind == WIDE_SPAN:
+        return wide_span(rng)
     if kind == "collinear":
         n = int(rng.integers(20, 201))
         d = int(rng.integers(2, 7))
@@ -62,6 +67,32 @@ def wide_dense(rng):
         k = int(rng.integers(d))
         phi[:, (k + 1) % d] = phi[:, k] * 3.0 + 1e-7 * phi[:, k].std() * rng.normal(size=n)
     R = np.sin(3 * S[:, 0]) - S[:, 1] + (phi[:, :3] / np.abs(phi[:, :3]).max(0)) @ rng.normal(size=3)
+    if rng.random() < 1 / 3:
+        R = R + rng.standard_t(2, size=n)
+    q = np.exp(rng.normal(0.0, 0.5, size=n)) if rng.random() < 0.5 else None
+    eps = float(10 ** rng.uniform(-3, 0.5))
+    return R, q, phi, eps
+
+
+def wide_span(rng):
+    """n in 8..60 samples, d in n..2n dense features B C of rank k in 1..n+1
+    (k >= n - 1: only p = q matches them), column scales over four decades,
+    in half the cases one column three times another plus 1e-8 ... 1e-6 of
+    its spread (one more direction, nearly dependent; closer ones are the
+    collinear family's), returns that depend
+    on B, with a heavy tail in a third of the cases."""
+    n = int(rng.integers(8, 61))
+    d = int(rng.integers(n, 2 * n + 1))
+    k = int(rng.integers(1, n + 2))
+    S = rng.uniform(size=(n, 2))
+    B = rng.normal(size=(n, k))
+    phi = B @ (rng.normal(size=(k, d)) * 10 ** rng.uniform(-2, 2, size=d))
+    if rng.random() < 0.5:
+        j = int(rng.integers(d))
+        delta = 10 ** rng.uniform(-8, -6)
+        spread = phi[:, j].max() - phi[:, j].min()
+        phi[:, (j + 1) % d] = phi[:, j] * 3.0 + delta * spread * rng.normal(size=n)
+    R = np.sin(3 * S[:, 0]) - S[:, 1] + B[:, :2] @ rng.normal(size=min(k, 2))
     if rng.random() < 1 / 3:
         R = R + rng.standard_t(2, size=n)
     q = np.exp(rng.normal(0.0, 0.5, size=n)) if rng.random() < 0.5 else None

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import ref_reps
-from reps_families import FAMILIES, WIDE, make_family
+from reps_families import FAMILIES, WIDE, WIDE_SPAN, make_family
 from test_ref_reps import run_c
 
 NSEEDS = 100
@@ -37,10 +37,21 @@ def test_wide_dense_path_against_reference(tmp_path, seed):
     check_against_reference(tmp_path, WIDE, seed)
 
 
+@pytest.mark.parametrize("seed", range(40))
+def test_wide_span_against_reference(tmp_path, seed):
+    """At least as many dense features as samples, of low rank, with near
+    duplicate columns: solved on the span of the features from the start
+    (path ending in span), same tolerances."""
+    check_against_reference(tmp_path, WIDE_SPAN, seed)
+
+
 def check_against_reference(tmp_path, kind, seed):
     R, q, phi, eps = make_family(kind, seed)
     qq = np.ones(len(R)) if q is None else q
     p, s = run_c(tmp_path, R, q, phi, eps)
+    if kind == WIDE_SPAN:
+        # no Newton step on a Hessian of order d, no retry
+        assert s["path"].endswith("span") and "reduced" not in s["path"], s
     assert s["status"] in ("active", "unreachable"), s
     assert float(s["residual_rel"]) <= 1e-9, s
     if s["status"] == "active":

@@ -115,7 +115,9 @@ typedef struct {
 	                        any theta solve worked), limit (the eta -> 0 limit),
 	                        reduced (a second attempt on a well-conditioned
 	                        basis after the first failed), nlopt (reps.solver =
-	                        nlopt) */
+	                        nlopt), span (dense features at least as many
+	                        as the samples: solved on their span, of
+	                        dimension below n, from the start) */
 } pr_reps_result;
 
 /* Solve the dual and certify the result (see the file comment): Newton's
