@@ -82,7 +82,7 @@ const char *pr_reps_status_name(int status)
 #define SHIFT 1e-10
 /* Steps a solve took (pr_reps_result.path). */
 enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCED = 16,
-       PATH_NLOPT = 32, PATH_CHORD = 64, PATH_SPAN = 128 };
+       PATH_NLOPT = 32, PATH_CHORD = 64, PATH_SPAN = 128, PATH_CG = 256 };
 /* Rank tolerance of the reduced basis: singular values of the
  * sqrt(q)-weighted solver features below RANK_TOL of the largest are the
  * round-off of an exact dependence (1e-16 ... 1e-14 of it, whatever the
@@ -99,6 +99,10 @@ enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCE
  * features: a product of the rounded ones would keep fewer than 12 of
  * their digits. */
 #define EXACT_BELOW 1e-4
+/* The matrix-free Newton step (pr_cg): relative residual, and products at
+ * most (Newton's own iterations absorb an inexact step). */
+#define CG_TOL 1e-12
+#define CG_MAXIT 2000
 /* Dense problems with at least this many free features form Cov_p(psi) as
  * a rank-k update (pr_syrk_acc_rows on the sqrt(p)-weighted rows) instead
  * of row by row: other products (sqrt p dv_j sqrt p dv_k for p dv_j dv_k),
@@ -189,6 +193,12 @@ typedef struct {
 	                        SYRK_ROWS x nfp rows of sqrt(p) (psi - psi_c);
 	                        nfp x nfp sums */
 	int threads;         /* threads that share the rank-k update (dense) */
+	int mfree;           /* matrix-free (dense, pr_cg): no H, Y or Hp */
+	double *ph, *pv;     /* mfree: m, the weights of the last covariances; scratch */
+	double *mcv, *hdg;   /* mfree: nf, sum p (psi - psi_c); diagonal of Cov_p(psi) */
+	double *cgw;         /* mfree: 4 nf, pr_cg's scratch */
+	double eh;           /* mfree: eta of the last factor() */
+	int cref;            /* mfree: the row c of the last covariances */
 } work;
 
 static void work_free(work *w)
@@ -211,6 +221,11 @@ static void work_free(work *w)
 	free(w->dth);
 	free(w->u);
 	free(w->iscr);
+	free(w->ph);
+	free(w->pv);
+	free(w->mcv);
+	free(w->hdg);
+	free(w->cgw);
 }
 
 /* Threads for the Hessian of an m x nf dense problem: those asked for, at
@@ -227,7 +242,7 @@ static int hess_threads(int asked, int m, int nfp)
 	return t < nfp / PR_SYRK_TJ ? t : nfp / PR_SYRK_TJ;
 }
 
-static int work_alloc(work *w, const prob *P, int max_evals, int threads)
+static int work_alloc(work *w, const prob *P, int max_evals, int threads, int mfree)
 {
 	const int m = P->m, nf = P->nf;
 	size_t a = (size_t)(nf > 0 ? nf : 1), b = (size_t)m;
@@ -244,7 +259,18 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 		if (!w->pt[k].th || !w->pt[k].A || !w->pt[k].p || !w->pt[k].g)
 			return PR_ENOMEM;
 	}
-	w->H = gsl_matrix_alloc(a, a);
+	if (mfree) {
+		w->mfree = 1;
+		w->ph = malloc(b * sizeof *w->ph);
+		w->pv = malloc(b * sizeof *w->pv);
+		w->mcv = malloc(a * sizeof *w->mcv);
+		w->hdg = malloc(a * sizeof *w->hdg);
+		w->cgw = malloc(4 * a * sizeof *w->cgw);
+		if (!w->ph || !w->pv || !w->mcv || !w->hdg || !w->cgw)
+			return PR_ENOMEM;
+	} else if (!(w->H = gsl_matrix_alloc(a, a))) {
+		return PR_ENOMEM;
+	}
 	w->dsc = calloc(a, sizeof(double));
 	w->v1 = calloc(a, sizeof(double));
 	w->v2 = calloc(a, sizeof(double));
@@ -252,7 +278,7 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 	w->dth = calloc(a, sizeof(double));
 	w->u = calloc(b, sizeof(double));
 	w->iscr = calloc(3 * a, sizeof(int));
-	if (!P->bin && nf >= BLAS_MIN_NF) {
+	if (!P->bin && nf >= BLAS_MIN_NF && !mfree) {
 		w->nfp = (nf + PR_SYRK_W - 1) / PR_SYRK_W * PR_SYRK_W;
 		w->threads = hess_threads(threads, m, w->nfp);
 		/* a block of Y per thread (without the memory, one thread: the
@@ -266,8 +292,7 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 		if (!w->Y || !w->Hp)
 			return PR_ENOMEM;
 	}
-	return w->H && w->dsc && w->v1 && w->v2 && w->c && w->dth && w->u && w->iscr ? PR_OK
-	                                                                        : PR_ENOMEM;
+	return w->dsc && w->v1 && w->v2 && w->c && w->dth && w->u && w->iscr ? PR_OK : PR_ENOMEM;
 }
 
 /* Rows lo .. hi - 1 of A = R - psi th, each row's sum in column order, four
@@ -492,6 +517,39 @@ static void covariances_blas(const prob *P, work *w, const point *x, int c, doub
 	w->varu = vu;
 }
 
+/* covariances() without the matrix (matrix-free, dense): the weights and
+ * the row c kept for hprod, the diagonal of Cov_p(psi) (w->hdg, for the
+ * preconditioner), sum p (psi - psi_c) (w->mcv), Cov_p(psi, u) (w->c) and
+ * Var_p(u), in O(m nf). */
+static void moments_mfree(const prob *P, work *w, const point *x, int c, double mu)
+{
+	const int m = P->m, nf = P->nf;
+	const double *rc = P->psi + (size_t)c * nf;
+	double vu = 0.0;
+	int i, j;
+
+	memset(w->mcv, 0, (size_t)nf * sizeof *w->mcv);
+	memset(w->hdg, 0, (size_t)nf * sizeof *w->hdg);
+	memset(w->c, 0, (size_t)nf * sizeof *w->c);
+	for (i = 0; i < m; i++) {
+		const double pi = x->p[i], du = w->u[i] - mu, *r = P->psi + (size_t)i * nf;
+
+		vu += pi * du * du;
+		w->ph[i] = pi;
+		for (j = 0; j < nf; j++) {
+			const double dv = r[j] - rc[j];
+
+			w->mcv[j] += pi * dv;
+			w->c[j] += pi * dv * du;
+			w->hdg[j] += pi * dv * dv;
+		}
+	}
+	for (j = 0; j < nf; j++)
+		w->hdg[j] -= w->mcv[j] * w->mcv[j];
+	w->varu = vu;
+	w->cref = c;
+}
+
 /* Cov_p(psi) (free features) into the upper triangle of w->H, Cov_p(psi, u)
  * into w->c and Var_p(u) into w->varu, at the weights of x. The moments are
  * taken about the row c with the largest weight,
@@ -502,8 +560,9 @@ static void covariances_blas(const prob *P, work *w, const point *x, int c, doub
 static void covariances(const prob *P, work *w, double eta, const point *x)
 {
 	const int m = P->m, nf = P->nf;
-	double *H = w->H->data, *mc = w->v1, *dv = w->v2, mu = 0.0, vu = 0.0, pmax = -1.0;
-	const size_t td = w->H->tda;
+	double *H = w->H ? w->H->data : NULL, *mc = w->v1, *dv = w->v2, mu = 0.0, vu = 0.0;
+	double pmax = -1.0;
+	const size_t td = w->H ? w->H->tda : 0;
 	int *dj = w->iscr, *inc = w->iscr + nf, *ini = w->iscr + 2 * (size_t)nf;
 	int i, j, k, l, c = 0, nd;
 
@@ -514,6 +573,10 @@ static void covariances(const prob *P, work *w, double eta, const point *x)
 			pmax = x->p[i];
 			c = i;
 		}
+	}
+	if (w->mfree) {
+		moments_mfree(P, w, x, c, mu);
+		return;
 	}
 	for (j = 0; j < nf; j++) {
 		memset(H + (size_t)j * td + j, 0, (size_t)(nf - j) * sizeof *H);
@@ -658,13 +721,67 @@ static void psd_solve(gsl_matrix *H, int n, const double *dsc, const double *b, 
 		x[j] *= dsc[j];
 }
 
+/* Matrix-free: only the Jacobi scaling of H = Cov/eta + diag(rw), with
+ * psd_factor's rule for frozen rows; hsolve solves by pr_cg. */
+static int factor_mfree(const prob *P, work *w, double eta)
+{
+	double dmax = 0.0;
+	int j;
+
+	w->eh = eta;
+	for (j = 0; j < P->nf; j++) {
+		w->dsc[j] = w->hdg[j] / eta + (P->rw ? P->rw[j] : 0.0);
+		dmax = fmax(dmax, w->dsc[j]);
+	}
+	for (j = 0; j < P->nf; j++) {
+		const double d = w->dsc[j];
+
+		w->dsc[j] = d > 1e-150 && d > 1e-30 * dmax ? 1.0 / sqrt(d) : 0.0;
+	}
+	return PR_OK;
+}
+
+/* H v for the matrix-free solve: (sum p d (psi - psi_c) - mc (mc.v)) / eta
+ * + rw v with d = (psi - psi_c) v, at the weights of the last covariances
+ * (two products with psi, dgemv). */
+typedef struct {
+	const prob *P;
+	work *w;
+} hprod_ctx;
+
+static void hprod(void *ctx, const double *v, double *out)
+{
+	const hprod_ctx *h = ctx;
+	const prob *P = h->P;
+	work *w = h->w;
+	const int m = P->m, nf = P->nf;
+	const double *rc = P->psi + (size_t)w->cref * nf;
+	double tc = 0.0, mv = 0.0, sd = 0.0;
+	int i, j;
+
+	pr_wide_gemv(m, nf, P->psi, 0, v, w->pv);
+	for (j = 0; j < nf; j++) {
+		tc += rc[j] * v[j];
+		mv += w->mcv[j] * v[j];
+	}
+	for (i = 0; i < m; i++) {
+		w->pv[i] = w->ph[i] * (w->pv[i] - tc);
+		sd += w->pv[i];
+	}
+	pr_wide_gemv(m, nf, P->psi, 1, w->pv, out);
+	for (j = 0; j < nf; j++)
+		out[j] = (out[j] - sd * rc[j] - w->mcv[j] * mv) / w->eh + (P->rw ? P->rw[j] * v[j] : 0.0);
+}
+
 /* Factorises H = Cov/eta + diag(rw) (Cov in the upper triangle of w->H). */
 static int factor(const prob *P, work *w, double eta)
 {
-	const size_t td = w->H->tda;
-	double *H = w->H->data;
+	const size_t td = w->mfree ? 0 : w->H->tda;
+	double *H = w->mfree ? NULL : w->H->data;
 	int j, k;
 
+	if (w->mfree)
+		return factor_mfree(P, w, eta);
 	for (j = 0; j < P->nf; j++) {
 		for (k = j; k < P->nf; k++)
 			H[(size_t)j * td + k] /= eta;
@@ -677,7 +794,12 @@ static int factor(const prob *P, work *w, double eta)
 /* x = H^-1 b with the factorisation of factor() (x may alias b). */
 static void hsolve(const prob *P, work *w, const double *b, double *x)
 {
-	psd_solve(w->H, P->nf, w->dsc, b, x);
+	hprod_ctx h = {P, w};
+
+	if (w->mfree)
+		pr_cg(P->nf, hprod, &h, w->dsc, SHIFT, b, x, CG_TOL, CG_MAXIT, w->cgw);
+	else
+		psd_solve(w->H, P->nf, w->dsc, b, x);
 }
 
 /* After a factorisation at x: the regression of u on the features,
@@ -706,7 +828,7 @@ static double hess_cond(const work *w, int nf)
 	double lo = HUGE_VAL, hi = 0.0;
 	int j;
 
-	for (j = 0; j < nf; j++)
+	for (j = 0; j < nf && !w->mfree; j++)
 		if (w->dsc[j] > 0.0) {
 			double l = gsl_matrix_get(w->H, (size_t)j, (size_t)j);
 
@@ -1586,7 +1708,8 @@ static int limit_primal(const prob *P, limit_ws *s, int max_evals, limit_t *L, d
 
 	memset(&F, 0, sizeof F);
 	memset(&w, 0, sizeof w);
-	if ((st = prob_face(&F, P, s->S, ns)) != PR_OK || (st = work_alloc(&w, &F, max_evals, 1)) != PR_OK)
+	if ((st = prob_face(&F, P, s->S, ns)) != PR_OK ||
+	    (st = work_alloc(&w, &F, max_evals, 1, 0)) != PR_OK)
 		goto done;
 	if (ns == s->nb && F.nf > 0) {
 		/* the face is the vertex's support: start from the weights that fit
@@ -2460,6 +2583,7 @@ typedef struct {
 	double *tmp;         /* d + nf scratch */
 	double *corr;        /* dense features: d, sum q (phi - phat) (certify); else NULL */
 	int span;            /* the reduced basis is solve_wide's (path "span") */
+	int mfree;           /* solve matrix-free (path "cg") */
 } ctx_t;
 
 /* Column r of Q less mean, and its target sum q zeta_r, which p = q meets. */
@@ -2709,7 +2833,7 @@ static void path_name(int path, char *buf, size_t len)
 	static const struct { int bit; const char *word; } step[] = {
 		{PATH_JOINT, "joint"}, {PATH_CHORD, "chord"}, {PATH_SEARCH, "search"}, {PATH_UP, "up"},
 		{PATH_LIMIT, "limit"}, {PATH_REDUCED, "reduced"}, {PATH_NLOPT, "nlopt"},
-		{PATH_SPAN, "span"}};
+		{PATH_SPAN, "span"}, {PATH_CG, "cg"}};
 	size_t k, at = 0;
 
 	buf[0] = '\0';
@@ -2785,7 +2909,7 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, int
 	int verdict, j, k, st = PR_ENOMEM;
 
 	memset(&L, 0, sizeof L);
-	if (work_alloc(&w, P, c->o->max_iter, c->o->threads) != PR_OK)
+	if (work_alloc(&w, P, c->o->max_iter, c->o->threads, c->mfree) != PR_OK)
 		goto done;
 	w.bail = bail;
 	L.p = malloc((size_t)P->m * sizeof *L.p);
@@ -2834,7 +2958,7 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, int
 	r->iterations += w.evals;
 	r->rank = P->nf;
 	r->cond = hess_cond(&w, P->nf);
-	path_name(w.path | (T ? (c->span ? PATH_SPAN : PATH_REDUCED) : 0), r->path, sizeof r->path);
+	path_name(w.path | (w.mfree ? PATH_CG : 0) | (T ? (c->span ? PATH_SPAN : PATH_REDUCED) : 0), r->path, sizeof r->path);
 	certify(c, &L, verdict, T != NULL, r);
 	if (bailed)
 		*bailed = verdict == V_FAILED && w.stalled;
@@ -2930,6 +3054,8 @@ static int two_attempts(ctx_t *c, prob *P, int retry, int *bailed, pr_reps_resul
 	int st;
 
 	*bailed = 0;
+	if (c->mfree)
+		return attempt(c, P, P, NULL, 0, NULL, *r);
 	if (retry && P->nf >= P->m)
 		return solve_wide(c, P, *r);
 	st = attempt(c, P, P, NULL, retry, bailed, *r);
@@ -2939,6 +3065,19 @@ static int two_attempts(ctx_t *c, prob *P, int retry, int *bailed, pr_reps_resul
 		st = retry_reduced(c, P, r);
 	}
 	return st;
+}
+
+/* PR_ENOMEM, before the solver allocates more than P's features, when its
+ * peak (pr_reps_bytes) exceeds the memory the process may use. */
+static int fits_memory(const prob *P, int mfree, char *err)
+{
+	const double need = pr_reps_bytes(P->m, P->nf, P->bin, mfree), have = pr_memory_bytes();
+
+	if (need <= have)
+		return PR_OK;
+	return pr_err(err, PR_ENOMEM, "reps: %d samples x %d free features need about %.3g GiB, "
+	              "more than the %.3g GiB of memory", P->m, P->nf, need / 1073741824.0,
+	              have / 1073741824.0);
 }
 
 static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_result **out,
@@ -2979,7 +3118,7 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		}
 	if (d > 0)
 		feature_stats(pb, rows, qs, m, phat, fs);
-	c = (ctx_t){o, pb, rows, m, qn, phat, fs, 0.0, 1.0, fs + d, NULL, 0};
+	c = (ctx_t){o, pb, rows, m, qn, phat, fs, 0.0, 1.0, fs + d, NULL, 0, 0};
 	if (d > 0 && (pb->phi || pb->val)) {
 		/* dense features: what phat, a double, leaves of sum q phi */
 		c.corr = fs + 3 * d + 2;
@@ -2999,6 +3138,11 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		goto done;
 	}
 	retry = !P.bin && P.nf > 0 && !P.rw;
+	/* wide problems (nf >= m) always have dependent directions: the span */
+	c.mfree = !P.bin && P.nf > 0 && (o->solver == PR_REPS_SOLVER_CG ||
+	                                 (P.nf < P.m && P.nf >= PR_MFREE_MIN));
+	if ((st = fits_memory(&P, c.mfree, err)) != PR_OK)
+		goto done;
 	st = two_attempts(&c, &P, retry, &bailed, &r);
 	if (st == PR_OK && bailed && r->status == PR_REPS_FAILED) {
 		/* cut short, and the reduced basis did not certify either: the
