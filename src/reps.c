@@ -3025,6 +3025,39 @@ static void solve_constant(const ctx_t *c, pr_reps_result *r)
 	}
 }
 
+/* A span of every centred direction (rank m - 1): sum p zeta = sum q zeta
+ * and sum p = 1 leave p = q alone, the linear programme's one feasible
+ * point, so the eta -> 0 limit is q (KL 0 < eps, unreachable) with LP gap
+ * and outside mass 0, and theta the LP dual whose reduced costs all vanish:
+ * R - zeta th constant, th = sum q zeta (R - sum q R) (zeta is
+ * q-orthonormal). Certified on the original features as any answer. */
+static int span_full(const ctx_t *c, const prob *Q, const prob *P, const double *T,
+                     pr_reps_result *r)
+{
+	double *th = calloc((size_t)Q->nf, sizeof *th), *th0 = c->tmp + c->pb->d, rq = 0.0;
+	limit_t L;
+	int i, j, k;
+
+	if (!th)
+		return PR_ENOMEM;
+	memset(&L, 0, sizeof L);
+	for (i = 0; i < Q->m; i++)
+		rq += Q->q[i] * Q->R[i];
+	for (i = 0; i < Q->m; i++)
+		for (k = 0; k < Q->nf; k++)
+			th[k] += Q->q[i] * Q->psi[(size_t)i * Q->nf + k] * (Q->R[i] - rq);
+	for (j = 0; j < P->nf; j++)
+		for (th0[j] = 0.0, k = 0; k < Q->nf; k++)
+			th0[j] += T[(size_t)j * Q->nf + k] * th[k];
+	free(th);
+	map_back(c->pb, P, Q->q, th0, c->fs, c->rmax, c->scale, 0.0, rq, 0.0, r);
+	r->rank = Q->nf;
+	r->cond = 1.0;
+	path_name(PATH_LIMIT | PATH_SPAN, r->path, sizeof r->path);
+	certify(c, &L, V_UNREACHABLE, 1, r);
+	return PR_OK;
+}
+
 /* Dense features at least as many as the samples: the dual lives on
  * their span, of dimension below m, so the reduced basis of
  * prob_reduce_wide is the one attempt (the span first, not a retry after a
@@ -3038,7 +3071,9 @@ static int solve_wide(ctx_t *c, const prob *P, pr_reps_result *r)
 	memset(&Q, 0, sizeof Q);
 	c->span = 1;
 	st = prob_reduce_wide(&Q, P, c, &T, &cond);
-	if (st == PR_OK)
+	if (st == PR_OK && Q.nf == Q.m - 1)
+		st = span_full(c, &Q, P, T, r);
+	else if (st == PR_OK)
 		st = attempt(c, &Q, P, T, 0, NULL, r);
 	prob_free(&Q);
 	free(T);
