@@ -4,7 +4,8 @@ Python binding, in-process: the span path for d >= n, Newton on LAPACK
 above 1024 features, matrix-free from 8192) against scipy's trust-exact on
 the same dual (scripts/bench_reps.py's scipy_solve, numpy's BLAS), in the
 same run, for n in {200, 2000, 20000} x d in {1000, 5151, 20000} where
-they fit: a shape runs when its features take at most --max-cells cells
+they fit, and (--previous) the poolreps before this path (GSL's Cholesky
+at every order, no span path): a shape runs when its features take at most --max-cells cells
 (default 2e7: 160 MB), scipy only while its d x d Hessian takes at most
 --scipy-max-d columns (default 5151).
 
@@ -38,13 +39,15 @@ def data(n, d):
     return phi[:, :3].sum(1) + rng.normal(size=n), phi
 
 
-def child(solver, n, d, out):
-    """Solve one shape in this process; p to out (.npy), a summary line to stdout."""
+def child(solver, n, d, out, root):
+    """Solve one shape in this process (poolreps: the binding of the tree
+    root); p to out (.npy), a summary line to stdout."""
     R, phi = data(n, d)
-    if solver == "poolreps":
+    if solver.startswith("poolreps"):
         sys.path.insert(0, os.path.join(ROOT, "scripts"))
         from bench_reps import binding
-        mod = binding()
+        os.environ["POOLREPS_LIB"] = os.path.join(root, "build", "rel", "libpoolreps.so.0.1.0")
+        mod = binding(root)
         t = time.perf_counter()
         r = mod.reps(R, phi, epsilon=EPS)
         dt, p, status, path = time.perf_counter() - t, r["p"], r["status"], r["path"]
@@ -58,10 +61,11 @@ def child(solver, n, d, out):
     print(f"{dt!r},{status},{path}")
 
 
-def run(solver, n, d, tmp, timeout):
+def run(solver, n, d, tmp, timeout, root=ROOT):
     """(seconds, peak MiB, status, path, p or None) of one child."""
     out = os.path.join(tmp, f"{solver}.npy")
-    proc = subprocess.Popen([sys.executable, __file__, "--child", solver, str(n), str(d), out],
+    proc = subprocess.Popen([sys.executable, __file__, "--child", solver, str(n), str(d), out,
+                             root],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     t0 = time.monotonic()
     while True:
@@ -88,10 +92,11 @@ def main():
     ap.add_argument("--max-cells", type=float, default=2e7)
     ap.add_argument("--scipy-max-d", type=int, default=5151)
     ap.add_argument("--timeout", type=float, default=600.0)
-    ap.add_argument("--child", nargs=4)
+    ap.add_argument("--previous", help="source tree of an earlier poolreps (build/rel built)")
+    ap.add_argument("--child", nargs=5)
     a = ap.parse_args()
     if a.child:
-        child(a.child[0], int(a.child[1]), int(a.child[2]), a.child[3])
+        child(a.child[0], int(a.child[1]), int(a.child[2]), a.child[3], a.child[4])
         return
     import tempfile
     os.makedirs(os.path.dirname(a.csv), exist_ok=True)
@@ -102,6 +107,9 @@ def main():
                 if n * d > a.max_cells:
                     continue
                 res = {"poolreps": run("poolreps", n, d, tmp, a.timeout)}
+                if a.previous:
+                    res["poolreps-previous"] = run("poolreps-previous", n, d, tmp, a.timeout,
+                                                   a.previous)
                 if d <= a.scipy_max_d:
                     res["scipy-trust-exact"] = run("scipy", n, d, tmp, a.timeout)
                 ref = res.get("scipy-trust-exact", (None,) * 5)[4]

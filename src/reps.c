@@ -99,7 +99,7 @@ enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCE
  * features: a product of the rounded ones would keep fewer than 12 of
  * their digits. */
 #define EXACT_BELOW 1e-4
-/* The matrix-free Newton step (pr_cg): relative residual, and products at
+/* The matrix-free Newton step (pr_wide_cg): relative residual, and products at
  * most (Newton's own iterations absorb an inexact step). */
 #define CG_TOL 1e-12
 #define CG_MAXIT 2000
@@ -193,10 +193,10 @@ typedef struct {
 	                        SYRK_ROWS x nfp rows of sqrt(p) (psi - psi_c);
 	                        nfp x nfp sums */
 	int threads;         /* threads that share the rank-k update (dense) */
-	int mfree;           /* matrix-free (dense, pr_cg): no H, Y or Hp */
+	int mfree;           /* matrix-free (dense, pr_wide_cg): no H, Y or Hp */
 	double *ph, *pv;     /* mfree: m, the weights of the last covariances; scratch */
 	double *mcv, *hdg;   /* mfree: nf, sum p (psi - psi_c); diagonal of Cov_p(psi) */
-	double *cgw;         /* mfree: 4 nf, pr_cg's scratch */
+	double *cgw;         /* mfree: 4 nf, pr_wide_cg's scratch */
 	double eh;           /* mfree: eta of the last factor() */
 	int cref;            /* mfree: the row c of the last covariances */
 } work;
@@ -696,7 +696,7 @@ static int psd_factor(gsl_matrix *H, int n, double *dsc)
 				h[(size_t)j * td + k] = h[(size_t)k * td + j] * dsc[j] * dsc[k];
 			h[(size_t)j * td + j] = 1.0 + shift;
 		}
-		if (n >= PR_LAPACK_MIN ? !pr_lapack_cholesky(h, n, td) :
+		if (n >= PR_LAPACK_MIN ? !pr_wide_cholesky(h, n, td) :
 		    gsl_linalg_cholesky_decomp1(&hv.matrix) == GSL_SUCCESS)
 			return PR_OK;
 	}
@@ -722,7 +722,7 @@ static void psd_solve(gsl_matrix *H, int n, const double *dsc, const double *b, 
 }
 
 /* Matrix-free: only the Jacobi scaling of H = Cov/eta + diag(rw), with
- * psd_factor's rule for frozen rows; hsolve solves by pr_cg. */
+ * psd_factor's rule for frozen rows; hsolve solves by pr_wide_cg. */
 static int factor_mfree(const prob *P, work *w, double eta)
 {
 	double dmax = 0.0;
@@ -797,7 +797,7 @@ static void hsolve(const prob *P, work *w, const double *b, double *x)
 	hprod_ctx h = {P, w};
 
 	if (w->mfree)
-		pr_cg(P->nf, hprod, &h, w->dsc, SHIFT, b, x, CG_TOL, CG_MAXIT, w->cgw);
+		pr_wide_cg(P->nf, hprod, &h, w->dsc, SHIFT, b, x, CG_TOL, CG_MAXIT, w->cgw);
 	else
 		psd_solve(w->H, P->nf, w->dsc, b, x);
 }
@@ -2958,7 +2958,8 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, int
 	r->iterations += w.evals;
 	r->rank = P->nf;
 	r->cond = hess_cond(&w, P->nf);
-	path_name(w.path | (w.mfree ? PATH_CG : 0) | (T ? (c->span ? PATH_SPAN : PATH_REDUCED) : 0), r->path, sizeof r->path);
+	path_name(w.path | (w.mfree ? PATH_CG : 0) | (T ? (c->span ? PATH_SPAN : PATH_REDUCED) : 0),
+	          r->path, sizeof r->path);
 	certify(c, &L, verdict, T != NULL, r);
 	if (bailed)
 		*bailed = verdict == V_FAILED && w.stalled;
@@ -3103,10 +3104,10 @@ static int two_attempts(ctx_t *c, prob *P, int retry, int *bailed, pr_reps_resul
 }
 
 /* PR_ENOMEM, before the solver allocates more than P's features, when its
- * peak (pr_reps_bytes) exceeds the memory the process may use. */
+ * peak (pr_wide_bytes) exceeds the memory the process may use. */
 static int fits_memory(const prob *P, int mfree, char *err)
 {
-	const double need = pr_reps_bytes(P->m, P->nf, P->bin, mfree), have = pr_memory_bytes();
+	const double need = pr_wide_bytes(P->m, P->nf, P->bin, mfree), have = pr_wide_memory();
 
 	if (need <= have)
 		return PR_OK;

@@ -70,7 +70,7 @@ void pr_wide_mul(int m, int k, int r, const double *A, const double *B, double *
 		dgemm_("N", "N", &r, &m, &k, &one, B, &r, A, &k, &zero, C, &r);
 }
 
-int pr_lapack_cholesky(double *H, int n, size_t td)
+int pr_wide_cholesky(double *H, int n, size_t td)
 {
 	/* the row-major lower triangle is the column-major upper one: H = U^T U
 	 * with U = L^T */
@@ -96,7 +96,7 @@ static double dot(int n, const double *a, const double *b)
 	return s;
 }
 
-int pr_cg(int n, void (*hv)(void *ctx, const double *v, double *out), void *ctx,
+int pr_wide_cg(int n, void (*hv)(void *ctx, const double *v, double *out), void *ctx,
           const double *dsc, double shift, const double *b, double *x, double tol, int maxit,
           double *work)
 {
@@ -133,7 +133,7 @@ int pr_cg(int n, void (*hv)(void *ctx, const double *v, double *out), void *ctx,
 	return it;
 }
 
-double pr_reps_bytes(int m, int d, int bin, int mfree)
+double pr_wide_bytes(int m, int d, int bin, int mfree)
 {
 	const double md = (double)m * d, dd = (double)d * d, mm = (double)m * m;
 
@@ -148,7 +148,7 @@ double pr_reps_bytes(int m, int d, int bin, int mfree)
 	return d >= m ? 8.0 * (5.0 * md + 3.0 * mm) : 8.0 * (5.0 * md + 4.0 * dd);
 }
 
-double pr_memory_bytes(void)
+double pr_wide_memory(void)
 {
 	const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
 	double mem = pages > 0 && page > 0 ? (double)pages * page : 1e300;

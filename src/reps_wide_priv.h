@@ -27,10 +27,10 @@ void pr_wide_mul(int m, int k, int r, const double *A, const double *B, double *
  * lower triangle (diagonal included) is stored row-major in H with row
  * stride td: L into that lower triangle (dpotrf), the upper one kept.
  * Returns 0 on success, else not positive definite. */
-int pr_lapack_cholesky(double *H, int n, size_t td);
+int pr_wide_cholesky(double *H, int n, size_t td);
 
 /* Free dense features (fewer than the samples) from which REPS solves
- * matrix-free (pr_cg), without forming or factorising a Hessian: from here
+ * matrix-free (pr_wide_cg), without forming or factorising a Hessian: from here
  * on one factorisation costs more than 1e11 multiply-adds and the matrix
  * and its padded copy a GiB. */
 #define PR_MFREE_MIN 8192
@@ -44,16 +44,16 @@ void pr_wide_gemv(int m, int k, const double *A, int trans, const double *x, dou
  * 0 = a frozen direction), from x = 0, until the preconditioned residual
  * falls to tol of b's or after maxit products. work: 4 n. Returns the
  * products taken. */
-int pr_cg(int n, void (*hv)(void *ctx, const double *v, double *out), void *ctx,
+int pr_wide_cg(int n, void (*hv)(void *ctx, const double *v, double *out), void *ctx,
           const double *dsc, double shift, const double *b, double *x, double tol, int maxit,
           double *work);
 
 /* Bytes a REPS solve of m samples and d free features allocates at its
  * peak, about (one-hot features; matrix-free; dense otherwise). */
-double pr_reps_bytes(int m, int d, int bin, int mfree);
+double pr_wide_bytes(int m, int d, int bin, int mfree);
 
 /* The memory a process may use: physical memory, or the address-space
  * limit (ulimit -v) when that is lower. */
-double pr_memory_bytes(void);
+double pr_wide_memory(void);
 
 #endif

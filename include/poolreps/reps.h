@@ -48,7 +48,8 @@ typedef struct {
  * 8192 free ones and more samples); cg = the same path with each Newton
  * step solved by conjugate gradients on Hessian-vector products (dense
  * features; one-hot ones take the newton path), memory O(n d), no reduced
- * basis: nearly dependent features fail the certificate; nlopt = NLopt's L-BFGS on the dual over (log eta, theta),
+ * basis: nearly dependent features fail the certificate; nlopt = NLopt's
+ * L-BFGS on the dual over (log eta, theta),
  * its answer certified the same way (it has no eta -> 0 limit, so an
  * unreachable bound is a failed certificate). */
 enum { PR_REPS_SOLVER_NEWTON = 0, PR_REPS_SOLVER_NLOPT = 1, PR_REPS_SOLVER_CG = 2 };
