@@ -13,11 +13,7 @@ BASE=${BENCH_WIDE_BASE:-619731f81dbb065e0d9f44a9480136adb6db32a2}
 ${MAKE:-make} -s SAN=0 build/rel/libpoolreps.so.0.1.0
 TMP=$(mktemp -d "${TMPDIR:-/tmp}/bench_reps_wide.XXXXXX")
 trap 'rm -rf "$TMP"' EXIT INT TERM
-PREV=
-if [ "$BASE" != none ]; then
-	. scripts/prev_build.sh
-	prev_build "$BASE" "$TMP/previous" build/rel/libpoolreps.so.0.1.0
-	PREV="--previous $TMP/previous"
-fi
+. scripts/prev_build.sh
+PREV=$(prev_option "$BASE" "$TMP")
 "${PYTHON:-python3}" scripts/bench_reps_wide.py --csv build/bench/reps_wide.csv \
 	--max-cells "${BENCH_WIDE_MAX_CELLS:-2e7}" $PREV
