@@ -28,10 +28,6 @@ else
 endif
 ALL_CFLAGS = $(WARN) $(DEFS) -Iinclude -Isrc $(shell pkg-config --cflags $(PKGS) 2>/dev/null) $(CFLAGS) -MMD -MP
 LIBS    := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lglpk -lcsv -linih -lnlopt -lpthread -lm
-# LAPACK on OpenBLAS for wide REPS problems (reps_wide.c). GSL's own CBLAS
-# comes first, kept even where nothing calls it directly, so that GSL's
-# cblas_ calls bind to it and not to OpenBLAS's: GSL keeps its bits.
-LIBS    += -Wl,--push-state,--no-as-needed -lgslcblas -Wl,--pop-state -llapacke -lopenblas
 
 LIB_SRC := $(wildcard src/*.c)
 LIB_OBJ := $(LIB_SRC:src/%.c=$(BUILD)/%.o)

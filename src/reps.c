@@ -2985,7 +2985,8 @@ static int retry_reduced(const ctx_t *c, const prob *P, pr_reps_result **r)
 	int st;
 
 	memset(&Q, 0, sizeof Q);
-	st = r2 ? prob_reduce(&Q, P, c, &T, &cond) : PR_ENOMEM;
+	st = !r2 ? PR_ENOMEM : P->nf >= P->m ? prob_reduce_wide(&Q, P, c, &T, &cond) :
+	     prob_reduce(&Q, P, c, &T, &cond);
 	if (st == PR_OK) {
 		r2->iterations = (*r)->iterations;
 		st = attempt(c, &Q, P, T, 0, NULL, r2);
@@ -3092,7 +3093,8 @@ static int two_attempts(ctx_t *c, prob *P, int retry, int *bailed, pr_reps_resul
 	*bailed = 0;
 	if (c->mfree)
 		return attempt(c, P, P, NULL, 0, NULL, *r);
-	if (retry && P->nf >= P->m)
+	/* NLopt keeps its own path: it has no eta -> 0 limit to certify */
+	if (retry && P->nf >= P->m && c->o->solver == PR_REPS_SOLVER_NEWTON)
 		return solve_wide(c, P, *r);
 	st = attempt(c, P, P, NULL, retry, bailed, *r);
 	if (st == PR_OK && ((*r)->status == PR_REPS_FAILED || (*r)->cond > COND_RETRY) && retry) {

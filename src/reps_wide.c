@@ -2,41 +2,112 @@
  * d >= n features, and factorisations of order PR_LAPACK_MIN and more
  * (reps_wide_priv.h). Row-major arrays are handed to the column-major
  * routines as their transposes. */
+#include <dlfcn.h>
+#include <pthread.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
-#include <lapacke.h>
-
 #include "poolreps/common.h"
 #include "common_priv.h"
 #include "reps_wide_priv.h"
 
-/* BLAS's Fortran entry point (OpenBLAS): GSL keeps the cblas_ names of its
- * own reference BLAS, so every product GSL computes keeps its bits. */
-void dgemm_(const char *ta, const char *tb, const int *m, const int *n, const int *k,
-            const double *alpha, const double *a, const int *lda, const double *b,
-            const int *ldb, const double *beta, double *c, const int *ldc);
+/* LAPACK and BLAS of OpenBLAS, through their Fortran entry points, loaded
+ * on first use (la_load) rather than linked: OpenBLAS starts its threads
+ * when it loads, and they must block the fatal signals, which the command
+ * line defers around its commits by blocking them in its own threads. GSL
+ * keeps its own CBLAS, so every product GSL computes keeps its bits. */
+typedef void dgeqrf_t(const int *m, const int *n, double *a, const int *lda, double *tau,
+                      double *work, const int *lwork, int *info);
+typedef void dgesdd_t(const char *jobz, const int *m, const int *n, double *a, const int *lda,
+                      double *s, double *u, const int *ldu, double *vt, const int *ldvt,
+                      double *work, const int *lwork, int *iwork, int *info);
+typedef void dormqr_t(const char *side, const char *trans, const int *m, const int *n,
+                      const int *k, const double *a, const int *lda, const double *tau,
+                      double *c, const int *ldc, double *work, const int *lwork, int *info);
+typedef void dpotrf_t(const char *uplo, const int *n, double *a, const int *lda, int *info);
+typedef void dgemm_t(const char *ta, const char *tb, const int *m, const int *n, const int *k,
+                     const double *alpha, const double *a, const int *lda, const double *b,
+                     const int *ldb, const double *beta, double *c, const int *ldc);
+typedef void dgemv_t(const char *t, const int *m, const int *n, const double *alpha,
+                     const double *a, const int *lda, const double *x, const int *incx,
+                     const double *beta, double *y, const int *incy);
 
-void dgemv_(const char *t, const int *m, const int *n, const double *alpha, const double *a,
-            const int *lda, const double *x, const int *incx, const double *beta, double *y,
-            const int *incy);
+static struct {
+	dgeqrf_t *geqrf;
+	dgesdd_t *gesdd;
+	dormqr_t *ormqr;
+	dpotrf_t *potrf;
+	dgemm_t *gemm;
+	dgemv_t *gemv;
+} la;
+static pthread_once_t la_once = PTHREAD_ONCE_INIT;
+
+/* dlsym into a function pointer through memcpy (ISO C has no cast between
+ * object and function pointers) */
+static void la_sym(void *h, const char *name, void *fp)
+{
+	void *p = h ? dlsym(h, name) : NULL;
+
+	memcpy(fp, &p, sizeof p);
+}
+
+static void la_load(void)
+{
+	sigset_t old;
+	void *h;
+
+	pr_cleanup_hold(&old);
+	h = dlopen("libopenblas.so.0", RTLD_NOW | RTLD_LOCAL);
+	pr_cleanup_release(&old);
+	la_sym(h, "dgeqrf_", &la.geqrf);
+	la_sym(h, "dgesdd_", &la.gesdd);
+	la_sym(h, "dormqr_", &la.ormqr);
+	la_sym(h, "dpotrf_", &la.potrf);
+	la_sym(h, "dgemm_", &la.gemm);
+	la_sym(h, "dgemv_", &la.gemv);
+}
+
+/* 1 when OpenBLAS is loaded with every routine used here */
+static int la_ready(void)
+{
+	pthread_once(&la_once, la_load);
+	return la.geqrf && la.gesdd && la.ormqr && la.potrf && la.gemm && la.gemv;
+}
+
+/* Workspace of a LAPACK routine after its query (lwork = -1) set *w. */
+static double *la_work(double w, int *lwork)
+{
+	*lwork = w > 1.0 ? (int)w : 1;
+	return malloc((size_t)*lwork * sizeof(double));
+}
 
 int pr_wide_span(int m, int nf, const double *W, double *s, double *V)
 {
 	/* W's buffer is W^T in column-major order: nf x m, leading dimension nf */
 	double *A = malloc((size_t)m * nf * sizeof *A), *tau = malloc((size_t)m * sizeof *tau);
 	double *R = calloc((size_t)m * m, sizeof *R), *U = malloc((size_t)m * m * sizeof *U);
-	double *Vt = malloc((size_t)m * m * sizeof *Vt);
-	int i, j, st = PR_ENOMEM;
+	double *Vt = malloc((size_t)m * m * sizeof *Vt), *wk = NULL, q;
+	int *iw = malloc(8 * (size_t)m * sizeof *iw), i, j, lw, info, mone = -1, st = PR_ENOMEM;
 
-	if (!A || !tau || !R || !U || !Vt)
+	if (!A || !tau || !R || !U || !Vt || !iw)
+		goto done;
+	st = PR_ENUM;
+	if (!la_ready())
 		goto done;
 	memcpy(A, W, (size_t)m * nf * sizeof *A);
+	la.geqrf(&nf, &m, A, &nf, tau, &q, &mone, &info);
+	st = PR_ENOMEM;
+	if (info != 0 || !(wk = la_work(q, &lw)))
+		goto done;
+	la.geqrf(&nf, &m, A, &nf, tau, wk, &lw, &info);
+	free(wk);
+	wk = NULL;
 	st = PR_ENUM;
-	if (LAPACKE_dgeqrf(LAPACK_COL_MAJOR, nf, m, A, nf, tau) != 0)
+	if (info != 0)
 		goto done;
 	/* W^T = Q R and R = U S Vt: W = Vt^T S (Q U)^T, so W's right singular
 	 * vectors are Q U, formed by orthogonal transformations (accurate to
@@ -44,20 +115,33 @@ int pr_wide_span(int m, int nf, const double *W, double *s, double *V)
 	for (j = 0; j < m; j++)
 		for (i = 0; i <= j; i++)
 			R[i + (size_t)j * m] = A[i + (size_t)j * nf];
-	if (LAPACKE_dgesdd(LAPACK_COL_MAJOR, 'S', m, m, R, m, s, U, m, Vt, m) != 0)
+	la.gesdd("S", &m, &m, R, &m, s, U, &m, Vt, &m, &q, &mone, iw, &info);
+	st = PR_ENOMEM;
+	if (info != 0 || !(wk = la_work(q, &lw)))
+		goto done;
+	la.gesdd("S", &m, &m, R, &m, s, U, &m, Vt, &m, wk, &lw, iw, &info);
+	free(wk);
+	wk = NULL;
+	st = PR_ENUM;
+	if (info != 0)
 		goto done;
 	memset(V, 0, (size_t)m * nf * sizeof *V);
 	for (j = 0; j < m; j++)
 		memcpy(V + (size_t)j * nf, U + (size_t)j * m, (size_t)m * sizeof *V);
-	if (LAPACKE_dormqr(LAPACK_COL_MAJOR, 'L', 'N', nf, m, m, A, nf, tau, V, nf) != 0)
+	la.ormqr("L", "N", &nf, &m, &m, A, &nf, tau, V, &nf, &q, &mone, &info);
+	st = PR_ENOMEM;
+	if (info != 0 || !(wk = la_work(q, &lw)))
 		goto done;
-	st = PR_OK;
+	la.ormqr("L", "N", &nf, &m, &m, A, &nf, tau, V, &nf, wk, &lw, &info);
+	st = info == 0 ? PR_OK : PR_ENUM;
 done:
 	free(A);
 	free(tau);
 	free(R);
 	free(U);
 	free(Vt);
+	free(iw);
+	free(wk);
 	return st;
 }
 
@@ -65,16 +149,22 @@ void pr_wide_mul(int m, int k, int r, const double *A, const double *B, double *
 {
 	const double one = 1.0, zero = 0.0;
 
-	/* column-major: C^T (r x m) = B^T (r x k) A^T (k x m) */
+	/* column-major: C^T (r x m) = B^T (r x k) A^T (k x m); OpenBLAS is
+	 * loaded: pr_wide_span ran first */
 	if (r > 0)
-		dgemm_("N", "N", &r, &m, &k, &one, B, &r, A, &k, &zero, C, &r);
+		la.gemm("N", "N", &r, &m, &k, &one, B, &r, A, &k, &zero, C, &r);
 }
 
 int pr_wide_cholesky(double *H, int n, size_t td)
 {
+	const int ld = (int)td;
+	int info = 1;
+
 	/* the row-major lower triangle is the column-major upper one: H = U^T U
 	 * with U = L^T */
-	return LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, H, (int)td) != 0;
+	if (la_ready())
+		la.potrf("U", &n, H, &ld, &info);
+	return info != 0;
 }
 
 void pr_wide_gemv(int m, int k, const double *A, int trans, const double *x, double *y)
@@ -82,8 +172,22 @@ void pr_wide_gemv(int m, int k, const double *A, int trans, const double *x, dou
 	const double one = 1.0, zero = 0.0;
 	const int inc = 1;
 
+	int i, j;
+
 	/* the row-major A is the column-major A^T (k x m) */
-	dgemv_(trans ? "N" : "T", &k, &m, &one, A, &k, x, &inc, &zero, y, &inc);
+	if (la_ready()) {
+		la.gemv(trans ? "N" : "T", &k, &m, &one, A, &k, x, &inc, &zero, y, &inc);
+		return;
+	}
+	/* without OpenBLAS: the same products in plain loops */
+	memset(y, 0, (size_t)(trans ? k : m) * sizeof *y);
+	for (i = 0; i < m; i++)
+		for (j = 0; j < k; j++) {
+			if (trans)
+				y[j] += A[(size_t)i * k + j] * x[i];
+			else
+				y[i] += A[(size_t)i * k + j] * x[j];
+		}
 }
 
 static double dot(int n, const double *a, const double *b)

@@ -17,10 +17,12 @@
  * the m x m triangular factor (dgesdd), and its singular vectors mapped
  * back by the Householder reflections (dormqr), O(m^2 nf + m^3). Fills s
  * (m, descending) and V (m x nf row-major: row k is the k-th right singular
- * vector). W is only read. Returns PR_OK, PR_ENOMEM or PR_ENUM. */
+ * vector). W is only read. Returns PR_OK, PR_ENOMEM or PR_ENUM (also when
+ * OpenBLAS, libopenblas.so.0, cannot be loaded). */
 int pr_wide_span(int m, int nf, const double *W, double *s, double *V);
 
-/* C = A B (m x r row-major) for A (m x k) and B (k x r), both row-major. */
+/* C = A B (m x r row-major) for A (m x k) and B (k x r), both row-major
+ * (dgemm); after a successful pr_wide_span. */
 void pr_wide_mul(int m, int k, int r, const double *A, const double *B, double *C);
 
 /* Cholesky factor of the symmetric positive definite n x n matrix whose
@@ -35,7 +37,8 @@ int pr_wide_cholesky(double *H, int n, size_t td);
  * and its padded copy a GiB. */
 #define PR_MFREE_MIN 8192
 
-/* y = A x (trans 0) or y = A^T x (trans 1) for A (m x k, row-major): dgemv. */
+/* y = A x (trans 0) or y = A^T x (trans 1) for A (m x k, row-major): dgemv
+ * (plain loops when OpenBLAS cannot be loaded). */
 void pr_wide_gemv(int m, int k, const double *A, int trans, const double *x, double *y);
 
 /* Matrix-free solve of (H + shift D^-2) x = b for a symmetric positive
