@@ -113,7 +113,8 @@ typedef struct {
 	                        reduced basis, numerically dependent directions) */
 	double cond;         /* (max L_jj / min L_jj)^2 of the Cholesky factor L of
 	                        the last Jacobi-scaled theta Hessian: a lower
-	                        estimate of its condition number (1 without features) */
+	                        estimate of its condition number (1 without features,
+	                        on the matrix-free path and for a full span) */
 	char path[48];       /* steps taken, joined by '+': joint (the joint Newton
 	                        fast path), chord (steps that reused the last
 	                        Hessian near the root; wide dense problems), search
