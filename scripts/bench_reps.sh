@@ -19,12 +19,8 @@ BASE=${BENCH_BASE:-b65e7967daf272532ff0762ea311401f5cb10acf}
 ${MAKE:-make} -s SAN=0 build/rel/poolreps build/rel/libpoolreps.so.0.1.0 build/rel/bench_syrk
 TMP=$(mktemp -d "${TMPDIR:-/tmp}/bench_reps.XXXXXX")
 trap 'rm -rf "$TMP"' EXIT INT TERM
-PREV=
-if [ "$BASE" != none ]; then
-	. scripts/prev_build.sh
-	prev_build "$BASE" "$TMP/previous" build/rel/libpoolreps.so.0.1.0
-	PREV="--previous $TMP/previous"
-fi
+. scripts/prev_build.sh
+PREV=$(prev_option "$BASE" "$TMP")
 "$PY" scripts/bench_reps.py --runs "${RUNS:-3}" --csv build/bench/reps.csv $PREV
 # key=value lines into CSV rows (the keys of the first line as the header)
 for shape in "20000 200" "2000 140"; do

@@ -23,6 +23,7 @@ has_header csv.h || need libcsv-dev
 has_header ini.h || need libinih-dev
 has_header glpk.h || need libglpk-dev
 has_header nlopt.h || need libnlopt-dev
+{ PATH="$PATH:/sbin:/usr/sbin" ldconfig -p 2>/dev/null | grep -q 'libopenblas\.so\.0 '; } || need libopenblas0
 if [ "$mode" = check ]; then
 	# cmocka.h needs these headers first
 	[ $cc_ok = 0 ] || printf '#include <stdarg.h>\n#include <stddef.h>\n#include <stdint.h>\n#include <setjmp.h>\n#include <cmocka.h>\n' |

@@ -14,10 +14,11 @@ libnlopt-dev libcmocka-dev python3 python3-numpy python3-scipy python3-matplotli
 python3-pytest python3-pytest-xdist"
 # the 60-digit REPS reference (tests/ref_reps_mp.py)
 PKGS="$PKGS python3-mpmath"
-# tests that need these skip without them (libopenblas0: numpy's BLAS, so that
-# the REPS benchmark's scipy peer runs as a user's would)
+# LAPACK on OpenBLAS (loaded when first needed): wide REPS problems
+PKGS="$PKGS libopenblas0"
+# tests that need these skip without them
 EXTRAS="python3-venv python3-wheel parallel valgrind clang libclang-rt-14-dev \
-slurm-wlm munge openssh-server chromium libopenblas0 time"
+slurm-wlm munge openssh-server chromium time"
 probe=0
 for a in "$@"; do
 	case $a in

@@ -15,3 +15,11 @@ prev_build() {
 		git rev-parse "$ref" > "$dir/.ref"
 	fi
 }
+
+# prev_option REF TMP: prev_build of REF's library into TMP/previous, then
+# the --previous option naming it on stdout; nothing when REF is none.
+prev_option() {
+	[ "$1" = none ] && return 0
+	prev_build "$1" "$2/previous" build/rel/libpoolreps.so.0.1.0 >&2
+	echo "--previous $2/previous"
+}

@@ -104,8 +104,8 @@ static const pr_config_key core_keys[] = {
 	{"reps", "eta_min", PR_KEY_DOUBLE, F(reps.eta_min), 0, 1, PR_KEY_OPEN_LO | PR_KEY_OPEN_HI, "",
 	 "eta (return standard deviations) below which the eta -> 0 limit decides if KL = epsilon is reachable"},
 	{"reps", "max_iter", PR_KEY_INT, F(reps.max_iter), 1, 10000000, 0, "", "dual evaluations per solve"},
-	{"reps", "solver", PR_KEY_ENUM, F(reps.solver), 0, 0, 0, "newton|nlopt",
-	 "dual solver: Newton with the eta -> 0 limit, or NLopt's L-BFGS polished by it (same certificate)"},
+	{"reps", "solver", PR_KEY_ENUM, F(reps.solver), 0, 0, 0, "newton|nlopt|cg",
+	 "dual solver: Newton with the eta -> 0 limit, NLopt's L-BFGS polished by Newton, or Newton with conjugate-gradient steps (matrix-free; same certificate)"},
 	{"reps", "allow_failed", PR_KEY_INT, F(reps.allow_failed), 0, 1, 0, "",
 	 "experiments: 1 records an uncertified REPS solve (status failed) and goes on; 0 fails the run"},
 

@@ -44,6 +44,7 @@
 
 #include "poolreps/reps.h"
 #include "common_priv.h"
+#include "reps_wide_priv.h"
 #include "syrk_priv.h"
 
 void pr_reps_opts_init(pr_reps_opts *o)
@@ -91,7 +92,7 @@ static double kl_tol(double eps)
 #define SHIFT 1e-10
 /* Steps a solve took (pr_reps_result.path). */
 enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCED = 16,
-       PATH_NLOPT = 32, PATH_CHORD = 64 };
+       PATH_NLOPT = 32, PATH_CHORD = 64, PATH_SPAN = 128, PATH_CG = 256 };
 /* Rank tolerance of the reduced basis: singular values of the
  * sqrt(q)-weighted solver features below RANK_TOL of the largest are the
  * round-off of an exact dependence (1e-16 ... 1e-14 of it, whatever the
@@ -103,6 +104,15 @@ enum { PATH_JOINT = 1, PATH_SEARCH = 2, PATH_UP = 4, PATH_LIMIT = 8, PATH_REDUCE
  * to dependent for the digits of psi (the pivots below 1e-8 of the largest
  * come from directions that only the last digits of the data hold). */
 #define COND_RETRY 1e8
+/* Directions of the wide reduced basis (prob_reduce_wide) whose singular
+ * value is below this fraction of the largest are formed from the exact
+ * features: a product of the rounded ones would keep fewer than 12 of
+ * their digits. */
+#define EXACT_BELOW 1e-4
+/* The matrix-free Newton step (pr_wide_cg): relative residual, and products at
+ * most (Newton's own iterations absorb an inexact step). */
+#define CG_TOL 1e-12
+#define CG_MAXIT 2000
 /* Dense problems with at least this many free features form Cov_p(psi) as
  * a rank-k update (pr_syrk_acc_rows on the sqrt(p)-weighted rows) instead
  * of row by row: other products (sqrt p dv_j sqrt p dv_k for p dv_j dv_k),
@@ -193,6 +203,12 @@ typedef struct {
 	                        SYRK_ROWS x nfp rows of sqrt(p) (psi - psi_c);
 	                        nfp x nfp sums */
 	int threads;         /* threads that share the rank-k update (dense) */
+	int mfree;           /* matrix-free (dense, pr_wide_cg): no H, Y or Hp */
+	double *ph, *pv;     /* mfree: m, the weights of the last covariances; scratch */
+	double *mcv, *hdg;   /* mfree: nf, sum p (psi - psi_c); diagonal of Cov_p(psi) */
+	double *cgw;         /* mfree: 4 nf, pr_wide_cg's scratch */
+	double eh;           /* mfree: eta of the last factor() */
+	int cref;            /* mfree: the row c of the last covariances */
 } work;
 
 static void work_free(work *w)
@@ -215,6 +231,11 @@ static void work_free(work *w)
 	free(w->dth);
 	free(w->u);
 	free(w->iscr);
+	free(w->ph);
+	free(w->pv);
+	free(w->mcv);
+	free(w->hdg);
+	free(w->cgw);
 }
 
 /* Threads for the Hessian of an m x nf dense problem: those asked for, at
@@ -231,7 +252,7 @@ static int hess_threads(int asked, int m, int nfp)
 	return t < nfp / PR_SYRK_TJ ? t : nfp / PR_SYRK_TJ;
 }
 
-static int work_alloc(work *w, const prob *P, int max_evals, int threads)
+static int work_alloc(work *w, const prob *P, int max_evals, int threads, int mfree)
 {
 	const int m = P->m, nf = P->nf;
 	size_t a = (size_t)(nf > 0 ? nf : 1), b = (size_t)m;
@@ -248,7 +269,18 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 		if (!w->pt[k].th || !w->pt[k].A || !w->pt[k].p || !w->pt[k].g)
 			return PR_ENOMEM;
 	}
-	w->H = gsl_matrix_alloc(a, a);
+	if (mfree) {
+		w->mfree = 1;
+		w->ph = malloc(b * sizeof *w->ph);
+		w->pv = malloc(b * sizeof *w->pv);
+		w->mcv = malloc(a * sizeof *w->mcv);
+		w->hdg = malloc(a * sizeof *w->hdg);
+		w->cgw = malloc(4 * a * sizeof *w->cgw);
+		if (!w->ph || !w->pv || !w->mcv || !w->hdg || !w->cgw)
+			return PR_ENOMEM;
+	} else if (!(w->H = gsl_matrix_alloc(a, a))) {
+		return PR_ENOMEM;
+	}
 	w->dsc = calloc(a, sizeof(double));
 	w->v1 = calloc(a, sizeof(double));
 	w->v2 = calloc(a, sizeof(double));
@@ -256,7 +288,7 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 	w->dth = calloc(a, sizeof(double));
 	w->u = calloc(b, sizeof(double));
 	w->iscr = calloc(3 * a, sizeof(int));
-	if (!P->bin && nf >= BLAS_MIN_NF) {
+	if (!P->bin && nf >= BLAS_MIN_NF && !mfree) {
 		w->nfp = (nf + PR_SYRK_W - 1) / PR_SYRK_W * PR_SYRK_W;
 		w->threads = hess_threads(threads, m, w->nfp);
 		/* a block of Y per thread (without the memory, one thread: the
@@ -270,8 +302,7 @@ static int work_alloc(work *w, const prob *P, int max_evals, int threads)
 		if (!w->Y || !w->Hp)
 			return PR_ENOMEM;
 	}
-	return w->H && w->dsc && w->v1 && w->v2 && w->c && w->dth && w->u && w->iscr ? PR_OK
-	                                                                        : PR_ENOMEM;
+	return w->dsc && w->v1 && w->v2 && w->c && w->dth && w->u && w->iscr ? PR_OK : PR_ENOMEM;
 }
 
 /* Rows lo .. hi - 1 of A = R - psi th, each row's sum in column order, four
@@ -512,6 +543,39 @@ static void covariances_blas(const prob *P, work *w, const point *x, int c, doub
 	w->varu = vu;
 }
 
+/* covariances() without the matrix (matrix-free, dense): the weights and
+ * the row c kept for hprod, the diagonal of Cov_p(psi) (w->hdg, for the
+ * preconditioner), sum p (psi - psi_c) (w->mcv), Cov_p(psi, u) (w->c) and
+ * Var_p(u), in O(m nf). */
+static void moments_mfree(const prob *P, work *w, const point *x, int c, double mu)
+{
+	const int m = P->m, nf = P->nf;
+	const double *rc = P->psi + (size_t)c * nf;
+	double vu = 0.0;
+	int i, j;
+
+	memset(w->mcv, 0, (size_t)nf * sizeof *w->mcv);
+	memset(w->hdg, 0, (size_t)nf * sizeof *w->hdg);
+	memset(w->c, 0, (size_t)nf * sizeof *w->c);
+	for (i = 0; i < m; i++) {
+		const double pi = x->p[i], du = w->u[i] - mu, *r = P->psi + (size_t)i * nf;
+
+		vu += pi * du * du;
+		w->ph[i] = pi;
+		for (j = 0; j < nf; j++) {
+			const double dv = r[j] - rc[j];
+
+			w->mcv[j] += pi * dv;
+			w->c[j] += pi * dv * du;
+			w->hdg[j] += pi * dv * dv;
+		}
+	}
+	for (j = 0; j < nf; j++)
+		w->hdg[j] -= w->mcv[j] * w->mcv[j];
+	w->varu = vu;
+	w->cref = c;
+}
+
 /* Cov_p(psi) (free features) into the upper triangle of w->H, Cov_p(psi, u)
  * into w->c and Var_p(u) into w->varu, at the weights of x. The moments are
  * taken about the row c with the largest weight,
@@ -522,8 +586,9 @@ static void covariances_blas(const prob *P, work *w, const point *x, int c, doub
 static void covariances(const prob *P, work *w, double eta, const point *x)
 {
 	const int m = P->m, nf = P->nf;
-	double *H = w->H->data, *mc = w->v1, *dv = w->v2, mu = 0.0, vu = 0.0, pmax = -1.0;
-	const size_t td = w->H->tda;
+	double *H = w->H ? w->H->data : NULL, *mc = w->v1, *dv = w->v2, mu = 0.0, vu = 0.0;
+	double pmax = -1.0;
+	const size_t td = w->H ? w->H->tda : 0;
 	int *dj = w->iscr, *inc = w->iscr + nf, *ini = w->iscr + 2 * (size_t)nf;
 	int i, j, k, l, c = 0, nd;
 
@@ -534,6 +599,10 @@ static void covariances(const prob *P, work *w, double eta, const point *x)
 			pmax = x->p[i];
 			c = i;
 		}
+	}
+	if (w->mfree) {
+		moments_mfree(P, w, x, c, mu);
+		return;
 	}
 	for (j = 0; j < nf; j++) {
 		memset(H + (size_t)j * td + j, 0, (size_t)(nf - j) * sizeof *H);
@@ -653,7 +722,8 @@ static int psd_factor(gsl_matrix *H, int n, double *dsc)
 				h[(size_t)j * td + k] = h[(size_t)k * td + j] * dsc[j] * dsc[k];
 			h[(size_t)j * td + j] = 1.0 + shift;
 		}
-		if (gsl_linalg_cholesky_decomp1(&hv.matrix) == GSL_SUCCESS)
+		if (n >= PR_LAPACK_MIN ? !pr_wide_cholesky(h, n, td) :
+		    gsl_linalg_cholesky_decomp1(&hv.matrix) == GSL_SUCCESS)
 			return PR_OK;
 	}
 	return PR_ENUM;
@@ -677,13 +747,67 @@ static void psd_solve(gsl_matrix *H, int n, const double *dsc, const double *b, 
 		x[j] *= dsc[j];
 }
 
+/* Matrix-free: only the Jacobi scaling of H = Cov/eta + diag(rw), with
+ * psd_factor's rule for frozen rows; hsolve solves by pr_wide_cg. */
+static int factor_mfree(const prob *P, work *w, double eta)
+{
+	double dmax = 0.0;
+	int j;
+
+	w->eh = eta;
+	for (j = 0; j < P->nf; j++) {
+		w->dsc[j] = w->hdg[j] / eta + (P->rw ? P->rw[j] : 0.0);
+		dmax = fmax(dmax, w->dsc[j]);
+	}
+	for (j = 0; j < P->nf; j++) {
+		const double d = w->dsc[j];
+
+		w->dsc[j] = d > 1e-150 && d > 1e-30 * dmax ? 1.0 / sqrt(d) : 0.0;
+	}
+	return PR_OK;
+}
+
+/* H v for the matrix-free solve: (sum p d (psi - psi_c) - mc (mc.v)) / eta
+ * + rw v with d = (psi - psi_c) v, at the weights of the last covariances
+ * (two products with psi, dgemv). */
+typedef struct {
+	const prob *P;
+	work *w;
+} hprod_ctx;
+
+static void hprod(void *ctx, const double *v, double *out)
+{
+	const hprod_ctx *h = ctx;
+	const prob *P = h->P;
+	work *w = h->w;
+	const int m = P->m, nf = P->nf;
+	const double *rc = P->psi + (size_t)w->cref * nf;
+	double tc = 0.0, mv = 0.0, sd = 0.0;
+	int i, j;
+
+	pr_wide_gemv(m, nf, P->psi, 0, v, w->pv);
+	for (j = 0; j < nf; j++) {
+		tc += rc[j] * v[j];
+		mv += w->mcv[j] * v[j];
+	}
+	for (i = 0; i < m; i++) {
+		w->pv[i] = w->ph[i] * (w->pv[i] - tc);
+		sd += w->pv[i];
+	}
+	pr_wide_gemv(m, nf, P->psi, 1, w->pv, out);
+	for (j = 0; j < nf; j++)
+		out[j] = (out[j] - sd * rc[j] - w->mcv[j] * mv) / w->eh + (P->rw ? P->rw[j] * v[j] : 0.0);
+}
+
 /* Factorises H = Cov/eta + diag(rw) (Cov in the upper triangle of w->H). */
 static int factor(const prob *P, work *w, double eta)
 {
-	const size_t td = w->H->tda;
-	double *H = w->H->data;
+	const size_t td = w->mfree ? 0 : w->H->tda;
+	double *H = w->mfree ? NULL : w->H->data;
 	int j, k;
 
+	if (w->mfree)
+		return factor_mfree(P, w, eta);
 	for (j = 0; j < P->nf; j++) {
 		for (k = j; k < P->nf; k++)
 			H[(size_t)j * td + k] /= eta;
@@ -696,7 +820,12 @@ static int factor(const prob *P, work *w, double eta)
 /* x = H^-1 b with the factorisation of factor() (x may alias b). */
 static void hsolve(const prob *P, work *w, const double *b, double *x)
 {
-	psd_solve(w->H, P->nf, w->dsc, b, x);
+	hprod_ctx h = {P, w};
+
+	if (w->mfree)
+		pr_wide_cg(P->nf, hprod, &h, w->dsc, SHIFT, b, x, CG_TOL, CG_MAXIT, w->cgw);
+	else
+		psd_solve(w->H, P->nf, w->dsc, b, x);
 }
 
 /* After a factorisation at x: the regression of u on the features,
@@ -725,7 +854,7 @@ static double hess_cond(const work *w, int nf)
 	double lo = HUGE_VAL, hi = 0.0;
 	int j;
 
-	for (j = 0; j < nf; j++)
+	for (j = 0; j < nf && !w->mfree; j++)
 		if (w->dsc[j] > 0.0) {
 			double l = gsl_matrix_get(w->H, (size_t)j, (size_t)j);
 
@@ -1669,7 +1798,8 @@ static int limit_primal(const prob *P, limit_ws *s, int max_evals, limit_t *L, d
 
 	memset(&F, 0, sizeof F);
 	memset(&w, 0, sizeof w);
-	if ((st = prob_face(&F, P, s->S, ns)) != PR_OK || (st = work_alloc(&w, &F, max_evals, 1)) != PR_OK)
+	if ((st = prob_face(&F, P, s->S, ns)) != PR_OK ||
+	    (st = work_alloc(&w, &F, max_evals, 1, 0)) != PR_OK)
 		goto done;
 	if (ns == s->nb && F.nf > 0) {
 		/* the face is the vertex's support: start from the weights that fit
@@ -2567,7 +2697,20 @@ typedef struct {
 	double rmax, scale;
 	double *tmp;         /* d + nf scratch */
 	double *corr;        /* dense features: d, sum q (phi - phat) (certify); else NULL */
+	int span;            /* the reduced basis is solve_wide's (path "span") */
+	int mfree;           /* solve matrix-free (path "cg") */
 } ctx_t;
+
+/* Column r of Q less mean, and its target sum q zeta_r, which p = q meets. */
+static void centre_column(const prob *P, prob *Q, int r, double mean)
+{
+	int i;
+
+	for (i = 0; i < P->m; i++) {
+		Q->psi[(size_t)i * Q->nf + r] -= mean;
+		Q->tg[r] += P->q[i] * Q->psi[(size_t)i * Q->nf + r];
+	}
+}
 
 /* Column r of Q: z_i = sum_j (phi_ij - phat_j) t_j, centred on its q-mean,
  * which is its target. phi - phat is exact as xh + xl, and the sum is
@@ -2595,10 +2738,7 @@ static void reduced_column(const prob *P, const double *xh, const double *xl, co
 		Q->psi[(size_t)i * Q->nf + r] = s + e;
 		mean += P->q[i] * (s + e);
 	}
-	for (i = 0; i < m; i++) {
-		Q->psi[(size_t)i * Q->nf + r] -= mean;
-		Q->tg[r] += P->q[i] * Q->psi[(size_t)i * Q->nf + r];
-	}
+	centre_column(P, Q, r, mean);
 }
 
 /* gsl_linalg_SV_decomp: PR_OK, PR_ENUM, or PR_ENOMEM when it ran out of
@@ -2621,6 +2761,59 @@ static int svd_guarded(gsl_matrix *A, gsl_matrix *V, gsl_vector *S, gsl_vector *
 	return st;
 }
 
+/* phi - phat exactly as xh + xl (TwoSum), m x nf, for P's rows and features. */
+static void exact_deviations(const prob *P, const ctx_t *c, double *xh, double *xl)
+{
+	const int m = P->m, nf = P->nf;
+	int i, j;
+
+	for (i = 0; i < m; i++)
+		for (j = 0; j < nf; j++) {
+			const int f = P->fr[j];
+			const double a = feat(c->pb, P->rowid[i], f), b = -c->phat[f];
+			double h = a + b, z = h - a;
+
+			xh[(size_t)i * nf + j] = h;
+			xl[(size_t)i * nf + j] = (a - (h - z)) + (b - z);
+		}
+}
+
+/* Q with P's rows, returns and weights and r dense features (unit
+ * residual scale, no blocks), and T (P->nf x r) zeroed. */
+static int reduced_alloc(prob *Q, const prob *P, int r, double **T)
+{
+	const int m = P->m;
+	int k;
+
+	if (prob_alloc(Q, m, r, 0, 0, 0) != PR_OK ||
+	    !(*T = calloc((size_t)P->nf * (r > 0 ? r : 1), sizeof **T)))
+		return PR_ENOMEM;
+	Q->eps = P->eps;
+	memcpy(Q->R, P->R, (size_t)m * sizeof *Q->R);
+	memcpy(Q->q, P->q, (size_t)m * sizeof *Q->q);
+	memcpy(Q->rowid, P->rowid, (size_t)m * sizeof *Q->rowid);
+	for (k = 0; k < r; k++) {
+		Q->fr[k] = k;
+		Q->gs[k] = 1.0;
+		Q->blk[k] = -1;
+	}
+	return PR_OK;
+}
+
+/* W = diag(sqrt q) (psi - mu), mu = sum q psi (m x nf, row-major). */
+static void weighted_centred(const prob *P, double *mu, double *W)
+{
+	const int m = P->m, nf = P->nf;
+	int i, j;
+
+	for (i = 0; i < m; i++)
+		for (j = 0; j < nf; j++)
+			mu[j] += P->q[i] * P->psi[(size_t)i * nf + j];
+	for (i = 0; i < m; i++)
+		for (j = 0; j < nf; j++)
+			W[(size_t)i * nf + j] = sqrt(P->q[i]) * (P->psi[(size_t)i * nf + j] - mu[j]);
+}
+
 /* A well-conditioned basis of P's dense features: W = diag(sqrt q) (psi -
  * sum q psi) = U S V^T (Golub-Reinsch SVD, GSL); directions with singular
  * value below RANK_TOL of the largest are dropped, and Q's features are
@@ -2632,65 +2825,38 @@ static int svd_guarded(gsl_matrix *A, gsl_matrix *V, gsl_vector *S, gsl_vector *
  * *cond = s_1 / s_r. */
 static int prob_reduce(prob *Q, const prob *P, const ctx_t *c, double **T, double *cond)
 {
-	const int m = P->m, nf = P->nf, tall = m >= nf, mn = tall ? nf : m;
+	const int m = P->m, nf = P->nf;
 	double *xh = malloc((size_t)m * nf * sizeof *xh), *xl = malloc((size_t)m * nf * sizeof *xl);
 	double *t = malloc((size_t)nf * sizeof *t);
-	gsl_matrix *A = gsl_matrix_alloc((size_t)(tall ? m : nf), (size_t)mn);
-	gsl_matrix *B = gsl_matrix_alloc((size_t)mn, (size_t)mn);
-	gsl_vector *S = gsl_vector_alloc((size_t)mn), *wk = gsl_vector_alloc((size_t)mn);
+	gsl_matrix *A = gsl_matrix_alloc((size_t)m, (size_t)nf);
+	gsl_matrix *B = gsl_matrix_alloc((size_t)nf, (size_t)nf);
+	gsl_vector *S = gsl_vector_alloc((size_t)nf), *wk = gsl_vector_alloc((size_t)nf);
 	double *mu = calloc((size_t)nf, sizeof *mu), smax = 0.0, smin = HUGE_VAL;
-	int i, j, k, r = 0, st = PR_ENOMEM;
+	int j, k, r = 0, st = PR_ENOMEM;
 
 	*T = NULL;
 	if (!A || !B || !S || !wk || !mu || !xh || !xl || !t)
 		goto done;
-	for (i = 0; i < m; i++)
-		for (j = 0; j < nf; j++) {
-			const int f = P->fr[j];
-			const double a = feat(c->pb, P->rowid[i], f), b = -c->phat[f];
-			double h = a + b, z = h - a;
-
-			/* TwoSum: phi - phat exactly as h + l */
-			xh[(size_t)i * nf + j] = h;
-			xl[(size_t)i * nf + j] = (a - (h - z)) + (b - z);
-			mu[j] += P->q[i] * P->psi[(size_t)i * nf + j];
-		}
-	for (i = 0; i < m; i++)
-		for (j = 0; j < nf; j++) {
-			double v = sqrt(P->q[i]) * (P->psi[(size_t)i * nf + j] - mu[j]);
-
-			gsl_matrix_set(A, (size_t)(tall ? i : j), (size_t)(tall ? j : i), v);
-		}
+	exact_deviations(P, c, xh, xl);
+	weighted_centred(P, mu, A->data);
 	if ((st = svd_guarded(A, B, S, wk)) != PR_OK)
 		goto done;
-	for (k = 0; k < mn; k++)
+	for (k = 0; k < nf; k++)
 		smax = fmax(smax, gsl_vector_get(S, (size_t)k));
-	for (k = 0; k < mn; k++)
+	for (k = 0; k < nf; k++)
 		r += gsl_vector_get(S, (size_t)k) > RANK_TOL * smax;
 
-	if ((st = prob_alloc(Q, m, r, 0, 0, 0)) != PR_OK)
+	if ((st = reduced_alloc(Q, P, r, T)) != PR_OK)
 		goto done;
-	if (!(*T = calloc((size_t)nf * (r > 0 ? r : 1), sizeof **T))) {
-		st = PR_ENOMEM;
-		goto done;
-	}
-	Q->eps = P->eps;
-	memcpy(Q->R, P->R, (size_t)m * sizeof *Q->R);
-	memcpy(Q->q, P->q, (size_t)m * sizeof *Q->q);
-	memcpy(Q->rowid, P->rowid, (size_t)m * sizeof *Q->rowid);
-	/* W = A S B^T (tall) or W^T = A S B^T: U and V are A, B or B, A */
-	for (k = 0, r = 0; k < mn; k++) {
+	/* W = A S B^T: U = A, V = B */
+	for (k = 0, r = 0; k < nf; k++) {
 		const double sk = gsl_vector_get(S, (size_t)k);
 
 		if (!(sk > RANK_TOL * smax))
 			continue;
 		smin = fmin(smin, sk);
-		Q->fr[r] = r;
-		Q->gs[r] = 1.0;
-		Q->blk[r] = -1;
 		for (j = 0; j < nf; j++) {
-			(*T)[(size_t)j * Q->nf + r] = (tall ? gsl_matrix_get(B, (size_t)j, (size_t)k) :
-			                              gsl_matrix_get(A, (size_t)j, (size_t)k)) / sk;
+			(*T)[(size_t)j * Q->nf + r] = gsl_matrix_get(B, (size_t)j, (size_t)k) / sk;
 			t[j] = (*T)[(size_t)j * Q->nf + r] / c->fs[P->fr[j]];
 		}
 		reduced_column(P, xh, xl, t, Q, r);
@@ -2710,11 +2876,79 @@ done:
 	return st;
 }
 
+/* prob_reduce for nf >= m (the primary path of wide dense problems): the
+ * span of W = diag(sqrt q) (psi - mu) = U S V^T from LAPACK
+ * (pr_wide_span), at O(m^2 nf + m^3) instead of a Newton step's O(m nf^2 +
+ * nf^3); rank as prob_reduce. T = V_r S_r^-1, and Q's features zeta = psi
+ * T, centred: combinations of the features themselves, so errors of V only
+ * mix the kept directions. A product of the rounded psi keeps about 1e-16
+ * s_1 / s_k of direction k's digits: below EXACT_BELOW s_1, zeta is formed
+ * from the exact features as in prob_reduce (reduced_column). */
+static int prob_reduce_wide(prob *Q, const prob *P, const ctx_t *c, double **T, double *cond)
+{
+	const int m = P->m, nf = P->nf;
+	double *W = malloc((size_t)m * nf * sizeof *W), *V = malloc((size_t)m * nf * sizeof *V);
+	double *s = malloc((size_t)m * sizeof *s), *mu = calloc((size_t)nf, sizeof *mu);
+	double *xh = NULL, *xl = NULL, *t = NULL;
+	int i, j, k, r = 0, st = PR_ENOMEM;
+
+	*T = NULL;
+	if (!W || !V || !s || !mu)
+		goto done;
+	weighted_centred(P, mu, W);
+	if ((st = pr_wide_span(m, nf, W, s, V)) != PR_OK)
+		goto done;
+	free(W);
+	W = NULL;
+	while (r < m && s[r] > RANK_TOL * s[0])
+		r++;
+	if ((st = reduced_alloc(Q, P, r, T)) != PR_OK)
+		goto done;
+	for (j = 0; j < nf; j++)
+		for (k = 0; k < r; k++)
+			(*T)[(size_t)j * r + k] = V[(size_t)k * nf + j] / s[k];
+	pr_wide_mul(m, nf, r, P->psi, *T, Q->psi);
+	if (r > 0 && s[r - 1] < EXACT_BELOW * s[0]) {
+		xh = malloc((size_t)m * nf * sizeof *xh);
+		xl = malloc((size_t)m * nf * sizeof *xl);
+		t = malloc((size_t)nf * sizeof *t);
+		st = PR_ENOMEM;
+		if (!xh || !xl || !t)
+			goto done;
+		exact_deviations(P, c, xh, xl);
+	}
+	for (k = 0; k < r; k++) {
+		double mean = 0.0;
+
+		if (s[k] < EXACT_BELOW * s[0]) {
+			for (j = 0; j < nf; j++)
+				t[j] = (*T)[(size_t)j * r + k] / c->fs[P->fr[j]];
+			reduced_column(P, xh, xl, t, Q, k);
+			continue;
+		}
+		for (i = 0; i < m; i++)
+			mean += P->q[i] * Q->psi[(size_t)i * r + k];
+		centre_column(P, Q, k, mean);
+	}
+	*cond = r > 0 ? s[0] / s[r - 1] : 1.0;
+	st = PR_OK;
+done:
+	free(W);
+	free(V);
+	free(s);
+	free(mu);
+	free(xh);
+	free(xl);
+	free(t);
+	return st;
+}
+
 static void path_name(int path, char *buf, size_t len)
 {
 	static const struct { int bit; const char *word; } step[] = {
 		{PATH_JOINT, "joint"}, {PATH_CHORD, "chord"}, {PATH_SEARCH, "search"}, {PATH_UP, "up"},
-		{PATH_LIMIT, "limit"}, {PATH_REDUCED, "reduced"}, {PATH_NLOPT, "nlopt"}};
+		{PATH_LIMIT, "limit"}, {PATH_REDUCED, "reduced"}, {PATH_NLOPT, "nlopt"},
+		{PATH_SPAN, "span"}, {PATH_CG, "cg"}};
 	size_t k, at = 0;
 
 	buf[0] = '\0';
@@ -2791,7 +3025,7 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, int
 	int verdict, j, k, st = PR_ENOMEM;
 
 	memset(&L, 0, sizeof L);
-	if (work_alloc(&w, P, c->o->max_iter, c->o->threads) != PR_OK)
+	if (work_alloc(&w, P, c->o->max_iter, c->o->threads, c->mfree) != PR_OK)
 		goto done;
 	w.bail = bail;
 	L.p = malloc((size_t)P->m * sizeof *L.p);
@@ -2843,7 +3077,8 @@ static int attempt(const ctx_t *c, prob *P, const prob *P0, const double *T, int
 	r->iterations += w.evals;
 	r->rank = P->nf;
 	r->cond = hess_cond(&w, P->nf);
-	path_name(w.path | (T ? PATH_REDUCED : 0), r->path, sizeof r->path);
+	path_name(w.path | (w.mfree ? PATH_CG : 0) | (T ? (c->span ? PATH_SPAN : PATH_REDUCED) : 0),
+	          r->path, sizeof r->path);
 	certify(c, &L, verdict, T != NULL, r);
 	if (bailed)
 		*bailed = verdict == V_FAILED && w.stalled;
@@ -2869,7 +3104,8 @@ static int retry_reduced(const ctx_t *c, const prob *P, pr_reps_result **r)
 	int st;
 
 	memset(&Q, 0, sizeof Q);
-	st = r2 ? prob_reduce(&Q, P, c, &T, &cond) : PR_ENOMEM;
+	st = !r2 ? PR_ENOMEM : P->nf >= P->m ? prob_reduce_wide(&Q, P, c, &T, &cond) :
+	     prob_reduce(&Q, P, c, &T, &cond);
 	if (st == PR_OK) {
 		r2->iterations = (*r)->iterations;
 		st = attempt(c, &Q, P, T, 0, NULL, r2);
@@ -2910,6 +3146,61 @@ static void solve_constant(const ctx_t *c, pr_reps_result *r)
 	}
 }
 
+/* A span of every centred direction (rank m - 1): sum p zeta = sum q zeta
+ * and sum p = 1 leave p = q alone, the linear programme's one feasible
+ * point, so the eta -> 0 limit is q (KL 0 < eps, unreachable) with LP gap
+ * and outside mass 0, and theta the LP dual whose reduced costs all vanish:
+ * R - zeta th constant, th = sum q zeta (R - sum q R) (zeta is
+ * q-orthonormal). Certified on the original features as any answer. */
+static int span_full(const ctx_t *c, const prob *Q, const prob *P, const double *T,
+                     pr_reps_result *r)
+{
+	double *th = calloc((size_t)Q->nf, sizeof *th), *th0 = c->tmp + c->pb->d, rq = 0.0;
+	limit_t L;
+	int i, j, k;
+
+	if (!th)
+		return PR_ENOMEM;
+	memset(&L, 0, sizeof L);
+	for (i = 0; i < Q->m; i++)
+		rq += Q->q[i] * Q->R[i];
+	for (i = 0; i < Q->m; i++)
+		for (k = 0; k < Q->nf; k++)
+			th[k] += Q->q[i] * Q->psi[(size_t)i * Q->nf + k] * (Q->R[i] - rq);
+	for (j = 0; j < P->nf; j++)
+		for (th0[j] = 0.0, k = 0; k < Q->nf; k++)
+			th0[j] += T[(size_t)j * Q->nf + k] * th[k];
+	free(th);
+	map_back(c->pb, P, Q->q, th0, c->fs, c->rmax, c->scale, 0.0, rq, 0.0, r);
+	r->rank = Q->nf;
+	r->cond = 1.0;
+	path_name(PATH_LIMIT | PATH_SPAN, r->path, sizeof r->path);
+	certify(c, &L, V_UNREACHABLE, 1, r);
+	return PR_OK;
+}
+
+/* Dense features at least as many as the samples: the dual lives on
+ * their span, of dimension below m, so the reduced basis of
+ * prob_reduce_wide is the one attempt (the span first, not a retry after a
+ * Hessian of order nf). */
+static int solve_wide(ctx_t *c, const prob *P, pr_reps_result *r)
+{
+	double *T = NULL, cond = 1.0;
+	prob Q;
+	int st;
+
+	memset(&Q, 0, sizeof Q);
+	c->span = 1;
+	st = prob_reduce_wide(&Q, P, c, &T, &cond);
+	if (st == PR_OK && Q.nf == Q.m - 1)
+		st = span_full(c, &Q, P, T, r);
+	else if (st == PR_OK)
+		st = attempt(c, &Q, P, T, 0, NULL, r);
+	prob_free(&Q);
+	free(T);
+	return st;
+}
+
 /* The attempt on P's own features, then the reduced basis if it failed or
  * left a Hessian too ill-conditioned to trust (cond > COND_RETRY) on dense
  * features (retry). With retry, the first attempt also gives up when it
@@ -2919,6 +3210,11 @@ static int two_attempts(ctx_t *c, prob *P, int retry, int *bailed, pr_reps_resul
 	int st;
 
 	*bailed = 0;
+	if (c->mfree)
+		return attempt(c, P, P, NULL, 0, NULL, *r);
+	/* NLopt keeps its own path: it has no eta -> 0 limit to certify */
+	if (retry && P->nf >= P->m && c->o->solver == PR_REPS_SOLVER_NEWTON)
+		return solve_wide(c, P, *r);
 	st = attempt(c, P, P, NULL, retry, bailed, *r);
 	if (st == PR_OK && ((*r)->status == PR_REPS_FAILED || (*r)->cond > COND_RETRY) && retry) {
 		/* standardise again: the search shifted P's returns */
@@ -2926,6 +3222,19 @@ static int two_attempts(ctx_t *c, prob *P, int retry, int *bailed, pr_reps_resul
 		st = retry_reduced(c, P, r);
 	}
 	return st;
+}
+
+/* PR_ENOMEM, before the solver allocates more than P's features, when its
+ * peak (pr_wide_bytes) exceeds the memory the process may use. */
+static int fits_memory(const prob *P, int mfree, char *err)
+{
+	const double need = pr_wide_bytes(P->m, P->nf, P->bin, mfree), have = pr_wide_memory();
+
+	if (need <= have)
+		return PR_OK;
+	return pr_err(err, PR_ENOMEM, "reps: %d samples x %d free features need about %.3g GiB, "
+	              "more than the %.3g GiB of memory", P->m, P->nf, need / 1073741824.0,
+	              have / 1073741824.0);
 }
 
 static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_result **out,
@@ -2966,7 +3275,7 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		}
 	if (d > 0)
 		feature_stats(pb, rows, qs, m, phat, fs);
-	c = (ctx_t){o, pb, rows, m, qn, phat, fs, 0.0, 1.0, fs + d, NULL};
+	c = (ctx_t){o, pb, rows, m, qn, phat, fs, 0.0, 1.0, fs + d, NULL, 0, 0};
 	if (d > 0 && (pb->phi || pb->val)) {
 		/* dense features: what phat, a double, leaves of sum q phi */
 		c.corr = fs + 3 * d + 2;
@@ -2992,6 +3301,11 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 		goto done;
 	}
 	retry = !P.bin && P.nf > 0 && !P.rw;
+	/* wide problems (nf >= m) always have dependent directions: the span */
+	c.mfree = !P.bin && P.nf > 0 && (o->solver == PR_REPS_SOLVER_CG ||
+	                                 (P.nf < P.m && P.nf >= PR_MFREE_MIN));
+	if ((st = fits_memory(&P, c.mfree, err)) != PR_OK)
+		goto done;
 	st = two_attempts(&c, &P, retry, &bailed, &r);
 	if (st == PR_OK && bailed && r->status == PR_REPS_FAILED) {
 		/* cut short, and the reduced basis did not certify either: the

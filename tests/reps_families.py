@@ -12,15 +12,24 @@ WIDE = "wide_dense"
 # apart, returns scaled by up to 1e+-280, KL bounds down to 1e-12): their
 # reference is the 60-digit ref_reps_mp.py, which the family test uses
 DYNAMIC = "dynamic"
+# at least as many dense features as samples, of low rank, some with a near
+# duplicate column: the solver's span path (d >= n)
+WIDE_SPAN = "wide_span"
+# each family's stream index (the seeds of both later families, added side
+# by side, start from the index after WIDE)
+_STREAM = {k: i for i, k in enumerate(FAMILIES + [WIDE])}
+_STREAM[DYNAMIC] = _STREAM[WIDE_SPAN] = len(_STREAM)
 
 
 def make_family(kind, seed):
     """(R, q, phi, eps) of problem `seed` of family `kind`."""
-    rng = np.random.default_rng([23, (FAMILIES + [WIDE, DYNAMIC]).index(kind), seed])
+    rng = np.random.default_rng([23, _STREAM[kind], seed])
     if kind == WIDE:
         return wide_dense(rng)
     if kind == DYNAMIC:
         return dynamic(rng, seed % 4)
+    if kind == WIDE_SPAN:
+        return wide_span(rng)
     if kind == "collinear":
         n = int(rng.integers(20, 201))
         d = int(rng.integers(2, 7))
@@ -100,4 +109,30 @@ def dynamic(rng, variant):
         R[far] = R.min() - 10 ** rng.uniform(4, 10) * spread
         R = R * 10 ** rng.uniform(-280, 280)
     q = np.exp(rng.normal(0.0, 0.5, size=n)) if rng.random() < 0.4 else None
+    return R, q, phi, eps
+
+
+def wide_span(rng):
+    """n in 8..60 samples, d in n..2n dense features B C of rank k in 1..n+1
+    (k >= n - 1: only p = q matches them), column scales over four decades,
+    in half the cases one column three times another plus 1e-8 ... 1e-6 of
+    its spread (one more direction, nearly dependent; closer ones are the
+    collinear family's), returns that depend
+    on B, with a heavy tail in a third of the cases."""
+    n = int(rng.integers(8, 61))
+    d = int(rng.integers(n, 2 * n + 1))
+    k = int(rng.integers(1, n + 2))
+    S = rng.uniform(size=(n, 2))
+    B = rng.normal(size=(n, k))
+    phi = B @ (rng.normal(size=(k, d)) * 10 ** rng.uniform(-2, 2, size=d))
+    if rng.random() < 0.5:
+        j = int(rng.integers(d))
+        delta = 10 ** rng.uniform(-8, -6)
+        spread = phi[:, j].max() - phi[:, j].min()
+        phi[:, (j + 1) % d] = phi[:, j] * 3.0 + delta * spread * rng.normal(size=n)
+    R = np.sin(3 * S[:, 0]) - S[:, 1] + B[:, :2] @ rng.normal(size=min(k, 2))
+    if rng.random() < 1 / 3:
+        R = R + rng.standard_t(2, size=n)
+    q = np.exp(rng.normal(0.0, 0.5, size=n)) if rng.random() < 0.5 else None
+    eps = float(10 ** rng.uniform(-3, 0.5))
     return R, q, phi, eps

@@ -137,7 +137,8 @@ def test_a_bare_machine_gets_every_missing_package_at_once(tmp_path, goal):
     lines = p.stderr.splitlines()
     assert len(lines) == 1, p.stderr
     for pkg in ("build-essential", "libgsl-dev", "libcsv-dev", "libinih-dev", "libglpk-dev",
-                "libnlopt-dev", "libcmocka-dev", "python3-matplotlib", "python3-pytest-xdist"):
+                "libnlopt-dev", "libopenblas0", "libcmocka-dev",
+                "python3-matplotlib", "python3-pytest-xdist"):
         assert pkg in lines[0], pkg
     assert "make deps" in lines[0] and "apt-get update && apt-get install -y" in lines[0]
     assert not (tmp_path / "b").exists()

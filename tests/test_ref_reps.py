@@ -99,13 +99,14 @@ def write_case(path, R, q, phi):
             f.write(",".join(repr(float(x)) for x in row) + "\n")
 
 
-def run_c(tmp_path, R, q, phi, eps):
+def run_c(tmp_path, R, q, phi, eps, extra=()):
     inp = tmp_path / "in.csv"
     write_case(inp, R, q, phi)
     args = [BIN, "reps", "--return", "R", "--base", "q", "-i", str(inp), "-o", str(tmp_path / "p.csv"),
             "--summary", str(tmp_path / "s.csv"), "--epsilon", repr(eps), "-q"]
     if phi.shape[1]:
         args += ["--features", "phi*"]
+    args += list(extra)
     r = run_cmd(args, capture_output=True, text=True, env=ENV, timeout=60)
     assert r.returncode == 0, r.stderr
     p = np.loadtxt(tmp_path / "p.csv", skiprows=1, ndmin=1)

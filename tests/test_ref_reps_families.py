@@ -26,7 +26,7 @@ import pytest
 import ref_reps
 import ref_reps_mp
 from conftest import run_cmd
-from reps_families import DYNAMIC, FAMILIES, WIDE, make_family
+from reps_families import DYNAMIC, FAMILIES, WIDE, WIDE_SPAN, make_family
 from test_ref_reps import BIN, ENV, run_c, write_case
 
 NSEEDS = 100
@@ -45,10 +45,52 @@ def test_wide_dense_path_against_reference(tmp_path, seed):
     check_against_reference(tmp_path, WIDE, seed)
 
 
-def check_against_reference(tmp_path, kind, seed):
+@pytest.mark.parametrize("seed", range(40))
+def test_wide_span_against_reference(tmp_path, seed):
+    """At least as many dense features as samples, of low rank, with near
+    duplicate columns: solved on the span of the features from the start
+    (path ending in span), same tolerances."""
+    check_against_reference(tmp_path, WIDE_SPAN, seed)
+
+
+@pytest.mark.parametrize("kind", ["extreme", WIDE])
+@pytest.mark.parametrize("seed", range(20))
+def test_matrix_free_against_reference(tmp_path, kind, seed):
+    """reps.solver = cg (Newton steps by conjugate gradients on Hessian-vector
+    products, no Hessian formed; path with cg): same tolerances on
+    well-conditioned features. Nearly dependent ones (a condition number of
+    the centred, column-scaled features above 1e6: wide_dense's near
+    duplicates) need the reduced basis, which takes a factorisation: there
+    the solve must fail its certificate (exit 3), never answer wrongly."""
+    R, q, phi, eps = make_family(kind, seed)
+    dev = phi - phi.mean(0)
+    scale = np.abs(dev).max(0)
+    if phi.shape[1] and np.linalg.cond(dev[:, scale > 0] / scale[scale > 0]) > 1e6:
+        r = run_cmd(cg_args(tmp_path, R, q, phi, eps), capture_output=True, text=True, env=ENV,
+                    timeout=60)
+        assert r.returncode in (0, 3), r.stderr
+        if r.returncode == 3:
+            assert "no certified answer" in r.stderr and len(r.stderr.splitlines()) == 1
+        return
+    check_against_reference(tmp_path, kind, seed, ("--set", "reps.solver=cg"))
+
+
+def cg_args(tmp_path, R, q, phi, eps):
+    write_case(tmp_path / "in.csv", R, q, phi)
+    return [BIN, "reps", "--return", "R", "--base", "q", "-i", str(tmp_path / "in.csv"),
+            "-o", str(tmp_path / "p.csv"), "--epsilon", repr(eps), "-q", "--features", "phi*",
+            "--set", "reps.solver=cg"]
+
+
+def check_against_reference(tmp_path, kind, seed, extra=()):
     R, q, phi, eps = make_family(kind, seed)
     qq = np.ones(len(R)) if q is None else q
-    p, s = run_c(tmp_path, R, q, phi, eps)
+    p, s = run_c(tmp_path, R, q, phi, eps, extra)
+    if extra and phi.shape[1]:
+        assert "cg" in s["path"].split("+"), s
+    if kind == WIDE_SPAN:
+        # no Newton step on a Hessian of order d, no retry
+        assert s["path"].endswith("span") and "reduced" not in s["path"], s
     assert s["status"] in ("active", "unreachable"), s
     assert float(s["residual_rel"]) <= 1e-9, s
     if s["status"] == "active":

@@ -36,7 +36,8 @@ typedef struct {
 	                     programme) to decide whether the bound is reachable */
 	int allow_failed; /* experiments: 1 = record a failed certificate and go
 	                     on; 0 (default) = a failed solve fails the run */
-	int solver;       /* PR_REPS_SOLVER_NEWTON (default) or PR_REPS_SOLVER_NLOPT */
+	int solver;       /* PR_REPS_SOLVER_NEWTON (default), PR_REPS_SOLVER_NLOPT or
+	                     PR_REPS_SOLVER_CG */
 	int threads;      /* threads for a wide dense problem's Hessian, 0 .. 64
 	                     (default 0: one per CPU the process may run on, and
 	                     never more than that; any count gives the same bits;
@@ -44,10 +45,15 @@ typedef struct {
 	                     one) */
 } pr_reps_opts;
 /* reps.solver: newton = the Newton path and eta -> 0 limit described at
- * pr_reps_solve; nlopt = NLopt's L-BFGS on the dual over (log eta, theta)
- * first, then the Newton search (and limit) from NLopt's answer instead of
- * from (1, 0): an answer is returned only with Newton's certificate. */
-enum { PR_REPS_SOLVER_NEWTON = 0, PR_REPS_SOLVER_NLOPT = 1 };
+ * pr_reps_solve (matrix-free, as cg, on dense features once there are
+ * 8192 free ones and more samples); cg = the same path with each Newton
+ * step solved by conjugate gradients on Hessian-vector products (dense
+ * features; one-hot ones take the newton path), memory O(n d), no reduced
+ * basis: nearly dependent features fail the certificate; nlopt = NLopt's
+ * L-BFGS on the dual over (log eta, theta) first, then the Newton search
+ * (and limit) from NLopt's answer instead of from (1, 0): an answer is
+ * returned only with Newton's certificate. */
+enum { PR_REPS_SOLVER_NEWTON = 0, PR_REPS_SOLVER_NLOPT = 1, PR_REPS_SOLVER_CG = 2 };
 void pr_reps_opts_init(pr_reps_opts *o);
 
 /* Certificate tolerance: |KL - eps| / min(1, eps), the relative feature
@@ -113,7 +119,8 @@ typedef struct {
 	                        reduced basis, numerically dependent directions) */
 	double cond;         /* (max L_jj / min L_jj)^2 of the Cholesky factor L of
 	                        the last Jacobi-scaled theta Hessian: a lower
-	                        estimate of its condition number (1 without features) */
+	                        estimate of its condition number (1 without features,
+	                        on the matrix-free path and for a full span) */
 	char path[48];       /* steps taken, joined by '+': joint (the joint Newton
 	                        fast path), chord (steps that reused the last
 	                        Hessian near the root; wide dense problems), search
@@ -121,7 +128,10 @@ typedef struct {
 	                        any theta solve worked), limit (the eta -> 0 limit),
 	                        reduced (a second attempt on a well-conditioned
 	                        basis after the first failed), nlopt (reps.solver =
-	                        nlopt) */
+	                        nlopt), span (dense features at least as many
+	                        as the samples: solved on their span, of
+	                        dimension below n, from the start), cg (the
+	                        matrix-free Newton steps) */
 } pr_reps_result;
 
 /* Solve the dual and certify the result (see the file comment): Newton's

@@ -141,7 +141,7 @@ def reps(returns: ArrayLike, features: Any = None, epsilon: Optional[float] = No
     returns: (n,) returns R_i; features: (n, d) state features phi_i (or
     (n,) for one, or a scipy.sparse matrix; None for none); epsilon: the KL
     bound (default: reps.epsilon, 0.5); base: (n,) base weights q_i >= 0
-    (default: all 1); solver: "newton" (default) or "nlopt" (reps.solver);
+    (default: all 1); solver: "newton" (default), "nlopt" or "cg" (reps.solver);
     set: other reps.* keys.
 
     Returns a dict: p (n,) weights summing to 1 (they include q), theta (d,),
