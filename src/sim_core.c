@@ -211,3 +211,23 @@ void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy,
 		}
 	}
 }
+
+void pr_sim_ball_changed(pr_sim_ball *b)
+{
+	b->sp = hypot(b->ux, b->uy);
+	b->st = b->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
+}
+
+void pr_sim_ball_stop(const pr_sim *s, pr_sim_ball *b)
+{
+	(void)s;
+	b->ux = b->uy = b->sp = 0;
+	b->st = PR_BALL_REST;
+}
+
+int pr_sim_check_positive(double v, const char *key, char *err)
+{
+	if (!(v > 0) || !isfinite(v))
+		return pr_err(err, PR_EINVAL, "%s: must be > 0 (got %g)", key, v);
+	return PR_OK;
+}

@@ -18,6 +18,8 @@ enum {
 	PR_FRICTION_EXPONENTIAL = 0, /* v' = -c v (thesis): v(t) = v0 e^(-c t) */
 	PR_FRICTION_CONSTANT = 1     /* |v|' = -a (rolling resistance, a = mu_r g) */
 };
+/* Their names, in that order (table.friction_law's values). */
+#define PR_FRICTION_NAMES "exponential|constant"
 
 /* Table geometry and physics constants (keys table.*). */
 typedef struct {
