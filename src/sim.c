@@ -18,6 +18,8 @@ void pr_sim_table_init(pr_table *t)
 	t->friction = 0.25;
 	t->friction_law = 0; /* the registry's first law, the thesis's */
 	t->deceleration = 0.0625; /* the stopping distance of c = 0.25 at 0.5 m/s: a = c v / 2 */
+	t->mu_slide = 0.2;
+	t->mu_roll = 0.01;
 	t->stop_speed = 0.002;
 	t->balls = 2;
 	t->reward_balls = 1;

@@ -225,3 +225,29 @@ double pr_sim_accel_min_norm(const rel_path *q, double S)
 		best = fmin(best, fn_value(gap_fn, &z, pt[k]));
 	return best;
 }
+
+double pr_sim_accel_line_contact(double dx, double dy, const double v[2], double sp, double a,
+                                 double lmax, double r2)
+{
+	const double ex = v[0] / sp, ey = v[1] / sp;
+	double bq, cr, cc, disc, l;
+
+	bq = dx * ex + dy * ey;
+	if (bq <= 0)
+		return HUGE_VAL;
+	cr = dx * ey - dy * ex;
+	disc = r2 * r2 - cr * cr;
+	if (disc <= 0)
+		return HUGE_VAL;
+	cc = dx * dx + dy * dy - r2 * r2;
+	if (cc <= 0) /* touching or overlapping by rounding: a contact now if approaching now */
+		return sp * bq / norm(dx, dy) >= PR_SIM_MIN_CLOSING ? 0 : HUGE_VAL;
+	l = cc / (bq + sqrt(disc));
+	if (l > lmax)
+		return HUGE_VAL;
+	/* closing speed at contact: the speed there times the normal share sqrt(disc)/2R */
+	cc = sp * sp - 2 * a * l;
+	if (sqrt(cc > 0 ? cc : 0) * sqrt(disc) / r2 < PR_SIM_MIN_CLOSING)
+		return HUGE_VAL;
+	return l;
+}

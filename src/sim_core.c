@@ -231,3 +231,13 @@ int pr_sim_check_positive(double v, const char *key, char *err)
 		return pr_err(err, PR_EINVAL, "%s: must be > 0 (got %g)", key, v);
 	return PR_OK;
 }
+
+void pr_sim_ball_rebase(pr_sim_ball *b, double t, const double p[2], const double v[2])
+{
+	b->x = p[0];
+	b->y = p[1];
+	b->ux = v[0];
+	b->uy = v[1];
+	b->sp = sqrt(v[0] * v[0] + v[1] * v[1]);
+	b->tr = t;
+}

@@ -5,12 +5,12 @@
 
 #include "sim_priv.h"
 
-extern const pr_sim_law pr_sim_law_exp, pr_sim_law_const;
+extern const pr_sim_law pr_sim_law_exp, pr_sim_law_const, pr_sim_law_slide;
 
 /* in PR_FRICTION_* order */
-static const pr_sim_law *const laws[] = {&pr_sim_law_exp, &pr_sim_law_const};
+static const pr_sim_law *const laws[] = {&pr_sim_law_exp, &pr_sim_law_const, &pr_sim_law_slide};
 /* each law's own table.* keys, in the same order */
-static const char *const law_keys[][3] = {{"friction"}, {"deceleration"}};
+static const char *const law_keys[][3] = {{"friction"}, {"deceleration"}, {"mu_slide", "mu_roll"}};
 #define NLAWS ((int)(sizeof laws / sizeof laws[0]))
 
 const pr_sim_law *pr_sim_law_get(int law)
@@ -25,7 +25,7 @@ int pr_sim_law_check_all(const pr_table *t, const pr_sim_opts *o, char *err)
 	if (!pr_sim_law_get(t->friction_law))
 		return pr_err(err, PR_EINVAL, "table.friction_law: unknown law %d", t->friction_law);
 	for (i = 0; i < NLAWS; ++i)
-		if ((rc = laws[i]->check(t, o, err)))
+		if ((rc = laws[i]->check(t, o, i == t->friction_law, err)))
 			return rc;
 	return PR_OK;
 }

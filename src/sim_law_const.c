@@ -105,12 +105,7 @@ static void const_advance(const pr_sim *s, pr_sim_ball *b, double t)
 	double p[2], v[2];
 
 	const_at(s, b, t, p, v);
-	b->x = p[0];
-	b->y = p[1];
-	b->ux = v[0];
-	b->uy = v[1];
-	b->sp = norm(v[0], v[1]);
-	b->tr = t;
+	pr_sim_ball_rebase(b, t, p, v);
 	heading(b);
 }
 
@@ -245,7 +240,7 @@ static double line_contact(const pr_sim *s, const pr_sim_ball *m, const pr_sim_b
                            double *sp)
 {
 	const double r2 = 2 * s->t.ball_radius;
-	double pm[2], vm[2], ex, ey, dx, dy, bq, cr, cc, disc, l;
+	double pm[2], vm[2], cr;
 
 	/* The path is the line through the reference point along u: when it
 	 * passes the other ball farther than 2R (a margin of 1e-9, far above the
@@ -257,27 +252,8 @@ static double line_contact(const pr_sim *s, const pr_sim_ball *m, const pr_sim_b
 	*sp = norm(vm[0], vm[1]);
 	if (!(*sp > 0))
 		return HUGE_VAL;
-	ex = vm[0] / *sp;
-	ey = vm[1] / *sp;
-	dx = o->x - pm[0];
-	dy = o->y - pm[1];
-	bq = dx * ex + dy * ey;
-	if (bq <= 0)
-		return HUGE_VAL;
-	cr = dx * ey - dy * ex;
-	disc = r2 * r2 - cr * cr;
-	if (disc <= 0)
-		return HUGE_VAL;
-	cc = dx * dx + dy * dy - r2 * r2;
-	if (cc <= 0) /* touching or overlapping by rounding: a contact now if approaching now */
-		return *sp * bq / norm(dx, dy) >= PR_SIM_MIN_CLOSING ? 0 : HUGE_VAL;
-	l = cc / (bq + sqrt(disc));
-	if (l > reach(s, *sp))
-		return HUGE_VAL;
-	/* closing speed at contact: the speed there times the normal share sqrt(disc)/2R */
-	if (sqrt(nonneg(*sp * *sp - 2 * s->t.deceleration * l)) * sqrt(disc) / r2 < PR_SIM_MIN_CLOSING)
-		return HUGE_VAL;
-	return l;
+	return pr_sim_accel_line_contact(o->x - pm[0], o->y - pm[1], vm, *sp, s->t.deceleration,
+	                                 reach(s, *sp), r2);
 }
 
 static double const_pair(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj,
@@ -397,9 +373,10 @@ static double const_speed_for(const pr_table *t, double v, double d)
 	return sqrt(v * v + a2 * d);
 }
 
-static int const_check(const pr_table *t, const pr_sim_opts *o, char *err)
+static int const_check(const pr_table *t, const pr_sim_opts *o, int active, char *err)
 {
 	(void)o;
+	(void)active;
 	return pr_sim_check_positive(t->deceleration, "table.deceleration", err);
 }
 

@@ -155,9 +155,10 @@ static double exp_speed_for(const pr_table *t, double v, double d)
 	return v + t->friction * d;
 }
 
-static int exp_check(const pr_table *t, const pr_sim_opts *o, char *err)
+static int exp_check(const pr_table *t, const pr_sim_opts *o, int active, char *err)
 {
 	(void)o;
+	(void)active;
 	return pr_sim_check_positive(t->friction, "table.friction", err);
 }
 

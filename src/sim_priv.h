@@ -27,6 +27,7 @@ typedef struct {
 	double ex, ey;   /* event mode, for the law's use (a direction, an acceleration) */
 	double wx, wy;   /* the rolling spin as a velocity, R w x z (for a law that keeps one) */
 	double tend;     /* event mode, for the law's use: the end of the current phase */
+	int ph;          /* event mode, for the law's use: the current phase */
 	double et;       /* cached earliest event involving this ball (absolute tau) */
 	int etype;       /* PR_EV_* */
 	int eother;      /* partner ball, cushion (0..3) or pocket (0..5) */
@@ -85,6 +86,8 @@ static inline int pr_sim_earlier(double t1, int k1, double t2, int k2)
  * law without spin); and a stop (its settle). */
 void pr_sim_ball_changed(pr_sim_ball *b);
 void pr_sim_ball_stop(const pr_sim *s, pr_sim_ball *b);
+/* The reference of b moved to t, where it is at p with velocity v (sp = |v|). */
+void pr_sim_ball_rebase(pr_sim_ball *b, double t, const double p[2], const double v[2]);
 /* PR_OK if v is finite and > 0, else a message naming key. */
 int pr_sim_check_positive(double v, const char *key, char *err);
 
@@ -128,8 +131,9 @@ struct pr_sim_law {
 	/* Speed a ball struck without spin needs to cover distance d and still
 	 * have speed v (the ghost-ball expert's). */
 	double (*speed_for)(const pr_table *t, double v, double d);
-	/* The law's parameters valid (PR_OK) or a message naming the key. */
-	int (*check)(const pr_table *t, const pr_sim_opts *o, char *err);
+	/* The law's parameters valid (PR_OK) or a message naming the key;
+	 * active: the law is table.friction_law (else only each key's range) */
+	int (*check)(const pr_table *t, const pr_sim_opts *o, int active, char *err);
 };
 
 /* The registry (sim_law.c): the law of table.friction_law, NULL if none;
@@ -154,6 +158,13 @@ double pr_sim_accel_first_contact(const pr_sim_rel_path *q, double S);
 double pr_sim_accel_min_norm(const pr_sim_rel_path *q, double S);
 /* Provable misses on [0, T] (the window's travel LT of both balls; dn =
  * |D| - r2): 1 if no contact can lie there. */
+/* A ball moving straight at speed sp along v/|v|, slowing at a, reaching at
+ * most lmax further, against one at rest at (dx, dy) from it: the distance
+ * l it travels to touch it (|(dx,dy) - e l| = r2) closing at
+ * PR_SIM_MIN_CLOSING or more, HUGE_VAL if none (the discriminant by the
+ * Lagrange identity, so an exact graze is none). */
+double pr_sim_accel_line_contact(double dx, double dy, const double v[2], double sp, double a,
+                                 double lmax, double r2);
 int pr_sim_accel_apart(const pr_sim_rel_path *q, double dn, double T, double LT);
 int pr_sim_accel_misses(const pr_sim_rel_path *q, double T);
 

@@ -393,8 +393,8 @@ static void ghost_rate(int law)
 		assert_int_equal(pr_sim_shoot(f->sim, st, 2, a, &f->res, NULL, f->err), PR_OK);
 		ok += pr_sim_reward(&f->t, &f->ro, &f->res) == 0;
 	}
-	print_message("ghost-ball expert: %d of %d pocketed (event mode, Exp. 2 region, %s law)\n", ok,
-	              n, law == PR_FRICTION_CONSTANT ? "constant" : "exponential");
+	print_message("ghost-ball expert: %d of %d pocketed (event mode, Exp. 2 region, law %d of %s)\n",
+	              ok, n, law, PR_FRICTION_NAMES);
 	assert_true(ok >= 0.99 * n);
 	gsl_rng_free(rng);
 	destroy(f);
@@ -405,6 +405,7 @@ static void test_ghost_rate(void **state)
 	(void)state;
 	ghost_rate(PR_FRICTION_EXPONENTIAL);
 	ghost_rate(PR_FRICTION_CONSTANT);
+	ghost_rate(PR_FRICTION_SLIDE_ROLL);
 }
 
 /* Constant law, free flight: the ball stops after (v0^2 - v_stop^2)/2a at
