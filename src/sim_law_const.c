@@ -7,13 +7,13 @@
  * tr, where its speed is v and its position p, it is at p + e l(s) with
  * l(s) = v s - a s^2 / 2, s = t - tr, until its speed v - a s reaches
  * stop_speed at s = (v - v_stop) / a. Its path is a straight line, so
- * cushion and pocket entries are the linear and quadratic equations of the
- * exponential law in the distance l, mapped back to time by
+ * cushion and pocket entries are the linear and quadratic equations of a
+ * straight path in the distance l, mapped back to time by
  * s = 2 l / (v + sqrt(v^2 - 2 a l)). Two balls moving in different
  * directions decelerate along different directions: their contact is the
  * quartic of sim_accel.c, solved up to the first of the two stops. With one
  * ball at rest the separation is linear in the mover's distance l, a
- * quadratic as under the exponential law.
+ * quadratic.
  *
  * Stepped mode: each step takes a dt off the speed along the direction of
  * motion.

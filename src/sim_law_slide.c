@@ -239,7 +239,7 @@ static int straight(const pr_sim_ball *b)
 }
 
 /* A straight mover m against o at rest: the contact is a quadratic in the
- * distance, so an exact graze is no contact (as under the constant law). */
+ * distance, so an exact graze is no contact. */
 static double line_pair(const pr_sim *s, const pr_sim_ball *m, const pr_sim_ball *o, double t)
 {
 	const double S = fmax(0, m->tend - t), a = norm(m->ex, m->ey);
