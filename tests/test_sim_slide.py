@@ -9,6 +9,7 @@ seeded random shots."""
 import csv
 import io
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -167,3 +168,24 @@ def test_reference_random_shots(table, tmp_path):
     worst = max(worst, compare(random_shots(rng, 100, 3, sim, 2.0), 3, sets, params, 1e-9,
                                tmp_path, law="slide_roll", make=SlideSim))
     print(f"slide_roll vs reference: worst final-position difference {worst:.2e} m")
+
+
+def test_pooltool_block_is_generated(tmp_path):
+    """docs/sim.md's pooltool table is what scripts/pooltool_table.py makes of
+    docs/data/pooltool_slide_roll.csv, and a changed outcome in the data is
+    seen by --check."""
+    script = str(ROOT / "scripts" / "pooltool_table.py")
+    src = ROOT / "docs" / "data" / "pooltool_slide_roll.csv"
+    p = run_cmd([sys.executable, script, "--check"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    rows = list(csv.DictReader(io.StringIO(src.read_text())))
+    ghost = next(r for r in rows if r["family"] == "ghost")
+    ghost["pt_pocket1"] = "0"
+    bad = tmp_path / "bad.csv"
+    with open(bad, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    p = run_cmd([sys.executable, script, "--check", "--csv", str(bad)],
+                capture_output=True, text=True)
+    assert p.returncode == 1 and "pooltool_slide_roll block differs" in p.stderr, p.stderr
