@@ -1,6 +1,6 @@
 #!/bin/sh
-# bench_sim_instructions.sh — instructions per event-mode shot under both
-# friction laws, counted by callgrind (independent of the machine's load):
+# bench_sim_instructions.sh — instructions per event-mode shot under each
+# friction law, counted by callgrind (independent of the machine's load):
 # the difference between runs of N and 2N shots over N, so the setup (the
 # pool of states and actions) cancels. Run from anywhere; needs valgrind.
 #   sh scripts/bench_sim_instructions.sh [N]   (default 40000)
@@ -15,7 +15,7 @@ count() {
 }
 echo "| friction law | actions | instructions per shot |"
 echo "|---|---|---:|"
-for law in exponential constant; do
+for law in exponential constant slide_roll; do
 	for a in gauss uniform; do
 		c1=$(count --law "$law" --actions "$a" --shots "$N")
 		c2=$(count --law "$law" --actions "$a" --shots $((2 * N)))

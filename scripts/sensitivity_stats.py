@@ -57,6 +57,8 @@ vd = _Lazy("verdicts")      # the verdict rules
 POINTS = [
     ("default", "default", "default", [], None),
     ("law_constant", "friction law", "constant law", ["table.friction_law=constant"], "default"),
+    ("law_slide_roll", "friction law", "slide_roll law", ["table.friction_law=slide_roll"],
+     "default"),
     ("c_half", "friction c", "c ½×", ["table.friction=0.125"], "default"),
     ("c_double", "friction c", "c 2×", ["table.friction=0.5"], "default"),
     ("a_half", "deceleration a", "a ½×",
@@ -87,7 +89,9 @@ BY_NAME = {p[0]: p for p in POINTS}
 CHOICES = {
     "friction law": "how a ball slows: the thesis's exponential law v' = −c v (default, "
                     "c = 0.25 s⁻¹) against a constant deceleration (rolling resistance) of "
-                    "a = 0.0625 m/s², which stops a ball from 0.5 m/s in the same distance",
+                    "a = 0.0625 m/s², which stops a ball from 0.5 m/s in the same distance, "
+                    "and a real table's sliding then rolling ball (slide_roll: μ_s = 0.2, "
+                    "μ_r = 0.01, every shot a stun shot)",
     "friction c": "the exponential law's rate c (default 0.25 s⁻¹), halved and doubled",
     "deceleration a": "the constant law's deceleration a (0.0625 m/s²), halved and doubled; "
                       "compared with the constant law at 0.0625 m/s²",
@@ -406,6 +410,27 @@ def choice_line(res, choice):
     return text + f" ({res.runs['default']['repetitions']} repetitions, [sensitivity.md](sensitivity.md))"
 
 
+def real_table(res):
+    """The README's sentence on the slide_roll point: which verdicts change
+    against the default and whether any reverses."""
+    p = "law_slide_roll"
+    if p not in res.points:
+        return "not run in this study"
+    fl = res.flips(p)
+    rev = [c for q, c in res.reversals() if q == p]
+    if fl:
+        head = (f"{len(fl)} of the {len(CLAIMS)} Experiment 3 verdicts change against the "
+                "default (" + ", ".join(f"`{c}` {SYMBOL[res.verdict[('default', c)]]} → "
+                                        f"{SYMBOL[res.verdict[(p, c)]]}" for c in fl) + ")")
+    else:
+        head = f"all {len(CLAIMS)} Experiment 3 verdicts stay the same"
+    tail = ("; none reverses between agrees and disagrees" if not rev else
+            "; " + ", ".join(f"`{c}`" for c in rev) + " reverses between agrees and disagrees")
+    return (f"with a real table's balls, which slide and then roll (`table.friction_law = "
+            f"slide_roll`, {res.runs[p]['repetitions']} repetitions, "
+            f"[docs/sensitivity.md](docs/sensitivity.md)), {head}{tail}.")
+
+
 def update_marks(path, cells):
     """Rewrite the text between <!-- sensitivity:ID --> and the next
     <!-- /sensitivity --> for every ID of cells that path holds; the README's
@@ -453,7 +478,7 @@ def main():
                 f.write(render(res) + "\n")
             os.replace(tmp, path)
             if args.readme:
-                update_marks(args.readme, {"robust": sentence(res)})
+                update_marks(args.readme, {"robust": sentence(res), "real_table": real_table(res)})
             choices = os.path.join(args.docs, "choices.md")
             if os.path.isfile(choices):
                 update_marks(choices, {slug(c): choice_line(res, c) for c in CHOICES})

@@ -22,6 +22,7 @@
 #include "common_priv.h"
 #include "config_priv.h"
 #include "csvio_priv.h"
+#include "sim_priv.h"
 
 #define F(field) offsetof(pr_config, field)
 #define NAMELEN 64        /* a section, key or "section.key" */
@@ -46,11 +47,15 @@ static const pr_config_key core_keys[] = {
 	{"table", "pocket_radius", PR_KEY_DOUBLE, F(table.pocket_radius), 0, 1, PR_KEY_OPEN_LO, "m", "pocket radius"},
 	{"table", "restitution", PR_KEY_DOUBLE, F(table.restitution), 0, 1, 0, "", "cushion restitution kappa (eq. 7.4)"},
 	{"table", "friction", PR_KEY_DOUBLE, F(table.friction), 0, 1000, PR_KEY_OPEN_LO, "1/s",
-	 "exponential law: c in v(t) = v0 exp(-c t)"},
-	{"table", "friction_law", PR_KEY_ENUM, F(table.friction_law), 0, 0, 0, "exponential|constant",
-	 "how a ball slows: v' = -c v (thesis) or a constant deceleration (rolling resistance)"},
+	 "c in v' = -c v, v(t) = v0 exp(-c t)"},
+	{"table", "friction_law", PR_KEY_ENUM, F(table.friction_law), 0, 0, 0, PR_FRICTION_NAMES,
+	 "how a ball slows: v' = -c v (thesis), a constant deceleration (rolling resistance) or sliding, then rolling (docs/sim.md)"},
 	{"table", "deceleration", PR_KEY_DOUBLE, F(table.deceleration), 0, 100, PR_KEY_OPEN_LO, "m/s^2",
-	 "constant law: a = mu_r g in |v|(t) = v0 - a t (0.0625 stops as c = 0.25 does from 0.5 m/s)"},
+	 "a = mu_r g in |v|' = -a, |v|(t) = v0 - a t (0.0625 stops as c = 0.25 does from 0.5 m/s)"},
+	{"table", "mu_slide", PR_KEY_DOUBLE, F(table.mu_slide), 0, 1, PR_KEY_OPEN_LO, "",
+	 "sliding friction mu_s: a sliding ball slows at mu_s g (g = 9.81 m/s^2)"},
+	{"table", "mu_roll", PR_KEY_DOUBLE, F(table.mu_roll), 0, 1, PR_KEY_OPEN_LO, "",
+	 "rolling resistance mu_r, below mu_s: a rolling ball slows at mu_r g"},
 	{"table", "stop_speed", PR_KEY_DOUBLE, F(table.stop_speed), 0, 10, PR_KEY_OPEN_LO, "m/s", "slower balls stop"},
 	{"table", "balls", PR_KEY_INT, F(table.balls), 2, 10000, 0, "", "balls: cue + reward + obstacles"},
 	{"table", "reward_balls", PR_KEY_INT, F(table.reward_balls), 1, 9999, 0, "", "reward balls b"},
@@ -837,24 +842,45 @@ static int box_inside(const pr_config *c, const double *b, const char *name, cha
 	return PR_OK;
 }
 
-/* The key of the other friction law than table.friction_law, which that law ignores. */
-static const char *idle_friction_key(const pr_config *c)
+/* Whether key k is a parameter of another friction law than table.friction_law's only. */
+static int idle_law_key(const pr_config *c, const pr_config_key *k)
 {
-	return c->table.friction_law == PR_FRICTION_CONSTANT ? "table.friction" : "table.deceleration";
+	return strcmp(k->section, "table") == 0 && pr_sim_law_idle_key(c->table.friction_law, k->key);
 }
 
-/* A law's parameter set together with the other law chosen explicitly
- * would be ignored silently: refused. */
+/* The start of choice i in "a|b|c" (its length: strcspn(p, "|")), or NULL. */
+static const char *choice_at(const char *choices, int i)
+{
+	const char *p = choices;
+
+	for (; i > 0 && p; --i) {
+		p = strchr(p, '|');
+		if (p)
+			++p;
+	}
+	return p;
+}
+
+/* Another law's parameter set together with a law chosen explicitly would
+ * be ignored silently: refused. */
 static int friction_keys(const pr_config *c, char *err)
 {
-	char at[PR_WHERE_LEN];
-	const char *idle = idle_friction_key(c);
-	int law = find_dotted(c, "table.friction_law"), k = find_dotted(c, idle);
+	char at[PR_WHERE_LEN], name[2 * NAMELEN + 1];
+	const char *law = choice_at(PR_FRICTION_NAMES, c->table.friction_law);
+	int li = find_dotted(c, "table.friction_law"), i, n = nkeys(c);
+	char *base;
 
-	if (law >= 0 && k >= 0 && c->key_line[law] != 0 && c->key_line[k] != 0)
-		return pr_err(err, PR_EINVAL, "%s: %s: not used with table.friction_law = %s",
-		              pr_config_where(c, idle, at, sizeof at), idle,
-		              c->table.friction_law == PR_FRICTION_CONSTANT ? "constant" : "exponential");
+	if (li < 0 || c->key_line[li] == 0)
+		return PR_OK;
+	for (i = 0; i < n; ++i) {
+		const pr_config_key *k = key_at(c, i, &base);
+		if (c->key_line[i] == 0 || !idle_law_key(c, k))
+			continue;
+		snprintf(name, sizeof name, "%s.%s", k->section, k->key);
+		return pr_err(err, PR_EINVAL, "%s: %s: not used with table.friction_law = %.*s",
+		              pr_config_where(c, name, at, sizeof at), name,
+		              law ? (int)strcspn(law, "|") : 0, law ? law : "");
+	}
 	return PR_OK;
 }
 
@@ -923,12 +949,7 @@ static void write_value(const pr_config *c, int ki, FILE *fp)
 	case PR_KEY_LONG: fprintf(fp, "%ld", *(const long *)base); break;
 	case PR_KEY_ULONG: fprintf(fp, "%lu", *(const unsigned long *)base); break;
 	case PR_KEY_ENUM: {
-		const char *p = k->unit;
-		for (i = *(const int *)base; i > 0 && p; --i) {
-			p = strchr(p, '|');
-			if (p)
-				++p;
-		}
+		const char *p = choice_at(k->unit, *(const int *)base);
 		if (p)
 			fprintf(fp, "%.*s", (int)strcspn(p, "|"), p);
 		break;
@@ -1023,9 +1044,9 @@ int pr_config_write(const pr_config *c, FILE *fp)
 			section = k->section;
 			fprintf(fp, "%s[%s]\n", i ? "\n" : "", section);
 		}
-		/* the other law's key as a comment: read back, it would clash with
+		/* another law's key as a comment: read back, it would clash with
 		 * table.friction_law */
-		fprintf(fp, "%s%s = ", strcmp(name, idle_friction_key(c)) == 0 ? "; " : "", k->key);
+		fprintf(fp, "%s%s = ", idle_law_key(c, k) ? "; " : "", k->key);
 		write_value(c, i, fp);
 		fputc('\n', fp);
 	}

@@ -11,7 +11,8 @@
  * first row covers every row (the checks depend on which keys are set,
  * not on their values). */
 static const char *const related[] = {
-	"table.length", "table.width", "table.ball_radius", "sim.dt", "sim.max_time"
+	"table.length", "table.width", "table.ball_radius", "table.mu_slide", "table.mu_roll",
+	"sim.dt", "sim.max_time"
 };
 
 struct pr_shot_params {

@@ -16,8 +16,10 @@ void pr_sim_table_init(pr_table *t)
 	t->pocket_radius = 0.03;
 	t->restitution = 0.8;
 	t->friction = 0.25;
-	t->friction_law = PR_FRICTION_EXPONENTIAL;
+	t->friction_law = 0; /* the registry's first law, the thesis's */
 	t->deceleration = 0.0625; /* the stopping distance of c = 0.25 at 0.5 m/s: a = c v / 2 */
+	t->mu_slide = 0.2;
+	t->mu_roll = 0.01;
 	t->stop_speed = 0.002;
 	t->balls = 2;
 	t->reward_balls = 1;
@@ -65,18 +67,16 @@ void pr_sim_expert_opts_init(pr_expert_opts *o)
 
 static int check_table(const pr_table *t, const pr_sim_opts *o, char *err)
 {
+	int rc;
+
 	if (!(t->length > 0) || !(t->width > 0) || !(t->ball_radius > 0) || !(t->pocket_radius > 0))
 		return pr_err(err, PR_EINVAL, "table: length, width and radii must be > 0");
 	if (!(2 * t->ball_radius < t->width) || !(2 * t->ball_radius < t->length))
 		return pr_err(err, PR_EINVAL, "table.ball_radius: the ball does not fit on the table");
 	if (!(t->restitution >= 0 && t->restitution <= 1))
 		return pr_err(err, PR_EINVAL, "table.restitution: must be in [0,1] (got %g)", t->restitution);
-	if (!(t->friction > 0) || !isfinite(t->friction))
-		return pr_err(err, PR_EINVAL, "table.friction: must be > 0 (got %g)", t->friction);
-	if (t->friction_law != PR_FRICTION_EXPONENTIAL && t->friction_law != PR_FRICTION_CONSTANT)
-		return pr_err(err, PR_EINVAL, "table.friction_law: unknown law %d", t->friction_law);
-	if (!(t->deceleration > 0) || !isfinite(t->deceleration))
-		return pr_err(err, PR_EINVAL, "table.deceleration: must be > 0 (got %g)", t->deceleration);
+	if ((rc = pr_sim_law_check_all(t, o, err)))
+		return rc;
 	if (!(t->stop_speed > 0) || !isfinite(t->stop_speed))
 		return pr_err(err, PR_EINVAL, "table.stop_speed: must be > 0 (got %g)", t->stop_speed);
 	if (t->reward_balls < 0 || t->reward_balls >= PR_SIM_MAX_BALLS)
@@ -133,6 +133,7 @@ pr_sim *pr_sim_new(const pr_table *t, const pr_sim_opts *o, char *err)
 		pr_err(err, PR_ENOMEM, "simulator: out of memory");
 		return NULL;
 	}
+	s->law = pr_sim_law_get(t->friction_law);
 	s->t = *t;
 	s->o = *o;
 	s->hx = t->length / 2 - t->ball_radius;
@@ -180,6 +181,7 @@ int pr_sim_shoot(pr_sim *s, const double *state, int n, const double a[2], pr_sh
 		b->x = state[2 * i];
 		b->y = state[2 * i + 1];
 		b->ux = b->uy = b->sp = b->tr = 0;
+		b->wx = b->wy = 0; /* a stun shot: no ball spins at the start */
 		b->st = PR_BALL_REST;
 		b->etype = PR_EV_NONE;
 		b->et = HUGE_VAL;
@@ -274,6 +276,7 @@ int pr_sim_ghost_action(const pr_table *t, const pr_sim_opts *o, const pr_reward
 	double c[2] = {st[0], st[1]}, r[2] = {st[2], st[3]};
 	double best = HUGE_VAL, p[2] = {0, 0}, u[2], g[2], dir[2], sr, sc, cosc, vc, v0;
 	double entry[2];
+	const pr_sim_law *law;
 	int j, rc, target = -1;
 
 	if (ro->ntargets < 1)
@@ -315,16 +318,11 @@ int pr_sim_ghost_action(const pr_table *t, const pr_sim_opts *o, const pr_reward
 	if (!(cosc > 0))
 		return pr_err(err, PR_EINVAL, "ghost ball: cut angle %.1f deg >= 90 deg, the ghost "
 		              "position cannot be reached", acos(fmax(-1, fmin(1, cosc))) * 180 / acos(-1.0));
-	if (t->friction_law == PR_FRICTION_CONSTANT) {
-		/* under |v|' = -a: v^2 = v0^2 - 2 a s */
-		const double a2 = 2 * t->deceleration;
-		vc = sqrt(e->arrival_speed * e->arrival_speed + a2 * sr) / cosc;
-		v0 = sqrt(vc * vc + a2 * sc);
-	} else {
-		/* under v' = -c v the speed falls linearly with distance: v = v0 - c s */
-		vc = (e->arrival_speed + t->friction * sr) / cosc;
-		v0 = vc + t->friction * sc;
-	}
+	law = pr_sim_law_get(t->friction_law);
+	if (!law)
+		return pr_err(err, PR_EINVAL, "table.friction_law: unknown law %d", t->friction_law);
+	vc = law->speed_for(t, e->arrival_speed, sr) / cosc;
+	v0 = law->speed_for(t, vc, sc);
 	if (v0 > o->max_speed)
 		return pr_err(err, PR_EINVAL, "ghost ball: needs %g m/s > sim.max_speed = %g", v0, o->max_speed);
 	a[0] = v0 * dir[0];

@@ -211,3 +211,33 @@ void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy,
 		}
 	}
 }
+
+void pr_sim_ball_changed(pr_sim_ball *b)
+{
+	b->sp = hypot(b->ux, b->uy);
+	b->st = b->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
+}
+
+void pr_sim_ball_stop(const pr_sim *s, pr_sim_ball *b)
+{
+	(void)s;
+	b->ux = b->uy = b->sp = 0;
+	b->st = PR_BALL_REST;
+}
+
+int pr_sim_check_positive(double v, const char *key, char *err)
+{
+	if (!(v > 0) || !isfinite(v))
+		return pr_err(err, PR_EINVAL, "%s: must be > 0 (got %g)", key, v);
+	return PR_OK;
+}
+
+void pr_sim_ball_rebase(pr_sim_ball *b, double t, const double p[2], const double v[2])
+{
+	b->x = p[0];
+	b->y = p[1];
+	b->ux = v[0];
+	b->uy = v[1];
+	b->sp = sqrt(v[0] * v[0] + v[1] * v[1]);
+	b->tr = t;
+}

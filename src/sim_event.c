@@ -1,20 +1,16 @@
 /* sim_event.c — exact event-driven time advance (sim.mode = event).
  *
- * Invariant. Every moving ball decays at the same rate, v(t) = v(t0) e^{-c(t-t0)},
- * so with tau = (1 - e^{-ct})/c a moving ball's velocity is u e^{-ct} for a
- * constant u (its velocity rescaled to t = 0) and its position is linear in
- * tau: p(tau) = p(tr) + u (tau - tr). Balls at rest have u = 0. The collision
- * laws (eq. 7.4-7.6) are linear in the velocities, so they act on u directly.
- * Hence contact, cushion and pocket-entry times are roots of linear or
- * quadratic equations in tau, and a ball stops at the closed-form tau where
- * |u| e^{-ct} = |u| (1 - c tau) = stop_speed. A ball can never travel farther
- * than |u|/c.
+ * The friction law (s->law, sim_priv.h) says how a ball moves between
+ * events, in its event variable tau: where a ball is, its own next event
+ * (the end of its phase, a cushion, a pocket) and when two balls touch.
+ * This file orders the events and applies them: the collision laws (eq.
+ * 7.4-7.6) act on the velocities at the event's tau.
  *
  * Each ball caches the earliest event it takes part in, and its own next
  * event alone; after an event only the balls involved are re-predicted in
  * full, the others are checked against them (or re-predicted, on their
  * cached own event, when their cached partner was involved).
- * Positions are advanced lazily: a ball's (x,y,tr) change only when its
+ * Positions are advanced lazily: a ball's reference changes only when its
  * velocity does. Ties: pocket < stop < cushion < ball collision, then by
  * ball index.
  */
@@ -22,96 +18,13 @@
 
 #include "sim_priv.h"
 
-#define MIN_CLOSING 1e-9 /* m/s: slower approaches are not collisions */
-
-static int earlier(double t1, int k1, double t2, int k2)
-{
-	return t1 < t2 || (t1 == t2 && k1 < k2);
-}
-
-static void advance(const pr_sim *s, pr_sim_ball *b, double tau)
-{
-	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
-		pr_sim_const_advance(s, b, tau);
-		return;
-	}
-	b->x += b->ux * (tau - b->tr);
-	b->y += b->uy * (tau - b->tr);
-	b->tr = tau;
-}
-
-/* The ball's own next event: stop, cushion or pocket entry (into ot, otype,
- * oother; it depends on the ball's state alone). */
-static void predict_own(const pr_sim *s, pr_sim_ball *b)
-{
-	const double c = s->t.friction;
-	pr_sim_hits h;
-	double best;
-	int type, other = -1;
-
-	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
-		pr_sim_const_predict_own(s, b);
-		return;
-	}
-	b->ot = HUGE_VAL;
-	b->otype = PR_EV_NONE;
-	b->oother = -1;
-	if (b->st != PR_BALL_MOVING)
-		return;
-	/* |u| (1 - c tau) = stop_speed */
-	best = fmax(b->tr, (1 - s->t.stop_speed / b->sp) / c);
-	type = PR_EV_STOP;
-	pr_sim_path_hits(s, b->x, b->y, b->ux, b->uy, b->sp, &h);
-	if (h.cid >= 0 && earlier(b->tr + h.cushion, PR_EV_CUSHION, best, type)) {
-		best = b->tr + h.cushion;
-		type = PR_EV_CUSHION;
-		other = h.cid;
-	}
-	if (h.pid >= 0 && earlier(b->tr + h.pocket, PR_EV_POCKET, best, type)) {
-		best = b->tr + h.pocket;
-		type = PR_EV_POCKET;
-		other = h.pid;
-	}
-	b->ot = best;
-	b->otype = type;
-	b->oother = other;
-}
-
 /* Contact time (absolute tau) of balls i and j, both on the table, seen
- * from tau: |d + w s| = 2R while approaching; HUGE_VAL if none. */
+ * from tau; HUGE_VAL if none. */
 static double pair_time(const pr_sim *s, const pr_sim_ball *bi, const pr_sim_ball *bj, double tau)
 {
-	const double r2 = 2 * s->t.ball_radius;
-	double dx, dy, wx, wy, bq, a, cc, cr, disc, t, close;
-
 	if (bi->st != PR_BALL_MOVING && bj->st != PR_BALL_MOVING)
 		return HUGE_VAL;
-	if (s->t.friction_law == PR_FRICTION_CONSTANT)
-		return pr_sim_const_pair_time(s, bi, bj, tau);
-	wx = bj->ux - bi->ux;
-	wy = bj->uy - bi->uy;
-	dx = (bj->x + bj->ux * (tau - bj->tr)) - (bi->x + bi->ux * (tau - bi->tr));
-	dy = (bj->y + bj->uy * (tau - bj->tr)) - (bi->y + bi->uy * (tau - bi->tr));
-	bq = dx * wx + dy * wy;
-	if (bq >= 0)
-		return HUGE_VAL;
-	a = wx * wx + wy * wy;
-	cr = dx * wy - dy * wx;
-	disc = a * r2 * r2 - cr * cr;
-	if (disc <= 0)
-		return HUGE_VAL;
-	cc = dx * dx + dy * dy - r2 * r2;
-	if (cc <= 0) { /* touching or overlapping by rounding, and approaching */
-		t = tau;
-		close = -bq / sqrt(dx * dx + dy * dy);
-	} else {
-		double sq = sqrt(disc);
-		t = tau + cc / (-bq + sq); /* stable form of the smaller root */
-		close = sq / r2;           /* -(d + w s).w / 2R at contact */
-	}
-	if (close * (1 - s->t.friction * t) < MIN_CLOSING)
-		return HUGE_VAL;
-	return t;
+	return s->law->pair(s, bi, bj, tau);
 }
 
 /* The pair times of an event's np balls part[], once each: row[k][j] is
@@ -145,7 +58,7 @@ static void predict_full(pr_sim *s, int n, int i, double tau, int own, const eve
 	int j;
 
 	if (own)
-		predict_own(s, bi);
+		s->law->own(s, bi);
 	bi->et = bi->ot;
 	bi->etype = bi->otype;
 	bi->eother = bi->oother;
@@ -158,7 +71,7 @@ static void predict_full(pr_sim *s, int n, int i, double tau, int own, const eve
 		t = pair_once(s, er, i, j, tau);
 		if (row)
 			row[j] = t;
-		if (t < HUGE_VAL && earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
+		if (t < HUGE_VAL && pr_sim_earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
 			bi->et = t;
 			bi->etype = PR_EV_BALL;
 			bi->eother = j;
@@ -173,32 +86,15 @@ typedef struct {
 } gap_state;
 
 /* Smallest distance between the cue ball and reward ball i over the last
- * linear piece [max(tr0, tri), tau] of both paths. */
+ * piece [max(tr0, tri), tau] of both paths. */
 static void gap_piece(const pr_sim *s, gap_state *g, int i, double tau)
 {
 	const pr_sim_ball *c = &s->b[0], *r = &s->b[i];
-	double t0, dx, dy, wx, wy, a, sm, d;
+	double d;
 
 	if (c->st == PR_BALL_POCKETED || r->st == PR_BALL_POCKETED)
 		return;
-	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
-		g->gap = fmin(g->gap, pr_sim_const_min_dist(s, c, r, tau, g->gap));
-		return;
-	}
-	t0 = fmax(c->tr, r->tr);
-	dx = (r->x + r->ux * (t0 - r->tr)) - (c->x + c->ux * (t0 - c->tr));
-	dy = (r->y + r->uy * (t0 - r->tr)) - (c->y + c->uy * (t0 - c->tr));
-	wx = r->ux - c->ux;
-	wy = r->uy - c->uy;
-	a = wx * wx + wy * wy;
-	sm = a > 0 ? -(dx * wx + dy * wy) / a : 0;
-	if (sm <= 0) {
-		d = hypot(dx, dy);
-	} else if (sm >= tau - t0) {
-		d = hypot(dx + wx * (tau - t0), dy + wy * (tau - t0));
-	} else {
-		d = fabs(dx * wy - dy * wx) / sqrt(a); /* interior minimum: distance to the line */
-	}
+	d = s->law->min_dist(s, c, r, tau, g->gap);
 	if (d < g->gap)
 		g->gap = d;
 }
@@ -218,21 +114,6 @@ static void gap_close(const pr_sim *s, gap_state *g, int k, double tau)
 		gap_piece(s, g, i, tau);
 }
 
-/* Position and velocity of ball b at event variable tau. */
-static void ball_at(const pr_sim *s, const pr_sim_ball *b, double tau, double p[2], double v[2])
-{
-	double f = 1 - s->t.friction * tau; /* e^{-ct} */
-
-	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
-		pr_sim_const_at(s, b, tau, p, v);
-		return;
-	}
-	p[0] = b->x + b->ux * (tau - b->tr);
-	p[1] = b->y + b->uy * (tau - b->tr);
-	v[0] = b->ux * f;
-	v[1] = b->uy * f;
-}
-
 static int trace_all(const pr_sim *s, int n, pr_sim_trace *tr, double tau, double t)
 {
 	int i;
@@ -242,20 +123,11 @@ static int trace_all(const pr_sim *s, int n, pr_sim_trace *tr, double tau, doubl
 		double p[2], v[2];
 		if (b->st == PR_BALL_POCKETED)
 			continue;
-		ball_at(s, b, tau, p, v);
+		s->law->at(s, b, tau, p, v);
 		if (pr_sim_trace_add(tr, t, i, p[0], p[1], v[0], v[1]))
 			return PR_ENOMEM;
 	}
 	return PR_OK;
-}
-
-/* Real time of event variable tau: t = -ln(1 - c tau)/c, or t itself under
- * the constant law. */
-static double time_of(const pr_sim *s, double tau)
-{
-	const double c = s->t.friction;
-
-	return s->t.friction_law == PR_FRICTION_CONSTANT ? tau : -log1p(-c * tau) / c;
 }
 
 /* After an event of the np balls part[]: re-predict them in full, every
@@ -290,7 +162,7 @@ static void repredict(pr_sim *s, int n, const int *part, int np, double tau)
 			if (b[part[j]].st == PR_BALL_POCKETED)
 				continue;
 			t = er.row[j][i];
-			if (t < HUGE_VAL && earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
+			if (t < HUGE_VAL && pr_sim_earlier(t, PR_EV_BALL, bi->et, bi->etype)) {
 				bi->et = t;
 				bi->etype = PR_EV_BALL;
 				bi->eother = part[j];
@@ -306,7 +178,7 @@ static int next_event(const pr_sim *s, int n)
 	int i, k = -1;
 
 	for (i = 0; i < n; ++i)
-		if (b[i].etype != PR_EV_NONE && (k < 0 || earlier(b[i].et, b[i].etype, b[k].et, b[k].etype)))
+		if (b[i].etype != PR_EV_NONE && (k < 0 || pr_sim_earlier(b[i].et, b[i].etype, b[k].et, b[k].etype)))
 			k = i;
 	return k;
 }
@@ -318,15 +190,15 @@ static int pocket_ball(pr_sim *s, int k, double tau, pr_sim_trace *tr)
 	pr_sim_ball *bk = &s->b[k];
 	double p[2], v[2];
 
-	ball_at(s, bk, tau, p, v);
-	if (tr && pr_sim_trace_add(tr, time_of(s, tau), k, p[0], p[1], v[0], v[1]))
+	s->law->at(s, bk, tau, p, v);
+	if (tr && pr_sim_trace_add(tr, s->law->time_of(s, tau), k, p[0], p[1], v[0], v[1]))
 		return PR_ENOMEM;
 	s->pocket[k] = bk->eother;
 	bk->x = s->px[bk->eother];
 	bk->y = s->py[bk->eother];
 	bk->ux = bk->uy = bk->sp = 0;
 	bk->st = PR_BALL_POCKETED;
-	if (tr && pr_sim_trace_add(tr, time_of(s, tau), k, bk->x, bk->y, 0, 0))
+	if (tr && pr_sim_trace_add(tr, s->law->time_of(s, tau), k, bk->x, bk->y, 0, 0))
 		return PR_ENOMEM;
 	return PR_OK;
 }
@@ -344,11 +216,7 @@ static void cushion_bounce(const pr_sim *s, pr_sim_ball *bk)
 		bk->y = bk->eother == 3 ? s->hy : -s->hy;
 		bk->uy = -kappa * bk->uy;
 	}
-	bk->sp = hypot(bk->ux, bk->uy);
-	if (bk->sp == 0)
-		bk->st = PR_BALL_REST;
-	if (s->t.friction_law == PR_FRICTION_CONSTANT)
-		pr_sim_const_heading(bk);
+	s->law->changed(s, bk);
 }
 
 /* eq. 7.5-7.6: balls k and j = bk->eother collide at tau and exchange the
@@ -361,7 +229,7 @@ static void ball_collision(pr_sim *s, gap_state *g, int k, double tau)
 	double nx, ny, d, dv;
 
 	gap_close(s, g, j, tau);
-	advance(s, bj, tau);
+	s->law->advance(s, bj, tau);
 	nx = bj->x - bk->x;
 	ny = bj->y - bk->y;
 	d = hypot(nx, ny);
@@ -372,14 +240,8 @@ static void ball_collision(pr_sim *s, gap_state *g, int k, double tau)
 	bk->uy += dv * ny;
 	bj->ux -= dv * nx;
 	bj->uy -= dv * ny;
-	bk->sp = hypot(bk->ux, bk->uy);
-	bj->sp = hypot(bj->ux, bj->uy);
-	bk->st = bk->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
-	bj->st = bj->sp > 0 ? PR_BALL_MOVING : PR_BALL_REST;
-	if (s->t.friction_law == PR_FRICTION_CONSTANT) {
-		pr_sim_const_heading(bk);
-		pr_sim_const_heading(bj);
-	}
+	s->law->changed(s, bk);
+	s->law->changed(s, bj);
 	if ((k == 0 && j <= g->nr) || (j == 0 && k <= g->nr)) {
 		g->hit = 1;
 		g->gap = 2 * s->t.ball_radius; /* contact: gap 0 */
@@ -388,9 +250,7 @@ static void ball_collision(pr_sim *s, gap_state *g, int k, double tau)
 
 int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err)
 {
-	const double c = s->t.friction;
-	const double tmax = s->t.friction_law == PR_FRICTION_CONSTANT ? s->o.max_time
-	                  : -expm1(-c * s->o.max_time) / c; /* tau at sim.max_time */
+	const double tmax = s->law->tau_of(s, s->o.max_time);
 	pr_sim_ball *b = s->b;
 	event_rows start;
 	gap_state g;
@@ -398,9 +258,9 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 	long events = 0;
 	int i, k, timeout = 0;
 
-	if (s->t.friction_law == PR_FRICTION_CONSTANT)
-		for (i = 0; i < n; ++i)
-			pr_sim_const_heading(&b[i]);
+	for (i = 0; i < n; ++i)
+		if (b[i].st == PR_BALL_MOVING)
+			s->law->changed(s, &b[i]);
 	g.nr = s->t.reward_balls;
 	g.hit = 0;
 	g.gap = HUGE_VAL;
@@ -430,10 +290,9 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 		tau = bk->et;
 		part[0] = k;
 		gap_close(s, &g, k, tau);
-		advance(s, bk, tau);
+		s->law->advance(s, bk, tau);
 		if (bk->etype == PR_EV_STOP) {
-			bk->ux = bk->uy = bk->sp = 0;
-			bk->st = PR_BALL_REST;
+			s->law->settle(s, bk);
 		} else if (bk->etype == PR_EV_POCKET) {
 			if (pocket_ball(s, k, tau, tr))
 				return pr_err(err, PR_ENOMEM, "trace: out of memory");
@@ -443,7 +302,7 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 			part[np++] = bk->eother;
 			ball_collision(s, &g, k, tau);
 		}
-		if (tr && trace_all(s, n, tr, tau, time_of(s, tau)))
+		if (tr && trace_all(s, n, tr, tau, s->law->time_of(s, tau)))
 			return pr_err(err, PR_ENOMEM, "trace: out of memory");
 		repredict(s, n, part, np, tau);
 	}
@@ -452,13 +311,13 @@ int pr_sim_run_event(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *err
 			gap_piece(s, &g, i, tau);
 	for (i = 0; i < n; ++i) {
 		if (b[i].st != PR_BALL_POCKETED)
-			advance(s, &b[i], tau);
+			s->law->advance(s, &b[i], tau);
 		s->final[2 * i] = b[i].x;
 		s->final[2 * i + 1] = b[i].y;
 	}
 	res->hit = g.hit;
 	res->min_gap = g.nr < 1 ? 0 : fmax(0, g.gap - 2 * s->t.ball_radius);
-	res->t_end = timeout ? s->o.max_time : time_of(s, tau);
+	res->t_end = timeout ? s->o.max_time : s->law->time_of(s, tau);
 	res->events = events;
 	if (tr && trace_all(s, n, tr, tau, res->t_end))
 		return pr_err(err, PR_ENOMEM, "trace: out of memory");

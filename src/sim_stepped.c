@@ -7,9 +7,8 @@
  * 1 - f with f = 1 - e^{-c dt}, the same c as event mode; a ball slower than
  * the stop speed stops. Positions are not corrected after a bounce, as in
  * the thesis, so the scheme converges to event mode at first order in dt.
- * Under the constant law (table.friction_law = constant) friction instead
- * takes a dt off the speed along the direction of motion, and every step
- * runs the tested phases.
+ * That friction is the thesis's law; another law (s->law) applies its own
+ * step to each moving ball instead, and every step runs the tested phases.
  *
  * Without a trace, stretches of steps in which no test can fire run without
  * the tests (see "Event-free windows" below); the arithmetic of every step
@@ -49,7 +48,7 @@ static double gap2(const pr_sim *s, int nr, double best)
 
 typedef struct {
 	double dt, kappa, decay, vs2, r2, rp2, ypk, hx, hy;
-	double dv;           /* constant law: speed lost per step, a dt; 0 under the exponential law */
+	int law_step;        /* 1: the law's step, not v *= decay, is the friction */
 	int n, nr, nmov, hit;
 	long step;
 	double g2;           /* smallest squared cue-reward centre distance */
@@ -143,26 +142,24 @@ static int phase_pairs(pr_sim *s, stepper *k)
 	return ev;
 }
 
-/* Friction factor 1 - f = e^{-c dt}, or under the constant law
- * |v| <- max(0, |v| - a dt) along the direction of motion; then the stop
- * threshold. */
+/* Friction factor 1 - f = e^{-c dt} and the stop threshold, or the law's
+ * own step. */
 static int phase_friction(pr_sim *s, stepper *k)
 {
-	int i, ev = 0;
+	int i, ev = 0, stop;
 
 	for (i = 0; i < k->n; ++i) {
 		pr_sim_ball *bi = &s->b[i];
 		if (bi->st != PR_BALL_MOVING)
 			continue;
-		if (k->dv > 0) {
-			double v = hypot(bi->ux, bi->uy), f = v > k->dv ? (v - k->dv) / v : 0;
-			bi->ux *= f;
-			bi->uy *= f;
+		if (k->law_step) {
+			stop = s->law->step(s, bi);
 		} else {
 			bi->ux *= k->decay;
 			bi->uy *= k->decay;
+			stop = bi->ux * bi->ux + bi->uy * bi->uy < k->vs2;
 		}
-		if (bi->ux * bi->ux + bi->uy * bi->uy < k->vs2) {
+		if (stop) {
 			bi->ux = bi->uy = 0;
 			bi->st = PR_BALL_REST;
 			--k->nmov;
@@ -632,8 +629,8 @@ int pr_sim_run_stepped(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *e
 
 	k.dt = s->o.dt;
 	k.kappa = s->t.restitution;
-	k.decay = exp(-s->t.friction * s->o.dt);
-	k.dv = s->t.friction_law == PR_FRICTION_CONSTANT ? s->t.deceleration * s->o.dt : 0;
+	k.decay = s->law->step_decay(s);
+	k.law_step = k.decay == 0;
 	k.vs2 = s->t.stop_speed * s->t.stop_speed;
 	k.r2 = 4 * s->t.ball_radius * s->t.ball_radius;
 	k.rp2 = s->t.pocket_radius * s->t.pocket_radius;
@@ -654,19 +651,19 @@ int pr_sim_run_stepped(pr_sim *s, int n, pr_shot *res, pr_sim_trace *tr, char *e
 	while (k.nmov > 0 && k.step < maxsteps) {
 		long lim = maxsteps;
 		int ev;
-		/* the fast paths and windows hard-code the exponential law's v *= decay */
-		if (!tr && k.dv == 0) {
+		/* the fast paths and windows hard-code v *= decay */
+		if (!tr && !k.law_step) {
 			if (run_window(s, &k, maxsteps))
 				continue;
 			/* near an event: tested steps for a while */
 			lim = maxsteps - k.step > WIN_MIN ? k.step + WIN_MIN : maxsteps;
 		}
-		if (k.nmov == 1 && !tr && k.dv == 0) {
+		if (k.nmov == 1 && !tr && !k.law_step) {
 			if (!run_single(s, &k, lim))
 				continue;
 			ev = 0;
 		} else {
-			if (n == 2 && k.nmov == 2 && !tr && k.dv == 0) {
+			if (n == 2 && k.nmov == 2 && !tr && !k.law_step) {
 				long before = k.step;
 				run_pair(s, &k, lim);
 				if (k.step > before)

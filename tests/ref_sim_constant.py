@@ -126,12 +126,11 @@ class Sim:
         acc = b.acc(self.a)
         for axis, lim in ((0, self.hx), (1, self.hy)):
             for sign, cid in ((-1, 2 * axis), (1, 2 * axis + 1)):
-                if b.v[axis] * sign <= 0:
-                    continue
-                # p + v s + acc s^2 / 2 = sign * lim
+                # p + v s + acc s^2 / 2 = sign * lim, crossed outwards
                 roots = poly_roots_in([0.5 * acc[axis], b.v[axis], b.p[axis] - sign * lim], 0, S)
-                if roots:
-                    ev.append((roots[0], CUSHION, cid))
+                out = [r for r in roots if (b.v[axis] + acc[axis] * r) * sign > 0]
+                if out:
+                    ev.append((out[0], CUSHION, cid))
         A, B = 0.5 * acc, b.v
         Cs = [b.p - np.array(pk) for pk in self.pk]
         # |C + v s + acc s^2/2|^2 = rp^2, entering (the six quartics solved together)
@@ -182,12 +181,24 @@ class Sim:
                 b.p = self.position(b, s)
                 b.v = nv
 
+    def new_ball(self, x, y):
+        return Ball(x, y)
+
+    def settle(self, b):
+        """A ball's STOP event."""
+        b.v = np.zeros(2)
+        b.state = "rest"
+
+    def changed(self, b):
+        """After a bounce or a hit changed b.v."""
+        b.state = "moving" if b.v.any() else "rest"
+
     def shoot(self, state, action):
         n = len(state) // 2
-        self.balls = [Ball(state[2 * i], state[2 * i + 1]) for i in range(n)]
+        self.balls = [self.new_ball(state[2 * i], state[2 * i + 1]) for i in range(n)]
         if math.hypot(*action) >= self.v_stop:
             self.balls[0].v = np.array(action, dtype=float)
-            self.balls[0].state = "moving"
+            self.changed(self.balls[0])
         t = 0.0
         hit = False
         events = 0
@@ -220,8 +231,7 @@ class Sim:
             events += 1
             b = self.balls[i]
             if typ == STOP:
-                b.v = np.zeros(2)
-                b.state = "rest"
+                self.settle(b)
             elif typ == POCKET:
                 b.p = np.array(self.pk[other])
                 b.v = np.zeros(2)
@@ -232,8 +242,7 @@ class Sim:
                 b.p[axis] = self.hx if other == 1 else -self.hx if other == 0 else \
                     self.hy if other == 3 else -self.hy
                 b.v[axis] *= -self.kappa
-                if not b.v.any():
-                    b.state = "rest"
+                self.changed(b)
             else:
                 bj = self.balls[other]
                 nrm = (bj.p - b.p) / np.linalg.norm(bj.p - b.p)
@@ -241,7 +250,7 @@ class Sim:
                 b.v = b.v + dv * nrm
                 bj.v = bj.v - dv * nrm
                 for q in (b, bj):
-                    q.state = "moving" if q.v.any() else "rest"
+                    self.changed(q)
                 if (i == 0 and 1 <= other <= self.nreward) or (other == 0 and 1 <= i <= self.nreward):
                     hit = True
         return {

@@ -122,3 +122,22 @@ def test_committed_report_is_generated(tmp_path):
     assert readme.read_text(encoding="utf-8") == (ROOT / "README.md").read_text(encoding="utf-8")
     assert choices.read_text(encoding="utf-8") == \
         (ROOT / "docs" / "choices.md").read_text(encoding="utf-8")
+
+
+def test_real_table_sentence():
+    """The README's sentence on the slide_roll point names the verdicts that
+    change against the default and says whether one reverses."""
+    ids = list(ss.CLAIMS)
+    base = {c: "undecided" for c in ids}
+    slide = dict(base, best="disagrees")
+    r = fake_results({"default": base, "law_slide_roll": slide})
+    r.runs["law_slide_roll"] = {"repetitions": "20"}
+    s = ss.real_table(r)
+    assert f"1 of the {len(ids)} Experiment 3 verdicts change against the default" in s, s
+    assert "`best` ? → ✗" in s and "none reverses" in s and "20 repetitions" in s, s
+    r = fake_results({"default": dict(base, best="agrees"), "law_slide_roll": slide})
+    r.runs["law_slide_roll"] = {"repetitions": "20"}
+    assert "`best` reverses between agrees and disagrees" in ss.real_table(r)
+    r = fake_results({"default": base, "law_slide_roll": dict(base)})
+    r.runs["law_slide_roll"] = {"repetitions": "20"}
+    assert f"all {len(ids)} Experiment 3 verdicts stay the same" in ss.real_table(r)

@@ -394,8 +394,8 @@ static void ghost_rate(int law)
 		assert_int_equal(pr_sim_shoot(f->sim, st, 2, a, &f->res, NULL, f->err), PR_OK);
 		ok += pr_sim_reward(&f->t, &f->ro, &f->res) == 0;
 	}
-	print_message("ghost-ball expert: %d of %d pocketed (event mode, Exp. 2 region, %s law)\n", ok,
-	              n, law == PR_FRICTION_CONSTANT ? "constant" : "exponential");
+	print_message("ghost-ball expert: %d of %d pocketed (event mode, Exp. 2 region, law %d of %s)\n",
+	              ok, n, law, PR_FRICTION_NAMES);
 	assert_true(ok >= 0.99 * n);
 	gsl_rng_free(rng);
 	destroy(f);
@@ -406,6 +406,7 @@ static void test_ghost_rate(void **state)
 	(void)state;
 	ghost_rate(PR_FRICTION_EXPONENTIAL);
 	ghost_rate(PR_FRICTION_CONSTANT);
+	ghost_rate(PR_FRICTION_SLIDE_ROLL);
 }
 
 /* Constant law, free flight: the ball stops after (v0^2 - v_stop^2)/2a at
@@ -595,10 +596,9 @@ static void convergence(int law)
 	assert_true(used >= 100);
 	lg[0] = exp(lg[0] / used);
 	lg[1] = exp(lg[1] / used);
-	print_message("stepped vs event, %s law, %d shots: error ratio dt 1->0.5 ms %.3f, 0.5->0.25 ms "
-	              "%.3f (arithmetic means %.3g %.3g %.3g m)\n",
-	              law == PR_FRICTION_CONSTANT ? "constant" : "exponential", used, lg[0], lg[1],
-	              mean[0], mean[1], mean[2]);
+	print_message("stepped vs event, law %d of %s, %d shots: error ratio dt 1->0.5 ms %.3f, "
+	              "0.5->0.25 ms %.3f (arithmetic means %.3g %.3g %.3g m)\n", law, PR_FRICTION_NAMES,
+	              used, lg[0], lg[1], mean[0], mean[1], mean[2]);
 	assert_true(lg[0] > 1.6 && lg[0] < 2.6);
 	assert_true(lg[1] > 1.6 && lg[1] < 2.6);
 	gsl_rng_free(rng);
@@ -612,6 +612,7 @@ static void test_stepped_convergence(void **state)
 	(void)state;
 	convergence(PR_FRICTION_EXPONENTIAL);
 	convergence(PR_FRICTION_CONSTANT);
+	convergence(PR_FRICTION_SLIDE_ROLL);
 }
 
 /* Invariants over random 5-ball shots in event mode: kinetic energy never

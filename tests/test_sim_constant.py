@@ -21,10 +21,10 @@ BIN = os.environ.get("POOLREPS", str(ROOT / "poolreps"))
 R, RP = 0.015, 0.03
 
 
-def shoot(rows, nballs, sets, tmp_path):
+def shoot(rows, nballs, sets, tmp_path, law="constant"):
     head = ",".join([f"x{i},y{i}" for i in range(nballs)] + ["vx", "vy"])
     text = head + "\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in rows)
-    args = [BIN, "shoot", "--set", "table.friction_law=constant"]
+    args = [BIN, "shoot", "--set", f"table.friction_law={law}"]
     for kv in sets:
         args += ["--set", kv]
     r = run_cmd(args, input=text, capture_output=True, text=True, cwd=tmp_path, timeout=120)
@@ -79,9 +79,10 @@ def degenerate_shots(sim):
     ]
 
 
-def compare(rows, nballs, sets, params, tol, tmp_path, ttol=1e-9):
-    sim = Sim(**params)
-    got = shoot(rows, nballs, sets, tmp_path)
+def compare(rows, nballs, sets, params, tol, tmp_path, ttol=1e-9, law="constant", make=Sim):
+    """poolreps under law against the reference make(**params), shot by shot."""
+    sim = make(**params)
+    got = shoot(rows, nballs, sets, tmp_path, law)
     worst = 0.0
     for row, c in zip(rows, got):
         ref = sim.shoot(row[:-2], row[-2:])
@@ -137,8 +138,13 @@ def test_reference_many_balls(tmp_path):
     (["table.friction=0.3"], "table.friction: not used with table.friction_law = constant"),
 ])
 def test_bad_constant_keys(sets, msg, tmp_path):
+    refused("constant", sets, msg, tmp_path)
+
+
+def refused(law, sets, msg, tmp_path):
+    """shoot under law with sets: exit 1, no output, one stderr line with msg."""
     inp = "x0,y0,x1,y1,vx,vy\n-0.25,0,0.1,0,0.5,0\n"
-    args = [BIN, "shoot", "--set", "table.friction_law=constant"]
+    args = [BIN, "shoot", "--set", f"table.friction_law={law}"]
     for kv in sets:
         args += ["--set", kv]
     r = run_cmd(args, input=inp, capture_output=True, text=True, cwd=tmp_path)

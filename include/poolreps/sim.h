@@ -16,8 +16,11 @@
 /* table.friction_law: how a rolling ball slows. */
 enum {
 	PR_FRICTION_EXPONENTIAL = 0, /* v' = -c v (thesis): v(t) = v0 e^(-c t) */
-	PR_FRICTION_CONSTANT = 1     /* |v|' = -a (rolling resistance, a = mu_r g) */
+	PR_FRICTION_CONSTANT = 1,    /* |v|' = -a (rolling resistance, a = mu_r g) */
+	PR_FRICTION_SLIDE_ROLL = 2   /* slides at mu_s g against the slip, then rolls at mu_r g */
 };
+/* Their names, in that order (table.friction_law's values). */
+#define PR_FRICTION_NAMES "exponential|constant|slide_roll"
 
 /* Table geometry and physics constants (keys table.*). */
 typedef struct {
@@ -29,6 +32,8 @@ typedef struct {
 	double friction;      /* c in v(t) = v0 exp(-c t), 1/s (exponential law) */
 	int friction_law;     /* PR_FRICTION_* */
 	double deceleration;  /* a in |v|(t) = v0 - a t, m/s^2 (constant law) */
+	double mu_slide;      /* sliding friction coefficient (slide_roll law) */
+	double mu_roll;       /* rolling resistance coefficient, below mu_slide (slide_roll law) */
 	double stop_speed;    /* m/s; slower balls stop */
 	int balls;            /* cue + reward + obstacle balls */
 	int reward_balls;     /* b */

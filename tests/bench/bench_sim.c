@@ -1,7 +1,7 @@
 /* bench_sim.c — simulator throughput (shots per second), single thread.
  *
  *   bench_sim --mode event|stepped --actions gauss|uniform [--dt S] [--shots N]
- *             [--runs K] [--seed S] [--law exponential|constant]
+ *             [--runs K] [--seed S] [--law exponential|constant|slide_roll]
  *
  * Two-ball shots from Experiment 3's start region (cue ball at (-0.25, 0),
  * reward ball uniform in [0.05,0.15]x[-0.1,0.1]). Actions: "gauss" draws
@@ -9,8 +9,8 @@
  * direction and a speed uniform in [0, 1.5] m/s. States and actions are drawn
  * before the clock starts (a pool of 65536 shots, reused cyclically), no
  * trace is recorded, and the result is only summed so the work is not
- * optimised away. --law picks table.friction_law (the constant law at its
- * default deceleration, 0.0625 m/s^2). Prints one line of key=value pairs with the median of the
+ * optimised away. --law picks table.friction_law (each law at its default
+ * coefficients). Prints one line of key=value pairs with the median of the
  * runs. */
 #include <getopt.h>
 #include <math.h>
@@ -27,6 +27,24 @@
 #include "bench_util.h"
 
 #define POOL 65536
+
+static const char *const laws[] = {"exponential", "constant", "slide_roll"}; /* PR_FRICTION_* */
+
+/* PR_FRICTION_* of name; the exponential law if it is none */
+static int law_id(const char *name)
+{
+	int i;
+
+	for (i = 0; i < (int)(sizeof laws / sizeof *laws); ++i)
+		if (!strcmp(name, laws[i]))
+			return i;
+	return PR_FRICTION_EXPONENTIAL;
+}
+
+static const char *law_name(int id)
+{
+	return laws[id];
+}
 
 int main(int argc, char **argv)
 {
@@ -59,7 +77,7 @@ int main(int argc, char **argv)
 		case 'r': runs = (int)strtol(optarg, NULL, 10); break;
 		case 's': seed = strtoul(optarg, NULL, 10); break;
 		case 'l':
-			t.friction_law = strcmp(optarg, "constant") ? PR_FRICTION_EXPONENTIAL : PR_FRICTION_CONSTANT;
+			t.friction_law = law_id(optarg);
 			break;
 		default: return 1;
 		}
@@ -113,7 +131,7 @@ int main(int argc, char **argv)
 	qsort(rate, (size_t)runs, sizeof *rate, bench_cmp);
 	printf("mode=%s law=%s actions=%s dt=%g shots=%ld runs=%d median_shots_per_s=%.0f min=%.0f max=%.0f "
 	       "events_per_shot=%.2f checksum=%.6g\n", o.mode == PR_SIM_EVENT ? "event" : "stepped",
-	       t.friction_law == PR_FRICTION_CONSTANT ? "constant" : "exponential", actions, o.dt, shots, runs, rate[runs / 2], rate[0], rate[runs - 1],
+	       law_name(t.friction_law), actions, o.dt, shots, runs, rate[runs / 2], rate[0], rate[runs - 1],
 	       (double)events / (double)shots, sink);
 	pr_sim_free(sim);
 	gsl_rng_free(rng);
