@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The compact results of the verdict study, from its run folders.
 
-Usage: study_extract.py OUT DATA
+Usage: study_extract.py [--exp3] OUT DATA   (--exp3: the holdout, Experiment 3 only)
 
 OUT is what scripts/study.sh writes: OUT/power/ARM (merged Experiment 3 arms),
 OUT/seeds/ARM/exp1 and OUT/seeds/ARM/exp2 (collected seed sweeps per physics
@@ -179,9 +179,37 @@ def seed_cpu(points):
                for f in glob.glob(os.path.join(os.path.dirname(d), "runs", "rep-*")))
 
 
+def exp3_files(data, runs, curves, iters):
+    """The staged Experiment 3 files: exp3_runs.csv and exp3_curves.csv."""
+    return [
+        write(os.path.join(data, "exp3_runs.csv"),
+              ["arm", "policy", "repetition", "mean_return", "sd_return", "target", "pocket2",
+               "pocket5", "median_speed", "miss_distance"], runs),
+        write(os.path.join(data, "exp3_curves.csv"),
+              ["arm", "policy", "repetition"] + [f"i{k}" for k in range(1, iters + 1)], curves),
+    ]
+
+
+def holdout(out, data):
+    """--exp3: the holdout's files (scripts/holdout.sh), Experiment 3 only."""
+    runs, curves, m3, cpu3, iters = exp3(out)
+    wall = {r["phase"]: r for r in read_rows(os.path.join(out, "timing.csv"),
+                                             ("phase", "wall_seconds", "jobs"))}
+    os.makedirs(data, exist_ok=True)
+    staged = exp3_files(data, runs, curves, iters) + [
+        write(os.path.join(data, "manifest.csv"), ["experiment", "unit", "key", "value"], m3),
+        write(os.path.join(data, "timing.csv"), ["phase", "wall_seconds", "cpu_seconds", "jobs"],
+              [["exp3", float(wall["exp3"]["wall_seconds"]), cpu3, wall["exp3"]["jobs"]]])]
+    for tmp, path in staged:
+        os.replace(tmp, path)
+    return 0
+
+
 def main():
+    if len(sys.argv) == 4 and sys.argv[1] == "--exp3":
+        return holdout(*sys.argv[2:])
     if len(sys.argv) != 3:
-        print("usage: study_extract.py OUT DATA", file=sys.stderr)
+        print("usage: study_extract.py [--exp3] OUT DATA", file=sys.stderr)
         return 1
     out, data = sys.argv[1:]
     runs, curves, m3, cpu3, iters = exp3(out)
@@ -196,14 +224,9 @@ def main():
               ["sphere", float(wall["sphere"]["wall_seconds"]),
                cpu(os.path.join(out, "sphere", m) for m in SPHERE), wall["sphere"]["jobs"]]]
     os.makedirs(data, exist_ok=True)
-    staged = [
+    staged = exp3_files(data, runs, curves, iters) + [
         write(os.path.join(data, "manifest.csv"), ["experiment", "unit", "key", "value"],
               m3 + m1 + m2 + ms),
-        write(os.path.join(data, "exp3_runs.csv"),
-              ["arm", "policy", "repetition", "mean_return", "sd_return", "target", "pocket2",
-               "pocket5", "median_speed", "miss_distance"], runs),
-        write(os.path.join(data, "exp3_curves.csv"),
-              ["arm", "policy", "repetition"] + [f"i{k}" for k in range(1, iters + 1)], curves),
         write(os.path.join(data, "exp1_mse.csv"), ["arm", "seed", "forest", "sweep", "value", "mse"],
               mse),
         write(os.path.join(data, "exp1_map.csv"),

@@ -27,6 +27,13 @@ Counts (k of n units with a property; exact binomial, Clopper-Pearson):
     p_binom_less(k, n, c)      # H1: share < c  (P(X <= k))
     lo, hi = clopper_pearson(k, n, level)   # the shares neither test rejects
 
+Power (the units needed to decide, if the true mean were the estimate):
+
+    power_t(delta, sd, n, level)   # P(one-sided t test at level rejects), true mean
+                                   # delta beyond the bound, noncentral t
+    units_needed(sides, power)     # smallest n at which every (delta, sd, level)
+                                   # side rejects with joint power >= power
+
 Multiplicity and verdicts:
 
     holm(ps)                   # Holm-adjusted p-values, same order as ps
@@ -285,3 +292,44 @@ def share_estimate(num, den, c):
     sum(num) / sum(den) is above (> 0) or below c: tests of a ratio bound."""
     a, b = np.asarray(num, float), np.asarray(den, float)
     return one_sample(a - c * b)
+
+
+def power_t(delta, sd, n, level):
+    """Power of the one-sided one-sample t test at level with n units when
+    the true mean lies delta beyond the bound (towards H1) and the units' SD
+    is sd: P(T > t(1 - level, n - 1)), T noncentral t with noncentrality
+    delta sqrt(n) / sd."""
+    if n < 2 or not 0 < level < 1:
+        raise ValueError(f"power_t: need n >= 2 and 0 < level < 1 (got {n}, {level})")
+    crit = float(special.stdtrit(n - 1, 1 - level))
+    if sd == 0:
+        return 1.0 if delta > 0 else 0.0
+    with np.errstate(all="ignore"):   # far tails: scipy clips its 0/0 to 0 or 1
+        return float(stats.nct.sf(crit, n - 1, delta * math.sqrt(n) / sd))
+
+
+UNITS_MAX = 10 ** 6
+
+
+def units_needed(sides, power):
+    """The smallest n at which a decision that needs every one-sided test of
+    sides, each (delta, sd, level), has power at least power; the joint power
+    is bounded below by 1 - sum of the sides' misses (Bonferroni). math.inf
+    when a side's delta is not positive or n would exceed UNITS_MAX."""
+    if not sides or any(not delta > 0 for delta, _, _ in sides):
+        return math.inf
+
+    def ok(n):
+        return 1 - sum(1 - power_t(dl, sd, n, lv) for dl, sd, lv in sides) >= power
+    hi = 2
+    while not ok(hi):
+        if hi >= UNITS_MAX:
+            return math.inf
+        hi = min(2 * hi, UNITS_MAX)
+    lo = max(2, hi // 2)
+    if ok(lo):
+        return lo
+    while hi - lo > 1:   # ok(hi), not ok(lo): the power grows with n
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
+    return hi
