@@ -28,8 +28,8 @@ TREES = ["nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a"]
 THESIS = TREES + ["baseline"]
 
 
-def rows(name):
-    with open(DATA / name, newline="", encoding="utf-8") as f:
+def rows(name, data=DATA):
+    with open(data / name, newline="", encoding="utf-8") as f:
         return list(csv.DictReader(f))
 
 
@@ -151,14 +151,14 @@ def exp12_oracle(arm, mg, c1, c2):
     return ev1, ev
 
 
-def exp3_oracle(arm, mg, R):
+def exp3_oracle(arm, mg, R, data=DATA):
     o = {}
     runs = defaultdict(dict)
-    for r in rows("exp3_runs.csv"):
+    for r in rows("exp3_runs.csv", data):
         if r["arm"] == arm:
             runs[r["policy"]][int(r["repetition"])] = r
     curves = defaultdict(dict)
-    for r in rows("exp3_curves.csv"):
+    for r in rows("exp3_curves.csv", data):
         if r["arm"] == arm:
             its = sorted((int(k[1:]), float(v)) for k, v in r.items() if k.startswith("i"))
             curves[r["policy"]][int(r["repetition"])] = np.array([v for _, v in its])
@@ -293,6 +293,25 @@ def check_interval(cell, want, scale, where):
 def want():
     """The oracle, computed once for the tests that read it (none changes it)."""
     return oracle()
+
+
+def test_holdout_recomputed():
+    """The holdout's parts (Experiment 3 on fresh seeds) against the oracle,
+    its own family per mode."""
+    R = rules()
+    mg = {k: float(v) for k, v in R["margins"].items() if "." not in k}
+    label_of = {v: k for k, v in MODES.items()}
+    got = defaultdict(dict)
+    for r in csv_parts(ROOT / "docs" / "data" / "verdicts" / "holdout_parts.csv"):
+        got[label_of[r["mode"]]][r["part"]] = r
+    for arm in MODES:
+        want = adjusted(exp3_oracle(arm, mg, R, DATA / "holdout"), float(R["study"]["alpha"]))
+        assert set(got[arm]) == set(want), arm
+        for label, w in want.items():
+            g = got[arm][label]
+            assert close(re.findall(NUM, g["estimate"])[-1], w[0]), (arm, label)
+            check_interval(g["support interval (level)"], w[7], 1, (arm, label))
+            assert g["verdict"] == w[5], (arm, label)
 
 
 def test_every_part_recomputed(want):
@@ -498,6 +517,9 @@ def shift_seed(rs):
     ("malformed", 2, ["exp3_runs.csv", "mean_return"]),
     ("sphere", 3, ["manifest.csv", "sphere creps_new has policy.cov_center = old"]),
     ("sphere_rows", 3, ["sphere_curves.csv", "method ccmaes repetition 3"]),
+    ("holdout_missing", 2, ["holdout/exp3_curves.csv", "missing"]),
+    ("holdout_other", 3, ["holdout/manifest.csv", "Experiment 3 only"]),
+    ("holdout_partial", 3, ["holdout/exp3_runs.csv", "arm stepped policy rvr_a repetition 17"]),
 ])
 def test_bad_study_refused_and_nothing_written(study, case, code, words):
     data, docs, readme = study
@@ -513,6 +535,13 @@ def test_bad_study_refused_and_nothing_written(study, case, code, words):
         edit_csv(data / "exp1_map.csv", shift_seed)
     elif case == "sphere":
         edit_csv(data / "manifest.csv", sphere_centre)
+    elif case == "holdout_missing":
+        (data / "holdout" / "exp3_curves.csv").unlink()
+    elif case == "holdout_other":
+        edit_csv(data / "holdout" / "manifest.csv",
+                 lambda rs: rs + [["exp1", "event/1", "experiment.seed", "1"]])
+    elif case == "holdout_partial":
+        edit_csv(data / "holdout" / "exp3_runs.csv", drop_run)
     elif case == "sphere_rows":
         edit_csv(data / "sphere_curves.csv", lambda rs: [r for r in rs
                                                           if r[:2] != ["ccmaes", "3"]])
