@@ -39,11 +39,13 @@ def rules():
     return c
 
 
-def manifest():
+def manifest_of(data=DATA):
     m = defaultdict(dict)
-    for r in rows("manifest.csv"):
+    for r in rows("manifest.csv", data):
         m[(r["experiment"], r["unit"])][r["key"]] = r["value"]
     return m
+
+
 
 
 # ---------------------------------------------------------------- oracle
@@ -211,7 +213,7 @@ def oracle():
     of the support, (lo, hi, level) of the refutation]}} from the rules' text."""
     R = rules()
     mg = {k: float(v) for k, v in R["margins"].items() if "." not in k}
-    man = manifest()
+    man = manifest_of()
     out = {}
     alpha = float(R["study"]["alpha"])
     for arm in MODES:
@@ -377,7 +379,7 @@ def test_family_sizes_stated(want):
     assert m, "the families' sizes are not stated"
     R = rules()
     mg = {k: float(v) for k, v in R["margins"].items() if "." not in k}
-    man = manifest()
+    man = manifest_of()
     o1, o2 = exp12_oracle("event", mg, man[("exp1", "event/1")], man[("exp2", "event/1")])
     sizes = (2 * len(o1), 2 * len(o2), 2 * len(exp3_oracle("event", mg, R)))
     assert tuple(int(x) for x in m.groups()) == sizes
@@ -474,7 +476,8 @@ def study(tmp_path):
     (docs / "verdicts.md").write_text("old\n")
     readme = tmp_path / "README.md"
     readme.write_text("a\n<!-- verdicts:begin -->\nold\n<!-- verdicts:end -->\nb\n"
-                      "<!-- sphere:begin -->\nold\n<!-- sphere:end -->\nc\n")
+                      "<!-- sphere:begin -->\nold\n<!-- sphere:end -->\nc\n"
+                      "<!-- exp3-table:begin -->\n<!-- exp3-table:end -->\n")
     return data, docs, readme
 
 
@@ -570,7 +573,9 @@ def test_check_sees_a_difference(study):
     p = generate(data, docs, readme, "--check")
     assert p.returncode == 1 and "study_seeds" in p.stderr, p.stderr
     text = readme.read_text()
-    assert text.startswith("a\n<!-- verdicts:begin -->") and text.endswith("<!-- sphere:end -->\nc\n")
+    assert text.startswith("a\n<!-- verdicts:begin -->")
+    assert "<!-- sphere:end -->\nc\n<!-- exp3-table:begin -->\nExperiment 3 in the study" in text
+    assert text.endswith("<!-- exp3-table:end -->\n")
     assert "<!-- verdicts:end -->\nb\n<!-- sphere:begin -->\nREPS benchmarks" in text
     (docs / "verdicts.md").write_text((docs / "verdicts.md").read_text() + " ")
     p = generate(data, docs, readme, "--check", "--no-figures")
@@ -616,14 +621,54 @@ def test_tiny_study_end_to_end(tmp_path):
     (data / "rules.ini").write_text(rules_text.replace("converged_at = 60", "converged_at = 3"))
     readme = tmp_path / "README.md"
     readme.write_text("<!-- verdicts:begin -->\n<!-- verdicts:end -->\n"
-                      "<!-- sphere:begin -->\n<!-- sphere:end -->\n")
+                      "<!-- sphere:begin -->\n<!-- sphere:end -->\n"
+                      "<!-- exp3-table:begin -->\n<!-- exp3-table:end -->\n")
     p = generate(data, docs, readme)
     assert p.returncode == 0, p.stderr
     md = (docs / "verdicts.md").read_text(encoding="utf-8")
     assert "3 repetitions per mode" in md and "3 seeds" in md and "nan" not in md.lower()
+    # two more repetitions (3 and 4), and repetition 0 again, which must match
+    runs_before = (data / "exp3_runs.csv").read_text()
+    p = subprocess.run(["sh", ROOT / "scripts" / "study_extend.sh", tmp_path / "ext", "3", "5",
+                        data, PY, *env["STUDY_EXP3"].split()], capture_output=True, text=True,
+                       env=env, cwd=tmp_path, timeout=600)
+    assert p.returncode == 0, p.stdout + p.stderr
+    ext = list(csv.DictReader(open(data / "exp3_runs.csv")))
+    assert len(ext) == 5 * 6 * 3 and (data / "exp3_runs.csv").read_text().startswith(runs_before)
+    assert {r["repetition"] for r in ext} == {"0", "1", "2", "3", "4"}
+    assert manifest_of(data)[("exp3", "event")]["experiment.repetitions"] == "5"
+    p = generate(data, docs, readme)
+    assert p.returncode == 0, p.stderr
+    assert "5 repetitions per mode" in (docs / "verdicts.md").read_text(encoding="utf-8")
     # the repository's rules do not fit 6 iterations: refused, nothing written
     (data / "rules.ini").write_text(rules_text)
     before = snapshot(docs) | {str(readme): readme.read_text()}
     p = generate(data, docs, readme)
     assert p.returncode == 3 and "converged_at" in p.stderr and p.stderr.count("\n") == 1
     assert snapshot(docs) | {str(readme): readme.read_text()} == before
+
+
+def test_readme_exp3_table_recomputed():
+    """The README's Experiment 3 table (event mode of the study) from the
+    runs, with scipy's paired t interval."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = readme[readme.index("<!-- exp3-table:begin -->"):readme.index("<!-- exp3-table:end -->")]
+    runs = defaultdict(dict)
+    for r in rows("exp3_runs.csv"):
+        if r["arm"] == "event":
+            runs[r["policy"]][int(r["repetition"])] = r
+    col = lambda q, c: np.array([float(runs[q][k][c]) for k in sorted(runs[q])])  # noqa: E731
+    lines = [ln for ln in block.splitlines() if ln.startswith("| ") and "policy" not in ln]
+    assert len(lines) == 6 and f"{len(runs['baseline'])} repetitions" in block
+    for line, q in zip(lines, THESIS + ["handcrafted"]):
+        cells = [c.strip() for c in line.strip("| ").split("|")]
+        ret = col(q, "mean_return")
+        assert close(cells[1], ret.mean()) and close(cells[2], ret.std(ddof=1)), (q, cells)
+        if q != "baseline":
+            d = ret - col("baseline", "mean_return")
+            lo, hi = stats.ttest_1samp(d, 0).confidence_interval(0.95)
+            est, a, b = re.findall(NUM, cells[3])
+            assert close(est, d.mean()) and close(a, lo) and close(b, hi), (q, cells)
+        p2, p5 = re.findall(NUM, cells[4])
+        assert close(p2, col(q, "pocket2").mean()) and close(p5, col(q, "pocket5").mean())
+        assert close(re.findall(NUM, cells[5])[0], col(q, "median_speed").mean())
