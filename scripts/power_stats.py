@@ -23,7 +23,7 @@ import shlex
 import sys
 
 import numpy as np
-from scipy import stats
+import verdict_stats as vs
 
 ARMS = ("event", "stepped", "stepped05")
 TREES = ("nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a")
@@ -64,9 +64,7 @@ def paired_t(d, level=LEVEL):
     if n < 2:
         m = float(d[0]) if n else math.nan
         return m, math.nan, math.nan, n
-    m = float(d.mean())
-    half = stats.t.ppf(0.5 + level / 2, n - 1) * float(d.std(ddof=1)) / math.sqrt(n)
-    return m, m - half, m + half, n
+    return (*vs.t_interval(d, level), n)
 
 
 def resamples(n, boot, seed):

@@ -242,7 +242,7 @@ def extend(out, data):
                 a = ps.Arm(name, f, min_reps=1)
             except ps.Fail as e:
                 fail(str(e))
-            cpu_s += ps.cpu_seconds(a)
+            cpu_s += cpu([f])
             rs, cs = [], []
             arm_rows(a, rs, cs)
             for r, c in zip(rs, cs):

@@ -13,6 +13,7 @@ Estimates (a mean difference with its standard error and degrees of freedom):
     e.est, e.se, e.df, e.n     # the estimate, its standard error, df, sample size
     e = trend(y)               # least-squares change across y (slope x (len - 1))
     lo, hi = interval(e)       # 95 % t interval: est -+ t(0.975, df) * se
+    m, lo, hi = t_interval(x)  # the same for a plain sample, as the figures print it
 
 Tests (each returns a p-value; small p supports the alternative named):
 
@@ -124,6 +125,17 @@ def interval(e, level=LEVEL):
     return e.est - half, e.est + half
 
 
+def t_interval(x, level=LEVEL):
+    """(mean, lo, hi) of x: its two-sided t interval, mean -+ t(0.5 + level /
+    2, n - 1) s / sqrt(n) (the same bounds as interval(one_sample(x)), in the
+    order of operations the figures and the power study always used)."""
+    v = _values(x, "t_interval")
+    n = len(v)
+    m = float(v.mean())
+    half = float(special.stdtrit(n - 1, 0.5 + level / 2)) * float(v.std(ddof=1)) / math.sqrt(n)
+    return m, m - half, m + half
+
+
 def _t(e, bound):
     """t statistic of the estimate against bound; +-inf when se is 0."""
     d = e.est - bound
@@ -182,15 +194,20 @@ def holm_levels(ps, alpha=ALPHA):
     smallest against alpha / (m - k + 1) until the first that fails; that one
     and every larger p against the level of the first failure. So p < level
     exactly when holm(ps) < alpha, and a confidence bound at 1 - level gives
-    the same decision as the adjusted p-value. Same order as ps."""
+    the same decision as the adjusted p-value. Tied p-values share the level
+    of the first of them (the strictest), so the levels do not depend on the
+    order of the list. Same order as ps."""
     p = np.asarray(ps, float)
     holm(p)  # the same validation
     m = len(p)
     order = np.argsort(p, kind="stable")
+    sp = p[order]
     levels = alpha / (m - np.arange(m))
-    fails = np.nonzero(p[order] >= levels)[0]
+    fails = np.nonzero(sp >= levels)[0]
     if len(fails):
         levels[fails[0]:] = levels[fails[0]]
+    first = np.searchsorted(sp, sp, side="left")   # each p's first tie
+    levels = levels[first]
     out = np.empty(m)
     out[order] = levels
     return [float(x) for x in out]

@@ -1090,8 +1090,14 @@ def time_md(d):
             f"jobs: Experiment 3 ({d['reps']} repetitions × 6 variants × 3 modes) {f('exp3')}; "
             f"Experiments 1 and 2 ({len(d['seeds'])} seeds each in each of the three modes) "
             f"{f('exp12')}; the sphere benchmark (3 methods) {f('sphere')}. "
-            f"Version of the runs: `{d['version']}`. To rerun: `make study POWER_REPS={d['reps']} "
-            f"STUDY_SEEDS={len(d['seeds'])}` (then `make verdicts`)." + holdout_time(d))
+            f"Version of the runs: `{d['version']}`" + (
+                " (Experiment 3 ran in batches: its first repetitions before the rules were "
+                "revised, the later ones, added by `scripts/study_extend.sh`, after the rules "
+                "were committed; the later batch reran repetition 0 of every mode and got the "
+                "study's runs)" if ";" in d["version"] else "") +
+            f". To rerun: `make study POWER_REPS={d['reps']} STUDY_SEEDS={len(d['seeds'])}` "
+            "(then `make verdicts`); to add repetitions FROM..TO−1 to the committed study: "
+            "`sh scripts/study_extend.sh OUT FROM TO data/study python3`." + holdout_time(d))
 
 
 def holdout_time(d):

@@ -207,14 +207,15 @@ def test_binomial_tests_and_clopper_pearson(seed):
 
 
 def holm_levels_ref(ps, alpha):
-    """Step-down by hand: reject the smallest while p < alpha / (m - rank)."""
+    """Step-down by hand: reject the smallest while p < alpha / (m - rank);
+    tied p-values share the first one's level, whatever the list's order."""
     m, out = len(ps), [None] * len(ps)
-    stop = None
+    stop, first = None, {}
     for rank, i in enumerate(sorted(range(m), key=lambda j: ps[j])):
         here = alpha / (m - rank)
         if stop is None and not ps[i] < here:
             stop = here
-        out[i] = here if stop is None else stop
+        out[i] = first.setdefault(ps[i], here if stop is None else stop)
     return out
 
 
@@ -232,6 +233,9 @@ def test_holm_levels_give_the_holm_decision(seed):
     for p, a, level in zip(ps, adj, lv):
         assert (p < level) == (a < alpha)
     assert vs.holm_levels([], 0.05) == []
+    # the order of the list does not move a level (ties included)
+    perm = rng.permutation(m)
+    assert [lv[i] for i in perm] == vs.holm_levels([ps[i] for i in perm], alpha)
 
 
 def power_by_integration(delta, sd, n, level):

@@ -199,12 +199,14 @@ def holm_oracle(ps, alpha):
     m = len(ps)
     order = sorted(range(m), key=lambda i: ps[i])
     adj, lvl, run, stop = [0.0] * m, [0.0] * m, 0.0, None
+    tie = {}
     for j, i in enumerate(order):
         run = max(run, min(1.0, (m - j) * ps[i]))
         adj[i] = run
         if stop is None and ps[i] >= alpha / (m - j):
             stop = alpha / (m - j)
-        lvl[i] = stop if stop is not None else alpha / (m - j)
+        # tied p-values: the level of the first of them
+        lvl[i] = tie.setdefault(ps[i], stop if stop is not None else alpha / (m - j))
     return adj, lvl
 
 
@@ -637,6 +639,7 @@ def test_tiny_study_end_to_end(tmp_path):
     assert len(ext) == 5 * 6 * 3 and (data / "exp3_runs.csv").read_text().startswith(runs_before)
     assert {r["repetition"] for r in ext} == {"0", "1", "2", "3", "4"}
     assert manifest_of(data)[("exp3", "event")]["experiment.repetitions"] == "5"
+    assert "nan" not in (data / "timing.csv").read_text()
     p = generate(data, docs, readme)
     assert p.returncode == 0, p.stderr
     assert "5 repetitions per mode" in (docs / "verdicts.md").read_text(encoding="utf-8")
