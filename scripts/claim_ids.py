@@ -1,3 +1,4 @@
+#!/usr/bin/env python3
 """The ids of the thirteen claims the verdicts judge (data/study/rules.ini's
 [claim.ID] sections) and the experiment each is judged on: the one list
 scripts/verdicts.py and scripts/sensitivity_stats.py read (standard library

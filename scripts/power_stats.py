@@ -23,7 +23,9 @@ import shlex
 import sys
 
 import numpy as np
-import verdict_stats as vs
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import verdict_stats as vs  # noqa: E402  (after the path: importable from anywhere)
 
 ARMS = ("event", "stepped", "stepped05")
 TREES = ("nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a")
