@@ -35,6 +35,13 @@ Power (the units needed to decide, if the true mean were the estimate):
     units_needed(sides, power)     # smallest n at which every (delta, sd, level)
                                    # side rejects with joint power >= power
 
+Aggregates of learners' runs (rliable's estimators, one task):
+
+    iqm(x)                         # interquartile mean (floor(n/4) cut from each end)
+    prob_improvement(x, y)         # P(X > Y) + P(X = Y) / 2 over all pairs of runs
+    bootstrap_ci(stat, samples, reps, seed)   # stratified percentile bootstrap
+    performance_profile(x, taus)   # share of runs above each tau
+
 Multiplicity and verdicts:
 
     holm(ps)                   # Holm-adjusted p-values, same order as ps
@@ -350,3 +357,43 @@ def units_needed(sides, power):
         mid = (lo + hi) // 2
         lo, hi = (lo, mid) if ok(mid) else (mid, hi)
     return hi
+
+
+# ------------------------------------------------ aggregate scores of learners
+# (Agarwal et al., NeurIPS 2021, "Deep RL at the edge of the statistical
+# precipice": the estimators of the rliable library, on one task)
+
+def iqm(x):
+    """Interquartile mean as rliable computes it: the sorted values with
+    floor(n / 4) cut from each end, averaged."""
+    v = np.sort(_values(x, "iqm"))
+    k = len(v) // 4
+    return float(v[k:len(v) - k].mean())
+
+
+def prob_improvement(x, y):
+    """P(X > Y) + P(X = Y) / 2 of one run of x against one run of y, over
+    every pair (the Mann-Whitney U statistic over n_x n_y)."""
+    a, b = _values(x, "prob_improvement"), _values(y, "prob_improvement")
+    gt = (a[:, None] > b[None, :]).sum()
+    eq = (a[:, None] == b[None, :]).sum()
+    return float((gt + 0.5 * eq) / (len(a) * len(b)))
+
+
+def bootstrap_ci(stat, samples, reps, seed, level=LEVEL):
+    """Percentile interval of stat(*samples) under the stratified bootstrap:
+    each sample (a learner's runs) resampled with replacement on its own, by a
+    numpy Generator seeded with seed. Returns (lo, hi)."""
+    rng = np.random.default_rng(seed)
+    vals = [_values(s, "bootstrap_ci") for s in samples]
+    out = np.empty(reps)
+    for i in range(reps):
+        out[i] = stat(*[v[rng.integers(0, len(v), len(v))] for v in vals])
+    a = (1 - level) / 2
+    return float(np.quantile(out, a)), float(np.quantile(out, 1 - a))
+
+
+def performance_profile(x, taus):
+    """The share of runs whose score exceeds each tau."""
+    v = _values(x, "performance_profile")
+    return [float(np.mean(v > t)) for t in taus]
