@@ -287,7 +287,8 @@ def aggregate_table(runs, b):
         pi = "reference" if k == REFERENCE or ref is None else (
             f"{vs.prob_improvement(x, ref):.2f} " + "[{:.2f}, {:.2f}]".format(
                 *vs.bootstrap_ci(vs.prob_improvement, [x, ref], BOOT, seed)))
-        rows.append(f"| {LEARNERS[k][0]} | {len(x)} | {vs.iqm(x):.3f} [{lo:.3f}, {hi:.3f}] | {pi} |")
+        rows.append(f"| {LEARNERS[k][0]} | {len(x)} | {vs.iqm(x):.3f} [{lo:.3f}, {hi:.3f}] "
+                    f"| {pi} |")
     return rows
 
 

@@ -854,8 +854,8 @@ def render_md(d, parts, per, comb, sens):
     for cid in CLAIM_IDS:
         c = rules["claims"][cid]
         srows.append([f"{c['section']} {c['short']}"] +
-                     [cell(parts, per, cid, m, rules) for m in MODES] + [f"**{comb[cid]}**",
-                                                                        need_cell(d["need"][cid], cid, comb[cid])])
+                     [cell(parts, per, cid, m, rules) for m in MODES] +
+                     [f"**{comb[cid]}**", need_cell(d["need"][cid], cid, comb[cid])])
     out = [HEAD_MD.format(units=units_text(d), alpha=rules["alpha"], f1=fams["exp1"],
                           f2=fams["exp2"], f3=fams["exp3"], power=power_text(rules),
                           k0=rules["converged_at"])]
@@ -1038,7 +1038,8 @@ def power_text(rules):
 
 def need_sentence(need, cid, verdict, rules):
     per_mode = "; ".join(f"{MODE_LABEL[m]} {need_num(n)}" for m, n in need[0].items())
-    return (f"{unit_word(cid).capitalize()} to decide at {power_text(rules)} (per mode: {per_mode}; "
+    return (f"{unit_word(cid).capitalize()} to decide at {power_text(rules)} "
+            f"(per mode: {per_mode}; "
             f"the same verdict in every mode: {need_num(need[1])})." if verdict == vs.UNDECIDED
             else "")
 
