@@ -413,7 +413,8 @@ def report(data, docs, readme=None):
         if not t:
             L.append("| (no runs at this budget) | | | | | | | |")
         L.append("")
-    seeds = sorted({len(x) for b in budgets for x in by_learner(runs, b).values()})
+    few = sorted({LEARNERS[k][0] for b in budgets for k, x in by_learner(runs, b).items()
+                  if len(x) < 20}, key=list(v[0] for v in LEARNERS.values()).index)
     L += ["## Aggregate, the rliable way", "",
           "As deep-RL results are now reported (Agarwal et al., NeurIPS 2021, the estimators of "
           "the `rliable` library, written in scripts/verdict_stats.py and tested against "
@@ -422,8 +423,10 @@ def report(data, docs, readme=None):
           f"({BOOT} resamples, each learner's seeds resampled on their own), and the "
           "probability of improvement over REPS + hand-crafted features, P(X > Y) + P(X = Y) "
           "/ 2 of a run of the learner against one of REPS, with its interval. Seeds per "
-          f"learner: {', '.join(map(str, seeds))} — fewer than the 20 such comparisons "
-          "call for; the intervals are wide accordingly. Profiles: "
+          "learner as run (the tables' second column); " + (
+              f"fewer than the 20 such comparisons call for: {', '.join(few)}, whose intervals "
+              "are wide accordingly" if few else "every learner has 20 or more") +
+          ". Profiles: "
           "[figures/baselines_profile.png](figures/baselines_profile.png).", ""]
     for b in budgets:
         L += [f"**{b:,} episodes**", "",
