@@ -1073,7 +1073,7 @@ def sens_md(sens, rules):
     return ("\n## Sensitivity to the margins\n\nHow many of the claim × mode verdicts (and of "
             "the combined verdicts) change when one margin is halved or doubled, the others "
             "kept; the claims that change are named. A margin can change a claim that does not use "
-            "it: its tests move in the Holm ranking of the mode's family.\n\n" +
+            "it: its tests move in the Holm ranking of its experiment's family in the mode.\n\n" +
             md_table(["margin", "halved", "doubled"], rows))
 
 
