@@ -383,3 +383,12 @@ else ifeq ($(filter clean,$(MAKECMDGOALS)),)
 endif
 
 -include $(LIB_OBJ:.o=.d) $(TOOL_OBJ:.o=.d) $(CLI_OBJ:.o=.d)
+
+# The holdout of the verdicts (docs/verdicts.md): Experiment 3 with a seed no
+# study used, into data/study/holdout/ (committed), then `make verdicts`.
+HOLDOUT_REPS ?= 100
+HOLDOUT_SEED ?= 37037
+.PHONY: holdout
+holdout: all
+	sh scripts/holdout.sh "$(OUT)/holdout" "$(HOLDOUT_REPS)" "$(HOLDOUT_SEED)" data/study/holdout "$(PYTHON)"
+	$(MAKE) verdicts

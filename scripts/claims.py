@@ -9,7 +9,7 @@ Every number comes from the run's CSVs (standard library only); intervals are
 95 % Student-t intervals of a paired difference over the repetitions (forests
 or runs), written [lo, hi] (scripts/figstats.py). A run that lacks the
 settings or repetitions a measurement needs says so. The verdicts are judged
-on the study with the power to decide them: scripts/verdicts.py,
+on the verdict study (and the repetitions it would need): scripts/verdicts.py,
 docs/verdicts.md.
 """
 import argparse

@@ -23,7 +23,9 @@ import shlex
 import sys
 
 import numpy as np
-from scipy import stats
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import verdict_stats as vs  # noqa: E402  (after the path: importable from anywhere)
 
 ARMS = ("event", "stepped", "stepped05")
 TREES = ("nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a")
@@ -64,9 +66,7 @@ def paired_t(d, level=LEVEL):
     if n < 2:
         m = float(d[0]) if n else math.nan
         return m, math.nan, math.nan, n
-    m = float(d.mean())
-    half = stats.t.ppf(0.5 + level / 2, n - 1) * float(d.std(ddof=1)) / math.sqrt(n)
-    return m, m - half, m + half, n
+    return (*vs.t_interval(d, level), n)
 
 
 def resamples(n, boot, seed):
@@ -162,9 +162,11 @@ def read_episodes(path):
 
 
 class Arm:
-    """One merged arm: per-run quantities over each run's last episodes."""
+    """One merged arm: per-run quantities over each run's last episodes.
+    min_reps: the fewest repetitions accepted (1 for a single job's folder,
+    whose runs are pooled with others before any interval)."""
 
-    def __init__(self, name, folder):
+    def __init__(self, name, folder, min_reps=2):
         self.name = name
         self.folder = folder
         cpath = os.path.join(folder, "config.ini")
@@ -193,7 +195,7 @@ class Arm:
         epath = os.path.join(folder, "exp3_episodes.csv")
         runs = read_episodes(epath)
         self.reps = sorted({r for _, r in runs})
-        if len(self.reps) < 2:
+        if len(self.reps) < min_reps:
             raise Fail(f"{epath}: {len(self.reps)} repetition(s); intervals need 2 or more", 3)
         length_run = self.init + self.iterations * self.samples
         for p in self.policies:

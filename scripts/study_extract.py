@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """The compact results of the verdict study, from its run folders.
 
-Usage: study_extract.py OUT DATA
+Usage: study_extract.py [--exp3|--extend] OUT DATA
+  --exp3: the holdout, Experiment 3 only (scripts/holdout.sh)
+  --extend: more Experiment 3 repetitions added to DATA (scripts/study_extend.sh)
 
 OUT is what scripts/study.sh writes: OUT/power/ARM (merged Experiment 3 arms),
 OUT/seeds/ARM/exp1 and OUT/seeds/ARM/exp2 (collected seed sweeps per physics
@@ -105,16 +107,21 @@ def exp3(out):
             fail(str(e))
         manifest += [("exp3", name, k, v) for k, v in config_items(a.folder)]
         cpu_s += ps.cpu_seconds(a)
-        i2, i5 = ps.POCKETS.index(2), ps.POCKETS.index(5)
-        for p in a.policies:
-            i = a.row(p)
-            for j, r in enumerate(a.reps):
-                runs.append([name, p, r, float(a.ret[i, j]), float(a.sd[i, j]),
-                             int(a.target[i, j]), int(a.counts[i, j, i2]),
-                             int(a.counts[i, j, i5]), float(a.speed[i, j]),
-                             float(a.miss_dist[i, j])])
-                curves.append([name, p, r] + [float(x) for x in a.curve[i, j]])
+        arm_rows(a, runs, curves)
     return runs, curves, manifest, cpu_s, len(curves[0]) - 3
+
+
+def arm_rows(a, runs, curves):
+    """Append an arm's per-run rows to runs and curves."""
+    i2, i5 = ps.POCKETS.index(2), ps.POCKETS.index(5)
+    for p in a.policies:
+        i = a.row(p)
+        for j, r in enumerate(a.reps):
+            runs.append([a.name, p, r, float(a.ret[i, j]), float(a.sd[i, j]),
+                         int(a.target[i, j]), int(a.counts[i, j, i2]),
+                         int(a.counts[i, j, i5]), float(a.speed[i, j]),
+                         float(a.miss_dist[i, j])])
+            curves.append([a.name, p, r] + [float(x) for x in a.curve[i, j]])
 
 
 def arm_points(out, exp):
@@ -179,9 +186,117 @@ def seed_cpu(points):
                for f in glob.glob(os.path.join(os.path.dirname(d), "runs", "rep-*")))
 
 
+def exp3_files(data, runs, curves, iters):
+    """The staged Experiment 3 files: exp3_runs.csv and exp3_curves.csv."""
+    return [
+        write(os.path.join(data, "exp3_runs.csv"),
+              ["arm", "policy", "repetition", "mean_return", "sd_return", "target", "pocket2",
+               "pocket5", "median_speed", "miss_distance"], runs),
+        write(os.path.join(data, "exp3_curves.csv"),
+              ["arm", "policy", "repetition"] + [f"i{k}" for k in range(1, iters + 1)], curves),
+    ]
+
+
+def holdout(out, data):
+    """--exp3: the holdout's files (scripts/holdout.sh), Experiment 3 only."""
+    runs, curves, m3, cpu3, iters = exp3(out)
+    wall = {r["phase"]: r for r in read_rows(os.path.join(out, "timing.csv"),
+                                             ("phase", "wall_seconds", "jobs"))}
+    os.makedirs(data, exist_ok=True)
+    staged = exp3_files(data, runs, curves, iters) + [
+        write(os.path.join(data, "manifest.csv"), ["experiment", "unit", "key", "value"], m3),
+        write(os.path.join(data, "timing.csv"), ["phase", "wall_seconds", "cpu_seconds", "jobs"],
+              [["exp3", float(wall["exp3"]["wall_seconds"]), cpu3, wall["exp3"]["jobs"]]])]
+    for tmp, path in staged:
+        os.replace(tmp, path)
+    return 0
+
+
+SAME_BUT = ("experiment.repetitions", "experiment.repetition", "version")
+
+
+def extend(out, data):
+    """--extend: more repetitions of the study's Experiment 3 (same seed and
+    configuration), one job folder each (OUT/ARM/point-0/runs/rep-K), added to
+    DATA's exp3_runs.csv and exp3_curves.csv. A repetition DATA already has
+    must come out identical (the check that the binary still gives the
+    study's runs); the repetitions must end up 0..N-1 in every arm."""
+    p = lambda name: os.path.join(data, name)  # noqa: E731
+    runs = read_rows(p("exp3_runs.csv"), ("arm", "policy", "repetition"))
+    curves = read_rows(p("exp3_curves.csv"), ("arm", "policy", "repetition"))
+    manifest = read_rows(p("manifest.csv"), ("experiment", "unit", "key", "value"))
+    unit = {(r["unit"], r["key"]): r["value"] for r in manifest if r["experiment"] == "exp3"}
+    have = {(r["arm"], r["policy"], r["repetition"]): [r[c] for c in r] for r in runs}
+    new_runs, new_curves, cpu_s, versions = [], [], 0.0, set()
+    for name in ARMS:
+        folders = sorted(glob.glob(os.path.join(out, name, "point-0", "runs", "rep-*")))
+        if not folders:
+            fail(f"{os.path.join(out, name)}: no job folders point-0/runs/rep-K")
+        for f in folders:
+            for k, v in config_items(f):
+                if k not in SAME_BUT and unit.get((name, k)) != v:
+                    fail(f"{f}/config.ini: {k} = {v}, the study has {unit.get((name, k))}")
+                if k == "version":
+                    versions.add(v)
+            try:
+                a = ps.Arm(name, f, min_reps=1)
+            except ps.Fail as e:
+                fail(str(e))
+            cpu_s += cpu([f])
+            rs, cs = [], []
+            arm_rows(a, rs, cs)
+            for r, c in zip(rs, cs):
+                key = (name, r[1], str(r[2]))
+                if key in have:
+                    if [g(v) for v in r] != have[key]:
+                        fail(f"{f}: repetition {r[2]} of {r[1]} differs from the study's")
+                    continue
+                new_runs.append(r)
+                new_curves.append(c)
+    reps = {(r["arm"], r["policy"]) for r in runs}
+    count = {k: sum(1 for r in runs if (r["arm"], r["policy"]) == k) for k in reps}
+    for r in new_runs:
+        count[(r[0], r[1])] += 1
+    total = set(count.values())
+    if len(total) != 1:
+        fail(f"{out}: the arms would have different repetition counts {sorted(total)}")
+    n = total.pop()
+    got = {(r["arm"], r["policy"], int(r["repetition"])) for r in runs} | \
+        {(r[0], r[1], r[2]) for r in new_runs}
+    if got != {(a, q, k) for a, q in reps for k in range(n)}:
+        fail(f"{out}: the repetitions would not be 0..{n - 1} in every arm")
+    old = {v for (u, k), v in unit.items() if k == "version"}
+    version = "; ".join(sorted(old | versions))
+    rows_m = [[r["experiment"], r["unit"], r["key"],
+               str(n) if r["experiment"] == "exp3" and r["key"] == "experiment.repetitions"
+               else version if r["experiment"] == "exp3" and r["key"] == "version"
+               else r["value"]] for r in manifest]
+    wall = {r["phase"]: r for r in read_rows(os.path.join(out, "timing.csv"),
+                                             ("phase", "wall_seconds"))}
+    timing = [[r["phase"], r["wall_seconds"], r["cpu_seconds"], r["jobs"]]
+              for r in read_rows(p("timing.csv"), ("phase", "wall_seconds", "cpu_seconds"))]
+    for t in timing:
+        if t[0] == "exp3":
+            t[1] = float(t[1]) + float(wall["exp3"]["wall_seconds"])
+            t[2] = float(t[2]) + cpu_s
+    staged = [
+        write(p("exp3_runs.csv"), list(runs[0]), [list(r.values()) for r in runs] + new_runs),
+        write(p("exp3_curves.csv"), list(curves[0]),
+              [list(r.values()) for r in curves] + new_curves),
+        write(p("manifest.csv"), ["experiment", "unit", "key", "value"], rows_m),
+        write(p("timing.csv"), ["phase", "wall_seconds", "cpu_seconds", "jobs"], timing)]
+    for tmp, path in staged:
+        os.replace(tmp, path)
+    return 0
+
+
 def main():
+    if len(sys.argv) == 4 and sys.argv[1] == "--exp3":
+        return holdout(*sys.argv[2:])
+    if len(sys.argv) == 4 and sys.argv[1] == "--extend":
+        return extend(*sys.argv[2:])
     if len(sys.argv) != 3:
-        print("usage: study_extract.py OUT DATA", file=sys.stderr)
+        print("usage: study_extract.py [--exp3|--extend] OUT DATA", file=sys.stderr)
         return 1
     out, data = sys.argv[1:]
     runs, curves, m3, cpu3, iters = exp3(out)
@@ -196,14 +311,9 @@ def main():
               ["sphere", float(wall["sphere"]["wall_seconds"]),
                cpu(os.path.join(out, "sphere", m) for m in SPHERE), wall["sphere"]["jobs"]]]
     os.makedirs(data, exist_ok=True)
-    staged = [
+    staged = exp3_files(data, runs, curves, iters) + [
         write(os.path.join(data, "manifest.csv"), ["experiment", "unit", "key", "value"],
               m3 + m1 + m2 + ms),
-        write(os.path.join(data, "exp3_runs.csv"),
-              ["arm", "policy", "repetition", "mean_return", "sd_return", "target", "pocket2",
-               "pocket5", "median_speed", "miss_distance"], runs),
-        write(os.path.join(data, "exp3_curves.csv"),
-              ["arm", "policy", "repetition"] + [f"i{k}" for k in range(1, iters + 1)], curves),
         write(os.path.join(data, "exp1_mse.csv"), ["arm", "seed", "forest", "sweep", "value", "mse"],
               mse),
         write(os.path.join(data, "exp1_map.csv"),

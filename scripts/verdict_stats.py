@@ -13,6 +13,7 @@ Estimates (a mean difference with its standard error and degrees of freedom):
     e.est, e.se, e.df, e.n     # the estimate, its standard error, df, sample size
     e = trend(y)               # least-squares change across y (slope x (len - 1))
     lo, hi = interval(e)       # 95 % t interval: est -+ t(0.975, df) * se
+    m, lo, hi = t_interval(x)  # the same for a plain sample, as the figures print it
 
 Tests (each returns a p-value; small p supports the alternative named):
 
@@ -26,6 +27,20 @@ Counts (k of n units with a property; exact binomial, Clopper-Pearson):
     p_binom_greater(k, n, c)   # H1: share > c  (P(X >= k) when the share is c)
     p_binom_less(k, n, c)      # H1: share < c  (P(X <= k))
     lo, hi = clopper_pearson(k, n, level)   # the shares neither test rejects
+
+Power (the units needed to decide, if the true mean were the estimate):
+
+    power_t(delta, sd, n, level)   # P(one-sided t test at level rejects), true mean
+                                   # delta beyond the bound, noncentral t
+    units_needed(sides, power)     # smallest n at which every (delta, sd, level)
+                                   # side rejects with joint power >= power
+
+Aggregates of learners' runs (rliable's estimators, one task):
+
+    iqm(x)                         # interquartile mean (floor(n/4) cut from each end)
+    prob_improvement(x, y)         # P(X > Y) + P(X = Y) / 2 over all pairs of runs
+    bootstrap_ci(stat, samples, reps, seed)   # stratified percentile bootstrap
+    performance_profile(x, taus)   # share of runs above each tau
 
 Multiplicity and verdicts:
 
@@ -117,6 +132,17 @@ def interval(e, level=LEVEL):
     return e.est - half, e.est + half
 
 
+def t_interval(x, level=LEVEL):
+    """(mean, lo, hi) of x: its two-sided t interval, mean -+ t(0.5 + level /
+    2, n - 1) s / sqrt(n) (the same bounds as interval(one_sample(x)), in the
+    order of operations the figures and the power study always used)."""
+    v = _values(x, "t_interval")
+    n = len(v)
+    m = float(v.mean())
+    half = float(special.stdtrit(n - 1, 0.5 + level / 2)) * float(v.std(ddof=1)) / math.sqrt(n)
+    return m, m - half, m + half
+
+
 def _t(e, bound):
     """t statistic of the estimate against bound; +-inf when se is 0."""
     d = e.est - bound
@@ -175,15 +201,20 @@ def holm_levels(ps, alpha=ALPHA):
     smallest against alpha / (m - k + 1) until the first that fails; that one
     and every larger p against the level of the first failure. So p < level
     exactly when holm(ps) < alpha, and a confidence bound at 1 - level gives
-    the same decision as the adjusted p-value. Same order as ps."""
+    the same decision as the adjusted p-value. Tied p-values share the level
+    of the first of them (the strictest), so the levels do not depend on the
+    order of the list. Same order as ps."""
     p = np.asarray(ps, float)
     holm(p)  # the same validation
     m = len(p)
     order = np.argsort(p, kind="stable")
+    sp = p[order]
     levels = alpha / (m - np.arange(m))
-    fails = np.nonzero(p[order] >= levels)[0]
+    fails = np.nonzero(sp >= levels)[0]
     if len(fails):
         levels[fails[0]:] = levels[fails[0]]
+    first = np.searchsorted(sp, sp, side="left")   # each p's first tie
+    levels = levels[first]
     out = np.empty(m)
     out[order] = levels
     return [float(x) for x in out]
@@ -285,3 +316,84 @@ def share_estimate(num, den, c):
     sum(num) / sum(den) is above (> 0) or below c: tests of a ratio bound."""
     a, b = np.asarray(num, float), np.asarray(den, float)
     return one_sample(a - c * b)
+
+
+def power_t(delta, sd, n, level):
+    """Power of the one-sided one-sample t test at level with n units when
+    the true mean lies delta beyond the bound (towards H1) and the units' SD
+    is sd: P(T > t(1 - level, n - 1)), T noncentral t with noncentrality
+    delta sqrt(n) / sd."""
+    if n < 2 or not 0 < level < 1:
+        raise ValueError(f"power_t: need n >= 2 and 0 < level < 1 (got {n}, {level})")
+    crit = float(special.stdtrit(n - 1, 1 - level))
+    if sd == 0:
+        return 1.0 if delta > 0 else 0.0
+    with np.errstate(all="ignore"):   # far tails: scipy clips its 0/0 to 0 or 1
+        return float(stats.nct.sf(crit, n - 1, delta * math.sqrt(n) / sd))
+
+
+UNITS_MAX = 10 ** 6
+
+
+def units_needed(sides, power):
+    """The smallest n at which a decision that needs every one-sided test of
+    sides, each (delta, sd, level), has power at least power; the joint power
+    is bounded below by 1 - sum of the sides' misses (Bonferroni). math.inf
+    when a side's delta is not positive or n would exceed UNITS_MAX."""
+    if not sides or any(not delta > 0 for delta, _, _ in sides):
+        return math.inf
+
+    def ok(n):
+        return 1 - sum(1 - power_t(dl, sd, n, lv) for dl, sd, lv in sides) >= power
+    hi = 2
+    while not ok(hi):
+        if hi >= UNITS_MAX:
+            return math.inf
+        hi = min(2 * hi, UNITS_MAX)
+    lo = max(2, hi // 2)
+    if ok(lo):
+        return lo
+    while hi - lo > 1:   # ok(hi), not ok(lo): the power grows with n
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
+    return hi
+
+
+# ------------------------------------------------ aggregate scores of learners
+# (Agarwal et al., NeurIPS 2021, "Deep RL at the edge of the statistical
+# precipice": the estimators of the rliable library, on one task)
+
+def iqm(x):
+    """Interquartile mean as rliable computes it: the sorted values with
+    floor(n / 4) cut from each end, averaged."""
+    v = np.sort(_values(x, "iqm"))
+    k = len(v) // 4
+    return float(v[k:len(v) - k].mean())
+
+
+def prob_improvement(x, y):
+    """P(X > Y) + P(X = Y) / 2 of one run of x against one run of y, over
+    every pair (the Mann-Whitney U statistic over n_x n_y)."""
+    a, b = _values(x, "prob_improvement"), _values(y, "prob_improvement")
+    gt = (a[:, None] > b[None, :]).sum()
+    eq = (a[:, None] == b[None, :]).sum()
+    return float((gt + 0.5 * eq) / (len(a) * len(b)))
+
+
+def bootstrap_ci(stat, samples, reps, seed, level=LEVEL):
+    """Percentile interval of stat(*samples) under the stratified bootstrap:
+    each sample (a learner's runs) resampled with replacement on its own, by a
+    numpy Generator seeded with seed. Returns (lo, hi)."""
+    rng = np.random.default_rng(seed)
+    vals = [_values(s, "bootstrap_ci") for s in samples]
+    out = np.empty(reps)
+    for i in range(reps):
+        out[i] = stat(*[v[rng.integers(0, len(v), len(v))] for v in vals])
+    a = (1 - level) / 2
+    return float(np.quantile(out, a)), float(np.quantile(out, 1 - a))
+
+
+def performance_profile(x, taus):
+    """The share of runs whose score exceeds each tau."""
+    v = _values(x, "performance_profile")
+    return [float(np.mean(v > t)) for t in taus]

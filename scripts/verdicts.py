@@ -29,6 +29,7 @@ import numpy as np
 
 import exp_data
 import verdict_stats as vs
+from claim_ids import CLAIM_IDS, EXP3_CLAIMS, EXPERIMENT
 
 MODES = ("event", "stepped", "stepped05")
 MODE_LABEL = {"event": "event", "stepped": "stepped, dt 1 ms", "stepped05": "stepped, dt 0.5 ms"}
@@ -36,18 +37,22 @@ MODE_SIM = {"event": ("event", None), "stepped": ("stepped", 0.001),
             "stepped05": ("stepped", 0.0005)}
 VARYING = {"exp3": ("sim.mode", "sim.dt"), "sphere": ("policy.cov_center", "bench.method"), "exp1": ("experiment.seed", "sim.mode", "sim.dt"),
            "exp2": ("experiment.seed", "sim.mode", "sim.dt")}
-CLAIM_IDS = ("cuts", "trees", "nmin", "map", "short", "single", "rs", "none_better", "best",
-             "worst", "even", "fewest", "converged")
 TREES = ("nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a")
 THESIS = TREES + ("baseline",)
 FILES = ("manifest.csv", "exp3_runs.csv", "exp3_curves.csv", "exp1_mse.csv", "exp1_map.csv",
          "exp2_returns.csv", "sphere_curves.csv", "timing.csv")
+HOLDOUT_FILES = ("manifest.csv", "exp3_runs.csv", "exp3_curves.csv", "timing.csv")
 BEGIN, END = "<!-- verdicts:begin -->", "<!-- verdicts:end -->"
 SPHERE_BEGIN, SPHERE_END = "<!-- sphere:begin -->", "<!-- sphere:end -->"
+EXP3_BEGIN, EXP3_END = "<!-- exp3-table:begin -->", "<!-- exp3-table:end -->"
 # the sphere benchmark's runs: (method, its poolreps settings)
 SPHERE = {"creps_old": {"policy.cov_center": "old", "bench.method": "creps"},
           "creps_new": {"policy.cov_center": "new", "bench.method": "creps"},
           "ccmaes": {"bench.method": "ccmaes"}}
+
+
+# a margin is a constant in one of these units, never computed from the data
+MARGIN_UNITS = ("m", "share", "relative")
 
 
 class Fail(Exception):
@@ -72,13 +77,15 @@ def read_rules(path):
         st = cfg["study"]
         rules["alpha"] = st.getfloat("alpha")
         rules["converged_at"] = st.getint("converged_at")
-        rules["run_alpha"] = st.getfloat("run_alpha")
         rules["many"] = st.getint("many")
+        rules["power"] = st.getfloat("power")
         m = cfg["margins"]
         for k in m:
             if "." not in k:
                 rules["margins"][k] = {"value": m.getfloat(k), "unit": m[f"{k}.unit"],
                                        "why": m[f"{k}.why"]}
+                if rules["margins"][k]["unit"] not in MARGIN_UNITS:
+                    raise ValueError(f"{k}.unit")
         for cid in CLAIM_IDS:
             s = cfg[f"claim.{cid}"]
             rules["claims"][cid] = {k: s[k] for k in ("section", "short", "words", "reading",
@@ -117,13 +124,16 @@ def number(path, line, row, key, conv=float):
     return v
 
 
-def read_manifest(path):
+def read_manifest(path, full=True):
     """{experiment: {unit: {key: value}}}, every unit of an experiment with the
-    same configuration but for its VARYING keys."""
+    same configuration but for its VARYING keys. full: the study (every
+    experiment), else the holdout (Experiment 3 only)."""
     units = defaultdict(dict)
     for r in read_csv(path, ("experiment", "unit", "key", "value")):
         units[r["experiment"]].setdefault(r["unit"], {})[r["key"]] = r["value"]
-    for exp in VARYING:
+    if not full and set(units) != {"exp3"}:
+        raise Fail(f"{path}: the holdout holds Experiment 3 only", 3)
+    for exp in VARYING if full else ("exp3",):
         if exp not in units:
             raise Fail(f"{path}: no configuration of {exp}", 3)
         ref_unit, ref = next(iter(units[exp].items()))
@@ -139,6 +149,9 @@ def read_manifest(path):
             raise Fail(f"{path}: no Experiment 3 arm {mode}", 3)
     if set(arms) != set(MODES):
         raise Fail(f"{path}: unknown Experiment 3 arm {sorted(set(arms) - set(MODES))[0]}", 3)
+    if not full:
+        check_sim(path, units)
+        return units
     for exp in ("exp1", "exp2"):
         have = {u.split("/")[0] for u in units[exp]}
         if have != set(MODES):
@@ -151,6 +164,12 @@ def read_manifest(path):
         for k, v in want.items():
             if cfg.get(k) != v:
                 raise Fail(f"{path}: sphere {method} has {k} = {cfg.get(k)}, not {v}", 3)
+    check_sim(path, units)
+    return units
+
+
+def check_sim(path, units):
+    """Every unit's physics is its arm's."""
     for exp, us in units.items():
         if exp == "sphere":
             continue
@@ -160,7 +179,6 @@ def read_manifest(path):
             if cfg.get("sim.mode") != sim or (dt and float(cfg.get("sim.dt", "nan")) != dt):
                 raise Fail(f"{path}: {exp} {unit} has sim.mode = {cfg.get('sim.mode')}, "
                            f"sim.dt = {cfg.get('sim.dt')}", 3)
-    return units
 
 
 def expect_all(path, have, want, what):
@@ -182,7 +200,33 @@ def load(data):
         if not os.path.isfile(os.path.join(data, name)):
             raise Fail(f"{os.path.join(data, name)}: missing (run make study)", 2)
     p = lambda name: os.path.join(data, name)  # noqa: E731
-    units = read_manifest(p("manifest.csv"))
+    d = load_exp3(data, read_manifest(p("manifest.csv")))
+    units = d["units"]
+    d["exp1"], d["exp1_map"] = read_exp1(p("exp1_mse.csv"), p("exp1_map.csv"), units["exp1"])
+    d["exp2"] = read_exp2(p("exp2_returns.csv"), units["exp2"])
+    seeds = {e: {(u.split("/")[0], int(u.split("/")[1])) for u in units[e]}
+             for e in ("exp1", "exp2")}
+    d["seeds"] = sorted({s for _, s in seeds["exp1"]})
+    if seeds["exp1"] != seeds["exp2"] or seeds["exp1"] != {(a, s) for a in MODES
+                                                             for s in d["seeds"]}:
+        raise Fail(f"{p('manifest.csv')}: Experiments 1 and 2 ran different seeds "
+                   "(or not the same seeds in every arm)", 3)
+    d["per_seed"] = int(next(iter(units["exp1"].values()))["experiment.repetitions"])
+    d["sphere"] = read_sphere(p("sphere_curves.csv"), units["sphere"])
+    read_timing(d, p("timing.csv"), ("exp3", "exp12", "sphere"))
+    return d
+
+
+def read_timing(d, path, phases):
+    d["timing"] = {r["phase"]: r for r in read_csv(path, ("phase", "wall_seconds", "cpu_seconds"))}
+    for ph in phases:
+        if ph not in d["timing"]:
+            raise Fail(f"{path}: no row for phase {ph}", 3)
+
+
+def load_exp3(data, units):
+    """Experiment 3's runs and curves in data, as the manifest's units name them."""
+    p = lambda name: os.path.join(data, name)  # noqa: E731
     d = {"units": units}
     c3 = next(iter(units["exp3"].values()))
     policies = c3["exp3.policies"].split(",")
@@ -195,23 +239,21 @@ def load(data):
     d["exp3"] = read_exp3(p("exp3_runs.csv"), p("exp3_curves.csv"), want, iters)
     d["reps"], d["iterations"] = len(reps), iters
     d["final"] = int(c3["exp3.final_episodes"])
-    d["exp1"], d["exp1_map"] = read_exp1(p("exp1_mse.csv"), p("exp1_map.csv"), units["exp1"])
-    d["exp2"] = read_exp2(p("exp2_returns.csv"), units["exp2"])
-    seeds = {e: {(u.split("/")[0], int(u.split("/")[1])) for u in units[e]}
-             for e in ("exp1", "exp2")}
-    d["seeds"] = sorted({s for _, s in seeds["exp1"]})
-    if seeds["exp1"] != seeds["exp2"] or seeds["exp1"] != {(a, s) for a in MODES
-                                                             for s in d["seeds"]}:
-        raise Fail(f"{p('manifest.csv')}: Experiments 1 and 2 ran different seeds "
-                   "(or not the same seeds in every arm)", 3)
-    d["per_seed"] = int(next(iter(units["exp1"].values()))["experiment.repetitions"])
-    d["sphere"] = read_sphere(p("sphere_curves.csv"), units["sphere"])
-    d["timing"] = {r["phase"]: r for r in read_csv(p("timing.csv"),
-                                                   ("phase", "wall_seconds", "cpu_seconds"))}
-    for ph in ("exp3", "exp12", "sphere"):
-        if ph not in d["timing"]:
-            raise Fail(f"{p('timing.csv')}: no row for phase {ph}", 3)
+    d["seed"] = c3["experiment.seed"]
     d["version"] = c3.get("version", "?")
+    return d
+
+
+def load_holdout(data):
+    """The holdout (DATA/holdout, Experiment 3 with fresh seeds), or None
+    when DATA has none."""
+    if not os.path.isdir(data):
+        return None
+    for name in HOLDOUT_FILES:
+        if not os.path.isfile(os.path.join(data, name)):
+            raise Fail(f"{os.path.join(data, name)}: missing (run make holdout)", 2)
+    d = load_exp3(data, read_manifest(os.path.join(data, "manifest.csv"), full=False))
+    read_timing(d, os.path.join(data, "timing.csv"), ("exp3",))
     return d
 
 
@@ -328,7 +370,8 @@ def make_part(label, e, kind, a, b=None, unit="m"):
         p_s, p_r = vs.p_tost(e, a, b), vs.p_outside(e, a, b)
     return {"label": label, "est": e.est, "n": e.n, "kind": kind, "a": a, "b": b,
             "p_s": p_s, "p_r": p_r, "unit": unit, "group": "",
-            "ci": lambda level: vs.interval(e, level)}
+            "ci": lambda level: vs.interval(e, level),
+            "dev": lambda c: (e.est - c, e.se * math.sqrt(e.n))}
 
 
 def share_part(label, num, den, low, high):
@@ -339,21 +382,14 @@ def share_part(label, num, den, low, high):
             "unit": "share", "group": ""}
     if not np.sum(den) > 0:
         return part | {"label": label + " (no ball in a target pocket)", "est": math.nan,
-                       "p_s": 1.0, "p_r": 1.0, "ci": lambda level: (math.nan, math.nan)}
+                       "p_s": 1.0, "p_r": 1.0, "ci": lambda level: (math.nan, math.nan),
+                       "dev": None}
     est = lambda c: vs.share_estimate(num, den, c)  # noqa: E731
     p_s = max(vs.p_greater(est(low)), vs.p_less(est(high)))
     p_r = min(1.0, 2 * min(vs.p_less(est(low)), vs.p_greater(est(high))))
     return part | {"est": float(np.sum(num) / np.sum(den)), "p_s": p_s, "p_r": p_r,
-                   "ci": lambda level: vs.fieller(num, den, level)[1:]}
-
-
-def count_part(label, k, n, bound):
-    """The share k / n of units with a property is below bound: exact binomial
-    tests, Clopper-Pearson intervals."""
-    return {"label": label, "est": k / n, "n": n, "k": k, "kind": "lt", "a": bound,
-            "b": None, "p_s": vs.p_binom_less(k, n, bound),
-            "p_r": vs.p_binom_greater(k, n, bound), "unit": "count", "group": "",
-            "ci": lambda level: vs.clopper_pearson(k, n, level)}
+                   "ci": lambda level: vs.fieller(num, den, level)[1:],
+                   "dev": lambda c: (est(c).est, est(c).se * math.sqrt(est(c).n))}
 
 
 def levels(p, lvl_s, lvl_r):
@@ -475,9 +511,8 @@ def exp3_parts(d, arm, m, rules):
                      for q in TREES]
     k0 = rules["converged_at"]
     for q in THESIS:
-        moving = [run_moving(d, (arm, q, r), k0, m["flat"], rules["run_alpha"]) for r in reps]
-        p = count_part(f"{q}: share of runs still moving after iteration {k0}", sum(moving),
-                       len(moving), m["unsettled"])
+        p = make_part(f"{q}: mean square of the runs' changes after iteration {k0}",
+                      drift(d, arm, q, k0), "lt", m["flat"] ** 2, unit="m2")
         p["group"] = "converged"
         out["converged"].append(p)
     for q in THESIS:
@@ -488,16 +523,18 @@ def exp3_parts(d, arm, m, rules):
     return out
 
 
-def run_moving(d, key, k0, flat, alpha):
-    """A run is still moving when its own trend over its curve from iteration
-    k0 on lies beyond +flat or beyond -flat by a one-sided t test at alpha."""
-    # the trend does not depend on the margins: computed once, not per
+def drift(d, arm, q, k0):
+    """The mean over a policy's runs of c^2 - s^2: each run's least-squares
+    change c over its curve from iteration k0 on, less the square of its
+    standard error s, an estimate of the square of the run's true change
+    (E c^2 = change^2 + s^2)."""
+    # the trends do not depend on the margins: computed once, not per
     # sensitivity variant
-    cache = d.setdefault("trends", {})
-    if (key, k0) not in cache:
-        cache[(key, k0)] = vs.trend(d["exp3"][key]["curve"][k0:])
-    e = cache[(key, k0)]
-    return vs.p_greater(e, flat) < alpha or vs.p_less(e, -flat) < alpha
+    cache = d.setdefault("drift", {})
+    if (arm, q, k0) not in cache:
+        es = [vs.trend(d["exp3"][(arm, q, r)]["curve"][k0:]) for r in range(d["reps"])]
+        cache[(arm, q, k0)] = vs.one_sample([e.est ** 2 - e.se ** 2 for e in es])
+    return cache[(arm, q, k0)]
 
 
 def task_gap(d, mode):
@@ -509,45 +546,106 @@ def task_gap(d, mode):
     return float(h - b)
 
 
-def mode_margins(d, margins, mode):
-    """The margins' values in a mode: those given as a share of the task's
-    scale ('gap') in metres of that mode."""
-    return {k: v["value"] * (task_gap(d, mode) if v["unit"] == "gap" else 1)
-            for k, v in margins.items()}
+def margin_values(margins):
+    """{name: value} of the rules' margins (constants, the same in every mode)."""
+    return {k: v["value"] for k, v in margins.items()}
 
 
-def compute(d, rules, margins):
-    """{(claim, mode): [part]} with Holm-adjusted p-values per mode. The family
-    is the same in every mode: every support and refutation of every part of
-    the 13 claims (Experiments 1 to 3 all ran in each mode)."""
+def adjust(parts, alpha):
+    """Holm over one family, the parts' lists given: every support and every
+    refutation p-value, a hypothesis two claims share (the same part) counted
+    once. Fills each part's adjusted p-values, verdict, family size, the Holm
+    levels and its intervals at them."""
+    fam = {}
+    for ps in parts:
+        for p in ps:
+            fam.setdefault((p["label"], p["kind"], p["a"], p["b"]), []).append(p)
+    keys = list(fam)
+    ps_all = [fam[k][0]["p_s"] for k in keys] + [fam[k][0]["p_r"] for k in keys]
+    adj, lvl = vs.holm(ps_all), vs.holm_levels(ps_all, alpha)
+    n = len(keys)
+    for i, k in enumerate(keys):
+        for p in fam[k]:
+            p["adj_s"], p["adj_r"] = adj[i], adj[n + i]
+            p["verdict"] = vs.part_verdict(adj[i], adj[n + i], alpha)
+            p["family"] = 2 * n
+            p["lvl_s"], p["lvl_r"] = lvl[i], lvl[n + i]
+            levels(p, lvl[i], lvl[n + i])
+
+
+def compute(d, rules, margins, exps=("exp1", "exp2", "exp3")):
+    """{(claim, mode): [part]} with Holm-adjusted p-values: one family per
+    experiment and mode, every support and refutation of the parts of that
+    experiment's claims (the same definition for the study, the holdout and
+    the sensitivity points)."""
     parts = defaultdict(list)
+    m = margin_values(margins)
+    gens = {"exp1": lambda arm: exp1_parts(d, m, arm), "exp2": lambda arm: exp2_parts(d, m, arm),
+            "exp3": lambda arm: exp3_parts(d, arm, m, rules)}
     for arm in MODES:
-        m = mode_margins(d, margins, arm)
-        for gen in (exp1_parts(d, m, arm), exp2_parts(d, m, arm), exp3_parts(d, arm, m, rules)):
-            for cid, ps in gen.items():
+        for e in exps:
+            for cid, ps in gens[e](arm).items():
                 parts[(cid, arm)] = ps
-    sizes = set()
-    for mode in MODES:
-        # a hypothesis two claims share (the same part) counts once
-        fam = {}
-        for (c, md), ps in parts.items():
-            if md == mode:
-                for p in ps:
-                    fam.setdefault((p["label"], p["kind"], p["a"], p["b"]), []).append(p)
-        keys = list(fam)
-        ps_all = [fam[k][0]["p_s"] for k in keys] + [fam[k][0]["p_r"] for k in keys]
-        adj, lvl = vs.holm(ps_all), vs.holm_levels(ps_all, rules["alpha"])
-        n = len(keys)
-        for i, k in enumerate(keys):
-            for p in fam[k]:
-                p["adj_s"], p["adj_r"] = adj[i], adj[n + i]
-                p["verdict"] = vs.part_verdict(adj[i], adj[n + i], rules["alpha"])
-                p["family"] = 2 * n
-                levels(p, lvl[i], lvl[n + i])
-        sizes.add((2 * n, tuple(sorted((c for c, md in parts if md == mode)))))
-    if len(sizes) != 1:
-        raise ValueError("the modes' families differ")
+    for arm in MODES:
+        for e in exps:
+            adjust([ps for (c, md), ps in parts.items() if md == arm and EXPERIMENT[c] == e],
+                   rules["alpha"])
     return parts
+
+
+def part_need(p, power):
+    """(units to agree, units to disagree) of a part at the given power, were
+    the true mean its estimate and its SD the study's, each test at the level
+    Holm judged it at: the current units for a decided part's verdict,
+    math.inf for a direction the estimate does not point to."""
+    if p["verdict"] == vs.AGREES:
+        return p["n"], math.inf
+    if p["verdict"] == vs.DISAGREES:
+        return math.inf, p["n"]
+    if p["dev"] is None:
+        return math.inf, math.inf
+    ls, lr, a, b = p["lvl_s"], p["lvl_r"], p["a"], p["b"]
+    if p["kind"] in ("gt", "lt"):
+        dl, sd = p["dev"](a)
+        sign = 1 if p["kind"] == "gt" else -1
+        return (vs.units_needed([(sign * dl, sd, ls)], power),
+                vs.units_needed([(-sign * dl, sd, lr)], power))
+    dh, sh = p["dev"](b)
+    if not math.isfinite(a):
+        return (vs.units_needed([(-dh, sh, ls)], power), vs.units_needed([(dh, sh, lr)], power))
+    da, sa = p["dev"](a)
+    # outside the band: twice the smaller one-sided p, so each side at lr / 2
+    return (vs.units_needed([(da, sa, ls), (-dh, sh, ls)], power),
+            min(vs.units_needed([(-da, sa, lr / 2)], power),
+                vs.units_needed([(dh, sh, lr / 2)], power)))
+
+
+def need_all(needs):
+    """(to agree, to disagree) of 'every part': all must agree, one may disagree."""
+    return max(n[0] for n in needs), min(n[1] for n in needs)
+
+
+def claim_need(cid, ps, rules):
+    """(units to agree, units to disagree) of a claim in one mode."""
+    if cid != "converged":
+        return need_all([part_need(p, rules["power"]) for p in ps])
+    conv = need_all([part_need(p, rules["power"]) for p in ps if p["group"] == "converged"])
+    poor = [part_need(p, rules["power"]) for p in ps if p["group"] == "poor"]
+    k = rules["many"]
+    poor = (sorted(n[0] for n in poor)[k - 1], sorted(n[1] for n in poor)[len(poor) - k])
+    return need_all([conv, poor])
+
+
+def needed(parts, per, comb, rules):
+    """{claim: (units to decide in each mode, over the modes)}: per mode the
+    nearer of agreeing and disagreeing, over the modes the nearer of every
+    mode agreeing and every mode disagreeing."""
+    out = {}
+    for cid in comb:
+        ns = {m: claim_need(cid, parts[(cid, m)], rules) for m in MODES if (cid, m) in parts}
+        out[cid] = ({m: min(n) for m, n in ns.items()},
+                    min(max(n[0] for n in ns.values()), max(n[1] for n in ns.values())))
+    return out
 
 
 def claim_verdict(cid, ps, rules):
@@ -564,7 +662,7 @@ def verdict_table(parts, rules):
     for (cid, mode), ps in parts.items():
         per[cid][mode] = claim_verdict(cid, ps, rules)
     return per, {cid: vs.combine_modes(per[cid][md] for md in MODES if md in per[cid])
-                 for cid in CLAIM_IDS}
+                 for cid in CLAIM_IDS if cid in per}
 
 
 def sensitivity(d, rules, base):
@@ -596,14 +694,14 @@ def num(x, unit, signed=True):
     elif unit in ("share", "count"):
         s = f"{x:.{2 if unit == 'count' else 3}f}"
     else:
-        s = f"{x:+.{3 if unit == 'm' else 2}f}"
+        s = f"{x:+.{ {'m': 3, 'm2': 4}.get(unit, 2)}f}"
     if not signed:
         s = s.lstrip("+")
     return s.replace("-", "−")
 
 
-UNIT = {"rel": " % of the MSE", "m": " m", "n": " balls", "ms": " m/s", "share": "",
-        "count": ""}
+UNIT = {"rel": " % of the MSE", "m": " m", "m2": " m²", "n": " balls", "ms": " m/s",
+        "share": ""}
 
 
 def level(x):
@@ -613,8 +711,6 @@ def level(x):
 
 def est(p):
     u = p["unit"]
-    if u == "count":
-        return f"{p['k']}/{p['n']} = {num(p['est'], u)}"
     return f"{num(p['est'], u)}{UNIT[u]}"
 
 
@@ -631,13 +727,13 @@ def ci(p, side="s"):
     u = p["unit"]
     lo, hi, lvl = ((p["lo"], p["hi"], p["level_s"]) if side == "s" else
                    (p["lo_r"], p["hi_r"], p["level_r"]))
-    head = (f"{p['k']}/{p['n']} = {num(p['est'], u)}" if u == "count" else num(p["est"], u))
+    head = num(p["est"], u)
     return f"{head} [{num(lo, u)}, {num(hi, u)}]{UNIT[u]} ({level(lvl)})"
 
 
 def hyp(p):
     u = p["unit"]
-    tail = {"rel": " %", "m": " m", "n": "", "ms": " m/s", "share": "", "count": ""}[u]
+    tail = {"rel": " %", "m": " m", "m2": " m²", "n": "", "ms": " m/s", "share": ""}[u]
     if p["kind"] == "gt":
         return f"> {num(p['a'], u, False)}{tail}"
     if p["kind"] == "lt":
@@ -686,7 +782,7 @@ CI_LEGEND = ("[lo, hi] is the interval of the test that decides, at the level (i
              "part's interval lies inside the claim's region (beyond its bound, or inside its "
              "equivalence band), a disagreeing part's refutation interval outside it, an "
              "undecided part's interval reaches both. t intervals for means, Fieller's for "
-             "the pocket share, Clopper-Pearson for the share of moving runs.")
+             "the pocket share.")
 
 
 def not_reproduced(d, per, comb):
@@ -742,12 +838,9 @@ def margin_rows(d, margins):
     for k, mg in margins.items():
         if mg["unit"] == "m":
             scale = "; ".join(f"{mg['value'] / gap[m]:.0%} in {MODE_LABEL[m]}" for m in MODES)
-        elif mg["unit"] == "gap":
-            scale = "; ".join(f"{mg['value'] * gap[m]:.3f} m in {MODE_LABEL[m]}" for m in MODES)
         else:
             scale = "–"
-        value = (f"{mg['value']:g} of hand-crafted − baseline" if mg["unit"] == "gap"
-                 else f"{mg['value']:g} {mg['unit']}")
+        value = f"{mg['value']:g} {mg['unit']}"
         rows.append([f"`{k}`", value, mg["why"], scale])
     return rows, gap
 
@@ -755,23 +848,29 @@ def margin_rows(d, margins):
 def render_md(d, parts, per, comb, sens):
     rules = d["rules"]
     mrows, gap = margin_rows(d, rules["margins"])
-    fam = next(p["family"] for ps in parts.values() for p in ps)
+    fams = {e: next(p["family"] for (c, _), ps in parts.items() for p in ps if EXPERIMENT[c] == e)
+            for e in ("exp1", "exp2", "exp3")}
     srows = []
     for cid in CLAIM_IDS:
         c = rules["claims"][cid]
         srows.append([f"{c['section']} {c['short']}"] +
-                     [cell(parts, per, cid, m, rules) for m in MODES] + [f"**{comb[cid]}**"])
-    out = [HEAD_MD.format(units=units_text(d), alpha=rules["alpha"], fam=fam,
-                          run_alpha=rules["run_alpha"])]
+                     [cell(parts, per, cid, m, rules) for m in MODES] +
+                     [f"**{comb[cid]}**", need_cell(d["need"][cid], cid, comb[cid])])
+    out = [HEAD_MD.format(units=units_text(d), alpha=rules["alpha"], f1=fams["exp1"],
+                          f2=fams["exp2"], f3=fams["exp3"], power=power_text(rules),
+                          k0=rules["converged_at"])]
     out.append(md_table(["margin", "value", "why", "against the task's scale, hand-crafted − "
                          f"baseline ({', '.join(num(gap[m], 'm') for m in MODES)} m)"], mrows))
     out.append("\n## Verdicts\n\nEach cell: the mode's verdict, then the part that decides "
                "it (the weakest support of an agreeing claim, the strongest refutation of a "
                "disagreeing one, else the first undecided part): estimate [lo, hi] (level). "
-               + CI_LEGEND + " The last column is the verdict common to the modes, undecided "
-               "where they differ.\n")
-    out.append(md_table(["claim"] + [MODE_LABEL[m] for m in MODES] + ["verdict"], srows))
+               + CI_LEGEND + " The verdict column is the verdict common to the modes, undecided "
+               f"where they differ; the last column, for an undecided claim, the units (per mode) "
+               f"needed to decide it at {power_text(rules)}.\n")
+    out.append(md_table(["claim"] + [MODE_LABEL[m] for m in MODES] +
+                        ["verdict", f"to decide ({power_text(rules)})"], srows))
     out.append("\n" + "\n\n".join(not_reproduced(d, per, comb)))
+    out.append(holdout_md(d))
     out.append(f"\n![seed spread](figures/{exp_data.STUDY_SEEDS_STEM}.png)\n\n*Figure: the seed spread "
                "behind the Experiment 1 and 2 verdicts (event mode). Top: the test MSE of each "
                "setting relative to its reference, one grey dot per seed (the mean of its run's "
@@ -781,32 +880,66 @@ def render_md(d, parts, per, comb, sens):
                "Below: Experiment 2's mean return at the largest training set per seed (the "
                "mean of its repetitions), with mean and sampled actions on one y-scale; the "
                "thesis's Fig. 7.6 shows one run over the training-set sizes.*")
-    out.append("\n## The claims one by one\n\nColumns: the part; its alternative hypothesis "
-               "(what the claim says); the mode; the estimate; the support's interval at the "
+    out.append("\n## The claims one by one\n\nEach claim's test is in `data/study/rules.ini`. "
+               "Every part of every claim and mode is a row of "
+               f"[`{PARTS_CSV}`]({PARTS_CSV[5:]}): the part; its alternative hypothesis "
+               "(what the claim says); the estimate; the support's interval at the "
                "level Holm's procedure judged the support at (it lies inside the H1 region "
                "exactly when the support's Holm-adjusted p is below α); the support's p-value "
                "raw and Holm-adjusted; the refutation's interval at its own Holm level (it lies "
                "outside the H1 region exactly when the refutation's adjusted p is below α) and "
                "p-values (the refutation is the complement: the other side of the same bound, "
-               "or outside the band); the part's verdict. " + CI_LEGEND)
+               "or outside the band); the part's verdict; the units it needs to agree and to "
+               f"disagree at {power_text(rules)}. " + CI_LEGEND)
     for cid in CLAIM_IDS:
-        out.append(claim_section(cid, rules, parts, per, comb, d))
+        out.append(claim_section(cid, rules, per, comb, d))
     out.append(sens_md(sens, rules))
     out.append(time_md(d))
     return "\n".join(out) + "\n"
 
 
+PARTS_CSV = "docs/data/verdicts/parts.csv"
+HOLDOUT_CSV = "docs/data/verdicts/holdout_parts.csv"
+
+
+def holdout_md(d):
+    """The holdout's verdicts beside the study's (Experiment 3's claims)."""
+    h = d.get("holdout")
+    if h is None:
+        return "\n## Holdout\n\nNo holdout in the study's folder (`data/study/holdout/`)."
+    dh, hparts, hper, hcomb = h
+    rules = d["rules"]
+    rows = []
+    for cid in EXP3_CLAIMS:
+        c = rules["claims"][cid]
+        rows.append([f"{c['section']} {c['short']}", d["comb"][cid]] +
+                     [hper[cid][m] for m in MODES] +
+                     [f"**{hcomb[cid]}**", need_cell(dh["need"][cid], cid, hcomb[cid])])
+    return ("\n## Holdout: the rules stated in advance\n\nThe rules above were revised after "
+            "the study's results had been seen, so the study's verdicts are not judged by rules "
+            "stated in advance. `data/study/rules.ini` was then committed, and only after that "
+            f"was the holdout run: Experiment 3 at {dh['reps']} repetitions per mode with seed "
+            f"{dh['seed']}, which no study had used (the study's seed is {d['seed']}). Its "
+            "verdicts below are the only ones judged by rules fixed before their data; every "
+            f"part is a row of [`{HOLDOUT_CSV}`]({HOLDOUT_CSV[5:]}). Same parts, margins, "
+            "families and tests as the study.\n\n" +
+            md_table(["claim", "study", "holdout: " + MODE_LABEL["event"]] +
+                     [MODE_LABEL[m] for m in MODES[1:]] +
+                     ["holdout verdict", f"holdout: to decide ({power_text(rules)})"], rows))
+
+
 HEAD_MD = """# The thesis's claims, judged: rules, tests and verdicts
 
 <!-- Generated by scripts/verdicts.py from data/study/ (rules: data/study/rules.ini,
-     results: `make study`). Do not edit: run `make verdicts`. -->
+     results: `make study`, holdout: `make holdout`). Do not edit: run `make verdicts`. -->
 
 Every verdict this project prints on the thirteen claims of the thesis's discussions
 (sections 7.3.2, 7.4.2 and 7.5.2) comes from this page's generator, over the committed
-results of one study: {units}. The rules are stated in `data/study/rules.ini`, apart from
-the numbers; `make verdicts` applies them, `make verdicts CHECK=1`
-(part of `make check`) fails when this page, the README's table or the report page's
-claims section differ from what the results give.
+results of one study: {units}. The rules are in `data/study/rules.ini`, apart from the
+numbers; `make verdicts` applies them, `make verdicts CHECK=1` (part of `make check`) fails
+when this page, its CSVs, the README's table or the report page's claims section differ
+from what the results give. The rules were revised after the study's results had been seen;
+the holdout (below) is the only data judged by rules committed before the data existed.
 
 ## How a claim is judged
 
@@ -820,17 +953,17 @@ claims section differ from what the results give.
   t tests; "no considerable difference", "almost as good", "≈ 0.1 above", "almost evenly":
   equivalence by two one-sided tests (TOST) with a stated margin; their refutation: the
   value lies outside the band (twice the smaller one-sided p). "Converged" is judged per
-  run: a run is still moving when its own trend after the convergence point lies beyond the
-  `flat` margin by a one-sided t test at {run_alpha}; the part is the share of a policy's
-  runs still moving, below the `unsettled` margin by an exact binomial test. SD always
-  means standard deviation.
-- **Multiplicity.** Holm's step-down adjustment over one family per mode, the same in
-  every mode: every support and every refutation p-value of every part of the 13 claims
-  ({fam} tests per mode; a part two claims share counts once). Experiments 1 and 2 ran
-  in every mode, so each mode's family holds the same claims and parts, and a piece of
-  evidence meets the same bar in every mode. A part **agrees** when its support's adjusted p
-  is below α = {alpha}, **disagrees** when its refutation's is, and is **undecided** (not
-  enough power to tell) when neither is.
+  run: each run's least-squares change after iteration {k0}, squared, less its noise
+  variance, averaged over the runs, below `flat`² by a one-sided t test (the root mean
+  square of the runs' true changes below `flat`). Every margin is a constant of the rules,
+  none is computed from the data. SD always means standard deviation.
+- **Multiplicity.** Holm's step-down adjustment over one family per experiment and mode:
+  every support and every refutation p-value of the parts of that experiment's claims
+  (Experiment 1: {f1} tests, Experiment 2: {f2}, Experiment 3: {f3} tests per mode; a part
+  two claims share counts once). The same definition for the study, the holdout and the
+  sensitivity study (docs/sensitivity.md), so an Experiment 3 verdict means the same
+  wherever it is printed. A part **agrees** when its support's adjusted p is below α =
+  {alpha}, **disagrees** when its refutation's is, and is **undecided** when neither is.
 - **Intervals.** Every interval printed with a verdict is the one that decides it: at the
   level Holm's procedure judged the test at (the k-th smallest p of the family against α
   / (m − k + 1), until the first that fails; the later ones at that failing level), two
@@ -840,47 +973,94 @@ claims section differ from what the results give.
 - **Claims.** A claim agrees when every part agrees, disagrees when any part disagrees,
   else is undecided ("many": at least the stated number of parts). The verdict column is
   the verdict all modes share; where they differ it is undecided.
+- **Units to decide.** For an undecided part: the smallest number of repetitions (or
+  seeds) at which its test has {power}, were the true mean its estimate and the SD of
+  its units the study's, at the level Holm judged it at (noncentral t; an equivalence
+  band needs both one-sided tests, their misses added). A claim needs its slowest part to
+  agree, or its fastest part to disagree; over the modes, every mode the same way. An
+  estimate on a bound needs more than 10⁶.
 
 ## Margins
 
 Returns are minus the reward ball's final distance to the nearest target pocket (eq. 7.7),
 so return margins are distances in metres. The last column puts each against the task's
-scale: the distance between the one-node baseline and the hand-crafted policy (beyond the
-thesis) in the same mode; a margin given as a share of that distance (`flat`) is converted
-to metres per mode from the baseline and hand-crafted runs, which no part it serves tests.
-The sensitivity table below halves and doubles each margin.
+scale, the distance between the one-node baseline and the hand-crafted policy (beyond the
+thesis) in the same mode: a description, no margin is derived from it. The sensitivity table
+below halves and doubles each margin.
 """
 
 
 def control_text(d, rules):
     """The convergence rule applied to the hand-crafted policy, which no claim
     is about: evidence that the rule can be met."""
-    k0, bits = rules["converged_at"], []
+    k0, flat, bits = rules["converged_at"], rules["margins"]["flat"]["value"], []
     for mode in MODES:
-        flat = mode_margins(d, rules["margins"], mode)["flat"]
-        moving = [run_moving(d, (mode, "handcrafted", r), k0, flat, rules["run_alpha"])
-                  for r in range(d["reps"])]
-        bits.append(f"{MODE_LABEL[mode]} {sum(moving)}/{len(moving)}")
-    return ("**Control** (not a part): the same rule on the hand-crafted policy, which no "
-            "claim is about, counts as still moving: " + "; ".join(bits) + ".")
+        e = drift(d, mode, "handcrafted", k0)
+        bits.append(f"{MODE_LABEL[mode]} {num(e.est, 'm2')} m², one-sided p "
+                    f"{fp(vs.p_less(e, flat ** 2))} (raw)")
+    return ("**Control** (not a part): the same statistic for the hand-crafted policy, which no "
+            f"claim is about, against flat² = {num(flat ** 2, 'm2', False)} m²: " +
+            "; ".join(bits) + ".")
 
 
-def claim_section(cid, rules, parts, per, comb, d):
+def claim_section(cid, rules, per, comb, d):
     c = rules["claims"][cid]
-    rows = []
-    for mode in MODES:
-        for p in parts.get((cid, mode), []):
-            rows.append([p["label"], hyp(p), MODE_LABEL[mode], est(p), interval_text(p, "s"),
-                         f"{fp(p['p_s'])} ({fp(p['adj_s'])})", interval_text(p, "r"),
-                         f"{fp(p['p_r'])} ({fp(p['adj_r'])})", p["verdict"]])
     verdicts = "; ".join(f"{MODE_LABEL[m]}: **{per[cid][m]}**" for m in MODES if m in per[cid])
     return (f"\n### {c['section']} {c['short']} (`{cid}`)\n\n> {c['words']}\n\n"
-            f"**Reading.** {c['reading']}\n\n**Test.** {c['test']}\n\n" +
-            md_table(["part", "H1", "mode", "estimate", "support's interval (level)",
-                      "p (Holm)", "refutation's interval (level)", "p refute (Holm)", "part"],
-                     rows) +
-            f"\n\n**Verdict**: {verdicts}; over the modes: **{comb[cid]}**." +
+            f"**Reading.** {c['reading']}\n\n"
+            f"**Verdict**: {verdicts}; over the modes: **{comb[cid]}**. "
+            f"{need_sentence(d['need'][cid], cid, comb[cid], rules)}" +
             (f"\n\n{control_text(d, rules)}" if cid == "converged" else ""))
+
+
+def unit_word(cid):
+    return "repetitions" if EXPERIMENT[cid] == "exp3" else "seeds"
+
+
+def need_num(n):
+    return "more than 10⁶" if not math.isfinite(n) else f"{n:,}".replace(",", " ")
+
+
+def need_cell(need, cid, verdict):
+    """The units needed to decide an undecided claim over the modes (per mode
+    when the modes point different ways), '–' for a decided one."""
+    if verdict != vs.UNDECIDED:
+        return "–"
+    if math.isfinite(need[1]):
+        return f"{need_num(need[1])} {unit_word(cid)}"
+    return (f"per mode: " + ", ".join(f"{MODE_LABEL[m]} {need_num(n)}" for m, n in need[0].items())
+            + f" {unit_word(cid)} (the modes point different ways)")
+
+
+def power_text(rules):
+    return f"{100 * rules['power']:g} % power"
+
+
+def need_sentence(need, cid, verdict, rules):
+    per_mode = "; ".join(f"{MODE_LABEL[m]} {need_num(n)}" for m, n in need[0].items())
+    return (f"{unit_word(cid).capitalize()} to decide at {power_text(rules)} "
+            f"(per mode: {per_mode}; "
+            f"the same verdict in every mode: {need_num(need[1])})." if verdict == vs.UNDECIDED
+            else "")
+
+
+def parts_csv(parts, rules):
+    """Every part of every claim and mode, as the page's tables had them."""
+    import io
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["claim", "mode", "part", "H1", "estimate", "support interval (level)",
+                "p (Holm)", "refutation interval (level)", "p refute (Holm)", "verdict",
+                "units to agree", "units to disagree"])
+    for cid in CLAIM_IDS:
+        for mode in MODES:
+            for p in parts.get((cid, mode), []):
+                na, nd = part_need(p, rules["power"])
+                w.writerow([cid, MODE_LABEL[mode], p["label"], hyp(p), est(p),
+                            interval_text(p, "s"), f"{fp(p['p_s'])} ({fp(p['adj_s'])})",
+                            interval_text(p, "r"), f"{fp(p['p_r'])} ({fp(p['adj_r'])})",
+                            p["verdict"], need_num(na), need_num(nd)])
+    return buf.getvalue()
 
 
 def sens_md(sens, rules):
@@ -888,13 +1068,12 @@ def sens_md(sens, rules):
     for name, mg, (h_chg, h_comb), (d_chg, d_comb) in sens:
         fmt = lambda chg, cmb: (f"{len(chg)} ({len(cmb)} combined)" +  # noqa: E731
                                 (": " + ", ".join(sorted({c for c, _ in chg})) if chg else ""))
-        unit = "of hand-crafted − baseline" if mg["unit"] == "gap" else mg["unit"]
-        rows.append([f"`{name}` = {mg['value']:g} {unit}", fmt(h_chg, h_comb),
+        rows.append([f"`{name}` = {mg['value']:g} {mg['unit']}", fmt(h_chg, h_comb),
                      fmt(d_chg, d_comb)])
     return ("\n## Sensitivity to the margins\n\nHow many of the claim × mode verdicts (and of "
             "the combined verdicts) change when one margin is halved or doubled, the others "
             "kept; the claims that change are named. A margin can change a claim that does not use "
-            "it: its tests move in the Holm ranking of the mode's family.\n\n" +
+            "it: its tests move in the Holm ranking of its experiment's family in the mode.\n\n" +
             md_table(["margin", "halved", "doubled"], rows))
 
 
@@ -912,7 +1091,26 @@ def time_md(d):
             f"jobs: Experiment 3 ({d['reps']} repetitions × 6 variants × 3 modes) {f('exp3')}; "
             f"Experiments 1 and 2 ({len(d['seeds'])} seeds each in each of the three modes) "
             f"{f('exp12')}; the sphere benchmark (3 methods) {f('sphere')}. "
-            f"Version of the runs: `{d['version']}`.")
+            f"Version of the runs: `{d['version']}`" + (
+                " (Experiment 3 ran in batches: its first repetitions before the rules were "
+                "revised, the later ones, added by `scripts/study_extend.sh`, after the rules "
+                "were committed; the later batch reran repetition 0 of every mode and got the "
+                "study's runs)" if ";" in d["version"] else "") +
+            f". To rerun: `make study POWER_REPS={d['reps']} STUDY_SEEDS={len(d['seeds'])}` "
+            "(then `make verdicts`); to add repetitions FROM..TO−1 to the committed study: "
+            "`sh scripts/study_extend.sh OUT FROM TO data/study python3`." + holdout_time(d))
+
+
+def holdout_time(d):
+    h = d.get("holdout")
+    if h is None:
+        return ""
+    t = h[0]["timing"]["exp3"]
+    return (f" The holdout (`data/study/holdout/`: `manifest.csv`, `exp3_runs.csv`, "
+            f"`exp3_curves.csv`, `timing.csv`): Experiment 3, {h[0]['reps']} repetitions × 6 "
+            f"variants × 3 modes, {float(t['wall_seconds']):.0f} s wall, "
+            f"{float(t['cpu_seconds']):.0f} s CPU, run niced beside other jobs; to rerun: "
+            f"`make holdout HOLDOUT_REPS={h[0]['reps']} HOLDOUT_SEED={h[0]['seed']}`.")
 
 
 def readme_block(d, parts, per, comb):
@@ -924,17 +1122,37 @@ def readme_block(d, parts, per, comb):
         if (cid, "stepped05") in parts and per[cid]["stepped05"] != per[cid]["stepped"]:
             step += f" (dt 0.5 ms: {per[cid]['stepped05']})"
         rows.append([f"{c['section']} {c['short']}", cell(parts, per, cid, "event", rules), step,
-                     f"**{comb[cid]}**"])
+                     f"**{comb[cid]}**", need_cell(d["need"][cid], cid, comb[cid]),
+                     holdout_cell(d, cid)])
     legend = (f"Generated by `make verdicts` from the committed study ({units_text(d)}; "
               "rules, tests and every part: [docs/verdicts.md](docs/verdicts.md)). Each cell: "
               "the mode's verdict, then the part that decides it: estimate [lo, hi] (level), "
-              "Holm-adjusted over every test of the mode (the same family in every mode). " +
+              f"Holm-adjusted over every test of the experiment in the mode ({FAMILY_TEXT}). " +
               CI_LEGEND + " Verdict: common to the three modes (event, stepped at dt 1 ms and "
               "0.5 ms), else undecided; where dt 0.5 ms differs from dt 1 ms its verdict is "
-              "named.")
+              f"named. To decide: for an undecided claim, the units needed at "
+              f"{power_text(rules)} were the estimates true. Holdout: the verdict on fresh "
+              "seeds, judged by the rules committed before they were run (the study's rules "
+              "were revised after its results had been seen).")
     return "\n".join([BEGIN, legend, "", md_table(
         ["thesis claim", f"event, {d['reps']} reps", f"stepped (dt 1 ms), {d['reps']} reps",
-         "verdict"], rows), "", "\n\n".join(not_reproduced(d, per, comb)), END])
+         "verdict", f"to decide ({power_text(rules)})", holdout_head(d)], rows), "",
+        "\n\n".join(not_reproduced(d, per, comb)), END])
+
+
+FAMILY_TEXT = "one family per experiment and mode, as everywhere"
+
+
+def holdout_head(d):
+    h = d.get("holdout")
+    return "holdout" if h is None else f"holdout ({h[0]['reps']} reps, seed {h[0]['seed']})"
+
+
+def holdout_cell(d, cid):
+    h = d.get("holdout")
+    if h is None or cid not in h[3]:
+        return "–"
+    return f"**{h[3][cid]}**"
 
 
 def report_html(d, parts, per, comb):
@@ -952,7 +1170,7 @@ def report_html(d, parts, per, comb):
     return (f"<!-- generated by scripts/verdicts.py (make verdicts); do not edit -->\n"
             f"<p>The verdicts of the committed study ({esc(units_text(d))}), each with the part "
             "that decides it: estimate [lo, hi] (level), Holm-adjusted over every test of the "
-            f"mode (the same family in every mode). {esc(CI_LEGEND)} Rules and every part: "
+            f"experiment in the mode ({FAMILY_TEXT}). {esc(CI_LEGEND)} Rules and every part: "
             "docs/verdicts.md.</p>\n"
             f"<table><tr><th>thesis</th><th>claim</th>{head}<th>verdict</th></tr>\n" +
             "\n".join(rows) + f"\n</table>\n{notes}\n")
@@ -981,6 +1199,39 @@ def sphere_block(d):
             f"docs/reps_policy.md.\n{SPHERE_END}")
 
 
+def exp3_block(d, mode="event"):
+    """The README's Experiment 3 table: the study's runs in one mode."""
+    reps = range(d["reps"])
+    x = lambda q, c: np.array([d["exp3"][(mode, q, r)][c] for r in reps])  # noqa: E731
+    name = {"nrvr_rs": "nrvr, s→rs", "rvr_rs": "rvr, s→rs", "nrvr_a": "nrvr, s→a",
+            "rvr_a": "rvr, s→a", "baseline": "baseline (one node)",
+            "handcrafted": "hand-crafted (beyond the thesis)"}
+    base = x("baseline", "mean_return")
+    rows = []
+    for q in THESIS + ("handcrafted",):
+        r = x(q, "mean_return")
+        if q == "baseline":
+            diff = "0"
+        else:
+            e = vs.paired(r, base)
+            lo, hi = vs.interval(e)
+            diff = f"{num(e.est, 'm')} [{num(lo, 'm')}, {num(hi, 'm')}]"
+        rows.append([name[q], num(r.mean(), "m"), num(r.std(ddof=1), "m", False), diff,
+                     f"{x(q, 'pocket2').mean():.1f} / {x(q, 'pocket5').mean():.1f}",
+                     f"{x(q, 'median_speed').mean():.2f} m/s"])
+    return "\n".join([
+        EXP3_BEGIN,
+        f"Experiment 3 in the study ({MODE_LABEL[mode]} mode, {d['reps']} repetitions; "
+        "generated by `make verdicts` from `data/study/exp3_runs.csv`): each run's mean "
+        f"return over its last {d['final']} episodes, its mean and SD over the runs, the "
+        "paired difference to the baseline with its 95 % t interval (unadjusted: a "
+        "description, the verdicts above are the tests), balls per run in the target pockets "
+        "2 and 5, and the run's median cue speed, averaged over the runs.", "",
+        md_table(["policy", "mean return", "SD over runs", "paired vs baseline [95 %]",
+                  "balls in pocket 2 / 5 per run", "median speed"], rows),
+        EXP3_END])
+
+
 def splice_readme(path, blocks):
     """README's text with each (begin, end, block) put between its markers."""
     try:
@@ -1005,10 +1256,18 @@ def outputs(data, docs, readme, figures=True):
     if not 1 <= rules["converged_at"] <= d["iterations"] - 3:
         raise Fail(f"{os.path.join(data, 'rules.ini')}: converged_at must leave 3 iterations "
                    f"after it in the {d['iterations']} iterations", 3)
+    dh = load_holdout(os.path.join(data, "holdout"))
     try:
         parts = compute(d, rules, rules["margins"])
         per, comb = verdict_table(parts, rules)
         sens = sensitivity(d, rules, (per, comb))
+        d["need"], d["comb"] = needed(parts, per, comb, rules), comb
+        if dh is not None:
+            dh["rules"] = rules
+            hparts = compute(dh, rules, rules["margins"], ("exp3",))
+            hper, hcomb = verdict_table(hparts, rules)
+            dh["need"] = needed(hparts, hper, hcomb, rules)
+            d["holdout"] = (dh, hparts, hper, hcomb)
     except ValueError as e:
         raise Fail(f"{data}: the results allow no test: {e}", 3) from e
     figs = {}
@@ -1018,11 +1277,15 @@ def outputs(data, docs, readme, figures=True):
         for path in plot_study.study_seeds(data, tmp) if figures else ():
             with open(path, "rb") as f:
                 figs[os.path.join(docs, "figures", os.path.basename(path))] = f.read()
-    return figs | {
+    csvs = {os.path.join(docs, PARTS_CSV[5:]): parts_csv(parts, rules)}
+    if dh is not None:
+        csvs[os.path.join(docs, HOLDOUT_CSV[5:])] = parts_csv(d["holdout"][1], rules)
+    return figs | csvs | {
         os.path.join(docs, "verdicts.md"): render_md(d, parts, per, comb, sens),
         os.path.join(docs, "verdicts_report.html"): report_html(d, parts, per, comb),
         readme: splice_readme(readme, [(BEGIN, END, readme_block(d, parts, per, comb)),
-                                       (SPHERE_BEGIN, SPHERE_END, sphere_block(d))]),
+                                       (SPHERE_BEGIN, SPHERE_END, sphere_block(d)),
+                                       (EXP3_BEGIN, EXP3_END, exp3_block(d))]),
     }
 
 

@@ -259,28 +259,14 @@ def test_outcome_categories_and_shares():
     assert sh["table"] == (2 / 6, [0.25, 0.5])
 
 
-def test_t_quantiles():
+def test_mean_ci():
     sys.path.insert(0, str(SCRIPTS))
     try:
         import figstats
     finally:
         sys.path.remove(str(SCRIPTS))
-    # published two-sided 95 % values (tolerance 1e-9)
-    for df, t in [(1, 12.706204736174705), (2, 4.302652729749464), (4, 2.7764451051977987),
-                  (9, 2.2621571628540993), (30, 2.0422724563012373)]:
-        assert figstats.t_quantile(0.975, df) == pytest.approx(t, abs=1e-9)
+    # the published two-sided 95 % t value for df 4
     m, lo, hi = figstats.mean_ci([1.0, 2.0, 3.0, 4.0, 5.0])
     assert (m, hi - m) == pytest.approx((3.0, 2.7764451051977987 * math.sqrt(2.5 / 5)), abs=1e-9)
     assert figstats.mean_ci([2.0])[1:] == (None, None)
     assert figstats.paired({0: 3.0, 1: 5.0, 2: 1.0}, {1: 4.0, 0: 1.0}) == [2.0, 1.0]
-    try:
-        from scipy import stats
-    except ImportError:
-        return
-    # against scipy on many (p, df): quantiles to a relative 1e-8 (scipy's own
-    # ppf is good to about 1e-10 in p), the distribution function to 1e-12
-    for df in (1, 2, 3, 5, 8, 13, 50, 333, 2000):
-        for p in (0.55, 0.8, 0.9, 0.95, 0.975, 0.995, 0.9995, 0.05):
-            assert figstats.t_quantile(p, df) == pytest.approx(stats.t.ppf(p, df), rel=1e-8)
-        for t in (-30.0, -2.5, -0.1, 0.0, 0.3, 1.0, 2.0, 4.5, 12.0, 100.0):
-            assert figstats.t_cdf(t, df) == pytest.approx(stats.t.cdf(t, df), abs=1e-12)

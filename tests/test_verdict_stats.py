@@ -207,14 +207,15 @@ def test_binomial_tests_and_clopper_pearson(seed):
 
 
 def holm_levels_ref(ps, alpha):
-    """Step-down by hand: reject the smallest while p < alpha / (m - rank)."""
+    """Step-down by hand: reject the smallest while p < alpha / (m - rank);
+    tied p-values share the first one's level, whatever the list's order."""
     m, out = len(ps), [None] * len(ps)
-    stop = None
+    stop, first = None, {}
     for rank, i in enumerate(sorted(range(m), key=lambda j: ps[j])):
         here = alpha / (m - rank)
         if stop is None and not ps[i] < here:
             stop = here
-        out[i] = here if stop is None else stop
+        out[i] = first.setdefault(ps[i], here if stop is None else stop)
     return out
 
 
@@ -232,3 +233,90 @@ def test_holm_levels_give_the_holm_decision(seed):
     for p, a, level in zip(ps, adj, lv):
         assert (p < level) == (a < alpha)
     assert vs.holm_levels([], 0.05) == []
+    # the order of the list does not move a level (ties included)
+    perm = rng.permutation(m)
+    assert [lv[i] for i in perm] == vs.holm_levels([ps[i] for i in perm], alpha)
+
+
+def power_by_integration(delta, sd, n, level):
+    """The one-sided t test's power from its definition: the sample mean is
+    N(delta, sd^2 / n), (n - 1) S^2 / sd^2 is chi-square(n - 1), independent;
+    P(mean / (S / sqrt n) > c) integrated over the chi-square (no noncentral t)."""
+    from scipy import integrate
+    c = stats.t.isf(level, n - 1)
+    f = lambda v: (stats.norm.sf(c * math.sqrt(v / (n - 1)) - delta * math.sqrt(n) / sd)  # noqa: E731
+                   * stats.chi2.pdf(v, n - 1))
+    lo, hi = stats.chi2.ppf([1e-12, 1 - 1e-12], n - 1)
+    return integrate.quad(f, lo, hi, limit=200, epsabs=1e-10)[0]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_power_t_against_its_definition(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 400))
+    sd = float(rng.uniform(0.01, 5)) * 10.0 ** int(rng.integers(-3, 3))
+    delta = sd * float(rng.uniform(-0.2, 1.5)) * 4 / math.sqrt(n)
+    level = float(rng.choice([0.05, 0.01, 1e-3, 3e-4]))
+    assert vs.power_t(delta, sd, n, level) == pytest.approx(
+        power_by_integration(delta, sd, n, level), abs=1e-6)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_units_needed_is_the_smallest_n(seed):
+    """The smallest n: the integrated power reaches 0.8 there and not one
+    unit earlier, one side and two (an equivalence band: both must reject,
+    their misses added)."""
+    rng = np.random.default_rng(100 + seed)
+    sd = float(rng.uniform(0.1, 3))
+    sides = [(sd * float(rng.uniform(0.15, 1.2)), sd, float(rng.choice([0.05, 1e-3])))
+             for _ in range(1 + seed % 2)]
+    joint = lambda n: 1 - sum(1 - power_by_integration(d, s, n, lv)  # noqa: E731
+                              for d, s, lv in sides)
+    n = vs.units_needed(sides, 0.8)
+    assert joint(n) >= 0.8 and (n == 2 or joint(n - 1) < 0.8), (n, joint(n), joint(n - 1))
+
+
+def test_units_needed_textbook_and_degenerate():
+    # Cohen's d = 0.5, one-sided alpha 0.05, power 0.8: 27 (G*Power's one-sample t)
+    assert vs.units_needed([(0.5, 1.0, 0.05)], 0.8) == 27
+    assert vs.units_needed([(0.0, 1.0, 0.05)], 0.8) == math.inf      # on the bound
+    assert vs.units_needed([(-0.1, 1.0, 0.05)], 0.8) == math.inf     # the other way
+    assert vs.units_needed([(1e-4, 1.0, 0.05)], 0.8) == math.inf     # beyond 10^6
+    assert vs.units_needed([], 0.8) == math.inf
+    assert vs.units_needed([(1.0, 0.0, 0.05)], 0.8) == 2             # no spread
+    with pytest.raises(ValueError):
+        vs.power_t(0.1, 1.0, 1, 0.05)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_iqm_and_probability_of_improvement(seed):
+    """Against scipy: trim_mean at 0.25 (what rliable's IQM calls) and the
+    Mann-Whitney U statistic over n_x n_y, ties included (rounded scores)."""
+    rng = np.random.default_rng(500 + seed)
+    x = np.round(rng.standard_t(3, int(rng.integers(2, 40))) * 10 ** rng.uniform(-3, 3), 1)
+    y = np.round(rng.normal(0.3, 1, int(rng.integers(2, 40))) * 10 ** rng.uniform(-3, 3), 1)
+    assert vs.iqm(x) == pytest.approx(stats.trim_mean(x, 0.25), rel=1e-12, abs=1e-12)
+    u = stats.mannwhitneyu(x, y, alternative="greater").statistic
+    assert vs.prob_improvement(x, y) == pytest.approx(u / (len(x) * len(y)), rel=1e-12)
+    assert vs.prob_improvement(x, y) + vs.prob_improvement(y, x) == pytest.approx(1.0)
+    assert vs.iqm(x + 5.0) == pytest.approx(vs.iqm(x) + 5.0)          # offset
+    assert vs.iqm(rng.permutation(x)) == vs.iqm(x)                     # order
+    taus = np.linspace(x.min() - 1, x.max() + 1, 7)
+    assert vs.performance_profile(x, taus) == pytest.approx([(x > t).mean() for t in taus])
+
+
+def test_stratified_bootstrap_is_the_percentile_of_resampled_statistics():
+    """The interval against a direct loop over the same seeded draws: each
+    learner's runs resampled on their own, scipy's trim_mean on each, numpy's
+    percentile; and it is reproducible and covers the estimate."""
+    rng = np.random.default_rng(9)
+    a, b = rng.normal(0, 1, 10), rng.normal(0.5, 2, 13)
+    lo, hi = vs.bootstrap_ci(lambda x, y: vs.iqm(x) - vs.iqm(y), [a, b], 400, 7)
+    g = np.random.default_rng(7)
+    reps = []
+    for _ in range(400):
+        ia, ib = g.integers(0, 10, 10), g.integers(0, 13, 13)
+        reps.append(stats.trim_mean(a[ia], 0.25) - stats.trim_mean(b[ib], 0.25))
+    assert (lo, hi) == pytest.approx(tuple(np.percentile(reps, [2.5, 97.5])), rel=1e-12)
+    assert vs.bootstrap_ci(lambda x, y: vs.iqm(x) - vs.iqm(y), [a, b], 400, 7) == (lo, hi)
+    assert lo <= vs.iqm(a) - vs.iqm(b) <= hi

@@ -28,8 +28,8 @@ TREES = ["nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a"]
 THESIS = TREES + ["baseline"]
 
 
-def rows(name):
-    with open(DATA / name, newline="", encoding="utf-8") as f:
+def rows(name, data=DATA):
+    with open(data / name, newline="", encoding="utf-8") as f:
         return list(csv.DictReader(f))
 
 
@@ -39,11 +39,13 @@ def rules():
     return c
 
 
-def manifest():
+def manifest_of(data=DATA):
     m = defaultdict(dict)
-    for r in rows("manifest.csv"):
+    for r in rows("manifest.csv", data):
         m[(r["experiment"], r["unit"])][r["key"]] = r["value"]
     return m
+
+
 
 
 # ---------------------------------------------------------------- oracle
@@ -86,28 +88,21 @@ def share(n2, tot, low, high):
     return [r, ps, pr, ci, True, ""]
 
 
-def moving_share(cv, k0, flat, run_alpha, bound):
-    """The share of runs whose own least-squares trend after iteration k0 is
-    beyond +-flat by a one-sided t test at run_alpha; exact binomial tests
-    against bound, Clopper-Pearson intervals (scipy's binomtest)."""
-    k = 0
+def drift(cv, k0, flat):
+    """The mean over runs of c^2 - se^2, c the least-squares change of a run's
+    curve after iteration k0 (slope x (window - 1), scipy's linregress) and se
+    its standard error: one-sided t test against flat^2."""
+    d = []
     for c in cv:
         y = c[k0:]
-        x = np.arange(len(y))
-        fit = stats.linregress(x, y)
+        fit = stats.linregress(np.arange(len(y)), y)
         w = len(y) - 1
-        tr, se, df = fit.slope * w, fit.stderr * w, len(y) - 2
-        k += bool(stats.t.sf((tr - flat) / se, df) < run_alpha or
-                  stats.t.cdf((tr + flat) / se, df) < run_alpha)
-    n = len(cv)
-    ps = stats.binomtest(k, n, bound, alternative="less").pvalue
-    pr = stats.binomtest(k, n, bound, alternative="greater").pvalue
-    ci = lambda L: tuple(stats.binomtest(k, n, bound).proportion_ci(L, "exact"))  # noqa: E731
-    return [k / n, ps, pr, ci, False, "converged"], k, n
+        d.append((fit.slope * w) ** 2 - (fit.stderr * w) ** 2)
+    return part(d, "lt", flat ** 2)
 
 
 def exp12_oracle(arm, mg, c1, c2):
-    """Experiments 1 and 2 in one arm: {label: part}."""
+    """Experiments 1 and 2 in one arm: ({label: part} of 1, of 2)."""
     ev = {}
     seeds = sorted({int(r["seed"]) for r in rows("exp1_mse.csv") if r["arm"] == arm})
     acc = defaultdict(list)
@@ -139,6 +134,7 @@ def exp12_oracle(arm, mg, c1, c2):
           for r in rows("exp1_map.csv") if r["arm"] == arm}
     ev["underestimate at pocketed positions − RMS error elsewhere"] = part(
         [mp[s] for s in seeds], "gt", 0)
+    ev1, ev = ev, {}
     top = max(int(x) for x in c2["exp2.sizes"].split(","))
     acc = defaultdict(list)
     for r in rows("exp2_returns.csv"):
@@ -154,24 +150,23 @@ def exp12_oracle(arm, mg, c1, c2):
             ev[f"single node − {name[q]} ({m} actions)"] = part(
                 v2("single", m) - v2(q, m), "lt", 0)
         ev[f"s→rs − s→a ({m} actions)"] = part(v2("s_rs", m) - v2("s_a", m), "gt", 0)
-    return ev
+    return ev1, ev
 
 
-def exp3_oracle(arm, mg, R):
+def exp3_oracle(arm, mg, R, data=DATA):
     o = {}
     runs = defaultdict(dict)
-    for r in rows("exp3_runs.csv"):
+    for r in rows("exp3_runs.csv", data):
         if r["arm"] == arm:
             runs[r["policy"]][int(r["repetition"])] = r
     curves = defaultdict(dict)
-    for r in rows("exp3_curves.csv"):
+    for r in rows("exp3_curves.csv", data):
         if r["arm"] == arm:
             its = sorted((int(k[1:]), float(v)) for k, v in r.items() if k.startswith("i"))
             curves[r["policy"]][int(r["repetition"])] = np.array([v for _, v in its])
     col = lambda q, c: np.array([float(runs[q][k][c]) for k in sorted(runs[q])])  # noqa: E731
     ret = {q: col(q, "mean_return") for q in THESIS + ["handcrafted"]}
-    # the task's scale: the flat margin is a share of hand-crafted − baseline
-    flat = float(R["margins"]["flat"]) * (ret["handcrafted"].mean() - ret["baseline"].mean())
+    flat = mg["flat"]
     for q in TREES:
         o[f"{q} − baseline"] = part(ret[q] - ret["baseline"], "in", -math.inf,
                                     mg["considerable"])
@@ -192,8 +187,8 @@ def exp3_oracle(arm, mg, R):
     k0 = int(R["study"]["converged_at"])
     for q in THESIS:
         cv = [curves[q][k] for k in sorted(curves[q])]
-        o[f"{q}: share of runs still moving after iteration {k0}"], _, _ = moving_share(
-            cv, k0, flat, float(R["study"]["run_alpha"]), mg["unsettled"])
+        o[f"{q}: mean square of the runs' changes after iteration {k0}"] = \
+            drift(cv, k0, flat)[:5] + ["converged"]
         o[f"hand-crafted − {q}"] = part(ret["handcrafted"] - ret[q], "gt",
                                         mg["considerable"])[:5] + ["poor"]
     return o
@@ -204,12 +199,14 @@ def holm_oracle(ps, alpha):
     m = len(ps)
     order = sorted(range(m), key=lambda i: ps[i])
     adj, lvl, run, stop = [0.0] * m, [0.0] * m, 0.0, None
+    tie = {}
     for j, i in enumerate(order):
         run = max(run, min(1.0, (m - j) * ps[i]))
         adj[i] = run
         if stop is None and ps[i] >= alpha / (m - j):
             stop = alpha / (m - j)
-        lvl[i] = stop if stop is not None else alpha / (m - j)
+        # tied p-values: the level of the first of them
+        lvl[i] = tie.setdefault(ps[i], stop if stop is not None else alpha / (m - j))
     return adj, lvl
 
 
@@ -218,37 +215,53 @@ def oracle():
     of the support, (lo, hi, level) of the refutation]}} from the rules' text."""
     R = rules()
     mg = {k: float(v) for k, v in R["margins"].items() if "." not in k}
-    man = manifest()
+    man = manifest_of()
     out = {}
     alpha = float(R["study"]["alpha"])
     for arm in MODES:
-        o = exp12_oracle(arm, mg, man[("exp1", f"{arm}/1")], man[("exp2", f"{arm}/1")])
-        o |= exp3_oracle(arm, mg, R)
-        labels = list(o)
-        ps = [o[k][1] for k in labels] + [o[k][2] for k in labels]
-        adj, lvl = holm_oracle(ps, alpha)
-        for j, k in enumerate(labels):
-            est, p_s, p_r, ci, two_sided, group = o[k]
-            a_s, a_r = adj[j], adj[j + len(labels)]
-            l_s, l_r = 1 - 2 * lvl[j], 1 - (1 if two_sided else 2) * lvl[j + len(labels)]
-            v = "agrees" if a_s < alpha else "disagrees" if a_r < alpha else "undecided"
-            o[k] = [est, p_s, p_r, a_s, a_r, v, group, (*ci(l_s), l_s), (*ci(l_r), l_r)]
-        out[arm] = o
+        out[arm] = {}
+        # one Holm family per experiment and mode
+        for o in (*exp12_oracle(arm, mg, man[("exp1", f"{arm}/1")], man[("exp2", f"{arm}/1")]),
+                  exp3_oracle(arm, mg, R)):
+            out[arm] |= adjusted(o, alpha)
     return out
+
+
+def adjusted(o, alpha):
+    """One family's parts with their Holm-adjusted p-values, verdicts and
+    intervals at the Holm levels."""
+    labels = list(o)
+    ps = [o[k][1] for k in labels] + [o[k][2] for k in labels]
+    adj, lvl = holm_oracle(ps, alpha)
+    for j, k in enumerate(labels):
+        est, p_s, p_r, ci, two_sided, group = o[k]
+        a_s, a_r = adj[j], adj[j + len(labels)]
+        l_s, l_r = 1 - 2 * lvl[j], 1 - (1 if two_sided else 2) * lvl[j + len(labels)]
+        v = "agrees" if a_s < alpha else "disagrees" if a_r < alpha else "undecided"
+        o[k] = [est, p_s, p_r, a_s, a_r, v, group, (*ci(l_s), l_s), (*ci(l_r), l_r)]
+    return o
 
 
 # ---------------------------------------------------------------- the page
 
+PARTS = ROOT / "docs" / "data" / "verdicts" / "parts.csv"
+
+
+def csv_parts(path=PARTS):
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
 def page_parts():
     """{mode: {label: (estimate, support interval, p (Holm), refutation interval,
-    p refute (Holm), verdict)}}."""
+    p refute (Holm), verdict)}} of the parts' CSV, and the page's text."""
     text = (ROOT / "docs" / "verdicts.md").read_text(encoding="utf-8")
     label_of = {v: k for k, v in MODES.items()}
     got = defaultdict(dict)
-    for line in text.splitlines():
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) == 9 and cells[2] in label_of:
-            got[label_of[cells[2]]][cells[0]] = cells[3:]
+    for r in csv_parts():
+        got[label_of[r["mode"]]][r["part"]] = [r[c] for c in (
+            "estimate", "support interval (level)", "p (Holm)", "refutation interval (level)",
+            "p refute (Holm)", "verdict")]
     return got, text
 
 
@@ -284,6 +297,25 @@ def check_interval(cell, want, scale, where):
 def want():
     """The oracle, computed once for the tests that read it (none changes it)."""
     return oracle()
+
+
+def test_holdout_recomputed():
+    """The holdout's parts (Experiment 3 on fresh seeds) against the oracle,
+    its own family per mode."""
+    R = rules()
+    mg = {k: float(v) for k, v in R["margins"].items() if "." not in k}
+    label_of = {v: k for k, v in MODES.items()}
+    got = defaultdict(dict)
+    for r in csv_parts(ROOT / "docs" / "data" / "verdicts" / "holdout_parts.csv"):
+        got[label_of[r["mode"]]][r["part"]] = r
+    for arm in MODES:
+        want = adjusted(exp3_oracle(arm, mg, R, DATA / "holdout"), float(R["study"]["alpha"]))
+        assert set(got[arm]) == set(want), arm
+        for label, w in want.items():
+            g = got[arm][label]
+            assert close(re.findall(NUM, g["estimate"])[-1], w[0]), (arm, label)
+            check_interval(g["support interval (level)"], w[7], 1, (arm, label))
+            assert g["verdict"] == w[5], (arm, label)
 
 
 def test_every_part_recomputed(want):
@@ -336,23 +368,23 @@ def test_decision_matches_interval(want):
 
 
 def page_h1():
-    """{(mode, label): the H1 cell} of the page's part tables."""
-    text = (ROOT / "docs" / "verdicts.md").read_text(encoding="utf-8")
+    """{(mode, label): the H1 cell} of the parts' CSV."""
     label_of = {v: k for k, v in MODES.items()}
-    out = {}
-    for line in text.splitlines():
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) == 9 and cells[2] in label_of:
-            out[(label_of[cells[2]], cells[0])] = cells[1]
-    return out
+    return {(label_of[r["mode"]], r["part"]): r["H1"] for r in csv_parts()}
 
 
-def test_families_are_the_same_in_every_mode(want):
+def test_family_sizes_stated(want):
+    """One family per experiment and mode: the page states each one's size."""
     _, text = page_parts()
-    m = re.search(r"\((\d+) tests per mode", text)
-    assert m, "the family's size is not stated"
-    sizes = {2 * len(o) for o in want.values()}
-    assert sizes == {int(m.group(1))}, sizes
+    m = re.search(r"Experiment 1: (\d+) tests, Experiment 2: (\d+), Experiment 3: (\d+) tests "
+                  r"per mode", text)
+    assert m, "the families' sizes are not stated"
+    R = rules()
+    mg = {k: float(v) for k, v in R["margins"].items() if "." not in k}
+    man = manifest_of()
+    o1, o2 = exp12_oracle("event", mg, man[("exp1", "event/1")], man[("exp2", "event/1")])
+    sizes = (2 * len(o1), 2 * len(o2), 2 * len(exp3_oracle("event", mg, R)))
+    assert tuple(int(x) for x in m.groups()) == sizes
 
 
 def test_claim_verdicts_follow_their_parts(want):
@@ -360,11 +392,12 @@ def test_claim_verdicts_follow_their_parts(want):
     R = rules()
     many = int(R["study"]["many"])
     per_claim = {}
+    labels_of = defaultdict(set)
+    for r in csv_parts():
+        labels_of[r["claim"]].add(r["part"])
     for sec in re.split(r"\n### ", text)[1:]:
         cid = re.search(r"\(`(\w+)`\)", sec.splitlines()[0]).group(1)
-        labels = {line.split("|")[1].strip() for line in sec.splitlines()
-                  if line.count("|") == 10 and line.split("|")[3].strip() in MODES.values()}
-        per_claim[cid] = (labels, re.search(r"\*\*Verdict\*\*: (.*)", sec).group(1))
+        per_claim[cid] = (labels_of[cid], re.search(r"\*\*Verdict\*\*: (.*)", sec).group(1))
     assert len(per_claim) == 13
     for cid, (labels, line) in per_claim.items():
         for mode, name in MODES.items():
@@ -445,7 +478,8 @@ def study(tmp_path):
     (docs / "verdicts.md").write_text("old\n")
     readme = tmp_path / "README.md"
     readme.write_text("a\n<!-- verdicts:begin -->\nold\n<!-- verdicts:end -->\nb\n"
-                      "<!-- sphere:begin -->\nold\n<!-- sphere:end -->\nc\n")
+                      "<!-- sphere:begin -->\nold\n<!-- sphere:end -->\nc\n"
+                      "<!-- exp3-table:begin -->\n<!-- exp3-table:end -->\n")
     return data, docs, readme
 
 
@@ -488,6 +522,9 @@ def shift_seed(rs):
     ("malformed", 2, ["exp3_runs.csv", "mean_return"]),
     ("sphere", 3, ["manifest.csv", "sphere creps_new has policy.cov_center = old"]),
     ("sphere_rows", 3, ["sphere_curves.csv", "method ccmaes repetition 3"]),
+    ("holdout_missing", 2, ["holdout/exp3_curves.csv", "missing"]),
+    ("holdout_other", 3, ["holdout/manifest.csv", "Experiment 3 only"]),
+    ("holdout_partial", 3, ["holdout/exp3_runs.csv", "arm stepped policy rvr_a repetition 17"]),
 ])
 def test_bad_study_refused_and_nothing_written(study, case, code, words):
     data, docs, readme = study
@@ -503,6 +540,13 @@ def test_bad_study_refused_and_nothing_written(study, case, code, words):
         edit_csv(data / "exp1_map.csv", shift_seed)
     elif case == "sphere":
         edit_csv(data / "manifest.csv", sphere_centre)
+    elif case == "holdout_missing":
+        (data / "holdout" / "exp3_curves.csv").unlink()
+    elif case == "holdout_other":
+        edit_csv(data / "holdout" / "manifest.csv",
+                 lambda rs: rs + [["exp1", "event/1", "experiment.seed", "1"]])
+    elif case == "holdout_partial":
+        edit_csv(data / "holdout" / "exp3_runs.csv", drop_run)
     elif case == "sphere_rows":
         edit_csv(data / "sphere_curves.csv", lambda rs: [r for r in rs
                                                           if r[:2] != ["ccmaes", "3"]])
@@ -531,7 +575,9 @@ def test_check_sees_a_difference(study):
     p = generate(data, docs, readme, "--check")
     assert p.returncode == 1 and "study_seeds" in p.stderr, p.stderr
     text = readme.read_text()
-    assert text.startswith("a\n<!-- verdicts:begin -->") and text.endswith("<!-- sphere:end -->\nc\n")
+    assert text.startswith("a\n<!-- verdicts:begin -->")
+    assert "<!-- sphere:end -->\nc\n<!-- exp3-table:begin -->\nExperiment 3 in the study" in text
+    assert text.endswith("<!-- exp3-table:end -->\n")
     assert "<!-- verdicts:end -->\nb\n<!-- sphere:begin -->\nREPS benchmarks" in text
     (docs / "verdicts.md").write_text((docs / "verdicts.md").read_text() + " ")
     p = generate(data, docs, readme, "--check", "--no-figures")
@@ -577,14 +623,55 @@ def test_tiny_study_end_to_end(tmp_path):
     (data / "rules.ini").write_text(rules_text.replace("converged_at = 60", "converged_at = 3"))
     readme = tmp_path / "README.md"
     readme.write_text("<!-- verdicts:begin -->\n<!-- verdicts:end -->\n"
-                      "<!-- sphere:begin -->\n<!-- sphere:end -->\n")
+                      "<!-- sphere:begin -->\n<!-- sphere:end -->\n"
+                      "<!-- exp3-table:begin -->\n<!-- exp3-table:end -->\n")
     p = generate(data, docs, readme)
     assert p.returncode == 0, p.stderr
     md = (docs / "verdicts.md").read_text(encoding="utf-8")
     assert "3 repetitions per mode" in md and "3 seeds" in md and "nan" not in md.lower()
+    # two more repetitions (3 and 4), and repetition 0 again, which must match
+    runs_before = (data / "exp3_runs.csv").read_text()
+    p = subprocess.run(["sh", ROOT / "scripts" / "study_extend.sh", tmp_path / "ext", "3", "5",
+                        data, PY, *env["STUDY_EXP3"].split()], capture_output=True, text=True,
+                       env=env, cwd=tmp_path, timeout=600)
+    assert p.returncode == 0, p.stdout + p.stderr
+    ext = list(csv.DictReader(open(data / "exp3_runs.csv")))
+    assert len(ext) == 5 * 6 * 3 and (data / "exp3_runs.csv").read_text().startswith(runs_before)
+    assert {r["repetition"] for r in ext} == {"0", "1", "2", "3", "4"}
+    assert manifest_of(data)[("exp3", "event")]["experiment.repetitions"] == "5"
+    assert "nan" not in (data / "timing.csv").read_text()
+    p = generate(data, docs, readme)
+    assert p.returncode == 0, p.stderr
+    assert "5 repetitions per mode" in (docs / "verdicts.md").read_text(encoding="utf-8")
     # the repository's rules do not fit 6 iterations: refused, nothing written
     (data / "rules.ini").write_text(rules_text)
     before = snapshot(docs) | {str(readme): readme.read_text()}
     p = generate(data, docs, readme)
     assert p.returncode == 3 and "converged_at" in p.stderr and p.stderr.count("\n") == 1
     assert snapshot(docs) | {str(readme): readme.read_text()} == before
+
+
+def test_readme_exp3_table_recomputed():
+    """The README's Experiment 3 table (event mode of the study) from the
+    runs, with scipy's paired t interval."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = readme[readme.index("<!-- exp3-table:begin -->"):readme.index("<!-- exp3-table:end -->")]
+    runs = defaultdict(dict)
+    for r in rows("exp3_runs.csv"):
+        if r["arm"] == "event":
+            runs[r["policy"]][int(r["repetition"])] = r
+    col = lambda q, c: np.array([float(runs[q][k][c]) for k in sorted(runs[q])])  # noqa: E731
+    lines = [ln for ln in block.splitlines() if ln.startswith("| ") and "policy" not in ln]
+    assert len(lines) == 6 and f"{len(runs['baseline'])} repetitions" in block
+    for line, q in zip(lines, THESIS + ["handcrafted"]):
+        cells = [c.strip() for c in line.strip("| ").split("|")]
+        ret = col(q, "mean_return")
+        assert close(cells[1], ret.mean()) and close(cells[2], ret.std(ddof=1)), (q, cells)
+        if q != "baseline":
+            d = ret - col("baseline", "mean_return")
+            lo, hi = stats.ttest_1samp(d, 0).confidence_interval(0.95)
+            est, a, b = re.findall(NUM, cells[3])
+            assert close(est, d.mean()) and close(a, lo) and close(b, hi), (q, cells)
+        p2, p5 = re.findall(NUM, cells[4])
+        assert close(p2, col(q, "pocket2").mean()) and close(p5, col(q, "pocket5").mean())
+        assert close(re.findall(NUM, cells[5])[0], col(q, "median_speed").mean())
