@@ -1,4 +1,4 @@
-"""Commit messages every git tool can show: a subject of at most 72
+"""Habits: commit messages every git tool can show: a subject of at most 72
 characters, then a blank line before the body. The rule holds for every
 commit after 619731f (the older history is left as it was); skipped outside
 a git checkout or in a clone without that commit."""
@@ -43,3 +43,11 @@ def test_the_check_sees_a_long_subject_and_a_missing_blank_line():
     assert bad_messages([("a" * 40, "x" * 73 + "\n\nbody"), ("b" * 40, "short\nbody"),
                          ("c" * 40, "fine\n\nbody"), ("d" * 40, "x" * 72)]) == \
         ["aaaaaaaaa: subject of 73 characters", "bbbbbbbbb: no blank line after the subject"]
+
+
+def test_docs_a_reader_can_hold():
+    """The README at most 220 lines, no page of docs/ over 30 KB (generated
+    tables of numbers belong in CSV files or the report page)."""
+    assert len((ROOT / "README.md").read_text().splitlines()) <= 220
+    big = [p.name for p in sorted((ROOT / "docs").glob("*.md")) if p.stat().st_size > 30 * 1024]
+    assert big == []
