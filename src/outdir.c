@@ -279,6 +279,73 @@ int pr_outdir_earlier_run(const char *dir, pr_names *out, char *err)
 	return PR_OK;
 }
 
+/* The versions of provenance record path into v (the builds that ran it:
+ * the list of a merge's "(runs by A, B)", else the version), noting in
+ * from[] the record k that brought the first two. */
+static int record_versions(const char *path, pr_names *v, int *from, int k, char *err)
+{
+	char line[1024], *p, *end;
+	FILE *fp = fopen(path, "r");
+	int r = fp ? prov_line(fp, line, sizeof line) : -1;
+
+	if (fp)
+		fclose(fp);
+	if (r <= 0 || strncmp(line, "version: ", 9) != 0)
+		return pr_err(err, PR_EIO, "%s:1: no 'version:' line", path);
+	p = line + 9;
+	if ((end = strstr(p, " (runs by ")) && line[strlen(line) - 1] == ')') {
+		p = end + 10;
+		line[strlen(line) - 1] = '\0';
+	} else if (end)
+		*end = '\0';
+	while (*p) {
+		size_t n = strcspn(p, ",");
+		char c = p[n];
+
+		p[n] = '\0';
+		if (!pr_names_has(v, p)) {
+			if (pr_names_add(v, p, n))
+				return pr_err(err, PR_ENOMEM, "out of memory");
+			if (v->n <= 2)
+				from[v->n - 1] = k;
+		}
+		p += n + (c != '\0');
+		p += strspn(p, " ");
+	}
+	return PR_OK;
+}
+
+/* See outdir.h. */
+int pr_outdir_versions(char *const *dirs, int n, int allow, char **list, char *err)
+{
+	pr_names v = {NULL, 0};
+	char path[PR_PATHLEN + 32];
+	int from[2] = {0, 0}, rc = PR_OK, k;
+	size_t len = 1;
+
+	*list = NULL;
+	for (k = 0; rc == PR_OK && k < n; ++k) {
+		snprintf(path, sizeof path, "%s/provenance.txt", dirs[k]);
+		rc = record_versions(path, &v, from, k, err);
+	}
+	if (rc == PR_OK && v.n > 1 && !allow)
+		rc = pr_err(err, PR_EINVAL, "%s/provenance.txt: poolreps %s, but %s/provenance.txt: poolreps %s "
+		            "(runs of different builds; --allow-versions merges them and lists every version)",
+		            dirs[from[1]], v.name[1], dirs[from[0]], v.name[0]);
+	for (k = 0; rc == PR_OK && k < v.n; ++k)
+		len += strlen(v.name[k]) + 2;
+	if (rc == PR_OK && (v.n > 1 || (v.n == 1 && strcmp(v.name[0], pr_version()) != 0))) {
+		if (!(*list = malloc(len)))
+			rc = PR_ENOMEM;
+		for (k = 0, len = 0; *list && k < v.n; ++k)
+			len += (size_t)sprintf(*list + len, "%s%s", k ? ", " : "", v.name[k]);
+	}
+	if (rc == PR_ENOMEM)
+		pr_err(err, PR_ENOMEM, "out of memory");
+	pr_names_free(&v);
+	return rc;
+}
+
 /* A run folder is published by renames inside it: a file there that is a
  * symbolic link would be replaced by a regular file (the link broken, its
  * target left stale), and a target in another folder or on another file
@@ -535,7 +602,10 @@ static void provenance_text(FILE *fp, const void *arg)
 	gethostname(host, sizeof host - 1);
 	strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", gmtime(&now));
 	getrusage(RUSAGE_SELF, &ru);
-	fprintf(fp, "version: %s\n", pr_version());
+	fprintf(fp, "version: %s", pr_version());
+	if (p->prov->versions)
+		fprintf(fp, " (runs by %s)", p->prov->versions);
+	fputc('\n', fp);
 	fprintf(fp, "command:");
 	/* control characters escaped: an argument never starts a line of its own */
 	for (i = 0; i < p->prov->argc; ++i) {

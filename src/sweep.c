@@ -844,6 +844,7 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 	ma.ninputs = (int)(last - first);
 	ma.inputs = in;
 	ma.prov = c->a->prov;
+	ma.allow_versions = c->a->allow_versions;
 	if (rc == PR_OK)
 		rc = pr_rundir_merge(&ma, err);
 	fmt(mine, sizeof mine, "%s/%s/config.ini", c->root, point);
@@ -942,6 +943,28 @@ static void unstage_collect(const collector *c, char *err)
 	pr_outdir_unstage(err, c->stage, c->root);
 }
 
+/* Every job of the sweep ran by one build (each point's merge checks its
+ * own jobs; this checks them across points), unless a->allow_versions. */
+static int same_builds(const pr_rundir_args *a, const manifest *m, char *err)
+{
+	char **dirs = calloc((size_t)m->njobs + 1, sizeof *dirs), *list = NULL;
+	long i;
+	int rc = dirs ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
+
+	for (i = 0; rc == PR_OK && i < m->njobs; ++i)
+		if (!(dirs[i] = malloc(PR_PATHLEN)))
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+		else
+			fmt(dirs[i], PR_PATHLEN, "%s/%s", a->inputs[0], pr_exp_table_str(m->t, i, m->c_out));
+	if (rc == PR_OK)
+		rc = pr_outdir_versions(dirs, (int)m->njobs, a->allow_versions, &list, err);
+	for (i = 0; dirs && i < m->njobs; ++i)
+		free(dirs[i]);
+	free(dirs);
+	free(list);
+	return rc;
+}
+
 int pr_rundir_collect(const pr_rundir_args *a, char *err)
 {
 	collector c;
@@ -958,8 +981,11 @@ int pr_rundir_collect(const pr_rundir_args *a, char *err)
 	}
 	for (i = 0; i < m.njobs; ++i)
 		nbad += m.state[i] != JOB_DONE;
-	if (nbad) {
+	if (nbad)
 		rc = not_done(a->inputs[0], &m, nbad, err);
+	else
+		rc = same_builds(a, &m, err);
+	if (rc) {
 		manifest_free(&m);
 		return rc;
 	}

@@ -56,6 +56,8 @@ void pr_gsl_error_handler(const char *reason, const char *file, int line, int gs
 typedef struct {
 	int argc;
 	char **argv;
+	const char *versions; /* merge: the versions that ran the inputs, when not
+	                       * only this one ("A, B"); else NULL */
 } pr_provenance;
 
 /* Set by the CLI's signal handler to the signal number; long loops poll it

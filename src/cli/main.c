@@ -350,7 +350,7 @@ int main(int argc, char **argv)
 	cli_given g;
 	cli_common c;
 	/* getopt_long permutes argv: provenance records the order as typed */
-	pr_provenance prov = {argc, calloc((size_t)argc + 1, sizeof *argv)};
+	pr_provenance prov = {argc, calloc((size_t)argc + 1, sizeof *argv), NULL};
 	char msg[CLI_MSGLEN] = "", **ops = NULL;
 	int help = 0, op = 0, nops = 0, code = 0, rc;
 	void *opts = NULL;
