@@ -356,6 +356,14 @@ static int refuse_link(const char *path, char *err)
 	              "links (remove the link, or write the run elsewhere and link to it)", path);
 }
 
+/* A run replaces only what an earlier run listed as its own: a file of
+ * the user's (a parameter file in the folder, notes) is never overwritten. */
+static int refuse_foreign(const char *path, char *err)
+{
+	return pr_err(err, PR_EIO, "%s: exists, and no earlier poolreps run in this folder wrote it: "
+	              "the run would replace it (move it, or run into another folder)", path);
+}
+
 /* An exclusive lock on folder dir, waited for: flock on the folder itself;
  * where folders cannot be locked (NFS emulates flock with byte-range locks,
  * which need a file open for writing), an fcntl lock on DIR/.poolreps.lock,
@@ -470,6 +478,13 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 			else
 				p[s].had[i] = 1;
 		}
+	/* after the links and folders above, which a run never replaces either */
+	for (s = 0; s < n && rc == PR_OK; ++s)
+		for (i = 0; i < p[s].now.n && rc == PR_OK; ++i)
+			if (p[s].owns && p[s].had[i] && !pr_names_has(&p[s].old, p[s].now.name[i])) {
+				snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].now.name[i]);
+				rc = refuse_foreign(to, err);
+			}
 	for (s = 0; s < n && rc == PR_OK; ++s)
 		for (i = 0; i < p[s].now.n && rc == PR_OK; ++i) {
 			snprintf(from, sizeof from, "%s/%s", p[s].staging, p[s].now.name[i]);
@@ -698,6 +713,19 @@ int pr_outdir_run(const pr_config *cfg, const pr_provenance *prov, const char *d
 		snprintf(path, sizeof path, "%s/%s", dir, old.name[i]);
 		if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode))
 			rc = refuse_link(path, err);
+	}
+	/* the two files every run writes: refused before the work, not after */
+	for (i = 0; rc == PR_OK && i < 2; ++i) {
+		const char *own = i ? "config.ini" : "provenance.txt";
+		struct stat st;
+		char path[2 * PR_PATHLEN];
+		snprintf(path, sizeof path, "%s/%s", dir, own);
+		if (lstat(path, &st) != 0)
+			continue;
+		if (S_ISLNK(st.st_mode))
+			rc = refuse_link(path, err);
+		else if (S_ISREG(st.st_mode) && !pr_names_has(&old, own))
+			rc = refuse_foreign(path, err);
 	}
 	pr_names_free(&old);
 	if (rc == PR_OK && mkdir(staging, 0777) != 0)
