@@ -325,6 +325,9 @@ int pr_bind_policy_fit(const pr_config *c, int n, int ds, int da, int dy, const 
 	if (c->policy.target == PR_TARGET_REWARD_STATE && (!Y || dy < 1))
 		return pr_err(err, PR_EINVAL, "policy: policy.target = reward_state needs the "
 		              "final reward-ball positions (target)");
+	/* as cmd_policy.c: the forest would ignore them */
+	if (c->policy.target != PR_TARGET_REWARD_STATE && Y && dy > 0)
+		return pr_err(err, PR_EINVAL, "policy: target applies only with policy.target = reward_state");
 	if (!(rng = pr_bind_rng_new(c->run.seed)))
 		return pr_err(err, PR_ENOMEM, "policy: out of memory");
 	*out = pr_policy_tree_fit(&c->policy, &d, rng, err);

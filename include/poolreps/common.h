@@ -43,6 +43,13 @@ int pr_exit_code(int status);
 /* The version string: git describe at build time, or the tarball version. */
 const char *pr_version(void);
 
+/* Weights w[0..n-1] (sample or base weights) as every reader checks them:
+ * PR_OK, or PR_EINVAL with err "WHAT must be >= 0 (got V)" (*bad: its
+ * index), "WHATs are all zero" or "the WHATs sum past the largest number:
+ * scale them down" (*bad = -1); callers prefix where the weights came from.
+ * Only their ratios matter, but a sum that overflows makes every share 0. */
+int pr_weights_check(const double *w, long n, const char *what, long *bad, char *err);
+
 /* A GSL error handler for programs that use poolreps (the command line and
  * the Python binding install it with gsl_set_error_handler): it ignores
  * GSL's errors, as gsl_set_error_handler_off does (poolreps checks every

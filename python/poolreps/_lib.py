@@ -117,6 +117,8 @@ _PROTOTYPES = {
     "pr_bind_trace": (c_int, [_P, c_int, _P, _P, POINTER(_P), POINTER(c_long), c_char_p]),
     "pr_forest_to_text": (c_int, [_P, _P, POINTER(_P), POINTER(c_size_t), c_char_p]),
     "pr_forest_load": (_P, [c_char_p, c_size_t, c_char_p, _P, c_char_p]),
+    "pr_weights_check": (c_int, [_P, c_long, c_char_p, POINTER(c_long), c_char_p]),
+    "pr_config_key_listed": (c_int, [c_char_p, c_char_p]),
     "pr_bind_policy_rng_new": (_P, [c_ulong]),
     "pr_bind_policy_sample_rng": (c_int, [_P, c_long, _P, c_int, _P, _P, _P, c_char_p]),
     "pr_bind_starts": (c_int, [_P, _P, c_long, _P, c_char_p]),
@@ -268,10 +270,23 @@ def _format(key, v):
     raise ValueError(f"{key}: cannot use a {type(v).__name__} as a value")
 
 
-def assignments(keys, section=None):
+def weights(name, w, what):
+    """w (n,) as the library checks weights (pr_weights_check, the CLI's
+    check too): ValueError "NAME[i]: WHAT must be >= 0 ..." or "NAME: ..."."""
+    bad = c_long(-1)
+    err = errbuf()
+    if lib.pr_weights_check(addr(w), w.shape[0], what.encode(), ctypes.byref(bad), err):
+        at = f"[{bad.value}]" if bad.value >= 0 else ""
+        raise ValueError(f"{name}{at}: {err.value.decode(errors='replace')}")
+    return w
+
+
+def assignments(keys, section=None, applies=None):
     """'section.key=value' strings, in order, from a dict. Without a dot a
     key belongs to `section` ('trees' -> 'forest.trees'); 'seed' is
-    experiment.seed."""
+    experiment.seed. applies: the keys the command of `section` reads (its
+    CLI list, "forest.,experiment.seed"); another is refused as the CLI's
+    --set refuses it, since it would be ignored."""
     out = []
     for k, v in (keys or {}).items():
         if not isinstance(k, str):
@@ -281,6 +296,8 @@ def assignments(keys, section=None):
                 k = "experiment.seed"
             elif section:
                 k = f"{section}.{k}"
+        if applies is not None and not lib.pr_config_key_listed(applies.encode(), k.strip().encode()):
+            raise ValueError(f"{section}: --set {k.strip()} does not apply (see poolreps {section} --help)")
         out.append(f"{k}={_format(k, v)}")
     return tuple(out)
 

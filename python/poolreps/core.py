@@ -126,13 +126,11 @@ def reps(returns: ArrayLike, features: Any = None, epsilon: Optional[float] = No
         keys["reps.epsilon"] = epsilon
     if solver is not None:
         keys["reps.solver"] = solver
-    cfg = config(_lib.assignments(keys, "reps"))
+    cfg = config(_lib.assignments(keys, "reps", "reps."))
     R = array("returns", returns, 1)
     n = count("returns", R.shape[0])
-    q = array("base", base, 1, rows=n) if base is not None else np.ones(n)
-    if (q < 0).any():
-        i = int(np.argmax(q < 0))
-        raise ValueError(f"base[{i}]: base weight must be >= 0 (got {q[i]:g})")
+    q = (_lib.weights("base", array("base", base, 1, rows=n), "base weight") if base is not None
+         else np.ones(n))
     d, phi, csr = _features(features, n)
     rowptr, col, val = csr if csr else (None, None, None)
     res = ctypes.c_void_p()
@@ -163,9 +161,10 @@ class _Model:
     swaps it in; running calls keep the one they started with."""
 
     _section = None
+    _keys = None   # the keys its command reads (the CLI's list)
 
     def __init__(self, **keys: Any) -> None:
-        self._sets = _lib.assignments(keys, self._section)
+        self._sets = _lib.assignments(keys, self._section, self._keys)
         self._cfg = config(self._sets)
         self._h = None
 
@@ -225,6 +224,7 @@ class Forest(_Model):
     """
 
     _section = "forest"
+    _keys = "forest.,experiment.seed"
 
     def _describe(self, h) -> str:
         return (f"{lib.pr_forest_ntrees(h.ptr)} trees, {lib.pr_forest_nleaves(h.ptr)} leaves, "
@@ -274,7 +274,8 @@ class Forest(_Model):
         n = count("X", X.shape[0])
         y = np.asarray(y)
         Y = array("y", y.reshape(-1, 1) if y.ndim == 1 else y, 2, rows=n)
-        w = None if sample_weight is None else array("sample_weight", sample_weight, 1, rows=n)
+        w = (None if sample_weight is None else
+             _lib.weights("sample_weight", array("sample_weight", sample_weight, 1, rows=n), "weight"))
         return self._fit(lib.pr_bind_forest_fit, lib.pr_forest_free, y.ndim == 1, n, X.shape[1],
                          Y.shape[1], addr(X), addr(Y), addr(w))
 
@@ -290,6 +291,11 @@ class Forest(_Model):
         Y = np.empty((n, dy))
         for lo, hi in chunks(n):
             lib.pr_forest_predict_many(h.ptr, addr(X) + 8 * lo * dx, hi - lo, addr(Y) + 8 * lo * dy)
+        if not np.isfinite(Y).all():
+            # as the CLI, which refuses to write it (exit 3): never a silent inf or NaN
+            i = int(np.argmin(np.isfinite(Y).all(axis=1)))
+            raise _lib.NumericalError(f"predict: row {i}: refusing to return a non-finite number "
+                                      "(numerical failure)")
         return Y[:, 0].copy() if h.meta else Y
 
     def apply(self, X: ArrayLike) -> np.ndarray:
@@ -334,6 +340,7 @@ class Policy(_Model):
     """
 
     _section = "policy"
+    _keys = "policy.,experiment.seed"
 
     def _describe(self, h) -> str:
         return f"{h.meta['S'].shape[0]} samples, {lib.pr_policy_ds(h.ptr)} state, " \
@@ -355,7 +362,7 @@ class Policy(_Model):
         S = array("S", S, 2)
         n = count("S", S.shape[0])
         A = array("A", A, 2, rows=n)
-        w = None if w is None else array("w", w, 1, rows=n)
+        w = None if w is None else _lib.weights("w", array("w", w, 1, rows=n), "weight")
         Y = None if target is None else array("target", target, 2, rows=n)
         meta = {"S": S.copy(), "A": A.copy(), "w": None if w is None else w.copy(),
                 "target": None if Y is None else Y.copy()}

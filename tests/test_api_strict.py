@@ -1,0 +1,129 @@
+"""The Python API is as strict as the CLI: every refusal of `poolreps
+forest`, `policy` and `reps` on values (weights, targets), keys of another
+section and options that do not apply is also a ValueError (or its
+NumericalError) of the binding, with the same message after the part that
+says where the value came from (a CSV file and column for the CLI, an
+argument for Python). Each case runs both and compares; the CLI's run also
+checks that nothing was written."""
+import os
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+from test_safety import NUM, USAGE, SAN, changed, one_line, run, snapshot
+
+sys.path.insert(0, str(ROOT / "python"))
+
+if SAN and "libasan" not in os.environ.get("LD_PRELOAD", ""):
+    pytest.skip("the sanitized library loads only with its runtimes preloaded", allow_module_level=True)
+
+import poolreps  # noqa: E402
+
+N = 40
+S0 = np.arange(N) * 0.01
+S1 = (np.arange(N) % 7) * 0.1
+A0 = (np.arange(N) % 5) * 0.1
+
+
+def csv(cols):
+    names = list(cols)
+    rows = zip(*(cols[k] for k in names))
+    return (",".join(names) + "\n" + "".join(",".join(repr(float(v)) for v in r) + "\n"
+                                             for r in rows)).encode()
+
+
+def weights(kind):
+    w = np.ones(N)
+    if kind == "huge":
+        w[:] = 1e308
+    elif kind == "negative":
+        w[3] = -1.0
+    elif kind == "zero":
+        w[:] = 0.0
+    return w
+
+
+def forest_weights(kind):
+    w = weights(kind)
+    return (["forest", "--train", "t.csv", "--test", "t.csv", "--target", "y", "--weight", "w"],
+            csv({"s0": S0, "s1": S1, "y": A0, "w": w}),
+            lambda: poolreps.Forest().fit(np.c_[S0, S1], A0, sample_weight=w))
+
+
+def policy_weights(kind):
+    w = weights(kind)
+    return (["policy", "--train", "t.csv", "--state", "s0", "--action", "a0", "--weight", "w",
+             "-i", "t.csv"], csv({"s0": S0, "a0": A0, "w": w}),
+            lambda: poolreps.Policy().fit(S0[:, None], A0[:, None], w))
+
+
+def reps_base(kind):
+    q = weights(kind)
+    return (["reps", "--return", "R", "--features", "phi", "--base", "q", "-i", "t.csv"],
+            csv({"R": -A0, "phi": S1, "q": q}),
+            lambda: poolreps.reps(-A0, S1, base=q))
+
+
+def forest_huge_targets():
+    y = np.full(N, 1e308)
+    return (["forest", "--train", "t.csv", "--test", "t.csv", "--target", "y"],
+            csv({"s0": S0, "s1": S1, "y": y}),
+            lambda: poolreps.Forest().fit(np.c_[S0, S1], y).predict(np.c_[S0, S1]))
+
+
+def other_section(cmd, key):
+    base = {"forest": (["forest", "--train", "t.csv", "--test", "t.csv", "--target", "y"],
+                       lambda: poolreps.Forest(**{key: 7})),
+            "policy": (["policy", "--train", "t.csv", "--state", "s0", "--action", "y", "-i", "t.csv"],
+                       lambda: poolreps.Policy(**{key: 7})),
+            "reps": (["reps", "--return", "y", "--features", "s0", "-i", "t.csv"],
+                     lambda: poolreps.reps(-A0, S1, set={key: 7}))}[cmd]
+    return base[0] + ["--set", f"{key}=7"], csv({"s0": S0, "s1": S1, "y": A0}), base[1]
+
+
+def policy_target():
+    return (["policy", "--train", "t.csv", "--state", "s0", "--action", "a0", "--target", "y",
+             "-i", "t.csv"], csv({"s0": S0, "a0": A0, "y": S1}),
+            lambda: poolreps.Policy().fit(S0[:, None], A0[:, None], None, target=S1[:, None]))
+
+
+CASES = [(f"forest_weights_{k}", lambda k=k: forest_weights(k), USAGE) for k in ("huge", "negative", "zero")]
+CASES += [(f"policy_weights_{k}", lambda k=k: policy_weights(k), USAGE) for k in ("huge", "negative", "zero")]
+CASES += [(f"reps_base_{k}", lambda k=k: reps_base(k), USAGE) for k in ("huge", "negative", "zero")]
+CASES += [("forest_huge_targets", forest_huge_targets, NUM), ("policy_target_not_read", policy_target, USAGE)]
+CASES += [(f"{c}_key_{k}", lambda c=c, k=k: other_section(c, k), USAGE)
+          for c, k in (("forest", "policy.n_min"), ("forest", "reps.epsilon"), ("policy", "forest.trees"),
+                       ("policy", "value.n_min"), ("reps", "forest.trees"), ("reps", "experiment.seed"))]
+
+
+def what(msg):
+    """The message without where the value came from: after "FILE[:LINE]:
+    column 'C': " (CLI) or "NAME[i]: " (Python), '--' of an option dropped."""
+    msg = msg.removeprefix("poolreps: ").rstrip("\n")
+    if "column '" in msg:
+        msg = msg.split("': ", 1)[1]
+    elif msg.split(":")[0] in ("sample_weight", "w", "base") or msg.split("[")[0] in ("sample_weight", "w", "base"):
+        msg = msg.split(": ", 1)[1]
+    return msg.replace("--target", "target").replace("to write", "to return")
+
+
+@pytest.mark.parametrize("make,code", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_python_refuses_what_the_cli_refuses(make, code, tmp_path):
+    args, data, call = make()
+    (tmp_path / "t.csv").write_bytes(data)
+    before = snapshot(tmp_path)
+    r = run(args + ["-q", "-o", "out.csv"], tmp_path)
+    assert r.returncode == code, r.stderr
+    cli = one_line(r)
+    assert changed(before, snapshot(tmp_path)) == set()
+    with pytest.raises(ValueError) as e:
+        call()
+    if code == NUM:
+        assert isinstance(e.value, poolreps.NumericalError)
+        cli = cli.split(": field 1: ")[1] if ": field 1: " in cli else cli
+        py = str(e.value).split(": ", 2)[2]
+        assert what(cli) == what(py), (cli, str(e.value))
+    else:
+        assert what(cli) == what(str(e.value)), (cli, str(e.value))
