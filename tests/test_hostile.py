@@ -37,3 +37,18 @@ def test_run_replaces_what_its_earlier_run_wrote(tmp_path):
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "out" / "notes.txt").read_text() == "mine\n"
     assert "samples = 30" in (tmp_path / "out" / "config.ini").read_text()
+
+
+# ---- options apply in the order given ----
+
+@pytest.mark.parametrize("args,seed", [
+    (["--seed", "5", "--set", "experiment.seed=6"], "6"),
+    (["--set", "experiment.seed=6", "--seed", "5"], "5"),
+    (["--set", "experiment.seed=6", "--seed", "5", "--set", "experiment.seed=7"], "7"),
+    (["-c", "s.ini", "--seed", "5"], "5"),
+])
+def test_options_apply_in_order(args, seed, tmp_path):
+    (tmp_path / "s.ini").write_text("[experiment]\nseed = 9\n")
+    r = run(["config"] + args, tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert f"\nseed = {seed}\n" in r.stdout.decode()
