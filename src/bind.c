@@ -88,6 +88,11 @@ int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const 
 		const size_t k = (size_t)r * (size_t)nballs;
 		pr_shot res;
 
+		/* a binding's worker thread is told to stop (a Ctrl-C in Python) */
+		if (pr_interrupted) {
+			rc = pr_err(err, PR_EINTR, "shoot: interrupted");
+			break;
+		}
 		if ((rc = pr_sim_shoot(sim, balls + 2 * k, nballs, actions + 2 * r, &res, NULL, why))) {
 			pr_err(err, rc, "row %ld: %s", r, why);
 			break;

@@ -127,3 +127,34 @@ def test_python_refuses_what_the_cli_refuses(make, code, tmp_path):
         assert what(cli) == what(py), (cli, str(e.value))
     else:
         assert what(cli) == what(str(e.value)), (cli, str(e.value))
+
+
+# ---- Ctrl-C reaches a Python caller at once, whatever a row costs ----
+
+@pytest.mark.parametrize("dt,rows", [(1e-6, 400), (2e-5, 20000)])
+def test_ctrl_c_reaches_shoot_within_half_a_second(dt, rows):
+    """Stepped rows of about 0.08 s (dt = 1e-6) or 4 ms (2e-5) each: the
+    whole call would take many seconds; SIGINT 0.5 s in must raise
+    KeyboardInterrupt within 0.5 s, and the next call runs normally."""
+    import signal
+    import threading
+    import time
+    b = np.tile([-0.25, 0, 0.1, 0], (rows, 1))
+    a = np.tile([0.615, 0.03], (rows, 1))
+    sent = []
+
+    def fire():
+        time.sleep(0.5)
+        sent.append(time.monotonic())
+        os.kill(os.getpid(), signal.SIGINT)
+    t = threading.Thread(target=fire)
+    t.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            poolreps.shoot(b, a, mode="stepped", set={"sim.dt": dt})
+        late = time.monotonic() - sent[0]
+    finally:
+        t.join()
+    assert late < 0.5, f"KeyboardInterrupt {late:.2f} s after SIGINT"
+    r = poolreps.shoot(b[:3], a[:3], mode="stepped", set={"sim.dt": 1e-4})
+    assert np.isfinite(r["reward"]).all()

@@ -9,7 +9,9 @@ import ctypes
 import functools
 import numbers
 import os
+import signal
 import subprocess
+import threading
 from ctypes import POINTER, c_char, c_char_p, c_double, c_int, c_long, c_size_t, c_ulong, c_void_p
 from pathlib import Path
 
@@ -226,6 +228,63 @@ def rng_from_state(state):
                          f"{lib.pr_bind_rng_size(h.ptr)}")
     ctypes.memmove(lib.pr_bind_rng_state(h.ptr), state, len(state))
     return h
+
+
+# The library's flag its row loops poll (the CLI's signal handler sets it).
+_INTERRUPTED = c_int.in_dll(lib, "pr_interrupted")
+# the end (an Event) of each worker told to stop and still finishing its row
+_STOPPING = []
+
+
+def settle():
+    """Wait for the workers an interrupt left finishing their row: until they
+    end, the library's flag would stop the next call too."""
+    while _STOPPING:
+        _STOPPING.pop().wait()
+
+
+def interruptible(call, *keep):
+    """call() (a library call that polls pr_interrupted per row) in a worker
+    thread, the caller waiting in slices of 50 ms: Python runs its signal
+    handlers only between bytecodes, so a KeyboardInterrupt (or a SIGTERM
+    handler's exception) reaches the caller within that slice whatever a
+    row costs. The worker is then told to stop (pr_interrupted) and ends
+    after its current row, in the background; the flag is cleared when it
+    has. keep: what the call writes into or reads (arrays, buffers), held
+    until it ends. Off the main thread, which gets no signals, call() runs
+    directly."""
+    if threading.current_thread() is not threading.main_thread():
+        return call()
+    settle()
+    box, lock, ended = {"done": False, "stop": False}, threading.Lock(), threading.Event()
+
+    def work(keep=keep):
+        try:
+            box["rc"] = call()
+        except BaseException as e:  # pragma: no cover (ctypes calls do not raise)
+            box["exc"] = e
+        finally:
+            with lock:  # whoever comes second clears the flag: it never outlives the call
+                box["done"] = True
+                if box["stop"]:
+                    _INTERRUPTED.value = 0
+            ended.set()
+    # an Event, not Thread.join: a join cut short by KeyboardInterrupt may
+    # report a running thread as ended
+    threading.Thread(target=work, name="poolreps-call", daemon=True).start()
+    try:
+        while not ended.wait(0.05):
+            pass
+    except BaseException:
+        with lock:
+            if not box["done"]:
+                box["stop"] = True
+                _INTERRUPTED.value = signal.SIGINT
+                _STOPPING.append(ended)
+        raise
+    if "exc" in box:
+        raise box["exc"]
+    return box["rc"]
 
 
 # Long calls go to the library in pieces of this many rows, and Python
