@@ -158,3 +158,36 @@ def test_ctrl_c_reaches_shoot_within_half_a_second(dt, rows):
     assert late < 0.5, f"KeyboardInterrupt {late:.2f} s after SIGINT"
     r = poolreps.shoot(b[:3], a[:3], mode="stepped", set={"sim.dt": 1e-4})
     assert np.isfinite(r["reward"]).all()
+
+
+# ---- PocketEnv on extreme actions, seeds and counts ----
+
+@pytest.mark.parametrize("action,normalize", [([1.5e308, 1.5e308], False), ([-1e308, 1e307], False),
+                                              ([1e308, -1e308], True), ([3.0, -4e300], True)])
+def test_huge_action_keeps_its_direction(action, normalize):
+    env = poolreps.PocketEnv(normalize_actions=normalize)
+    env.reset(seed=3)
+    _, _, _, _, info = env.step(action)
+    v = info["velocity"]
+    assert info["clipped"] and np.all(np.isfinite(v))
+    assert 0.999 * env.max_speed < np.hypot(*v) <= env.max_speed
+    a = np.array(action) / np.abs(action).max()
+    assert np.allclose(v / np.hypot(*v), a / np.hypot(*a), rtol=1e-12, atol=1e-300)
+
+
+def test_failed_reset_leaves_np_random_unchanged():
+    pytest.importorskip("gymnasium")
+    env = poolreps.PocketEnv()
+    env.reset(seed=5)
+    before = env.np_random.bit_generator.state
+    for seed in (2**32, -1, 1.5):
+        with pytest.raises(ValueError, match="seed: must be an integer"):
+            env.reset(seed=seed)
+        assert env.np_random.bit_generator.state == before
+
+
+@pytest.mark.parametrize("n", [2.9, -1, True, "3"])
+def test_reset_batch_refuses_a_count_that_is_no_whole_number(n):
+    env = poolreps.PocketEnv()
+    with pytest.raises(ValueError, match="n: must be a whole number >= 0"):
+        env.reset_batch(n)
