@@ -241,8 +241,11 @@ int pr_outdir_earlier_run(const char *dir, pr_names *out, char *err)
 
 	snprintf(path, sizeof path, "%s/provenance.txt", dir);
 	/* a fixed buffer, and only a regular file: never a FIFO or /dev/zero */
-	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode) || !(fp = fopen(path, "r")))
+	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
 		return PR_OK;
+	/* unread, it would leave the run's files looking like the user's */
+	if (!(fp = fopen(path, "r")))
+		return pr_err(err, pr_errno_status(), "%s: cannot read: %s", path, strerror(errno));
 	if (prov_line(fp, line, sizeof line) <= 0 || strncmp(line, "version: ", 9) != 0) {
 		fclose(fp);
 		return PR_OK;

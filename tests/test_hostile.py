@@ -52,3 +52,83 @@ def test_options_apply_in_order(args, seed, tmp_path):
     r = run(["config"] + args, tmp_path)
     assert r.returncode == 0, r.stderr
     assert f"\nseed = {seed}\n" in r.stdout.decode()
+
+
+# ---- a check across keys names the key the user set ----
+
+@pytest.mark.parametrize("sets,needle", [
+    (["table.length=0.1"], "--set: table.length: start.cue_box: box reaches beyond"),
+    (["table.width=0.05"], "--set: table.width: start.reward_box: box reaches beyond"),
+    (["start.cue_box=0,9,0,0.1"], "--set: start.cue_box: box reaches beyond"),
+    (["table.length=0.1", "start.cue_box=0,0.01,0,0.01"], "--set: table.length: start.reward_box"),
+    (["sim.mode=stepped", "sim.max_time=1e-5"], "--set: sim.max_time: sim.dt: must be smaller"),
+    (["table.balls=2", "table.reward_balls=1", "table.obstacle_balls=0"], None),
+])
+def test_cross_key_error_names_the_key_set(sets, needle, tmp_path):
+    args = ["config"]
+    for s in sets:
+        args += ["--set", s]
+    r = run(args, tmp_path)
+    if needle is None:
+        return
+    assert r.returncode == 1, r.stderr
+    assert needle in one_line(r)
+
+
+def test_cross_key_error_names_the_file_line(tmp_path):
+    (tmp_path / "t.ini").write_text("[table]\nlength = 0.1\n")
+    r = run(["config", "-c", "t.ini"], tmp_path)
+    assert r.returncode == 1 and "t.ini:2: table.length: start.cue_box" in one_line(r)
+
+
+# ---- sweeps: Slurm's #SBATCH parser, long grids ----
+
+def slurm_words(line):
+    """An #SBATCH line's words as Slurm's parser splits them: blanks
+    separate, quotes group, a backslash escapes the next character (also
+    inside quotes)."""
+    words, cur, quote, esc, started = [], [], None, False, False
+    for ch in line:
+        if esc:
+            cur.append(ch)
+            esc = False
+        elif ch == "\\":
+            esc = started = True
+        elif quote:
+            if ch == quote:
+                quote = None
+            else:
+                cur.append(ch)
+        elif ch in "'\"":
+            quote, started = ch, True
+        elif ch in " \t":
+            if started or cur:
+                words.append("".join(cur))
+            cur, started = [], False
+        else:
+            cur.append(ch)
+    if started or cur:
+        words.append("".join(cur))
+    return words
+
+
+@pytest.mark.parametrize("name", ["back\\slash", "it's", "a b\\\\c", "p%j\\"])
+def test_slurm_output_path_survives_its_parser(name, tmp_path):
+    r = run(["sweep", Q, "--grid", "bench.samples=20,30", "-o", name] + QUICK, tmp_path)
+    assert r.returncode == 0, r.stderr
+    line = next(ln for ln in (tmp_path / name / "slurm.sbatch").read_text().splitlines()
+                if ln.startswith("#SBATCH --output="))
+    words = slurm_words(line[len("#SBATCH "):])
+    assert words == [f"--output={tmp_path}/{name.replace('%', '%%')}/logs/%A_%a.out"], line
+
+
+def test_long_grid_bad_last_value_refused_before_any_point(tmp_path):
+    values = ",".join(str(v) for v in range(2, 20002))
+    before = snapshot(tmp_path)
+    r = run(["sweep", Q, "-q", "-o", "sw", "--grid", f"bench.samples={values},20000000000"], tmp_path)
+    assert r.returncode == 1 and "20000000000 out of range" in one_line(r)
+    assert changed(before, snapshot(tmp_path)) == set()
+    r = run(["sweep", Q, "-q", "-o", "sw", "--grid", f"bench.samples={values}, 1.9999e4"], tmp_path)
+    assert r.returncode == 1
+    assert "value ' 1.9999e4' listed twice (as '19999')" in one_line(r)
+    assert changed(before, snapshot(tmp_path)) == set()
