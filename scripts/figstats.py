@@ -10,6 +10,7 @@ Intervals are Student-t intervals of a mean over independent repetitions
 (runs, forests): mean +- t(1 - alpha/2, n - 1) * s / sqrt(n), s the sample
 standard deviation. With fewer than two values there is no interval (None).
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import math
 import statistics
 

@@ -13,6 +13,7 @@ src/cli includes a private header, or if a function is longer than
 MAX_LINES (from its first unindented line to its closing brace). Without
 --check the layers are printed bottom up: each file above every file it
 calls."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import pathlib
 import re
 import sys

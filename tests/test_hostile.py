@@ -132,3 +132,39 @@ def test_long_grid_bad_last_value_refused_before_any_point(tmp_path):
     assert r.returncode == 1
     assert "value ' 1.9999e4' listed twice (as '19999')" in one_line(r)
     assert changed(before, snapshot(tmp_path)) == set()
+
+
+# ---- scripts: one line, no traceback, on bad data ----
+
+SCRIPTS = ROOT / "scripts"
+
+
+def test_every_script_reports_bad_data_in_one_line():
+    """Each runnable script installs the one-line handler (scripts/bad_data.py)."""
+    import glob
+    missing = [p for p in glob.glob(str(SCRIPTS / "*.py"))
+               if "__main__" in open(p).read() and "import bad_data" not in open(p).read()]
+    assert missing == []
+
+
+@pytest.mark.parametrize("script,folder", [("report.py", "."), ("plot_exp1.py", "exp1")])
+def test_script_on_a_non_number_prints_one_line(script, folder, quick_reproduction, tmp_path):
+    import os
+    import shutil
+    import subprocess
+    out = tmp_path / "out"
+    shutil.copytree(quick_reproduction, out)
+    d = out / folder if folder != "." else out / "exp1"
+    csv = sorted(d.glob("*.csv"))[0]
+    lines = csv.read_text().split("\n")
+    cells = lines[1].split(",")
+    cells[-1] = "abc"
+    lines[1] = ",".join(cells)
+    csv.write_text("\n".join(lines))
+    py = os.environ.get("PYTHON") or "/usr/bin/python3"
+    target = out if folder == "." else out / folder
+    r = subprocess.run([py, str(SCRIPTS / script), str(target)], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode != 0
+    assert "Traceback" not in r.stderr, r.stderr
+    assert r.stderr.count("\n") == 1 and r.stderr.startswith(script), r.stderr
