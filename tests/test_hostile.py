@@ -168,3 +168,22 @@ def test_script_on_a_non_number_prints_one_line(script, folder, quick_reproducti
     assert r.returncode != 0
     assert "Traceback" not in r.stderr, r.stderr
     assert r.stderr.count("\n") == 1 and r.stderr.startswith(script), r.stderr
+
+
+# ---- a replaced output keeps its extended attributes ----
+
+def test_shoot_o_keeps_extended_attributes(tmp_path):
+    import os
+    from test_safety import SHOTS
+    (tmp_path / "s.csv").write_bytes(SHOTS)
+    old = tmp_path / "old.csv"
+    old.write_text("old\n")
+    try:
+        os.setxattr(old, "user.note", b"checked by hand")
+    except OSError:
+        pytest.skip("no user extended attributes on this file system")
+    r = run(["shoot", "-i", "s.csv", "-o", "old.csv"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert old.read_bytes().startswith(b"x0,y0,x1,y1,pocket0")
+    assert os.getxattr(old, "user.note") == b"checked by hand"
+    assert [p.name for p in tmp_path.iterdir()] != [] and not list(tmp_path.glob(".poolreps-tmp*"))
