@@ -326,7 +326,7 @@ endif
 BASELINES_SEEDS ?= 10
 baselines: all
 	POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) BASELINES_DATA=data/baselines \
-	  BASELINES_DOCS=docs BASELINES_README=README.md sh scripts/baselines.sh run $(OUT)/baselines $(BASELINES_SEEDS)
+	  BASELINES_DOCS=docs BASELINES_README=README.md sh scripts/baselines.sh run "$(OUT)/baselines" $(BASELINES_SEEDS)
 
 # build/venv: the system's Python packages plus Gymnasium from PyPI (not a
 # Debian package), for tests/test_gym.py (which skips without it), and mypy

@@ -20,6 +20,7 @@ normalize_actions=True), cma_linear (pycma on the hand-crafted linear
 policy's parameters). The REPS learners and our contextual CMA-ES run
 through `poolreps` (scripts/baselines.sh).
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import os

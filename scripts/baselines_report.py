@@ -16,6 +16,7 @@ with hand-crafted features by the paired difference over the seeds both ran
 Experiment 3's repetition k), and the p-values of one budget's comparisons
 are Holm-adjusted together.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import csv
 import math
 import sys

@@ -8,6 +8,7 @@ are byte-identical.
   bench_exp4_table.py --write [CSV]    put it into docs/benchmarks.md,
                                        between the bench_exp4 markers
   bench_exp4_table.py --check [CSV]    exit 1 if it differs"""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import os
 import statistics
 import sys

@@ -23,6 +23,7 @@ Mapping of the thesis's parameters onto ExtraTreesRegressor:
             same draw as max_features = 1.0.
   score  -> criterion="squared_error" (variance reduction, eq. 4.1)
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import math

@@ -8,6 +8,7 @@ dense n = 20000, d = 200, eps = 0.5; one-hot, n = 2000 with 80 features
 (4 trees of 20 leaves), eps = 0.5. scipy minimises g over (log eta, theta)
 on returns standardised as poolreps does (shift by the max, divide by the
 q-weighted standard deviation), with exact gradient and Hessian, gtol 1e-10,
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 from (0, 0). Each timing is the median of RUNS (default 3) rounds, every
 solver once per round. Writes a CSV row per problem and solver to --csv:
 problem, n, d, eps, solver, seconds, status, kl_gap, residual_rel,

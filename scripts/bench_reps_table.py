@@ -12,6 +12,7 @@ made from the same numbers, and the rank-k update alone against OpenBLAS
                                        docs/choices.md, between the bench_reps
                                        markers
   bench_reps_table.py --check [CSV]    exit 1 if either differs"""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import os

@@ -12,6 +12,7 @@ count against 1.5 times the smallest one's; and of scripts/bench_header.sh's
                                                 the bench_stream and
                                                 bench_header markers
   bench_stream_table.py --check                 exit 1 if any differs"""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import os

@@ -12,6 +12,7 @@ settings or repetitions a measurement needs says so. The verdicts are judged
 on the verdict study (and the repetitions it would need): scripts/verdicts.py,
 docs/verdicts.md.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import math
 import os

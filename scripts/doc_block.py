@@ -2,6 +2,7 @@
 """The generated blocks of the docs: text between <!-- NAME:begin --> and
 <!-- NAME:end --> that a table script writes (--write) or compares
 (--check) with what it makes of a committed CSV."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import os
 import sys
 

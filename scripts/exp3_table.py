@@ -5,6 +5,7 @@ Usage: exp3_table.py DIR [--last N]
        exp3_table.py --compare DEFAULT ARM [ARM ...] [--label NAME ...] [--last N]
 
 Per policy, over each run's last N episodes (default: exp3.final_episodes
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 from DIR/config.ini, else 500): the mean return of all runs pooled, the
 SD of the run means, the paired difference to the baseline's run of the
 same repetition (mean and 95 % t interval [lo, hi] over repetitions), reward balls

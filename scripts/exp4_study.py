@@ -23,6 +23,7 @@ t-test's p-value and the Holm-adjusted p-value over the whole family of one
 measure (sampled return, mean-action return). Verdict words: "degrades" or
 "improves" when the Holm-adjusted p < 0.05, "no sig. change" otherwise.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import math

@@ -14,6 +14,7 @@
 
 Standard library only (exp_data.read_csv).
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import os
 import sys
 

@@ -10,6 +10,7 @@ episodes: scripts/exp3_table.py).
     ref, src = exp1_reference("cuts", by_sweep["cuts"], by_setting, exp1_default(cfg))
     ret = exp2_returns(DIR)                 # exp2_returns.csv, per repetition
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import configparser
 import csv
 import os

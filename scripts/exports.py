@@ -9,6 +9,7 @@
 A name is exported when include/poolreps/*.h declares it: a function
 prototype or an `extern` variable (prefix pr_). Comments, macros and type
 definitions are not declarations."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import pathlib
 import re
 import subprocess

@@ -10,6 +10,7 @@ Intervals are Student-t intervals of a mean over independent repetitions
 standard deviation (verdict_stats.t_interval). With fewer than
 two values there is no interval (None).
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import statistics
 
 import verdict_stats as vs

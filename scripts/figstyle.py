@@ -27,6 +27,7 @@ Conventions (the README and the report rely on them):
     version or random id inside, so that a rerun on the same CSVs gives the same
     bytes (tests/test_figures.py checks this).
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import os
 import subprocess
 import sys

@@ -2,6 +2,7 @@
 """first_row.py CMD [ARG]... — run CMD with its standard output on a pipe,
 read and discard everything, and print the seconds from the start until
 the first row after the header arrived (CMD's exit code is passed on)."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import os
 import subprocess
 import sys

@@ -18,6 +18,7 @@ A measurement counts as an idle-machine figure only if, while it ran, other
 work took less than IDLE_SHARE of the machine's cores (load.csv's
 others_share; scripts/reproduce-timed.sh measures it from /proc/stat). The
 machine is described from /proc/cpuinfo when a measurement is recorded."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import datetime

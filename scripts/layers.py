@@ -15,6 +15,7 @@ the tool or the command line, or if a function is longer than
 MAX_LINES (from its first unindented line to its closing brace). Without
 --check the layers are printed bottom up: each file above every file it
 calls."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import pathlib
 import re
 import sys

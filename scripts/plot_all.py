@@ -9,6 +9,7 @@ launcher. --stdin also reads folder names, one a line, as they come (so
 `make reproduce` draws a folder while the next experiment runs); --timings
 appends 'NAME: figures,SECONDS' per folder to FILE. The first folder that
 fails stops the run with its script's message and exit status."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import configparser
 import importlib

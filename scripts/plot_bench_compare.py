@@ -16,6 +16,7 @@ first generation whose mean reaches each goal), and prints the table as
 markdown. Reads CSV only; the figures carry no timestamp, so the same CSVs
 give the same bytes (scripts/figstyle.py).
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import csv
 import os
 import sys

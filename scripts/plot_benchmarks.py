@@ -13,6 +13,7 @@ one the folder holds), the thick line their median, the dotted line its
 plateau (the median over the last tenth of the iterations). Every method in METHODS whose CSV is in DIR is
 drawn (same columns as bench_curve.csv), each in its own colour.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import os
 from collections import defaultdict

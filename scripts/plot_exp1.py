@@ -14,6 +14,7 @@ DIR, as PNG and SVG:
   exp1_map  simulated return of the aimed shot over the reward-ball region,
       the mean prediction of all the forests, and their difference.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import sys
 

@@ -11,6 +11,7 @@ same test states as a reference line. --error reps (default when there are
 at least two repetitions): standard error over the repetitions' means;
 --error shots: over all test shots pooled.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import os
 

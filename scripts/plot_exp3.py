@@ -21,6 +21,7 @@ Reads DIR/exp3_episodes.csv and DIR/config.ini, and writes as PNG and SVG:
            for the balls left on the table after a hit, on one scale.
 Policies missing from the CSVs (exp3.policies) are left out.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import math
 from collections import defaultdict

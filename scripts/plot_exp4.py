@@ -23,6 +23,7 @@ episodes) and writes, as PNG and SVG:
            (bars: all runs pooled; dots: each run's pocket rate).
 Variants missing from the CSVs are left out.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import os
 from collections import defaultdict

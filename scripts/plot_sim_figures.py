@@ -10,6 +10,7 @@ fig7_2_reward (the return over a grid of actions for a fixed state),
 fig7_3_shots (two zero-return shots of that grid), fig7_5_ghost (the
 ghost-ball expert's geometry and shot).
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import os
 import sys

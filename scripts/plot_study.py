@@ -13,6 +13,7 @@ three panels; below, Experiment 2's mean return at the largest training set,
 per seed and policy, with mean actions and with sampled actions, on one
 y-scale. scripts/verdicts.py calls study_seeds (make verdicts).
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import os

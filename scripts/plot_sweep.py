@@ -17,6 +17,7 @@ Defaults for Experiment 3's exp3_final.csv: -y mean_return --panel policy
 episodes; bars over repetitions). Experiment 1 (exp1_summary.csv): -y
 mean_mse --panel sweep. Writes SWEEP_DIR/sweep_summary.png by default.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import math

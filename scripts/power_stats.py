@@ -13,6 +13,7 @@ DIR/power.md (from scripts/power_template.md) and DIR/figures/power_effects.png
 and .svg. The verdicts on the claims: scripts/verdicts.py (docs/verdicts.md).
 Exit codes: 1 usage, 2 missing or malformed input, 3 inconsistent data.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import configparser
 import csv

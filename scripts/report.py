@@ -8,6 +8,7 @@ OUT/<experiment>/ with CSVs and provenance.txt, OUT/timings.csv. The page
 holds every figure with a caption, the verdicts on the thesis's claims (the
 committed study's, docs/verdicts_report.html from scripts/verdicts.py) and this
 run's own measurements of them without verdicts (scripts/claims.py, computed
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 from the CSVs), the Experiment 3 table
 (scripts/exp3_table.py), and each experiment's provenance and timing. It has
 no scripts and loads nothing from the network: the figures are relative

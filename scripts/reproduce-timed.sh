@@ -11,6 +11,7 @@
 # others_share < 0.1.
 set -e
 MAKE_CMD=$1 JOBS=$2 OUT=$3
+# MAKE_CMD may hold words of its own (a make with options): it is split on purpose
 busy() { awk '/^cpu / { printf "%.2f", ($2 + $3 + $4 + $7 + $8) / 100 }' /proc/stat; }
 t0=$(date +%s.%N) b0=$(busy)
 $MAKE_CMD -j"$JOBS" all

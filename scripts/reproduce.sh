@@ -13,6 +13,11 @@
 # each folder as soon as its experiment has finished, so drawing overlaps
 # the runs; timings.csv lists each run as it ends, then each folder's
 # drawing time.
+# All or nothing: everything is made in a staging folder OUT/.reproduce-stage.*
+# and published only when complete, by renames (the folders and files above
+# replace theirs whole; anything else in OUT stays); interrupted, the
+# previous results stay complete. A second reproduction into the same OUT
+# while one runs is refused (a lock on OUT).
 set -e
 OUT=${1:-results}
 PY=${2:-}
@@ -26,9 +31,15 @@ export PYTHON="$PY"
 export POOLREPS="$BIN"
 reg=$("$BIN" help experiments | tail -n +2 | cut -d, -f1-3)
 [ -n "$reg" ] || { echo "reproduce: $BIN help experiments listed nothing" >&2; exit 1; }
-mkdir -p "$OUT/figures"
-# the figures of an earlier run must not outlive it
-rm -f "$OUT/figures"/*.png "$OUT/figures"/*.svg "$OUT/figures"/*.pdf "$OUT/report.html"
+FINAL=$OUT
+mkdir -p "$FINAL"
+# one reproduction per OUT: the lock lasts as long as this shell (fd 9)
+exec 9< "$FINAL"
+flock -n 9 || { echo "reproduce: $FINAL: another reproduction is writing into it; wait for it to end" >&2; exit 1; }
+# a staging folder left by a killed run: no live run holds it (the lock)
+rm -rf "$FINAL"/.reproduce-stage.*
+OUT=$(mktemp -d "$FINAL/.reproduce-stage.XXXXXX")
+mkdir "$OUT/figures"
 echo "step,seconds" > "$OUT/timings.csv"
 start=$(date +%s.%N)
 # through `make reproduce` the clock started before the build
@@ -57,15 +68,17 @@ timed() { # step name, then the command; appends its wall time to timings.csv
 
 # the plotting process reads finished folders from a FIFO in a private
 # folder that is removed however this script ends
-tmp=$(mktemp -d "${TMPDIR:-/tmp}/poolreps-reproduce.XXXXXX")
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/poolreps-reproduce.XXXXXX") || { rm -rf "$OUT"; exit 1; }
 plotter= bg= bg_run= child=
 cleanup() {
+	# nothing in here may end it early (a process already gone, under set -e)
+	set +e
 	exec 3>&-
 	# (a killed process's status must not end the trap under set -e before
 	# the folder is removed, nor replace the script's own)
 	[ -z "$bg" ] || { kill "$bg" 2>/dev/null; wait "$bg" 2>/dev/null || :; }
 	[ -z "$plotter" ] || { kill "$plotter" 2>/dev/null; wait "$plotter" 2>/dev/null || :; }
-	rm -rf "$tmp"
+	rm -rf "$tmp" "$OUT"
 }
 trap cleanup EXIT
 trap 'exit 130' INT
@@ -132,5 +145,32 @@ total=$(echo "$start $(date +%s.%N)" | awk '{ printf "%.2f", $2 - $1 }')
 echo "total,$total" >> "$OUT/timings.csv"
 quick=; [ "$QUICK" = 1 ] && quick=--quick
 "$PY" scripts/report.py "$OUT" $quick
-echo "reproduce: done in $total s; figures in $OUT/figures, report $OUT/report.html:"
-ls "$OUT/figures"
+# publish: each earlier entry is moved aside into the staging folder, the new
+# one renamed into place; a failed rename puts every earlier entry back. The
+# signals wait until all are in place (a dozen renames).
+ENTRIES="$(echo "$reg" | cut -d, -f2 | sort -u | tr '\n' ' ')figures timings.csv report.html"
+put_back() { # an entry no longer staged was published: it goes, the earlier one returns
+	for e in $ENTRIES; do
+		[ -e "$OUT/$e" ] || rm -rf "$FINAL/$e"
+		[ ! -e "$OUT/.previous/$e" ] || mv -T "$OUT/.previous/$e" "$FINAL/$e"
+	done
+}
+trap '' INT TERM HUP
+mkdir "$OUT/.previous"
+for e in $ENTRIES; do
+	if { [ -e "$FINAL/$e" ] || [ -L "$FINAL/$e" ]; } && ! mv -T "$FINAL/$e" "$OUT/.previous/$e"; then
+		put_back
+		echo "reproduce: $FINAL/$e: cannot move aside; the earlier results left as they were" >&2
+		exit 1
+	fi
+	mv -T "$OUT/$e" "$FINAL/$e" || {
+		put_back
+		echo "reproduce: $FINAL/$e: cannot move into place; the earlier results left as they were" >&2
+		exit 1
+	}
+done
+trap 'exit 130' INT
+trap 'exit 143' TERM
+trap - HUP
+echo "reproduce: done in $total s; figures in $FINAL/figures, report $FINAL/report.html:"
+ls "$FINAL/figures"

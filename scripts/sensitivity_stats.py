@@ -22,6 +22,7 @@ the default for every choice, the constant law at its default deceleration
 for the deceleration's points. Exit codes: 1 usage, 2 missing or malformed
 input, 3 inconsistent data.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import glob

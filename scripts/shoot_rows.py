@@ -4,6 +4,7 @@
 default table, so no two overlap and none is off the table or in a pocket)
 and an action of speed below 1.5 m/s. 4096 distinct seeded rows repeat
 (cheap to write 10 M of them); the bytes depend only on N and SEED."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import random
 import sys
 

@@ -26,6 +26,7 @@ DATA receives only what scripts/verdicts.py needs, each file replaced whole:
   timing.csv       wall and CPU seconds of each phase
 Exit codes: 1 usage, 2 missing or malformed input.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import configparser
 import csv
 import glob

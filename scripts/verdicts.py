@@ -15,6 +15,7 @@ all or nothing, only once every input has been read and checked. With
 Exit codes: 1 usage or a difference (--check), 2 missing or malformed input,
 3 partial or mixed-configuration results.
 """
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import configparser
 import csv

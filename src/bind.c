@@ -90,9 +90,15 @@ int pr_bind_shoot_params(const pr_config *c, long lo, long hi, int nballs, const
 		return null_status(err);
 	for (r = lo; r < hi; ++r) {
 		const size_t k = (size_t)r * (size_t)nballs;
-		pr_sim *sim = pr_shot_params_row(p, values + (size_t)r * (size_t)nkeys, &rc, why);
+		pr_sim *sim;
 		pr_shot res;
 
+		/* a binding's worker thread is told to stop (a Ctrl-C in Python) */
+		if (pr_interrupted) {
+			rc = pr_err(err, PR_EINTR, "shoot: interrupted");
+			break;
+		}
+		sim = pr_shot_params_row(p, values + (size_t)r * (size_t)nkeys, &rc, why);
 		if (!sim || (rc = pr_sim_shoot(sim, balls + 2 * k, nballs, actions + 2 * r, &res, NULL,
 		                               why))) {
 			pr_err(err, rc, "row %ld: %s", r, why);
@@ -373,6 +379,9 @@ int pr_bind_policy_fit(const pr_config *c, int n, int ds, int da, int dy, const 
 	if (c->policy.target == PR_TARGET_REWARD_STATE && (!Y || dy < 1))
 		return pr_err(err, PR_EINVAL, "policy: policy.target = reward_state needs the "
 		              "final reward-ball positions (target)");
+	/* as cmd_policy.c: the forest would ignore them */
+	if (c->policy.target != PR_TARGET_REWARD_STATE && Y && dy > 0)
+		return pr_err(err, PR_EINVAL, "policy: target applies only with policy.target = reward_state");
 	if (!(rng = pr_bind_rng_new(c->run.seed)))
 		return pr_err(err, PR_ENOMEM, "policy: out of memory");
 	*out = pr_policy_tree_fit(&c->policy, &d, rng, err);

@@ -6,6 +6,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
+#include <math.h>
 #include <pthread.h>
 #include <sched.h>
 #include <setjmp.h>
@@ -508,4 +509,24 @@ void pr_run_parts(int nt, void *(*fn)(void *), void *parts, size_t size)
 		if (stack[t] != MAP_FAILED)
 			munmap(stack[t], len);
 	}
+}
+
+int pr_weights_check(const double *w, long n, const char *what, long *bad, char *err)
+{
+	double s = 0.0;
+	long i;
+
+	*bad = -1;
+	for (i = 0; i < n; i++) {
+		if (!(w[i] >= 0.0)) {
+			*bad = i;
+			return pr_err(err, PR_EINVAL, "%s must be >= 0 (got %g)", what, w[i]);
+		}
+		s += w[i];
+	}
+	if (!(s > 0.0))
+		return pr_err(err, PR_EINVAL, "%ss are all zero", what);
+	if (!isfinite(s))
+		return pr_err(err, PR_EINVAL, "the %ss sum past the largest number: scale them down", what);
+	return PR_OK;
 }

@@ -829,16 +829,39 @@ const char *pr_config_where(const pr_config *c, const char *key, char *buf, size
 	return buf;
 }
 
+/* Where a check across keys[0..] failed, blaming the first of them the
+ * user set (a check of keys[0] that table.length, set by the user, broke
+ * names table.length, not the default of keys[0]): "WHERE" when that is
+ * keys[0] itself (or none was set), else "WHERE: KEY"; the message goes on
+ * with keys[0]. */
+static const char *where_blamed(const pr_config *c, const char *const *keys, char *buf, size_t n)
+{
+	char at[PR_WHERE_LEN];
+
+	for (int k = 0; keys[k]; ++k) {
+		int i = find_dotted(c, keys[k]);
+
+		if (i < 0 || c->key_line[i] == 0)
+			continue;
+		if (k == 0)
+			break;
+		snprintf(buf, n, "%s: %s", pr_config_where(c, keys[k], at, sizeof at), keys[k]);
+		return buf;
+	}
+	return pr_config_where(c, keys[0], buf, n);
+}
+
 static int box_inside(const pr_config *c, const double *b, const char *name, char *err)
 {
 	double hx = c->table.length / 2 - c->table.ball_radius;
 	double hy = c->table.width / 2 - c->table.ball_radius;
-	char key[NAMELEN], at[PR_WHERE_LEN];
+	char key[NAMELEN], at[PR_WHERE_LEN + NAMELEN];
+	const char *keys[] = {key, "table.length", "table.width", "table.ball_radius", NULL};
 
 	snprintf(key, sizeof key, "start.%s", name);
 	if (b[0] < -hx || b[1] > hx || b[2] < -hy || b[3] > hy)
 		return pr_err(err, PR_EINVAL, "%s: %s: box reaches beyond the cushions "
-		              "(|x| <= %g, |y| <= %g)", pr_config_where(c, key, at, sizeof at), key, hx, hy);
+		              "(|x| <= %g, |y| <= %g)", where_blamed(c, keys, at, sizeof at), key, hx, hy);
 	return PR_OK;
 }
 
@@ -886,30 +909,35 @@ static int friction_keys(const pr_config *c, char *err)
 
 int pr_config_validate(const pr_config *c, char *err)
 {
-	char at[PR_WHERE_LEN];
+	static const char *const balls[] = {"table.reward_balls", "table.balls", NULL},
+	                         *radius[] = {"table.ball_radius", "table.width", "table.length", NULL},
+	                         *dt[] = {"sim.dt", "sim.max_time", "sim.mode", NULL},
+	                         *rep[] = {"experiment.repetition", "experiment.repetitions", NULL};
+	char at[PR_WHERE_LEN + NAMELEN];
 	int rc, b;
 
 #define AT(key) pr_config_where(c, key, at, sizeof at)
+#define BLAME(keys) where_blamed(c, keys, at, sizeof at)
 	if ((rc = friction_keys(c, err)))
 		return rc;
 	if (c->table.reward_balls > c->table.balls - 1)
 		return pr_err(err, PR_EINVAL, "%s: table.reward_balls: %d, but only %d balls besides the cue ball",
-		              AT("table.reward_balls"), c->table.reward_balls, c->table.balls - 1);
+		              BLAME(balls), c->table.reward_balls, c->table.balls - 1);
 	if (2 * c->table.ball_radius >= c->table.width || 2 * c->table.ball_radius >= c->table.length)
 		return pr_err(err, PR_EINVAL, "%s: table.ball_radius: the ball does not fit on the table",
-		              AT("table.ball_radius"));
+		              BLAME(radius));
 	if ((rc = box_inside(c, c->start.cue_box, "cue_box", err)) ||
 	    (rc = box_inside(c, c->start.reward_box, "reward_box", err)) ||
 	    (rc = box_inside(c, c->start.obstacle_box, "obstacle_box", err)))
 		return rc;
 	if (c->sim.mode == PR_SIM_STEPPED && c->sim.dt >= c->sim.max_time)
-		return pr_err(err, PR_EINVAL, "%s: sim.dt: must be smaller than sim.max_time", AT("sim.dt"));
+		return pr_err(err, PR_EINVAL, "%s: sim.dt: must be smaller than sim.max_time", BLAME(dt));
 	if (c->sim.mode == PR_SIM_STEPPED && c->sim.max_time / c->sim.dt > MAX_STEPS_PER_SHOT)
 		return pr_err(err, PR_EINVAL, "%s: sim.dt: sim.max_time / sim.dt = %.3g steps per shot, "
-		              "at most 1e9", AT("sim.dt"), c->sim.max_time / c->sim.dt);
+		              "at most 1e9", BLAME(dt), c->sim.max_time / c->sim.dt);
 	if (c->run.repetition >= c->run.repetitions)
 		return pr_err(err, PR_EINVAL, "%s: experiment.repetition: %d, but there are only %d repetitions",
-		              AT("experiment.repetition"), c->run.repetition, c->run.repetitions);
+		              BLAME(rep), c->run.repetition, c->run.repetitions);
 	/* the modules' own checks, so that `config` refuses what a run would,
 	 * naming where the key was set */
 	rc = pr_forest_opts_check(&c->forest, "forest", err);
@@ -927,6 +955,7 @@ int pr_config_validate(const pr_config *c, char *err)
 		return pr_err(err, rc, "%s: %s", AT(key), msg);
 	}
 #undef AT
+#undef BLAME
 	if (c->dropped)
 		return pr_err(err, PR_EINVAL, "internal: %d experiments' options do not fit in "
 		              "PR_CONFIG_MAXBLOCKS, PR_CONFIG_MAXKEYS or PR_CONFIG_OPTS_BYTES", c->dropped);

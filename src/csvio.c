@@ -22,6 +22,7 @@
 #include <string.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
+#include <sys/xattr.h>
 #include <unistd.h>
 
 #include <csv.h>
@@ -1264,6 +1265,36 @@ static void sweep_stale(const char *folder)
 
 /* A new, registered file in folder named TMP_PREFIX<owner tag>-<n>, opened for
  * writing with mode 0666 less the umask; fd, or -1 with errno set. */
+/* The extended attributes of file from (ACLs, user.* notes) onto fd, the
+ * file that replaces it. 0, or -1 with errno and *bad the attribute that
+ * could not be kept; a file system without them has none to keep. */
+static int copy_xattrs(const char *from, int fd, char *bad, size_t nbad)
+{
+	ssize_t n = listxattr(from, NULL, 0), k;
+	char *names, *p, *val = NULL;
+	int rc = 0;
+
+	if (n <= 0)
+		return n < 0 && errno != ENOTSUP ? -1 : 0;
+	if (!(names = malloc((size_t)n)))
+		return -1;
+	if ((n = listxattr(from, names, (size_t)n)) < 0)
+		rc = -1;
+	for (p = names; rc == 0 && p < names + n; p += strlen(p) + 1) {
+		char *nv;
+
+		snprintf(bad, nbad, "%s", p);
+		if ((k = getxattr(from, p, NULL, 0)) < 0 || !(nv = realloc(val, (size_t)k + 1)))
+			rc = -1;
+		else if ((val = nv), (k = getxattr(from, p, val, (size_t)k)) < 0 ||
+		         fsetxattr(fd, p, val, (size_t)k, 0) != 0)
+			rc = -1;
+	}
+	free(val);
+	free(names);
+	return rc;
+}
+
 static int make_temp(const char *folder, char **name)
 {
 	static atomic_long seq;
@@ -1328,6 +1359,14 @@ static pr_csvw *open_file(pr_csvw *w, const char *path, const struct stat *sb, i
 		}
 		if (geteuid() == 0 && fchown(fd, sb->st_uid, sb->st_gid) != 0) {
 			*st = pr_err(err, pr_errno_status(), "%s: cannot keep its owner: %s", path, strerror(errno));
+			close(fd);
+			return writer_fail(w);
+		}
+		/* and its extended attributes (after the owner: a chown drops some) */
+		char xa[256] = "";
+		if (copy_xattrs(w->target, fd, xa, sizeof xa) != 0) {
+			*st = pr_err(err, pr_errno_status(), "%s: cannot keep its extended attribute %s: %s", path,
+			             xa, strerror(errno));
 			close(fd);
 			return writer_fail(w);
 		}

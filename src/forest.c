@@ -1216,6 +1216,7 @@ int pr_forest_to_text(const pr_forest *f, const char *const *names, char **text,
 /* The loader's cursor over a NUL-terminated copy of the text. */
 typedef struct {
 	char *p;          /* the next character */
+	size_t len;       /* of the whole text */
 	int line;         /* of p, from 1 */
 	const char *what; /* file name or "forest" for messages */
 	char *err;
@@ -1280,6 +1281,18 @@ static int eol(reader *r)
 	return PR_OK;
 }
 
+/* The header's counts against the shortest text that can hold them, so
+ * that what read_head allocates is a small multiple of the file's size:
+ * a sample index takes at least 2 bytes in each tree (" 0"), a node line 9
+ * ("leaf 0 0\n"), a leaf value 2, a column line 8, a tree line 7. */
+static int sizes_fit(const reader *r, const pr_forest *f)
+{
+	const long long len = (long long)r->len;
+
+	return 2LL * f->M * f->n <= len && 9LL * f->nnodes <= len &&
+	       2LL * f->nleaves * f->dy <= len && 8LL * (f->dx + f->dy) <= len && 7LL * f->M <= len;
+}
+
 /* "poolreps-forest V" and the sizes line; allocates f's arrays. */
 static int read_head(reader *r, pr_forest *f)
 {
@@ -1299,9 +1312,11 @@ static int read_head(reader *r, pr_forest *f)
 	    (rc = keyword(r, " nodes")) || (rc = int_in(r, 1, INT_MAX, &f->nnodes)) ||
 	    (rc = keyword(r, " leaves")) || (rc = int_in(r, 1, INT_MAX, &f->nleaves)) || (rc = eol(r)))
 		return rc;
-	if ((long long)f->M * f->n >= INT_MAX || f->nleaves > f->M * f->n ||
-	    f->nnodes != 2 * f->nleaves - f->M)
-		return bad(r, "inconsistent sizes");
+	if ((long long)f->M * f->n >= INT_MAX || f->nleaves > (long long)f->M * f->n ||
+	    f->nnodes != 2LL * f->nleaves - f->M)
+		return pr_err(r->err, PR_EIO, "%s:2: inconsistent sizes", r->what);
+	if (!sizes_fit(r, f))
+		return pr_err(r->err, PR_EIO, "%s:2: the sizes claim more than the file holds", r->what);
 	f->tree_node0 = malloc(((size_t)f->M + 1) * sizeof *f->tree_node0);
 	f->tree_leaf0 = malloc(((size_t)f->M + 1) * sizeof *f->tree_leaf0);
 	f->node = malloc((size_t)f->nnodes * sizeof *f->node);
@@ -1313,25 +1328,84 @@ static int read_head(reader *r, pr_forest *f)
 	return PR_OK;
 }
 
+/* A column name as a CSV header holds it (the test CSV is read by these
+ * names and the predictions are named after them): no control character,
+ * no trailing blank (a CSV reader trims it). */
+static const char *name_fault(const char *s, size_t len)
+{
+	for (size_t i = 0; i < len; i++)
+		if ((unsigned char)s[i] < 0x20 || s[i] == 0x7f)
+			return "a column name holds a control character";
+	return s[len - 1] == ' ' ? "a column name ends in a blank" : NULL;
+}
+
+static int name_cmp(const void *a, const void *b)
+{
+	const char *const *x = a, *const *y = b;
+	size_t nx = strcspn(*x, "\n"), ny = strcspn(*y, "\n");
+	int c = memcmp(*x, *y, nx < ny ? nx : ny);
+
+	return c ? c : (nx > ny) - (nx < ny);
+}
+
+/* No name twice among inputs and outputs: sorted copies of the pointers
+ * (each name ends at its line break), equal neighbours. */
+static int names_unique(reader *r, char **at, int nn, int first_line)
+{
+	char **s = malloc((size_t)nn * sizeof *s);
+	int rc = PR_OK;
+
+	if (!s)
+		return pr_err(r->err, PR_ENOMEM, "forest: out of memory");
+	memcpy(s, at, (size_t)nn * sizeof *s);
+	qsort(s, (size_t)nn, sizeof *s, name_cmp);
+	for (int j = 1; j < nn && !rc; j++)
+		if (!name_cmp(s + j - 1, s + j)) {
+			int k = 0, len = (int)strcspn(s[j], "\n");
+
+			while (name_cmp(at + k, s + j)) /* the first, then the second */
+				k++;
+			while (name_cmp(at + ++k, s + j))
+				;
+			rc = pr_err(r->err, PR_EIO, "%s:%d: column name '%.*s' appears twice", r->what,
+			            first_line + k, len > 64 ? 64 : len, s[j]);
+		}
+	free(s);
+	return rc;
+}
+
 /* The dx + dy "input NAME" / "output NAME" lines, into one allocation
  * (pointers, then the strings) when names is not NULL. */
 static int read_names(reader *r, const pr_forest *f, char ***names)
 {
-	const int nn = f->dx + f->dy;
-	char *start = r->p, **out, *s;
-	int rc;
+	const int nn = f->dx + f->dy, line0 = r->line;
+	char *start = r->p, **out, *s, **at = malloc((size_t)nn * sizeof *at);
+	int rc = PR_OK;
 
-	for (int j = 0; j < nn; j++) {
+	if (!at)
+		return pr_err(r->err, PR_ENOMEM, "forest: out of memory");
+	for (int j = 0; j < nn && !rc; j++) {
+		const char *why;
+		size_t len;
+
 		if ((rc = keyword(r, j < f->dx ? "input" : "output")))
-			return rc;
-		if (*r->p == '\n' || !*r->p)
-			return bad(r, "empty column name");
-		r->p += strcspn(r->p, "\n");
-		if ((rc = eol(r)))
-			return rc;
+			break;
+		at[j] = r->p;
+		len = strcspn(r->p, "\n");
+		if (!len)
+			rc = bad(r, "empty column name");
+		else if ((why = name_fault(r->p, len)))
+			rc = bad(r, why);
+		else {
+			r->p += len;
+			rc = eol(r);
+		}
 	}
-	if (!names)
-		return PR_OK;
+	if (!rc)
+		rc = names_unique(r, at, nn, line0);
+	free(at);
+	if (rc || !names)
+		return rc;
 	if (!(out = malloc((size_t)nn * sizeof *out + (size_t)(r->p - start))))
 		return pr_err(r->err, PR_ENOMEM, "forest: out of memory");
 	s = (char *)(out + nn);
@@ -1419,14 +1493,22 @@ static int read_tree(reader *r, pr_forest *f, int t, int *stk, unsigned char *se
 
 pr_forest *pr_forest_load(const char *text, size_t len, const char *what, char ***names, char *err)
 {
-	reader r = { .line = 1, .what = what ? what : "forest", .err = err };
-	pr_forest *f = calloc(1, sizeof *f);
-	char *buf = malloc(len + 1);
+	static const char magic[] = "poolreps-forest ";
+	reader r = { .len = len, .line = 1, .what = what ? what : "forest", .err = err };
+	pr_forest *f = NULL;
+	char *buf = NULL;
 	int *stk = NULL, rc;
 	unsigned char *seen = NULL;
 
 	if (names)
 		*names = NULL;
+	/* another file given by mistake is refused before it is copied */
+	if (len < sizeof magic - 1 || memcmp(text, magic, sizeof magic - 1)) {
+		pr_err(err, PR_EIO, "%s:1: not a poolreps forest file", r.what);
+		return NULL;
+	}
+	f = calloc(1, sizeof *f);
+	buf = malloc(len + 1);
 	if (!f || !buf) {
 		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
 		goto done;

@@ -153,17 +153,21 @@ def test_a_plain_poolreps_name_of_another_experiment_is_removed(other, tmp_path)
     """The other side: what an earlier run listed and could have written goes."""
     base, text = valid_record(tmp_path)
     (base / "r" / other).write_text("x\n")
-    (base / "r" / "provenance.txt").write_text(replace_files(text, other + " provenance.txt"))
+    (base / "r" / "provenance.txt").write_text(replace_files(text, " ".join([other] + RUN_FILES)))
     r = run([Q, "-o", "r", "--set", "bench.samples=30"] + QUICK, base)
     assert r.returncode == 0, r.stderr
     assert sorted(os.listdir(base / "r")) == sorted(RUN_FILES + ["notes.csv", "victim.txt"])
 
 
 @pytest.mark.parametrize("content", [b"", b"not a record\nfiles: victim.txt\n", b"\x00\x01"])
-def test_a_file_that_is_no_record_removes_nothing(content, tmp_path):
+def test_a_file_that_is_no_record_is_never_replaced(content, tmp_path):
+    """No poolreps record: poolreps wrote nothing there, so the run replaces
+    nothing (refused before its work, exit 2), removes nothing."""
     base = prepare(tmp_path)
     (base / "r" / "provenance.txt").write_bytes(content)
-    (base / "r" / "bench_curve.csv").write_text("kept? no: replaced\n")
+    (base / "r" / "bench_curve.csv").write_text("kept\n")
+    before = snapshot(tmp_path)
     r = run([Q, "-o", "r"] + QUICK, base)
-    assert r.returncode == 0, r.stderr
-    assert sorted(os.listdir(base / "r")) == sorted(RUN_FILES + ["notes.csv", "victim.txt"])
+    assert r.returncode == 2, r.stderr
+    assert "r/provenance.txt: exists, and no earlier poolreps run" in one_line(r)
+    assert snapshot(tmp_path) == before, changed(before, snapshot(tmp_path))

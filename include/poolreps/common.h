@@ -36,6 +36,13 @@ int pr_err(char *err, int status, const char *fmt, ...)
 /* The version string: git describe at build time, or the tarball version. */
 const char *pr_version(void);
 
+/* Weights w[0..n-1] (sample or base weights) as every reader checks them:
+ * PR_OK, or PR_EINVAL with err "WHAT must be >= 0 (got V)" (*bad: its
+ * index), "WHATs are all zero" or "the WHATs sum past the largest number:
+ * scale them down" (*bad = -1); callers prefix where the weights came from.
+ * Only their ratios matter, but a sum that overflows makes every share 0. */
+int pr_weights_check(const double *w, long n, const char *what, long *bad, char *err);
+
 /* A GSL error handler for programs that use poolreps (the command line and
  * the Python binding install it with gsl_set_error_handler): it ignores
  * GSL's errors, as gsl_set_error_handler_off does (poolreps checks every
@@ -49,6 +56,8 @@ void pr_gsl_error_handler(const char *reason, const char *file, int line, int gs
 typedef struct {
 	int argc;
 	char **argv;
+	const char *versions; /* merge: the versions that ran the inputs, when not
+	                       * only this one ("A, B"); else NULL */
 } pr_provenance;
 
 /* Set by the CLI's signal handler to the signal number; long loops poll it

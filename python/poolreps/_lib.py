@@ -124,6 +124,8 @@ _PROTOTYPES = {
     "pr_bind_trace": (c_int, [_P, c_int, _P, _P, POINTER(_P), POINTER(c_long), c_char_p]),
     "pr_forest_to_text": (c_int, [_P, _P, POINTER(_P), POINTER(c_size_t), c_char_p]),
     "pr_forest_load": (_P, [c_char_p, c_size_t, c_char_p, _P, c_char_p]),
+    "pr_weights_check": (c_int, [_P, c_long, c_char_p, POINTER(c_long), c_char_p]),
+    "pr_config_key_listed": (c_int, [c_char_p, c_char_p]),
     "pr_bind_policy_rng_new": (_P, [c_ulong]),
     "pr_bind_policy_sample_rng": (c_int, [_P, c_long, _P, c_int, _P, _P, _P, c_char_p]),
     "pr_bind_starts": (c_int, [_P, _P, c_long, _P, c_char_p]),
@@ -234,50 +236,74 @@ def rng_from_state(state):
     return h
 
 
+# The library's flag its row loops poll (the CLI's signal handler sets it).
+_INTERRUPTED = c_int.in_dll(lib, "pr_interrupted")
+# the end (an Event) of each worker told to stop and still finishing its row
+_STOPPING = []
+
+
+def settle():
+    """Wait for the workers an interrupt left finishing their row: until they
+    end, the library's flag would stop the next call too."""
+    while _STOPPING:
+        _STOPPING.pop().wait()
+
+
+def interruptible(call, *keep):
+    """call() (a library call that polls pr_interrupted per row) in a worker
+    thread, the caller waiting in slices of 50 ms: Python runs its signal
+    handlers only between bytecodes, so a KeyboardInterrupt (or a SIGTERM
+    handler's exception) reaches the caller within that slice whatever a
+    row costs. The worker is then told to stop (pr_interrupted) and ends
+    after its current row, in the background; the flag is cleared when it
+    has. keep: what the call writes into or reads (arrays, buffers), held
+    until it ends. Off the main thread, which gets no signals, call() runs
+    directly."""
+    if threading.current_thread() is not threading.main_thread():
+        return call()
+    settle()
+    box, lock, ended = {"done": False, "stop": False}, threading.Lock(), threading.Event()
+
+    def work(keep=keep):
+        try:
+            box["rc"] = call()
+        except BaseException as e:  # pragma: no cover (ctypes calls do not raise)
+            box["exc"] = e
+        finally:
+            with lock:  # whoever comes second clears the flag: it never outlives the call
+                box["done"] = True
+                if box["stop"]:
+                    _INTERRUPTED.value = 0
+            ended.set()
+    # an Event, not Thread.join: a join cut short by KeyboardInterrupt may
+    # report a running thread as ended
+    threading.Thread(target=work, name="poolreps-call", daemon=True).start()
+    try:
+        while not ended.wait(0.05):
+            pass
+    except BaseException:
+        with lock:
+            if not box["done"]:
+                box["stop"] = True
+                _INTERRUPTED.value = signal.SIGINT
+                _STOPPING.append(ended)
+        raise
+    if "exc" in box:
+        raise box["exc"]
+    return box["rc"]
+
+
 # Long calls go to the library in pieces of this many rows, and Python
 # handles its signals between them: Ctrl-C stops a long batch within a
 # piece's time (a few milliseconds) instead of at its end.
 CHUNK_ROWS = 8192
 
 
-# The library's flag that its long loops poll (sig_atomic_t, an int here):
-# the CLI's signal handler sets it; for Python, interruptible() does.
-_INTERRUPTED = ctypes.c_int.in_dll(lib, "pr_interrupted")
-
-
-def interruptible(fn, *args):
+def interruptible_call(fn, *args):
     """fn(*args), a library call that cannot be cut into pieces (a fit, a
-    REPS solve), run in a worker thread while the main thread waits, so
-    that Ctrl-C reaches Python at once: it sets the library's flag, which
-    the call's loops poll, waits for the call to return and raises
-    KeyboardInterrupt. Outside the main thread (where Python delivers no
-    signal) fn runs directly."""
-    if threading.current_thread() is not threading.main_thread():
-        return fn(*args)
-    out, done = [], threading.Event()
-
-    def work():
-        try:
-            out.append(fn(*args))
-        finally:
-            done.set()
-
-    worker = threading.Thread(target=work, daemon=True)
-    worker.start()
-    # waiting on an Event, not on join(): a join that a signal interrupts
-    # can mark a running thread as stopped (CPython 3.11's threading)
-    try:
-        while not done.wait(0.05):
-            pass
-    except KeyboardInterrupt:
-        _INTERRUPTED.value = signal.SIGINT
-        done.wait()
-        _INTERRUPTED.value = 0
-        raise
-    finally:
-        if done.is_set():
-            worker.join()
-    return out[0]
+    REPS solve) and polls pr_interrupted in its loops, as interruptible()
+    runs one: Ctrl-C reaches the caller at once."""
+    return interruptible(lambda: fn(*args), *args)
 
 
 def chunks(n, rows=CHUNK_ROWS):
@@ -336,10 +362,23 @@ def _format(key, v):
     raise ValueError(f"{key}: cannot use a {type(v).__name__} as a value")
 
 
-def assignments(keys, section=None):
+def weights(name, w, what):
+    """w (n,) as the library checks weights (pr_weights_check, the CLI's
+    check too): ValueError "NAME[i]: WHAT must be >= 0 ..." or "NAME: ..."."""
+    bad = c_long(-1)
+    err = errbuf()
+    if lib.pr_weights_check(addr(w), w.shape[0], what.encode(), ctypes.byref(bad), err):
+        at = f"[{bad.value}]" if bad.value >= 0 else ""
+        raise ValueError(f"{name}{at}: {err.value.decode(errors='replace')}")
+    return w
+
+
+def assignments(keys, section=None, applies=None):
     """'section.key=value' strings, in order, from a dict. Without a dot a
     key belongs to `section` ('trees' -> 'forest.trees'); 'seed' is
-    experiment.seed."""
+    experiment.seed. applies: the keys the command of `section` reads (its
+    CLI list, "forest.,experiment.seed"); another is refused as the CLI's
+    --set refuses it, since it would be ignored."""
     out = []
     for k, v in (keys or {}).items():
         if not isinstance(k, str):
@@ -349,6 +388,8 @@ def assignments(keys, section=None):
                 k = "experiment.seed"
             elif section:
                 k = f"{section}.{k}"
+        if applies is not None and not lib.pr_config_key_listed(applies.encode(), k.strip().encode()):
+            raise ValueError(f"{section}: --set {k.strip()} does not apply (see poolreps {section} --help)")
         out.append(f"{k}={_format(k, v)}")
     return tuple(out)
 

@@ -21,6 +21,9 @@ Keys = Optional[Dict[str, Any]]
 # PR_FOREST_FORMAT (docs/forest.md).
 PICKLE_FORMAT = 1
 
+# shoot: up to this many event-mode rows run without a worker thread
+SHORT_ROWS = 64
+
 
 def shoot(balls: ArrayLike, actions: ArrayLike, mode: str = "event",
           set: Keys = None, params: Keys = None) -> Dict[str, np.ndarray]:
@@ -74,8 +77,11 @@ def row_params(params: Keys, n: int) -> RowParams:
 
 def shoot_rows(cfg, b: np.ndarray, a: np.ndarray,
                params: RowParams = None) -> Dict[str, np.ndarray]:
-    """shoot on checked arrays with a built Config and row_params' values,
-    in pieces (Ctrl-C is honoured between them)."""
+    """shoot on checked arrays with a built Config and row_params' values.
+    The rows run in a worker thread (_lib.interruptible): Ctrl-C reaches the
+    caller at once, however long a row takes, and stops the worker at its
+    next row. A few event-mode rows (microseconds each: a Gymnasium step)
+    run directly, sparing the thread's start (about 0.1 ms)."""
     n, nb = b.shape[0], b.shape[1] // 2
     out = {
         "final": np.empty((n, nb, 2)),
@@ -91,10 +97,15 @@ def shoot_rows(cfg, b: np.ndarray, a: np.ndarray,
                                    "events")]
     keys, values = params if params else ((), None)
     names = (ctypes.c_char_p * max(1, len(keys)))(*[k.encode() for k in keys])
-    # no rows: one empty range all the same, which checks params' keys
-    for lo, hi in list(chunks(n)) or ([(0, 0)] if keys else []):
-        check(lib.pr_bind_shoot_params(cfg.ptr, lo, hi, nb, addr(b), addr(a), len(keys), names,
-                                       addr(values), *ptrs, err), err)
+
+    def call():  # no rows: the empty range all the same, which checks params' keys
+        return lib.pr_bind_shoot_params(cfg.ptr, 0, n, nb, addr(b), addr(a), len(keys), names,
+                                        addr(values), *ptrs, err)
+    if n <= SHORT_ROWS and cfg.values()["sim.mode"] == "event":
+        _lib.settle()
+        check(call(), err)
+    else:
+        check(_lib.interruptible(call, cfg, b, a, out, err, names, values), err)
     return out
 
 
@@ -155,18 +166,16 @@ def reps(returns: ArrayLike, features: Any = None, epsilon: Optional[float] = No
         keys["reps.epsilon"] = epsilon
     if solver is not None:
         keys["reps.solver"] = solver
-    cfg = config(_lib.assignments(keys, "reps"))
+    cfg = config(_lib.assignments(keys, "reps", "reps."))
     R = array("returns", returns, 1)
     n = count("returns", R.shape[0])
-    q = array("base", base, 1, rows=n) if base is not None else np.ones(n)
-    if (q < 0).any():
-        i = int(np.argmax(q < 0))
-        raise ValueError(f"base[{i}]: base weight must be >= 0 (got {q[i]:g})")
+    q = (_lib.weights("base", array("base", base, 1, rows=n), "base weight") if base is not None
+         else np.ones(n))
     d, phi, csr = _features(features, n)
     rowptr, col, val = csr if csr else (None, None, None)
     res = ctypes.c_void_p()
     err = errbuf()
-    rc = _lib.interruptible(lib.pr_bind_reps, cfg.ptr, n, d, addr(R), addr(q), addr(phi),
+    rc = _lib.interruptible_call(lib.pr_bind_reps, cfg.ptr, n, d, addr(R), addr(q), addr(phi),
                             addr(rowptr), addr(col), addr(val), ctypes.byref(res), err)
     check(rc, err)
     h = Handle(res.value, lib.pr_reps_result_free)
@@ -192,9 +201,10 @@ class _Model:
     swaps it in; running calls keep the one they started with."""
 
     _section = None
+    _keys = None   # the keys its command reads (the CLI's list)
 
     def __init__(self, **keys: Any) -> None:
-        self._sets = _lib.assignments(keys, self._section)
+        self._sets = _lib.assignments(keys, self._section, self._keys)
         self._cfg = config(self._sets)
         self._h = None
 
@@ -240,7 +250,7 @@ class _Model:
     def _fit(self, fn, free, meta, *args):
         out = ctypes.c_void_p()
         err = errbuf()
-        check(_lib.interruptible(fn, self._cfg.ptr, *args, ctypes.byref(out), err), err)
+        check(_lib.interruptible_call(fn, self._cfg.ptr, *args, ctypes.byref(out), err), err)
         self._h = Handle(out.value, free, meta)
         return self
 
@@ -254,6 +264,7 @@ class Forest(_Model):
     """
 
     _section = "forest"
+    _keys = "forest.,experiment.seed"
 
     def _describe(self, h) -> str:
         return (f"{lib.pr_forest_ntrees(h.ptr)} trees, {lib.pr_forest_nleaves(h.ptr)} leaves, "
@@ -303,7 +314,8 @@ class Forest(_Model):
         n = count("X", X.shape[0])
         y = np.asarray(y)
         Y = array("y", y.reshape(-1, 1) if y.ndim == 1 else y, 2, rows=n)
-        w = None if sample_weight is None else array("sample_weight", sample_weight, 1, rows=n)
+        w = (None if sample_weight is None else
+             _lib.weights("sample_weight", array("sample_weight", sample_weight, 1, rows=n), "weight"))
         return self._fit(lib.pr_bind_forest_fit, lib.pr_forest_free, y.ndim == 1, n, X.shape[1],
                          Y.shape[1], addr(X), addr(Y), addr(w))
 
@@ -319,6 +331,11 @@ class Forest(_Model):
         Y = np.empty((n, dy))
         for lo, hi in chunks(n):
             lib.pr_forest_predict_many(h.ptr, addr(X) + 8 * lo * dx, hi - lo, addr(Y) + 8 * lo * dy)
+        if not np.isfinite(Y).all():
+            # as the CLI, which refuses to write it (exit 3): never a silent inf or NaN
+            i = int(np.argmin(np.isfinite(Y).all(axis=1)))
+            raise _lib.NumericalError(f"predict: row {i}: refusing to return a non-finite number "
+                                      "(numerical failure)")
         return Y[:, 0].copy() if h.meta else Y
 
     def apply(self, X: ArrayLike) -> np.ndarray:
@@ -363,6 +380,7 @@ class Policy(_Model):
     """
 
     _section = "policy"
+    _keys = "policy.,experiment.seed"
 
     def _describe(self, h) -> str:
         return f"{h.meta['S'].shape[0]} samples, {lib.pr_policy_ds(h.ptr)} state, " \
@@ -384,7 +402,7 @@ class Policy(_Model):
         S = array("S", S, 2)
         n = count("S", S.shape[0])
         A = array("A", A, 2, rows=n)
-        w = None if w is None else array("w", w, 1, rows=n)
+        w = None if w is None else _lib.weights("w", array("w", w, 1, rows=n), "weight")
         Y = None if target is None else array("target", target, 2, rows=n)
         meta = {"S": S.copy(), "A": A.copy(), "w": None if w is None else w.copy(),
                 "target": None if Y is None else Y.copy()}

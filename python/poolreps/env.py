@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import ctypes
+import numbers
 import threading
 from typing import Any, Dict, List, Optional, Tuple, Union
 
@@ -236,9 +237,14 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         With randomize, the episode's values are drawn next from the same
         generator, and info holds them ({key: value})."""
         options = _lib.options(options, ("state", "repetition"))
+        rep = options.get("repetition")
+        # checked first: a refused seed leaves np_random as it was
+        if seed is not None:
+            _lib.seed_value("seed", seed)
+        if rep is not None:
+            _lib.seed_value("repetition", rep)
         if gymnasium:
             super().reset(seed=seed)
-        rep = options.get("repetition")
         if "state" in options:
             if seed is not None or rep is not None:
                 self._draw(0, seed, rep)
@@ -260,6 +266,8 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         """n start states at once, (n, 2*n_balls), and an info dict (with
         randomize, {key: (n,) values}, drawn after the n states: pass them
         to step_batch as params); seed and repetition as for reset()."""
+        if isinstance(n, (bool, np.bool_)) or not isinstance(n, numbers.Integral) or n < 0:
+            raise ValueError(f"n: must be a whole number >= 0 (got {n!r})")
         states = self._draw(int(n), seed, repetition)
         return states, self._draw_params(states.shape[0]) or {}
 
@@ -270,14 +278,24 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         sim.max_speed under normalize_actions, then clipped to it), and
         which were clipped."""
         A = array(name, actions, 2, cols=2, allow_empty=True)
-        if self.normalize_actions:
-            A = A * self.max_speed
-        speed = np.hypot(A[:, 0], A[:, 1])
+        with np.errstate(over="ignore"):
+            if self.normalize_actions:
+                A = A * self.max_speed
+            speed = np.hypot(A[:, 0], A[:, 1])
+        # a finite action whose speed overflows: its direction from the
+        # action scaled down by its largest component, which cannot overflow
+        huge = ~np.isfinite(speed)
+        if huge.any():
+            a = array(name, actions, 2, cols=2)[huge]
+            u = a / np.abs(a).max(axis=1)[:, None]
+            A = A.copy()
+            A[huge] = u * (self.max_speed / np.hypot(u[:, 0], u[:, 1]))[:, None]
+            speed[huge] = np.inf
         clipped = speed > self.max_speed
         if clipped.any():
             # a few ulps below the limit, so that hypot of the result is not above it
             A = A.copy()
-            A[clipped] *= (self.max_speed / speed[clipped] * (1 - 2.0**-50))[:, None]
+            A[clipped] *= (np.where(huge, 1.0, self.max_speed / speed) * (1 - 2.0**-50))[clipped, None]
         return A, clipped
 
     def step(self, action: Any) -> Tuple[Floats, float, bool, bool, Dict[str, Any]]:

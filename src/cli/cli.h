@@ -104,6 +104,7 @@ typedef struct {
 	const char *config, *seed;
 	char **sets;
 	int nsets, progress, quiet;
+	int seed_at;       /* the --set count before the last --seed: options apply in order */
 } cli_common;
 
 typedef struct cli_command {

@@ -15,10 +15,13 @@
  * one instead of fitting and finds its input columns in the test CSV.
  */
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
+#include <sys/stat.h>
 
 #include <gsl/gsl_rng.h>
 
@@ -159,35 +162,52 @@ static int write_outputs(const forest_args *a, pr_outset **set, const pr_forest 
 	return pr_query_forest(te, f, nm + pr_forest_dx(f), pw, lw, st, err);
 }
 
-/* The whole of a file into memory. */
+/* n bytes of fd into buf, retrying short reads; the count read. */
+static size_t read_full(int fd, char *buf, size_t n)
+{
+	size_t got = 0;
+	ssize_t k;
+
+	while (got < n && ((k = read(fd, buf + got, n - got)) > 0 || (k < 0 && errno == EINTR)))
+		got += k > 0 ? (size_t)k : 0;
+	return got;
+}
+
+/* The whole of a saved forest into memory: a regular file only (a device or
+ * a FIFO would be read without end), its size taken once, and another
+ * file given by mistake refused after its first bytes, not read whole. */
 static int read_file(const char *path, char **text, size_t *len, char *err)
 {
-	FILE *fp = fopen(path, "rb");
-	char *buf = NULL;
-	size_t cap = 0, n = 0, got = 1;
+	static const char magic[] = "poolreps-forest ";
+	int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+	struct stat st;
+	char *buf = NULL, extra;
+	size_t n = 0;
 	int rc = PR_OK;
 
-	if (!fp)
+	*text = NULL;
+	*len = 0;
+	if (fd < 0)
 		return pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
-	while (got > 0 && rc == PR_OK) {
-		if (n == cap) {
-			char *nb = realloc(buf, cap = cap ? 2 * cap : 65536);
-
-			if (!nb) {
-				rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
-				break;
-			}
-			buf = nb;
-		}
-		n += got = fread(buf + n, 1, cap - n, fp);
-	}
-	if (rc == PR_OK && ferror(fp))
-		rc = pr_err(err, PR_EIO, "%s: cannot read", path);
-	fclose(fp);
+	if (fstat(fd, &st) != 0)
+		rc = pr_err(err, PR_EIO, "%s: cannot read: %s", path, strerror(errno));
+	else if (!S_ISREG(st.st_mode))
+		rc = pr_err(err, PR_EIO, "%s: not a regular file", path);
+	else if (!(buf = malloc((size_t)st.st_size + 1)))
+		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
+	else if ((n = read_full(fd, buf, sizeof magic - 1)) < sizeof magic - 1 ||
+	         memcmp(buf, magic, n))
+		rc = pr_err(err, PR_EIO, "%s:1: not a poolreps forest file", path);
+	else if ((n += read_full(fd, buf + n, (size_t)st.st_size - n)) != (size_t)st.st_size ||
+	         read_full(fd, &extra, 1))
+		rc = pr_err(err, PR_EIO, "%s: cannot read: the file changed while it was read", path);
+	close(fd);
 	if (rc)
 		free(buf);
-	*text = rc ? NULL : buf;
-	*len = n;
+	else {
+		*text = buf;
+		*len = n;
+	}
 	return rc;
 }
 

@@ -66,13 +66,15 @@ static int merge_main(const pr_config *cfg, const void *opts, char *err)
 /* collect takes what merge takes but -o: the tail of this table */
 static const cli_opt merge_opts[] = {
 	CLI_OPT("o", "DIR", pr_rundir_args, output, "the merged output folder"),
+	CLI_OPT_FLAG("allow-versions", pr_rundir_args, allow_versions,
+	             "combine runs of different poolreps builds (the\nprovenance lists every version)"),
 	CLI_GIVEN_LIST(CLI_OPERANDS, pr_rundir_args, inputs, ninputs),
 	CLI_GIVEN(CLI_PROV, pr_rundir_args, prov), CLI_END
 };
 
 const cli_command cli_merge = {
 	"merge",
-	"poolreps merge -o DIR RUN_DIR...\n"
+	"poolreps merge [--allow-versions] -o DIR RUN_DIR...\n"
 	"  Combine single-repetition or single-variant outputs into what one process\n"
 	"  would have written.",
 	merge_opts, sizeof(pr_rundir_args), "", CLI_OPS_ALL, CLI_GRACEFUL, NULL, merge_main
@@ -137,7 +139,7 @@ static int collect_main(const pr_config *cfg, const void *opts, char *err)
 
 const cli_command cli_collect = {
 	"collect",
-	"poolreps collect SWEEP_DIR\n"
+	"poolreps collect [--allow-versions] SWEEP_DIR\n"
 	"  Merge every grid point's jobs into point-N/merged (as `merge` does) and write\n"
 	"  SWEEP_DIR/sweep_summary.csv: the grid values and the experiment's summary rows.\n"
 	"  Names the jobs not done if there are any.",

@@ -56,25 +56,20 @@ double *pr_cmd_matrix(const pr_csv *t, const int *cols, int k, char *err)
 int pr_cmd_weights(const pr_csv *t, int col, const char *name, const char *what, double **w,
                    char *err)
 {
-	long i, n = pr_csv_nrows(t);
-	double s = 0.0;
+	long i, n = pr_csv_nrows(t), bad;
+	char why[PR_ERRLEN];
 
 	if (!(*w = malloc(((size_t)n + 1) * sizeof **w)))
 		return pr_err(err, PR_ENOMEM, "out of memory");
-	for (i = 0; i < n; i++) {
+	for (i = 0; i < n; i++)
 		(*w)[i] = col >= 0 ? pr_csv_get(t, i, col) : 1.0;
-		if (!((*w)[i] >= 0.0))
-			return pr_err(err, PR_EINVAL, "%s:%ld: column '%s': %s must be >= 0 (got %g)",
-			              pr_csv_path(t), pr_csv_line(t, i), name, what, (*w)[i]);
-		s += (*w)[i];
-	}
-	if (!(s > 0.0))
-		return pr_err(err, PR_EINVAL, "%s: column '%s': %ss are all zero", pr_csv_path(t), name, what);
-	/* only their ratios matter, but a sum that overflows makes every share 0 */
-	if (!isfinite(s))
-		return pr_err(err, PR_EINVAL, "%s: column '%s': the %ss sum past the largest number: "
-		              "scale them down", pr_csv_path(t), name, what);
-	return PR_OK;
+	/* the library's check, which the Python binding runs too */
+	if (!pr_weights_check(*w, n, what, &bad, why))
+		return PR_OK;
+	if (bad >= 0)
+		return pr_err(err, PR_EINVAL, "%s:%ld: column '%s': %s", pr_csv_path(t), pr_csv_line(t, bad),
+		              name, why);
+	return pr_err(err, PR_EINVAL, "%s: column '%s': %s", pr_csv_path(t), name, why);
 }
 
 int pr_cmd_disjoint(const pr_csv *t, const int *a, int na, const char *an, const int *b, int nb,

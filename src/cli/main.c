@@ -218,7 +218,8 @@ static int pick_command(int argc, char **argv, int *op, int *help, const cli_giv
 	return 0;
 }
 
-/* Defaults, the parameter file, --set, --seed, then one validation. A run
+/* Defaults, the parameter file, --set and --seed in the order given (the
+ * last setting of a key wins), then one validation. A run
  * never reads another experiment's keys: a --set or --grid of one would
  * change nothing (a parameter file may hold them: one serves several). */
 static int load_config(const cli_command *cmd, const cli_common *c, const cli_given *g,
@@ -229,14 +230,15 @@ static int load_config(const cli_command *cmd, const cli_common *c, const cli_gi
 	pr_config_init(cfg, pr_exp_config);
 	if (c->config)
 		rc = pr_config_load(cfg, c->config, err);
-	for (i = 0; rc == PR_OK && i < c->nsets; ++i)
-		rc = pr_config_set(cfg, c->sets[i], err);
-	if (rc == PR_OK && c->seed) {
-		char buf[96];
-		snprintf(buf, sizeof buf, "experiment.seed=%.60s", c->seed);
-		rc = pr_config_set(cfg, buf, err);
-		if (rc)
-			pr_err(err, rc, "--seed %.60s: must be an integer in 0..4294967295", c->seed);
+	for (i = 0; rc == PR_OK && i <= c->nsets; ++i) {
+		if (c->seed && i == c->seed_at) {
+			char buf[96];
+			snprintf(buf, sizeof buf, "experiment.seed=%.60s", c->seed);
+			if ((rc = pr_config_set(cfg, buf, err)))
+				pr_err(err, rc, "--seed %.60s: must be an integer in 0..4294967295", c->seed);
+		}
+		if (rc == PR_OK && i < c->nsets)
+			rc = pr_config_set(cfg, c->sets[i], err);
 	}
 	if (rc == PR_OK)
 		rc = pr_config_validate(cfg, err);
@@ -363,7 +365,7 @@ int main(int argc, char **argv)
 	cli_given g;
 	cli_common c;
 	/* getopt_long permutes argv: provenance records the order as typed */
-	pr_provenance prov = {argc, calloc((size_t)argc + 1, sizeof *argv)};
+	pr_provenance prov = {argc, calloc((size_t)argc + 1, sizeof *argv), NULL};
 	char msg[CLI_MSGLEN] = "", **ops = NULL;
 	int help = 0, op = 0, nops = 0, code = 0, rc;
 	void *opts = NULL;

@@ -134,7 +134,7 @@ static void set_common(cli_common *c, const cli_opt *o, char *value)
 	switch (o->common) {
 	case CLI_AT_CONFIG: c->config = value; break;
 	case CLI_AT_SET: c->sets[c->nsets++] = value; break;
-	case CLI_AT_SEED: c->seed = value; break;
+	case CLI_AT_SEED: c->seed = value; c->seed_at = c->nsets; break;
 	case CLI_AT_PROGRESS: c->progress = 1; break;
 	}
 }

@@ -242,8 +242,11 @@ int pr_outdir_earlier_run(const char *dir, pr_names *out, char *err)
 
 	snprintf(path, sizeof path, "%s/provenance.txt", dir);
 	/* a fixed buffer, and only a regular file: never a FIFO or /dev/zero */
-	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode) || !(fp = fopen(path, "r")))
+	if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
 		return PR_OK;
+	/* unread, it would leave the run's files looking like the user's */
+	if (!(fp = fopen(path, "r")))
+		return pr_err(err, pr_errno_status(), "%s: cannot read: %s", path, strerror(errno));
 	if (prov_line(fp, line, sizeof line) <= 0 || strncmp(line, "version: ", 9) != 0) {
 		fclose(fp);
 		return PR_OK;
@@ -280,6 +283,73 @@ int pr_outdir_earlier_run(const char *dir, pr_names *out, char *err)
 	return PR_OK;
 }
 
+/* The versions of provenance record path into v (the builds that ran it:
+ * the list of a merge's "(runs by A, B)", else the version), noting in
+ * from[] the record k that brought the first two. */
+static int record_versions(const char *path, pr_names *v, int *from, int k, char *err)
+{
+	char line[1024], *p, *end;
+	FILE *fp = fopen(path, "r");
+	int r = fp ? prov_line(fp, line, sizeof line) : -1;
+
+	if (fp)
+		fclose(fp);
+	if (r <= 0 || strncmp(line, "version: ", 9) != 0)
+		return pr_err(err, PR_EIO, "%s:1: no 'version:' line", path);
+	p = line + 9;
+	if ((end = strstr(p, " (runs by ")) && line[strlen(line) - 1] == ')') {
+		p = end + 10;
+		line[strlen(line) - 1] = '\0';
+	} else if (end)
+		*end = '\0';
+	while (*p) {
+		size_t n = strcspn(p, ",");
+		char c = p[n];
+
+		p[n] = '\0';
+		if (!pr_names_has(v, p)) {
+			if (pr_names_add(v, p, n))
+				return pr_err(err, PR_ENOMEM, "out of memory");
+			if (v->n <= 2)
+				from[v->n - 1] = k;
+		}
+		p += n + (c != '\0');
+		p += strspn(p, " ");
+	}
+	return PR_OK;
+}
+
+/* See outdir.h. */
+int pr_outdir_versions(char *const *dirs, int n, int allow, char **list, char *err)
+{
+	pr_names v = {NULL, 0};
+	char path[PR_PATHLEN + 32];
+	int from[2] = {0, 0}, rc = PR_OK, k;
+	size_t len = 1;
+
+	*list = NULL;
+	for (k = 0; rc == PR_OK && k < n; ++k) {
+		snprintf(path, sizeof path, "%s/provenance.txt", dirs[k]);
+		rc = record_versions(path, &v, from, k, err);
+	}
+	if (rc == PR_OK && v.n > 1 && !allow)
+		rc = pr_err(err, PR_EINVAL, "%s/provenance.txt: poolreps %s, but %s/provenance.txt: poolreps %s "
+		            "(runs of different builds; --allow-versions merges them and lists every version)",
+		            dirs[from[1]], v.name[1], dirs[from[0]], v.name[0]);
+	for (k = 0; rc == PR_OK && k < v.n; ++k)
+		len += strlen(v.name[k]) + 2;
+	if (rc == PR_OK && (v.n > 1 || (v.n == 1 && strcmp(v.name[0], pr_version()) != 0))) {
+		if (!(*list = malloc(len)))
+			rc = PR_ENOMEM;
+		for (k = 0, len = 0; *list && k < v.n; ++k)
+			len += (size_t)sprintf(*list + len, "%s%s", k ? ", " : "", v.name[k]);
+	}
+	if (rc == PR_ENOMEM)
+		pr_err(err, PR_ENOMEM, "out of memory");
+	pr_names_free(&v);
+	return rc;
+}
+
 /* A run folder is published by renames inside it: a file there that is a
  * symbolic link would be replaced by a regular file (the link broken, its
  * target left stale), and a target in another folder or on another file
@@ -288,6 +358,14 @@ static int refuse_link(const char *path, char *err)
 {
 	return pr_err(err, PR_EIO, "%s: is a symbolic link: a run folder's files are not written through "
 	              "links (remove the link, or write the run elsewhere and link to it)", path);
+}
+
+/* A run replaces only what an earlier run listed as its own: a file of
+ * the user's (a parameter file in the folder, notes) is never overwritten. */
+static int refuse_foreign(const char *path, char *err)
+{
+	return pr_err(err, PR_EIO, "%s: exists, and no earlier poolreps run in this folder wrote it: "
+	              "the run would replace it (move it, or run into another folder)", path);
 }
 
 /* An exclusive lock on folder dir, waited for: flock on the folder itself;
@@ -404,6 +482,13 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 			else
 				p[s].had[i] = 1;
 		}
+	/* after the links and folders above, which a run never replaces either */
+	for (s = 0; s < n && rc == PR_OK; ++s)
+		for (i = 0; i < p[s].now.n && rc == PR_OK; ++i)
+			if (p[s].owns && p[s].had[i] && !pr_names_has(&p[s].old, p[s].now.name[i])) {
+				snprintf(to, sizeof to, "%s/%s", p[s].dir, p[s].now.name[i]);
+				rc = refuse_foreign(to, err);
+			}
 	for (s = 0; s < n && rc == PR_OK; ++s)
 		for (i = 0; i < p[s].now.n && rc == PR_OK; ++i) {
 			snprintf(from, sizeof from, "%s/%s", p[s].staging, p[s].now.name[i]);
@@ -536,7 +621,10 @@ static void provenance_text(FILE *fp, const void *arg)
 	gethostname(host, sizeof host - 1);
 	strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", gmtime(&now));
 	getrusage(RUSAGE_SELF, &ru);
-	fprintf(fp, "version: %s\n", pr_version());
+	fprintf(fp, "version: %s", pr_version());
+	if (p->prov->versions)
+		fprintf(fp, " (runs by %s)", p->prov->versions);
+	fputc('\n', fp);
 	fprintf(fp, "command:");
 	/* control characters escaped: an argument never starts a line of its own */
 	for (i = 0; i < p->prov->argc; ++i) {
@@ -629,6 +717,19 @@ int pr_outdir_run(const pr_config *cfg, const pr_provenance *prov, const char *d
 		snprintf(path, sizeof path, "%s/%s", dir, old.name[i]);
 		if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode))
 			rc = refuse_link(path, err);
+	}
+	/* the two files every run writes: refused before the work, not after */
+	for (i = 0; rc == PR_OK && i < 2; ++i) {
+		const char *own = i ? "config.ini" : "provenance.txt";
+		struct stat st;
+		char path[2 * PR_PATHLEN];
+		snprintf(path, sizeof path, "%s/%s", dir, own);
+		if (lstat(path, &st) != 0)
+			continue;
+		if (S_ISLNK(st.st_mode))
+			rc = refuse_link(path, err);
+		else if (S_ISREG(st.st_mode) && !pr_names_has(&old, own))
+			rc = refuse_foreign(path, err);
 	}
 	pr_names_free(&old);
 	if (rc == PR_OK && mkdir(staging, 0777) != 0)

@@ -30,6 +30,11 @@ int pr_outdir_own_name(const char *name, size_t k);
  * that is not "version: "); a record that starts like one and then departs
  * from it is refused (exit 2): it was not written by poolreps. */
 int pr_outdir_earlier_run(const char *dir, pr_names *out, char *err);
+/* The poolreps versions that ran the run folders dirs[0..n-1] (their
+ * provenance.txt's first line; a merge's own list). More than one is
+ * refused (PR_EINVAL, naming two folders) unless allow. *list: NULL when
+ * the only one is this build's, else "A, B" (free()). */
+int pr_outdir_versions(char *const *dirs, int n, int allow, char **list, char *err);
 /* The file names of folder dir (not starting with '.'), sorted, with
  * provenance.txt last: it marks a complete run. */
 int pr_outdir_list(const char *dir, pr_names *out, char *err);

@@ -402,7 +402,10 @@ static int check_cells(const pr_rundir_args *a, const pr_config *cfg, int nv, ch
 
 int pr_rundir_merge(const pr_rundir_args *a, char *err)
 {
-	static const char *const may_differ[] = {"experiment.repetition", "experiment.variant", NULL};
+	/* threads change no output byte (docs/cluster.md) */
+	static const char *const may_differ[] = {"experiment.repetition", "experiment.variant",
+	                                         "experiment.threads", NULL};
+	pr_provenance prov = a->prov;
 	pr_config cfg, other;
 	pr_variants variants;
 	char key[64], va[160], vb[160];
@@ -425,14 +428,16 @@ int pr_rundir_merge(const pr_rundir_args *a, char *err)
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
 		else if (d)
 			rc = pr_err(err, PR_EINVAL, "%s/config.ini: %s = %s, but %s/config.ini has %s (merged "
-			            "runs may differ only in experiment.repetition and experiment.variant)",
-			            a->inputs[k], key, vb, a->inputs[0], va);
+			            "runs may differ only in experiment.repetition, experiment.variant and "
+			            "experiment.threads)", a->inputs[k], key, vb, a->inputs[0], va);
 	}
 	cfg.run.variant = -1;
 	if (rc == PR_OK)
 		rc = pr_exp_variants(&cfg, &variants, err);
 	if (rc == PR_OK)
 		rc = check_cells(a, &cfg, variants.n, err);
+	if (rc == PR_OK)
+		rc = pr_outdir_versions(a->inputs, a->ninputs, a->allow_versions, (char **)&prov.versions, err);
 	if (rc)
 		return rc;
 	/* writing into one of the inputs would replace what is being read */
@@ -443,11 +448,14 @@ int pr_rundir_merge(const pr_rundir_args *a, char *err)
 		free(in);
 		if (rc) {
 			free(out);
+			free((char *)prov.versions);
 			return pr_err(err, PR_EINVAL, "merge: -o %s is also an input folder", a->output);
 		}
 	}
 	free(out);
 	cfg.run.repetition = -1;
 	cfg.run.variant = -1;
-	return pr_outdir_run(&cfg, &a->prov, a->output, merge_work, a, err);
+	rc = pr_outdir_run(&cfg, &prov, a->output, merge_work, a, err);
+	free((char *)prov.versions);
+	return rc;
 }

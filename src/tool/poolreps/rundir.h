@@ -20,6 +20,7 @@ typedef struct {
 	char **grid;
 	const char *split;    /* sweep: repetition|variant|both, NULL = repetition */
 	pr_progress progress; /* run: progress reports ({NULL, NULL}: none) */
+	int allow_versions;   /* merge, collect: runs of different builds allowed */
 	pr_provenance prov;
 } pr_rundir_args;
 
