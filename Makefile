@@ -310,14 +310,17 @@ check-py: export POOLREPS_STAGE := $(STAGE)
 # runtimes preloaded: the binding's tests run apart, with them and with the
 # interpreter's own leaks suppressed (the pip test needs no second run)
 ifeq ($(SAN),1)
-check-py: export PYTEST_ADDOPTS := --ignore=tests/test_python.py --ignore=tests/test_python_install.py --ignore=tests/test_gym.py
+# the test files that import the package when pytest collects them
+PYBIND_TESTS := tests/test_python.py tests/test_gym.py tests/test_api_strict.py \
+  tests/test_learner_python.py tests/test_runtime_libs.py tests/test_shot_params.py
+check-py: export PYTEST_ADDOPTS := $(patsubst %,--ignore=%,$(PYBIND_TESTS)) --ignore=tests/test_python_install.py
 check-py: check-pybind
 check-pybind: $(SOLIB) $(BUILD)/poolreps
 	PYTEST_ADDOPTS= LC_ALL=C POOLREPS=$(abspath $(BUILD)/poolreps) POOLREPS_LIB=$(abspath $(SOLIB)) \
 	  LD_PRELOAD="$(shell $(CC) -print-file-name=libasan.so) $(shell $(CC) -print-file-name=libubsan.so)" \
 	  LSAN_OPTIONS=suppressions=$(abspath tests/lsan-python.supp):print_suppressions=0 \
 	  $(PYTHON) -m pytest -q -p no:cacheprovider -m "not native" \
-	  -k "not fast_enough" tests/test_python.py tests/test_gym.py
+	  -k "not fast_enough" $(PYBIND_TESTS)
 endif
 
 # Experiment 5 (docs/baselines.md): SB3 (CPU torch) and pycma from PyPI in
