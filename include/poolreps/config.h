@@ -97,4 +97,8 @@ void pr_config_learner_opts(const pr_config *c, pr_learner_opts *o);
 /* Checks that involve several keys (e.g. n_c <= n_min, boxes inside the table). */
 int pr_config_validate(const pr_config *c, char *err);
 
+/* 1 if key ("section.key") is in list, a comma list of whole names and of
+ * sections ending in '.': "forest.,experiment.seed". */
+int pr_config_key_listed(const char *list, const char *key);
+
 #endif

@@ -46,10 +46,9 @@ int pr_forest_nsamples(const pr_forest *f);
 int pr_forest_dx(const pr_forest *f);
 int pr_forest_dy(const pr_forest *f);
 
-/* Forest prediction, eq. 4.2-4.3: y (dy values) = mean over trees of leaf means. */
-void pr_forest_predict(const pr_forest *f, const double *x, double *y);
-/* The same for nq row-major inputs X (nq x dx) into Y (nq x dy); faster
- * than nq single calls (tree-major order keeps each tree in cache). */
+/* Forest prediction, eq. 4.2-4.3, for nq row-major inputs X (nq x dx) into
+ * Y (nq x dy): the mean over trees of leaf means (tree-major order keeps
+ * each tree in cache). */
 void pr_forest_predict_many(const pr_forest *f, const double *X, int nq, double *Y);
 
 /* Active leaves (eq. 5.1-5.4) of an input with dq <= dx leading dimensions;

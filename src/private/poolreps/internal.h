@@ -62,9 +62,6 @@ int pr_config_write(const pr_config *c, FILE *fp);
 /* List the keys of schema with default, unit and range: every key, or only
  * those in the list `only` (as pr_config_key_listed reads it). */
 void pr_config_help(pr_config_schema schema, const char *only, FILE *fp);
-/* 1 if key ("section.key") is in list, a comma list of whole names and of
- * sections ending in '.': "forest.,experiment.seed". */
-int pr_config_key_listed(const char *list, const char *key);
 /* 1 if "section.key" is a key of another experiment's block than the one
  * experiment.name of c names (that experiment never reads it). */
 int pr_config_key_elsewhere(const pr_config *c, const char *key);
@@ -93,6 +90,8 @@ const pr_experiment *pr_exp_at(int i);
 int pr_exp_check_variant(const pr_config *cfg, int n, char *err);
 
 /* ---- beside forest.h ---- */
+/* Forest prediction, eq. 4.2-4.3: y (dy values) = mean over trees of leaf means. */
+void pr_forest_predict(const pr_forest *f, const double *x, double *y);
 /* Nodes of all trees in preorder; tree t's root is node pr_forest_tree_node0(f, t).
  * pr_forest_node gives an internal node's test [x_dim < thr] and its right
  * child (the left child is node + 1), or for a leaf dim = -1, thr = 0 and
