@@ -7,6 +7,7 @@ numbers: a piece stays if it makes the whole command at least 1.3 times as
 fast (CPU seconds for the one-thread pieces, wall seconds for the threads).
 
     scripts/bench_csv_read.py --write | --check"""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import csv
 import os
 import statistics

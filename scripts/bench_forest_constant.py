@@ -17,6 +17,7 @@ nodes (docs/forest.md, "Constant columns").
 The rule, stated before computing it: per tool, the mean over the 20 seeds
 of test MSE / sklearn's test MSE on the same data set, with a 95 % t
 interval over the seeds; the tools agree when the interval holds 1."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import csv
 import math
 import os

@@ -12,6 +12,7 @@
    binding's overhead beyond the update. pycma's es.ask() + es.tell() at
    population 100 in 2-D beside it when `cma` imports (build/venv).
 Prints one markdown row per measurement; ROUNDS rounds, medians."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import ctypes
 import os

@@ -18,6 +18,7 @@ says timeout. CSV (--csv) per shape and solver: n, d, solver, seconds,
 peak_mib, status, path, max_abs_dp (against scipy when both answered),
 load1 (the 1-minute load average when the row was measured: the machine
 is shared, numbers under a load above the core count are contended)."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import os

@@ -9,6 +9,7 @@ ratio (both measured in the same round, so under the same load).
   bench_vector_table.py --write [CSV]    put it into docs/python.md, between
                                          the bench_vector markers
   bench_vector_table.py --check [CSV]    exit 1 if it differs"""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import os
 import statistics
 import sys

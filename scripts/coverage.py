@@ -12,6 +12,7 @@ libpoolreps.so) and then prints this table: for every .c file of src/ (the
 library, src/tool and src/cli) gcov's count of executable lines and of
 lines run, lowest first, then the total. A file compiled but never run
 counts as 0 %. Exit 1 when no file has data (nothing ran)."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import csv
 import os
 import pathlib

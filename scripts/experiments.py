@@ -7,6 +7,7 @@ registry's order. The list lives in the library (src/exp.c) and nowhere else.
 
 The binary is $POOLREPS, else ./poolreps or build/rel/poolreps of this
 tree, else poolreps on PATH (an installed copy)."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import csv
 import io
 import os

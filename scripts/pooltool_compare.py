@@ -17,6 +17,7 @@ N(0, 0.1^2 I), and the ghost-ball expert's shots from Experiment 2's region
 the inputs, poolreps' and pooltool's pocket of each ball and final positions.
 pooltool writes its settings under $HOME/.config/pooltool on import: set HOME
 to a folder under build/."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import io

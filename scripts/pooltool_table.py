@@ -13,6 +13,7 @@ at 0: about 2e-5 m). Per family: the count, the share with its exact
 met by the share. A shot whose pooltool ball ends off the table (a centre
 beyond the cushion lines) is counted as a disagreement and counted apart.
 Exit 1 with --check when the block differs."""
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
 import os

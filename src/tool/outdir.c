@@ -290,10 +290,19 @@ static int record_versions(const char *path, pr_names *v, int *from, int k, char
 {
 	char line[1024], *p, *end;
 	FILE *fp = fopen(path, "r");
-	int r = fp ? prov_line(fp, line, sizeof line) : -1;
+	int r, e;
 
-	if (fp)
-		fclose(fp);
+	/* a failed open or read (out of memory, an I/O error) is not a record
+	 * without a version */
+	if (!fp)
+		return pr_err(err, pr_errno_status(), "%s: cannot read: %s", path, strerror(errno));
+	r = prov_line(fp, line, sizeof line);
+	e = ferror(fp) ? errno : 0;
+	fclose(fp);
+	if (e) {
+		errno = e;
+		return pr_err(err, pr_errno_status(), "%s: cannot read: %s", path, strerror(e));
+	}
 	if (r <= 0 || strncmp(line, "version: ", 9) != 0)
 		return pr_err(err, PR_EIO, "%s:1: no 'version:' line", path);
 	p = line + 9;
