@@ -79,6 +79,8 @@ def test_nlopt_certifies_most_active_problems():
 
 
 def test_python_solver_argument():
+    if os.environ.get("SAN") == "1" and "libasan" not in os.environ.get("LD_PRELOAD", ""):
+        pytest.skip("the sanitized library loads only with its runtimes preloaded")
     poolreps = pytest.importorskip("poolreps")
     rng = np.random.default_rng(4)
     phi = rng.normal(size=(200, 3))
