@@ -122,14 +122,15 @@ static int win_alloc(const pr_learner *L, win *w, int n, int lc, int dy, int dg,
 	memset(w, 0, sizeof *w);
 	w->n = n;
 	w->lc = lc;
-	w->X = malloc(m * L->dx * sizeof *w->X);
-	w->A = malloc(m * L->da * sizeof *w->A);
-	w->R = malloc(m * sizeof *w->R);
-	w->Y = dy ? malloc(m * dy * sizeof *w->Y) : NULL;
-	w->G = dg ? malloc(m * dg * sizeof *w->G) : NULL;
-	w->mu = mu ? malloc(m * L->da * sizeof *w->mu) : NULL;
-	w->lp = malloc(m * (lc > 0 ? (size_t)lc : 1) * sizeof *w->lp);
-	w->it = malloc(m * sizeof *w->it);
+	/* zeroed: an ask's window has no returns yet, and is saved as it is */
+	w->X = calloc(m * L->dx, sizeof *w->X);
+	w->A = calloc(m * L->da, sizeof *w->A);
+	w->R = calloc(m, sizeof *w->R);
+	w->Y = dy ? calloc(m * dy, sizeof *w->Y) : NULL;
+	w->G = dg ? calloc(m * dg, sizeof *w->G) : NULL;
+	w->mu = mu ? calloc(m * L->da, sizeof *w->mu) : NULL;
+	w->lp = calloc(m * (lc > 0 ? (size_t)lc : 1), sizeof *w->lp);
+	w->it = calloc(m, sizeof *w->it);
 	if (!w->X || !w->A || !w->R || (dy && !w->Y) || (dg && !w->G) || (mu && !w->mu) ||
 	    !w->lp || !w->it) {
 		win_free(w);
@@ -1049,6 +1050,7 @@ int pr_learner_save(const pr_learner *L, unsigned char **buf, size_t *len, char 
 	const pr_learner_opts *o = &L->o;
 	const pr_learner_summary *s = &L->last;
 	const char *name = gsl_rng_name(L->rng);
+	char reason[sizeof s->reason] = {0};
 	wbuf b = {NULL, 0, 0, 0};
 	int k;
 
@@ -1085,7 +1087,9 @@ int pr_learner_save(const pr_learner *L, unsigned char **buf, size_t *len, char 
 	PUT_I(s->status) PUT_I(s->flags)
 	PUT_D(s->eta) PUT_D(s->kl) PUT_D(s->ess) PUT_D(s->q_ess) PUT_D(s->residual)
 	PUT_D(s->kl_gap) PUT_D(s->residual_rel)
-	put(&b, s->reason, sizeof s->reason);
+	/* the reason's bytes after its NUL as zeros: the same state, the same bytes */
+	memcpy(reason, s->reason, strnlen(s->reason, sizeof reason - 1));
+	put(&b, reason, sizeof reason);
 	put_i(&b, L->names ? L->dx + L->da : 0);
 	for (k = 0; L->names && k < L->dx + L->da; ++k) {
 		put_i(&b, (int)strlen(L->names[k]));

@@ -43,6 +43,7 @@ def test_too_large_for_memory_fails_before_allocating():
     assert float(out[0].split()[-1]) < 1.0
 
 
+@pytest.mark.native  # a latency of the bare process (valgrind is slower)
 def test_interrupted_wide_solve_exits_within_half_a_second(tmp_path):
     """SIGINT during a wide solve (n = 1200, d = 3000: the span's LAPACK
     calls, which do not poll for signals, take seconds): exit 130 within
