@@ -99,6 +99,19 @@ static int add_state(pr_outset *set, const char *path, const pr_learner *L, char
 	return rc;
 }
 
+/* After a step that ended with rc: the state of L alone into path, written
+ * under a temporary name and renamed (nothing written unless rc is PR_OK). */
+static int commit_state(const char *path, const pr_learner *L, int rc, char *err)
+{
+	pr_outset *set = NULL;
+
+	if (rc == PR_OK && !(set = pr_outset_new(err)))
+		rc = PR_ENOMEM;
+	if (rc == PR_OK)
+		rc = add_state(set, path, L, err);
+	return pr_outset_commit(set, rc, err);
+}
+
 /* A comma list of column names into names[*n] (pointers into *copy). */
 static int split(const char *list, const char *opt, char **copy, const char ***names, int *n,
                  char *err)
@@ -134,7 +147,6 @@ static int learner_new(const pr_config *cfg, const learner_args *a, gsl_rng *rng
 	int dx = 0, da = 0, rc;
 	pr_learner_opts o;
 	pr_learner *L = NULL;
-	pr_outset *set = NULL;
 
 	pr_config_learner_opts(cfg, &o);
 	if (!(rc = split(a->context, "--context", &cc, &cn, &dx, err)) &&
@@ -149,11 +161,7 @@ static int learner_new(const pr_config *cfg, const learner_args *a, gsl_rng *rng
 		memcpy(all + dx, an, (size_t)da * sizeof *all);
 		rc = pr_learner_set_names(L, all, err);
 	}
-	if (rc == PR_OK && !(set = pr_outset_new(err)))
-		rc = PR_ENOMEM;
-	if (rc == PR_OK)
-		rc = add_state(set, a->ops[1], L, err);
-	rc = pr_outset_commit(set, rc, err);
+	rc = commit_state(a->ops[1], L, rc, err);
 	pr_learner_free(L);
 	free(cc);
 	free(ac);
@@ -266,7 +274,6 @@ static int learner_tell(const learner_args *a, pr_learner *L, char *err)
 	const char *const *names = pr_learner_names(L);
 	pr_learner_batch b;
 	pr_csv *t = NULL;
-	pr_outset *set = NULL;
 	double *X = NULL, *A = NULL, *R = NULL, *G = NULL, *Y = NULL;
 	int rc, rcol = -1;
 
@@ -291,11 +298,7 @@ static int learner_tell(const learner_args *a, pr_learner *L, char *err)
 		b.returns = R;
 		rc = pr_learner_tell_batch(L, &b, err);
 	}
-	if (rc == PR_OK && !(set = pr_outset_new(err)))
-		rc = PR_ENOMEM;
-	if (rc == PR_OK)
-		rc = add_state(set, a->ops[1], L, err);
-	rc = pr_outset_commit(set, rc, err);
+	rc = commit_state(a->ops[1], L, rc, err);
 	pr_csv_free(t);
 	free(X);
 	free(A);
