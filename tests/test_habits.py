@@ -49,5 +49,36 @@ def test_docs_a_reader_can_hold():
     """The README at most 220 lines, no page of docs/ over 30 KB (generated
     tables of numbers belong in CSV files or the report page)."""
     assert len((ROOT / "README.md").read_text().splitlines()) <= 220
-    big = [p.name for p in sorted((ROOT / "docs").glob("*.md")) if p.stat().st_size > 30 * 1024]
+    big = [p.name for p in sorted((ROOT / "docs").rglob("*.md")) if p.stat().st_size > 30 * 1024]
     assert big == []
+
+
+DOCS_TOTAL_MAX = 200 * 1024   # bytes of Markdown in docs/, every folder
+
+
+def docs_total_problem(sizes, limit=DOCS_TOTAL_MAX):
+    """None when the pages fit in `limit` bytes; otherwise one message naming
+    the total and the five largest pages."""
+    total = sum(sizes.values())
+    if total <= limit:
+        return None
+    largest = sorted(sizes.items(), key=lambda kv: (-kv[1], kv[0]))[:5]
+    pages = ", ".join(f"{name} {size / 1024:.1f} KB" for name, size in largest)
+    return (f"docs/**/*.md hold {total / 1024:.1f} KB, over {limit / 1024:.0f} KB; "
+            f"largest: {pages}")
+
+
+# DOCS TOTAL: the whole of docs/ a reader can hold (fails until every page is short).
+def test_docs_total_at_most_200_kb():
+    docs = ROOT / "docs"
+    sizes = {str(p.relative_to(docs)): p.stat().st_size for p in sorted(docs.rglob("*.md"))}
+    assert sizes
+    problem = docs_total_problem(sizes)
+    assert problem is None, problem
+
+
+def test_the_total_check_names_the_total_and_the_largest_pages():
+    assert docs_total_problem({"a.md": 100, "b.md": 200}, limit=300) is None
+    msg = docs_total_problem({"a.md": 1024, "b.md": 2048, "c.md": 512}, limit=3000)
+    assert msg == ("docs/**/*.md hold 3.5 KB, over 3 KB; "
+                   "largest: b.md 2.0 KB, a.md 1.0 KB, c.md 0.5 KB")
