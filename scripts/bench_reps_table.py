@@ -1,17 +1,15 @@
 #!/usr/bin/env python3
 """Markdown table of scripts/bench_reps.py's CSV (default docs/bench_reps.csv):
-per problem, each solver's seconds, the ratios scipy / it for both scipy
-peers (numpy's BLAS, and Debian's reference BLAS), its status and
-certificate, max |p - p_scipy| and the dual's evaluations; then the targets
+per solver, its seconds on each problem and the ratio scipy / it (numpy's
+BLAS), the failed certificates and the largest |p - p_scipy|; then the targets
 against each peer and the previous poolreps (when the CSV has it) in words
 made from the same numbers, and the rank-k update alone against OpenBLAS
 (syrk.csv or bench_syrk.csv beside the CSV, or --syrk).
 
   bench_reps_table.py [CSV]            print the table and the summary
-  bench_reps_table.py --write [CSV]    put them into docs/benchmarks.md and
-                                       docs/choices.md, between the bench_reps
-                                       markers
-  bench_reps_table.py --check [CSV]    exit 1 if either differs"""
+  bench_reps_table.py --write [CSV]    put them into docs/benchmarks.md,
+                                       between the bench_reps markers
+  bench_reps_table.py --check [CSV]    exit 1 if it differs"""
 import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import csv
@@ -21,7 +19,7 @@ import sys
 import doc_block
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DOCS = [os.path.join(ROOT, "docs", n) for n in ("benchmarks.md", "choices.md")]
+DOCS = [os.path.join(ROOT, "docs", "benchmarks.md")]
 # problem: the ratio scipy / poolreps to reach, and the runs it is judged on
 TARGETS = {"dense140": (1.0, ["poolreps-newton", "poolreps-newton-threads1"]),
            "dense200": (2.0, ["poolreps-newton-inprocess", "poolreps-newton",
@@ -69,16 +67,25 @@ def render(rows, syrk=None):
     peer = {s: {r["problem"]: float(r["seconds"]) for r in rows if r["solver"] == s} for s in PEERS}
     blas = {r["solver"]: r["blas"] for r in rows if r["solver"] in PEERS}
     sec = {(r["problem"], r["solver"]): float(r["seconds"]) for r in rows}
-    out = ["| problem | n | d | eps | solver | seconds | scipy / solver | refblas scipy / solver | "
-           "status | kl_gap | residual_rel | max abs p - p_scipy | evaluations |",
-           "|---|---:|---:|---:|---|---:|---:|---:|---|---:|---:|---:|---:|"]
-    for r in rows:
-        ratios = [f"{peer[s][r['problem']] / float(r['seconds']):.2f}" if r["problem"] in peer[s] else "-"
-                  for s in PEERS]
-        out.append(f"| {r['problem']} | {r['n']} | {r['d']} | {float(r['eps']):g} | {r['solver']} | "
-                   f"{float(r['seconds']):.3g} | {ratios[0]} | {ratios[1]} | {r['status'] or '-'} | "
-                   f"{r['kl_gap'] or '-'} | {r['residual_rel'] or '-'} | {r['max_abs_p_diff'] or '-'} | "
-                   f"{r.get('evaluations') or '-'} |")
+    probs = list(dict.fromkeys(r["problem"] for r in rows))
+    solvers = list(dict.fromkeys(r["solver"] for r in rows))
+    first = {p: next(r for r in rows if r["problem"] == p) for p in probs}
+    out = ["Problems: " + "; ".join(f"{p} n = {first[p]['n']}, d = {first[p]['d']}, "
+                                    f"ε = {float(first[p]['eps']):g}" for p in probs)
+           + ". Seconds, and in brackets scipy (numpy's BLAS) / solver; every status, "
+           "certificate and evaluation count is in the CSV.", "",
+           "| solver | " + " | ".join(probs) + " |", "|---|" + "---:|" * len(probs)]
+    for s in solvers:
+        cells = [f"{sec[p, s]:.3g} ({peer[PEERS[0]][p] / sec[p, s]:.2f}×)"
+                 if (p, s) in sec and p in peer[PEERS[0]] else
+                 (f"{sec[p, s]:.3g}" if (p, s) in sec else "-") for p in probs]
+        out.append(f"| {s} | " + " | ".join(cells) + " |")
+    failed = [f"{r['solver']} on {r['problem']} ({r['status']})" for r in rows
+              if r["status"] and r["status"] != "active"]
+    diffs = [float(r["max_abs_p_diff"]) for r in rows
+             if r["solver"].startswith("poolreps-newton") and r["max_abs_p_diff"]]
+    out += ["", ("Certificate failed: " + "; ".join(failed) + ". " if failed else "")
+            + (f"Newton's weights are within {max(diffs):.2g} of scipy's." if diffs else "")]
     for s in PEERS:
         if peer[s]:
             out += ["", targets(peer[s], sec, s, blas[s])]

@@ -142,18 +142,15 @@ def blocks():
              f"cores measured from /proc/stat: {busy:.0%}): **{total:.1f} s**, "
              f"of which the build {sec['build']:.1f} s and Experiment 4 {sec['exp4: run']:.1f} s. "
              f"Experiment 4 runs in the background from the start, the other runs and the "
-             f"figures (one process) beside it, so the steps below overlap: their walls sum to "
+             f"figures (one process) beside it, so the steps overlap: their walls sum to "
              f"{runs:.1f} s for the runs and {figs:.1f} s for the figures.",
-             "", "| step | wall s |", "|---|---:|"]
-    lines += [f"| {r['step']} | {float(r['seconds']):.2f} |" for r in rep]
+             "Every step's wall time is in docs/data/timing_reproduce.csv."]
     where = "the same machine" if chk[0]["machine"].startswith("idle") else \
         "the same machine, busy with other work"
     lines += ["", f"`make check` on {where}: **{check:.0f} s** wall"
               + (f" (pytest {chk[1]['machine']} in {float(chk[1]['seconds']):.0f} s on "
                  "2 workers)" if len(chk) > 1 and chk[1]["what"] == "pytest" else "")
-              + "; its 10 slowest tests:", "", "| test | s |", "|---|---:|"]
-    lines += [f"| `{r['what']}` | {float(r['seconds']):.1f} |" for r in chk
-              if r["what"] not in ("make check", "pytest")]
+              + "; its 10 slowest tests are in docs/data/timing_check.csv."]
     lines += ["", history_sentence()]
     out["table"] = "\n".join(lines)
     return out

@@ -30,3 +30,35 @@ def test_every_other_file_is_named():
 
 def test_the_readme_points_to_the_index():
     assert "(docs/README.md)" in (ROOT / "README.md").read_text(encoding="utf-8")
+
+
+def anchors(text):
+    """GitHub's anchors of a page's headings: lower case, punctuation
+    dropped, spaces to hyphens, a repeated heading numbered."""
+    seen, out = {}, set()
+    for h in re.findall(r"^#+ (.+?)\s*$", re.sub(r"```.*?```", "", text, flags=re.S), flags=re.M):
+        slug = re.sub(r"[^\w\- ]", "", h.strip().lower().replace("`", "")).replace(" ", "-")
+        n = seen.get(slug, 0)
+        seen[slug] = n + 1
+        out.add(slug if n == 0 else f"{slug}-{n}")
+    return out
+
+
+def test_every_link_between_pages_lands():
+    """Every relative link of README.md and docs/**/*.md names a file that
+    exists and, after #, a heading of that page."""
+    pages = [ROOT / "README.md"] + sorted(DOCS.rglob("*.md"))
+    bad = []
+    for page in pages:
+        text = page.read_text(encoding="utf-8")
+        for target in re.findall(r"\]\(([^)\s]+)\)", re.sub(r"```.*?```", "", text, flags=re.S)):
+            if re.match(r"[a-z]+:", target):
+                continue
+            path, _, anchor = target.partition("#")
+            dest = (page.parent / path).resolve() if path else page
+            if not dest.exists():
+                bad.append(f"{page.relative_to(ROOT)}: {target}: no such file")
+            elif anchor and dest.suffix == ".md" and \
+                    anchor not in anchors(dest.read_text(encoding="utf-8")):
+                bad.append(f"{page.relative_to(ROOT)}: {target}: no such heading")
+    assert bad == []
