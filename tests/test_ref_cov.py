@@ -1,6 +1,6 @@
 """Differential tests: the linear weighted-ML fit with both covariance
 centres (policy.cov_center = new | old) and contextual CMA-ES, against
-numpy references written from the equations in docs/reps_policy.md (no code
+numpy references written from the equations in docs/policies.md (no code
 shared with the C). The C side runs through tests/ref_driver.c, built next to
 the binary under test ($POOLREPS: build/<kind>/poolreps ->
 build/<kind>/tests/ref_driver; `make check` builds it).
@@ -52,7 +52,7 @@ def features(kind, S):
 
 
 def ref_wls(kind, S, A, w, lam):
-    """The mean of the weighted ML fit (eq. 3.10) as docs/reps_policy.md
+    """The mean of the weighted ML fit (eq. 3.10) as docs/policies.md
     defines it: w normalised to sum 1, features psi(s - c) of the states
     about their weighted mean c; minimise sum_i w_i |a_i - W psi_i|^2 +
     lam sum_j v_j |W_j|^2 over the columns j of the non-constant features,
@@ -227,7 +227,7 @@ def test_fit_old_without_means_refused(tmp_path):
 # ---- contextual CMA-ES ----
 
 class RefCCMAES:
-    """Contextual CMA-ES from the equations of docs/reps_policy.md."""
+    """Contextual CMA-ES from the equations of docs/policies.md."""
 
     def __init__(self, W0, sigma0, lam, ds):
         self.W = np.array(W0, dtype=float)

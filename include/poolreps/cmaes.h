@@ -13,7 +13,7 @@
  *   3. the new mean by weighted linear regression of x on psi(s) with d;
  *   4. cumulative step-size adaptation and the rank-one and contextual
  *      rank-mu covariance updates around the OLD mean W_old psi(s_i).
- * Equations and constants: docs/reps_policy.md and the comments in cmaes.c.
+ * Equations and constants: docs/policies.md and the comments in cmaes.c.
  * The module draws nothing: pr_cmaes_policy gives the search distribution
  * as a pr_policy, which samples with the caller's gsl_rng.
  */
