@@ -9,8 +9,8 @@
 # (scripts/first_row.py). forest and policy are fitted on 500 other rows
 # (forest: targets vx,vy; policy: state x0,y0, action vx,vy). CSV:
 # build/bench/stream.csv (copy it to docs/bench_stream.csv, then
-# `scripts/bench_stream_table.py --write` updates docs/benchmarks.md and
-# docs/hardening.md). SIZES overrides the row counts, CMDS the commands,
+# `scripts/bench_stream_table.py --write` updates docs/benchmarks.md).
+# SIZES overrides the row counts, CMDS the commands,
 # VERSIONS the versions (one of them: no table) and OUT the CSV, so that
 # parts can run side by side on a busy machine and be concatenated.
 set -e

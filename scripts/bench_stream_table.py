@@ -7,9 +7,8 @@ count against 1.5 times the smallest one's; and of scripts/bench_header.sh's
 (docs/bench_header.csv): the median seconds of both versions and their ratio.
 
   bench_stream_table.py [--header CSV] [CSV]    print both
-  bench_stream_table.py --write                 put them into docs/benchmarks.md
-                                                and docs/hardening.md, between
-                                                the bench_stream and
+  bench_stream_table.py --write                 put them into docs/benchmarks.md,
+                                                between the bench_stream and
                                                 bench_header markers
   bench_stream_table.py --check                 exit 1 if any differs"""
 import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
@@ -22,7 +21,7 @@ import sys
 import doc_block
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DOCS = [os.path.join(ROOT, "docs", n) for n in ("benchmarks.md", "hardening.md")]
+DOCS = [os.path.join(ROOT, "docs", "benchmarks.md")]
 NAMES = {"shoot": "`shoot`", "forest": "`forest --test`", "policy": "`policy -i`"}
 
 
@@ -67,7 +66,7 @@ def main():
     a = ap.parse_args()
     blocks = []
     for name, path, fn, docs in (("bench_stream", a.csv, render, DOCS),
-                                 ("bench_header", a.header, render_header, DOCS[:1])):
+                                 ("bench_header", a.header, render_header, DOCS)):
         if os.path.exists(path) or a.write or a.check:
             with open(path, newline="") as f:
                 blocks.append((name, path, fn(list(csv.DictReader(f))), docs))

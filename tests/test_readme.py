@@ -89,7 +89,7 @@ def test_exp4_benchmark_text_is_the_recorded_measurement():
 
 
 def test_stream_benchmark_text_is_the_recorded_measurement():
-    """docs/benchmarks.md's and docs/hardening.md's streaming table and the
+    """docs/benchmarks.md's streaming table and the
     100 000-column header sentence are what scripts/bench_stream_table.py
     makes of docs/bench_stream.csv and docs/bench_header.csv."""
     p = run_cmd(["/usr/bin/env", "python3", str(ROOT / "scripts" / "bench_stream_table.py"),
