@@ -15,24 +15,20 @@ page() {
 	cat <<'HEAD'
 # Parameters
 
-Parameter files are INI (`data/*.ini`); `poolreps config` writes the effective
-configuration in the same form. Every key has a default and, where they apply, a
-range and a unit. `--set section.key=value` overrides any key after the file, and
-a command's `--help` lists the keys it reads. Errors name `file:line:
-section.key`.
+Which keys there are, with default, unit and range. Parameter files are INI
+(`data/*.ini`; `poolreps config` writes the effective one); `--set section.key=value`
+overrides a key after the file; a command's `--help` lists the keys it reads. Some
+defaults follow `experiment.name` (the meaning says so), until the key is set.
+Why each default: [choices.md](choices.md).
 
-A parameter file that sets only `experiment.name` runs that experiment's setup:
-some defaults depend on the experiment (the help text names them, e.g. `value.trees`
-is 10 for exp3), until the key is set in the file or with `--set`.
-
-This page is generated from `poolreps --help-keys` by `make man`
-(`scripts/gen-params.sh`); a test fails when they differ. Lines read
-`section.key = default [unit] range: meaning`; a range in parentheses excludes
-that bound, braces list the choices.
+Generated from `poolreps --help-keys` by `make man` (`scripts/gen-params.sh`); a test
+fails when they differ. Lines read `section.key = default [unit] range: meaning`; a
+range in parentheses excludes that bound, braces list the choices.
 
 ```
 HEAD
-	printf '%s\n' "$keys"
+	# one blank before '=': the page lists keys, it need not align them
+	printf '%s\n' "$keys" | sed 's/^\(  [a-z0-9_.]*\)  *= /\1 = /'
 	printf '```\n'
 }
 
