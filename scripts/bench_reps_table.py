@@ -32,16 +32,24 @@ RUN_WORDS = {"poolreps-newton": "whole process", "poolreps-newton-inprocess": "i
 PEERS = ["scipy-trust-exact", "scipy-trust-exact-refblas"]
 
 
-def targets(sc, sec, peer, blas):
-    """The targets' sentence against one scipy peer."""
-    goals = []
+def targets(peer, sec, blas):
+    """The targets as a table: per problem and run, the ratio scipy / poolreps
+    Newton against each scipy peer, and whether it meets the target."""
+    heads = [f"scipy on {blas[s]} / Newton" for s in PEERS if peer[s]]
+    out = ["| target | " + " | ".join(heads) + " |", "|---|" + "---|" * len(heads)]
     for prob, (target, runs) in TARGETS.items():
         for run in runs:
-            if (prob, run) in sec and prob in sc:
-                ratio = sc[prob] / sec[prob, run]
-                goals.append(f"{prob} {RUN_WORDS[run]} {ratio:.2f} (target {target:g}: "
-                             f"{'met' if ratio >= target else 'not met'})")
-    return f"Against the targets, scipy on {blas} ({peer}) / poolreps Newton: " + "; ".join(goals) + "."
+            if (prob, run) not in sec:
+                continue
+            cells = []
+            for s in PEERS:
+                if peer[s] and prob in peer[s]:
+                    ratio = peer[s][prob] / sec[prob, run]
+                    cells.append(f"{ratio:.2f} ({'met' if ratio >= target else 'not met'})")
+                elif peer[s]:
+                    cells.append("-")
+            out.append(f"| {prob} {RUN_WORDS[run]} ≥ {target:g} | " + " | ".join(cells) + " |")
+    return out
 
 
 def syrk_sentence(rows):
@@ -86,16 +94,20 @@ def render(rows, syrk=None):
              if r["solver"].startswith("poolreps-newton") and r["max_abs_p_diff"]]
     out += ["", ("Certificate failed: " + "; ".join(failed) + ". " if failed else "")
             + (f"Newton's weights are within {max(diffs):.2g} of scipy's." if diffs else "")]
-    for s in PEERS:
-        if peer[s]:
-            out += ["", targets(peer[s], sec, s, blas[s])]
+    if any(peer.values()):
+        out += [""] + targets(peer, sec, blas)
     sc = peer[PEERS[0]]
-    for run, words in (("poolreps-newton", "Whole process"), ("poolreps-newton-inprocess", "In process")):
-        old = "poolreps-newton-inprocess-previous" if run.endswith("inprocess") else "poolreps-newton-previous"
-        prev = [f"{p} {sec[p, old]:.3g} s → {sec[p, run]:.3g} s ({sec[p, old] / sec[p, run]:.2f}× as fast)"
-                for p in sc if (p, old) in sec and (p, run) in sec]
-        if prev:
-            out += ["", f"{words} against the previous poolreps in the same run: " + "; ".join(prev) + "."]
+    prev = []
+    for p in sc:
+        pair = [sec[p, old] / sec[p, run] for run, old in
+                (("poolreps-newton", "poolreps-newton-previous"),
+                 ("poolreps-newton-inprocess", "poolreps-newton-inprocess-previous"))
+                if (p, old) in sec and (p, run) in sec]
+        if len(pair) == 2:
+            prev.append(f"{p} {pair[0]:.2f}× / {pair[1]:.2f}×")
+    if prev:
+        out += ["", "Speed-up over the previous poolreps in the same run (whole "
+                "process / in process): " + "; ".join(prev) + "."]
     if syrk:
         out += ["", syrk_sentence(syrk)]
     return "\n".join(out) + "\n"
