@@ -1197,7 +1197,7 @@ def sphere_block(d):
             f"(`bench.method = ccmaes`) at {g(lv['ccmaes'])}. Plateau: the median over the "
             "seeds per iteration, then its median over the last tenth of the iterations, as the "
             "figure marks it; the final means and the peers' numbers are in "
-            f"docs/reps_policy.md.\n{SPHERE_END}")
+            f"docs/policies.md.\n{SPHERE_END}")
 
 
 def exp3_block(d, mode="event"):
