@@ -165,9 +165,8 @@ def history_sentence():
         if sec:
             parts.append(f"`{what}` {min(sec):.0f}–{max(sec):.0f} s ({len(sec)} recordings)")
     hosts = sorted({r["machine"][len("idle "):] for r in rows})
-    return ("Every idle-machine recording of the two commands so far, at the versions and on "
-            "the hosts of their day (docs/data/timing_history.csv): " + ", ".join(parts)
-            + "; the hosts: " + "; ".join(hosts) + ".")
+    return ("Every idle-machine recording so far, at the versions of their day, on "
+            f"{len(hosts)} hosts (docs/data/timing_history.csv): " + ", ".join(parts) + ".")
 
 
 def render(text, b):
