@@ -489,12 +489,18 @@ int pr_bind_policy_logpdf(const pr_policy *p, long nq, const double *S, const do
 	return rc;
 }
 
-pr_learner *pr_bind_learner_new(const pr_config *c, int dx, int da, gsl_rng *rng, char *err)
+pr_learner *pr_bind_learner_new(const pr_config *c, int dx, int da, const char *const *names,
+                                gsl_rng *rng, char *err)
 {
 	pr_learner_opts o;
+	pr_learner *L;
 
 	pr_config_learner_opts(c, &o);
-	return pr_learner_new(&o, dx, da, rng, err);
+	if ((L = pr_learner_new(&o, dx, da, rng, err)) && names && pr_learner_set_names(L, names, err)) {
+		pr_learner_free(L);
+		L = NULL;
+	}
+	return L;
 }
 
 int pr_bind_learner_tell(pr_learner *L, int n, const double *X, const double *A, const double *R,
@@ -505,7 +511,7 @@ int pr_bind_learner_tell(pr_learner *L, int n, const double *X, const double *A,
 	return pr_learner_tell_batch(L, &b, err);
 }
 
-const char *pr_bind_learner_summary(const pr_learner *L, double *d, int *i)
+const char *pr_bind_learner_summary(const pr_learner *L, double *d, int *i, const char **names)
 {
 	const pr_learner_summary *s = pr_learner_last(L);
 	const double dv[7] = {s->eta, s->kl, s->ess, s->q_ess, s->residual, s->kl_gap, s->residual_rel};
@@ -513,5 +519,8 @@ const char *pr_bind_learner_summary(const pr_learner *L, double *d, int *i)
 
 	memcpy(d, dv, sizeof dv);
 	memcpy(i, iv, sizeof iv);
+	if (names)
+		memcpy(names, pr_learner_names(L),
+		       (size_t)(pr_learner_context_dim(L) + pr_learner_action_dim(L)) * sizeof *names);
 	return s->reason;
 }

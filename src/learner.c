@@ -222,7 +222,7 @@ pr_learner *pr_learner_new(const pr_learner_opts *o, int dx, int da, gsl_rng *rn
 	L->cpol = 4;
 	L->ask_iter = -1;
 	L->last.status = PR_REPS_ACTIVE;
-	if (default_pi0(L, err)) {
+	if (default_pi0(L, err) || pr_learner_set_names(L, NULL, err)) {
 		pr_learner_free(L);
 		return NULL;
 	}
@@ -901,25 +901,40 @@ int pr_learner_tell(pr_learner *L, int n, const double *contexts, const double *
 
 #define NAME_MAX_LEN 255
 
+/* Which list column j of the names is in, and its place there. */
+static const char *name_kind(const pr_learner *L, int j, int *k)
+{
+	*k = j < L->dx ? j : j - L->dx;
+	return j < L->dx ? "context" : "action";
+}
+
 int pr_learner_set_names(pr_learner *L, const char *const *names, char *err)
 {
 	const int n = L->dx + L->da;
 	char **c = calloc((size_t)n, sizeof *c);
-	int j;
+	int j, i, k, m, rc = c ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
 
-	if (!c)
-		return pr_err(err, PR_ENOMEM, "out of memory");
-	for (j = 0; j < n; ++j) {
-		size_t len = strlen(names[j]);
-		if (len < 1 || len > NAME_MAX_LEN || strpbrk(names[j], "\n\r")) {
-			free_names(c, n);
-			return pr_err(err, PR_EINVAL, "learner: column name %d must be 1 .. %d bytes without "
-			              "a line break", j, NAME_MAX_LEN);
+	for (j = 0; rc == PR_OK && j < n; ++j) {
+		const char *kind = name_kind(L, j, &k), *nm;
+		char def[16];
+		/* the defaults s0 .. and a0 .. (the thesis's s and a) */
+		snprintf(def, sizeof def, "%c%d", kind[0] == 'c' ? 's' : 'a', k);
+		nm = names && names[j] ? names[j] : def;
+		if (strlen(nm) < 1 || strlen(nm) > NAME_MAX_LEN || strpbrk(nm, "\n\r"))
+			rc = pr_err(err, PR_EINVAL, "learner: %s name %d must be 1 .. %d bytes without a "
+			            "line break", kind, k, NAME_MAX_LEN);
+		else if (!(c[j] = strdup(nm)))
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+		for (i = 0; rc == PR_OK && i < j; ++i) {
+			const char *other = name_kind(L, i, &m);
+			if (!strcmp(c[i], c[j]))
+				rc = pr_err(err, PR_EINVAL, "learner: %s name %d '%s' is also %s name %d", kind, k,
+				            c[j], other, m);
 		}
-		if (!(c[j] = strdup(names[j]))) {
-			free_names(c, n);
-			return pr_err(err, PR_ENOMEM, "out of memory");
-		}
+	}
+	if (rc) {
+		free_names(c, n);
+		return rc;
 	}
 	free_names(L->names, n);
 	L->names = c;
@@ -1090,8 +1105,8 @@ int pr_learner_save(const pr_learner *L, unsigned char **buf, size_t *len, char 
 	/* the reason's bytes after its NUL as zeros: the same state, the same bytes */
 	memcpy(reason, s->reason, strnlen(s->reason, sizeof reason - 1));
 	put(&b, reason, sizeof reason);
-	put_i(&b, L->names ? L->dx + L->da : 0);
-	for (k = 0; L->names && k < L->dx + L->da; ++k) {
+	put_i(&b, L->dx + L->da);
+	for (k = 0; k < L->dx + L->da; ++k) {
 		put_i(&b, (int)strlen(L->names[k]));
 		put(&b, L->names[k], strlen(L->names[k]));
 	}
@@ -1299,8 +1314,10 @@ static void get_names(rbuf *r, pr_learner *L)
 	const int n = L->dx + L->da;
 	int k, len;
 
+	/* none (a state saved before names were kept): the defaults stay */
 	if (get_i(r, 0, n, "names") == 0 || r->rc)
 		return;
+	free_names(L->names, n);
 	if (!(L->names = calloc((size_t)n, sizeof *L->names))) {
 		r->rc = pr_err(r->err, PR_ENOMEM, "out of memory");
 		return;

@@ -74,12 +74,6 @@ static pr_learner *load(const char *path, gsl_rng *rng, char *err)
 	if (read_state(path, &buf, &len, err) == PR_OK)
 		L = pr_learner_load(buf, len, path, rng, err);
 	free(buf);
-	if (L && !pr_learner_names(L)) {
-		pr_err(err, PR_EIO, "%s: a learner state without column names (not written by "
-		       "poolreps learner new)", path);
-		pr_learner_free(L);
-		L = NULL;
-	}
 	return L;
 }
 
