@@ -147,10 +147,12 @@ int pr_bind_policy_logpdf(const pr_policy *p, long nq, const double *S, const do
 /* The ask/tell learner (learner.h) with the options of c (learner.*,
  * value.*, reps.*, policy.*), contexts of dx and actions of da dimensions,
  * the dx + da column names of `poolreps learner` (NULL ones: s0 .., a0 ..),
+ * pi_0's mean init_mean (da; NULL: 0; a learner with one is saved only
+ * once pi_0's episodes have left the window),
  * drawing from rng (pr_bind_rng_new(experiment.seed) gives the stream of
  * `poolreps learner new`). NULL and err on failure. */
 pr_learner *pr_bind_learner_new(const pr_config *c, int dx, int da, const char *const *names,
-                                gsl_rng *rng, char *err);
+                                const double *init_mean, gsl_rng *rng, char *err);
 /* pr_learner_tell_batch with flat arguments (G n x d or NULL, Y n x dy or NULL). */
 int pr_bind_learner_tell(pr_learner *L, int n, const double *X, const double *A, const double *R,
                          const double *G, int d, const double *Y, int dy, char *err);

@@ -13,7 +13,9 @@ experiment.seed. The stream is a GSL mt19937 set to the seed, as `poolreps
 learner new --seed` sets it, so the same seed and keys give the same bits
 as the command line. A pickled or deep-copied learner goes on with the same
 draws (its state is the library's saved state, random stream included).
-save() gives the bytes of a STATE file: `poolreps learner ask|tell|mean`
+init_mean (action_dim numbers) is pi_0's mean instead of 0; such a learner
+is saved once pi_0's episodes have left the window. save() gives the bytes
+of a STATE file: `poolreps learner ask|tell|mean`
 read its context and action columns by the names given here (default s0 ..,
 a0 ..), and Learner.load reads what they wrote.
 """
@@ -28,7 +30,7 @@ from ._lib import Handle, addr, array, assignments, check, config, errbuf, lib, 
 
 _P = c_void_p
 for _name, (_res, _args) in {
-    "pr_bind_learner_new": (_P, [_P, c_int, c_int, _P, _P, c_char_p]),
+    "pr_bind_learner_new": (_P, [_P, c_int, c_int, _P, _P, _P, c_char_p]),
     "pr_bind_learner_tell": (c_int, [_P, c_int, _P, _P, _P, _P, c_int, _P, c_int, c_char_p]),
     "pr_bind_learner_summary": (c_char_p, [_P, _P, _P, _P]),
     "pr_learner_ask": (c_int, [_P, c_int, _P, _P, c_char_p]),
@@ -71,17 +73,18 @@ class Learner:
     def __init__(self, context_dim: int, action_dim: int, *, value: str = "trees",
                  policy: str = "tree", seed: int = 0, set: Optional[Dict[str, Any]] = None,
                  context_names: Optional[Sequence[str]] = None,
-                 action_names: Optional[Sequence[str]] = None):
+                 action_names: Optional[Sequence[str]] = None, init_mean=None):
         dx, da = _dim("context_dim", context_dim, 100000), _dim("action_dim", action_dim, 64)
         cn, an = _names("context_names", context_names, dx), _names("action_names", action_names, da)
         names = (c_char_p * (dx + da))(*(cn or [None] * dx), *(an or [None] * da))
+        mu = None if init_mean is None else array("init_mean", init_mean, 1, rows=da)
         keys = {"learner.value": value, "learner.policy": policy,
                 "experiment.seed": _lib.seed_value("seed", seed)}
         keys.update(set or {})
         cfg = config(assignments(keys))
         self._rng = rng_handle(lib.pr_bind_rng_new(int(float(cfg.number("experiment.seed")))))
         err = errbuf()
-        ptr = lib.pr_bind_learner_new(cfg.ptr, dx, da, names, self._rng.ptr, err)
+        ptr = lib.pr_bind_learner_new(cfg.ptr, dx, da, names, addr(mu), self._rng.ptr, err)
         if not ptr:
             check(_lib.PR_EINVAL, err)
         self._h = Handle(ptr, lib.pr_learner_free)
