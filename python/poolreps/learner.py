@@ -73,7 +73,7 @@ class Learner:
     def __init__(self, context_dim: int, action_dim: int, *, value: str = "trees",
                  policy: str = "tree", seed: int = 0, set: Optional[Dict[str, Any]] = None,
                  context_names: Optional[Sequence[str]] = None,
-                 action_names: Optional[Sequence[str]] = None, init_mean=None):
+                 action_names: Optional[Sequence[str]] = None, init_mean: Any = None):
         dx, da = _dim("context_dim", context_dim, 100000), _dim("action_dim", action_dim, 64)
         cn, an = _names("context_names", context_names, dx), _names("action_names", action_names, da)
         names = (c_char_p * (dx + da))(*(cn or [None] * dx), *(an or [None] * da))
