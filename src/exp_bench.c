@@ -249,13 +249,11 @@ static pr_learner *creps_new(const bench_ctx *c, const double *mean, const doubl
 }
 
 /* One C-REPS iteration: the learner's tell, its certificate into m. */
-static int update_creps(const bench_ctx *c, pr_learner *L, const batch *bt, double *m,
-                        int *fitflags, char *err)
+static int update_creps(pr_learner *L, const batch *bt, double *m, int *fitflags, char *err)
 {
 	const pr_learner_summary *s;
 	int rc = pr_learner_tell(L, bt->n, bt->S, bt->X, bt->R, bt->phi, bt->dv, err);
 
-	(void)c;
 	if (rc)
 		return rc;
 	s = pr_learner_last(L);
@@ -317,8 +315,8 @@ static int run_rep(void *ctx, int rep, char *err)
 	bt.B = cmaes ? malloc((size_t)n * bt.nq * sizeof *bt.B) : NULL;
 	psi = malloc((size_t)bt.nq * sizeof *psi);
 	buf = malloc(((size_t)da * da + 4 * (size_t)da) * sizeof *buf);
-	if (!rng || !G || !tc || !bt.S || !bt.X || !bt.R || !bt.phi || 
-	    (cmaes && !bt.B) || !psi || !buf) {
+	if (!rng || !G || !tc || !bt.S || !bt.X || !bt.R || !bt.phi || (cmaes && !bt.B) || !psi ||
+	    !buf) {
 		rc = pr_err(err, PR_ENOMEM, "bench: out of memory");
 		goto done;
 	}
@@ -389,7 +387,7 @@ static int run_rep(void *ctx, int rep, char *err)
 		if ((rc = score(c, cmaes ? pol : pr_learner_policy(L), G, tc, ws, buf, m, &flags, err)))
 			goto done;
 		if (!cmaes) {
-			rc = update_creps(c, L, &bt, m, &fitflags, err);
+			rc = update_creps(L, &bt, m, &fitflags, err);
 			m[M_FLAGS] = flags | fitflags;
 			if (rc)
 				goto done;
