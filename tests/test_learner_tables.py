@@ -10,7 +10,9 @@ import pytest
 
 from conftest import ROOT
 
-TABLES = [("bench_learner_table.py", "docs/data/bench_learner.csv", "docs/benchmarks.md",
+TABLES = [("learner_gym_report.py", "data/learner/gym_study.csv", "docs/learner.md",
+           "trees,", 3, 300.0),
+          ("bench_learner_table.py", "docs/data/bench_learner.csv", "docs/benchmarks.md",
            "exp3_python_iteration,", 2, 1.0)]
 
 
