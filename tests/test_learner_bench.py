@@ -90,8 +90,8 @@ def optimum(problem, G, s, da):
 
 
 def python_run(problem, keys, seed, rep):
-    """Rows (mean_return, test_return, test_error, eta, kl, ess, bound) per
-    iteration of repetition rep, through poolreps.Learner."""
+    """Rows of bench_curve.csv's columns (all but samples, mean_std and
+    policy_flags) per iteration of repetition rep, through poolreps.Learner."""
     n, da, k = int(keys["bench.samples"]), int(keys["bench.dims"]), int(keys["bench.context_dims"])
     T, iters = int(keys["bench.test_contexts"]), int(keys["bench.iterations"])
     scratch = _lib.rng_handle(lib.pr_bind_rng_new(stream_seed(seed, rep)))
@@ -121,7 +121,9 @@ def python_run(problem, keys, seed, rep):
                 e2 += (mj - xj) * (mj - xj)
         L.tell(S, A, R, features=S)
         s = L.summary
-        rows.append((ret, tr / T, math.sqrt(e2 / T), s["eta"], s["kl"], s["ess"], s["bound"]))
+        rows.append((ret, tr / T, math.sqrt(e2 / T), s["eta"], s["kl"], s["ess"], s["bound"],
+                     s["kl_gap"], s["residual_rel"], s["status"] == "unreachable",
+                     s["status"] == "failed"))
     return rows
 
 
@@ -137,7 +139,8 @@ def test_the_python_learner_gives_the_command_lines_numbers(tmp_path, problem):
                      + [x for a in sets for x in ("--set", a)])
     assert r.returncode == 0, r.stderr
     _, cli = csv_rows(tmp_path / "out" / "bench_curve.csv")
-    cols = ("mean_return", "test_return", "test_error", "eta", "kl", "ess", "bound")
+    cols = ("mean_return", "test_return", "test_error", "eta", "kl", "ess", "bound", "kl_gap",
+            "residual_rel", "unreachable", "failed")
     for rep in range(int(keys["experiment.repetitions"])):
         got = python_run(problem, keys, int(keys["experiment.seed"]), rep)
         want = [tuple(float(row[c]) for c in cols) for row in cli if int(row["repetition"]) == rep]
