@@ -18,7 +18,6 @@ import numpy as np
 import poolreps
 
 BATCH = 40
-ITERATIONS = int(sys.argv[1]) if len(sys.argv) > 1 else 25
 
 
 def start(env, seed):
@@ -40,11 +39,11 @@ def play(env, seed, gains):
     return total
 
 
-def main():
+def main(iterations):
     env = gym.make("Pendulum-v1")
     learner = poolreps.Learner(2, 2, seed=1, set={"learner.init_std": 5.0})
     seeds = iter(range(10**9))
-    for it in range(ITERATIONS):
+    for it in range(iterations):
         batch = [next(seeds) for _ in range(BATCH)]
         starts = np.array([start(env, s) for s in batch])  # the contexts
         gains = learner.ask(starts)
@@ -57,4 +56,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 25)

@@ -11,7 +11,9 @@
    C calls through ctypes on prepared arrays; the difference per call is the
    binding's overhead beyond the update. pycma's es.ask() + es.tell() at
    population 100 in 2-D beside it when `cma` imports (build/venv).
-Prints one markdown row per measurement; ROUNDS rounds, medians."""
+Prints one markdown row per measurement; ROUNDS rounds, medians. With
+--csv PATH also writes them (milliseconds, and the load average after the
+runs) for scripts/bench_learner_table.py."""
 import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import argparse
 import ctypes
@@ -119,6 +121,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--poolreps", default=str(ROOT / "build/rel/poolreps"))
     ap.add_argument("--rounds", type=int, default=int(os.environ.get("ROUNDS", 3)))
+    ap.add_argument("--csv")
     a = ap.parse_args()
     py, cli = [], []
     for _ in range(a.rounds):  # alternate, so both see the same load
@@ -141,6 +144,16 @@ def main():
     c = pycma(a.rounds)
     print(f"| pycma es.ask() + es.tell(), population 100, 2-D, ms per call pair | {a.rounds} | "
           + (f"{1e3 * c:.3f} | |" if c is not None else "not installed (make venv; pip install cma) | |"))
+    if a.csv:
+        ms = {"exp3_cli_iteration": 10 * mc, "exp3_python_iteration": 10 * mp,
+              "ask_tell_learner": 1e3 * t_py, "ask_tell_bare": 1e3 * t_bare}
+        if c is not None:
+            ms["pycma_ask_tell"] = 1e3 * c
+        with open(a.csv + ".tmp", "w") as f:
+            f.write("measurement,rounds,median_ms,load\n")
+            for k, v in ms.items():
+                f.write(f"{k},{a.rounds},{v:.4f},{os.getloadavg()[0]:.1f}\n")
+        os.replace(a.csv + ".tmp", a.csv)
 
 
 if __name__ == "__main__":

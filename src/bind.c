@@ -489,12 +489,41 @@ int pr_bind_policy_logpdf(const pr_policy *p, long nq, const double *S, const do
 	return rc;
 }
 
-pr_learner *pr_bind_learner_new(const pr_config *c, int dx, int da, gsl_rng *rng, char *err)
+/* pi_0 = N(mean, init_std^2 I) in place of the learner's N(0, ...). */
+static int learner_init_mean(pr_learner *L, const double *mean, char *err)
+{
+	const int dx = pr_learner_context_dim(L), da = pr_learner_action_dim(L);
+	const double sd = pr_learner_options(L)->init_std;
+	double *cov = calloc((size_t)da * da, sizeof *cov);
+	pr_policy *p = NULL;
+	int j, rc;
+
+	if (!cov)
+		return pr_err(err, PR_ENOMEM, "out of memory");
+	for (j = 0; j < da; ++j)
+		cov[j * da + j] = sd * sd;
+	if ((p = pr_policy_gaussian_new(dx, da, mean, cov, err)))
+		rc = pr_learner_set_policy(L, p, err);
+	else
+		rc = null_status(err);
+	free(cov);
+	return rc;
+}
+
+pr_learner *pr_bind_learner_new(const pr_config *c, int dx, int da, const char *const *names,
+                                const double *init_mean, gsl_rng *rng, char *err)
 {
 	pr_learner_opts o;
+	pr_learner *L;
 
 	pr_config_learner_opts(c, &o);
-	return pr_learner_new(&o, dx, da, rng, err);
+	if ((L = pr_learner_new(&o, dx, da, rng, err)) &&
+	    ((names && pr_learner_set_names(L, names, err)) ||
+	     (init_mean && learner_init_mean(L, init_mean, err)))) {
+		pr_learner_free(L);
+		L = NULL;
+	}
+	return L;
 }
 
 int pr_bind_learner_tell(pr_learner *L, int n, const double *X, const double *A, const double *R,
@@ -505,7 +534,7 @@ int pr_bind_learner_tell(pr_learner *L, int n, const double *X, const double *A,
 	return pr_learner_tell_batch(L, &b, err);
 }
 
-const char *pr_bind_learner_summary(const pr_learner *L, double *d, int *i)
+const char *pr_bind_learner_summary(const pr_learner *L, double *d, int *i, const char **names)
 {
 	const pr_learner_summary *s = pr_learner_last(L);
 	const double dv[7] = {s->eta, s->kl, s->ess, s->q_ess, s->residual, s->kl_gap, s->residual_rel};
@@ -513,5 +542,8 @@ const char *pr_bind_learner_summary(const pr_learner *L, double *d, int *i)
 
 	memcpy(d, dv, sizeof dv);
 	memcpy(i, iv, sizeof iv);
+	if (names)
+		memcpy(names, pr_learner_names(L),
+		       (size_t)(pr_learner_context_dim(L) + pr_learner_action_dim(L)) * sizeof *names);
 	return s->reason;
 }

@@ -13,6 +13,7 @@
 #include "poolreps/bench.h"
 #include "poolreps/cmaes.h"
 #include "poolreps/csvio.h"
+#include "poolreps/learner.h"
 #include "poolreps/policy.h"
 #include "poolreps/reps.h"
 #include "exp_priv.h"
@@ -213,44 +214,60 @@ static int score(const bench_ctx *c, const pr_policy *p, const double *G, const 
 typedef struct {
 	int n, dv, nq;
 	double *S, *X, *R, *phi;  /* contexts, actions, returns, REPS value features */
-	double *M;                /* sampling means (cov_center old), or NULL */
 	double *B;                /* quadratic context features (ccmaes baseline), or NULL */
 } batch;
 
-/* C-REPS: REPS weights (eq. 3.7-3.8), then weighted ML (eq. 3.10) around
- * the new or the sampling mean (policy.cov_center). */
-static pr_policy *update_creps(const bench_ctx *c, const batch *bt, double *m, int *fitflags,
-                               int *rc, char *err)
+/* C-REPS as the ask/tell learner: value features given (s, or s and its
+ * products), no window and uniform base weights (learner.window = 0), a
+ * linear-Gaussian policy refitted by weighted ML (eq. 3.10) with the floor
+ * bench.min_std, drawing with its fit's decomposition (learner.draw = fit),
+ * pi_0 = N(mu0, init_std^2 I). */
+static pr_learner *creps_new(const bench_ctx *c, const double *mean, const double *cov,
+                             gsl_rng *rng, char *err)
 {
-	pr_reps_problem pb = { bt->n, bt->dv, bt->R, NULL, bt->phi, NULL, NULL, NULL };
-	pr_policy_data d = { bt->n, c->k, c->dims, 0, bt->S, bt->X, NULL, NULL, bt->M };
-	pr_reps_result *r = NULL;
-	pr_policy *next;
+	pr_learner_opts o;
+	pr_learner *L;
+	pr_policy *p0;
 
-	if ((*rc = pr_reps_solve(&c->cfg->reps, &pb, &r, err)))
+	pr_config_learner_opts(c->cfg, &o);
+	o.value = PR_LEARNER_VALUE_GIVEN;
+	o.policy_type = PR_LEARNER_POLICY_LINEAR;
+	o.window = 0;
+	o.init_std = c->b->init_std;
+	o.max_norm = 0;
+	o.refit = 0;
+	o.draw = PR_LEARNER_DRAW_FIT;
+	o.policy.min_std = c->b->min_std;
+	if (!(L = pr_learner_new(&o, c->k, c->dims, rng, err)))
 		return NULL;
-	m[M_ETA] = r->eta;
-	m[M_KL] = r->kl;
-	m[M_ESS] = r->ess;
-	m[M_BOUND] = r->bound;
-	/* the certificate: bound 1 active, unreachable 1, failed 1 */
-	m[M_KLGAP] = r->kl_gap;
-	m[M_RESREL] = r->residual_rel;
-	m[M_UNREACH] = r->status == PR_REPS_UNREACHABLE;
-	m[M_FAILED] = r->status == PR_REPS_FAILED;
-	if (r->status == PR_REPS_FAILED && !c->cfg->reps.allow_failed) {
-		*rc = pr_err(err, PR_ENUM, "bench: after %.0f episodes: REPS answer not certified: %s "
-		             "(reps.allow_failed = 1 records it and goes on)", m[M_SAMPLES], r->reason);
-		pr_reps_result_free(r);
+	if (!(p0 = pr_policy_gaussian_new(c->k, c->dims, mean, cov, err)) ||
+	    pr_learner_set_policy(L, p0, err)) {
+		pr_learner_free(L);
 		return NULL;
 	}
-	/* eq. 3.10: the REPS weights already contain the (uniform) q */
-	d.w = r->p;
-	next = pr_policy_linear_fit(PR_FEATURES_AFFINE, &d, c->cfg->policy.lambda, c->b->min_std,
-	                            c->cfg->policy.cov_center, fitflags, err);
-	pr_reps_result_free(r);
-	*rc = next ? PR_OK : PR_ENUM;
-	return next;
+	return L;
+}
+
+/* One C-REPS iteration: the learner's tell, its certificate into m. */
+static int update_creps(pr_learner *L, const batch *bt, double *m, int *fitflags, char *err)
+{
+	const pr_learner_summary *s;
+	int rc = pr_learner_tell(L, bt->n, bt->S, bt->X, bt->R, bt->phi, bt->dv, err);
+
+	if (rc)
+		return rc;
+	s = pr_learner_last(L);
+	m[M_ETA] = s->eta;
+	m[M_KL] = s->kl;
+	m[M_ESS] = s->ess;
+	m[M_BOUND] = s->bound;
+	/* the certificate: bound 1 active, unreachable 1, failed 1 */
+	m[M_KLGAP] = s->kl_gap;
+	m[M_RESREL] = s->residual_rel;
+	m[M_UNREACH] = s->status == PR_REPS_UNREACHABLE;
+	m[M_FAILED] = s->status == PR_REPS_FAILED;
+	*fitflags = s->flags;
+	return PR_OK;
 }
 
 /* C-CMA-ES: one generation with the quadratic context baseline. No dual:
@@ -279,13 +296,13 @@ static int run_rep(void *ctx, int rep, char *err)
 	const pr_bench_opts *b = c->b;
 	const int n = b->samples, k = c->k, da = c->dims;
 	const int cmaes = b->method == PR_METHOD_CCMAES;
-	const int old = !cmaes && c->cfg->policy.cov_center == PR_COV_CENTER_OLD;
 	gsl_rng *rng = pr_exp_rng(c->cfg->run.seed, PR_STREAM_BENCH, (unsigned long)rep);
 	pr_policy *pol = NULL, *next;
 	pr_policy_work *ws = NULL;
 	pr_cmaes *cm = NULL;
+	pr_learner *L = NULL;
 	batch bt = { n, b->value_degree == 1 ? k : k + k * (k + 1) / 2, 1 + k + k * (k + 1) / 2,
-	             NULL, NULL, NULL, NULL, NULL, NULL };
+	             NULL, NULL, NULL, NULL, NULL };
 	double *G = NULL, *tc = NULL, *psi = NULL, *buf = NULL;
 	int it, i, j, flags, fitflags = 0, rc = PR_OK;
 
@@ -295,12 +312,11 @@ static int run_rep(void *ctx, int rep, char *err)
 	bt.X = malloc((size_t)n * da * sizeof *bt.X);
 	bt.R = malloc((size_t)n * sizeof *bt.R);
 	bt.phi = malloc((size_t)n * bt.dv * sizeof *bt.phi);
-	bt.M = old ? malloc((size_t)n * da * sizeof *bt.M) : NULL;
 	bt.B = cmaes ? malloc((size_t)n * bt.nq * sizeof *bt.B) : NULL;
 	psi = malloc((size_t)bt.nq * sizeof *psi);
 	buf = malloc(((size_t)da * da + 4 * (size_t)da) * sizeof *buf);
-	if (!rng || !G || !tc || !bt.S || !bt.X || !bt.R || !bt.phi || (old && !bt.M) ||
-	    (cmaes && !bt.B) || !psi || !buf) {
+	if (!rng || !G || !tc || !bt.S || !bt.X || !bt.R || !bt.phi || (cmaes && !bt.B) || !psi ||
+	    !buf) {
 		rc = pr_err(err, PR_ENOMEM, "bench: out of memory");
 		goto done;
 	}
@@ -326,11 +342,12 @@ static int run_rep(void *ctx, int rep, char *err)
 			rc = PR_ENOMEM;
 			goto done;
 		}
-	} else if (!(pol = pr_policy_gaussian_new(k, da, buf, buf + da, err))) {
+	} else if (!(L = creps_new(c, buf, buf + da, rng, err))) {
 		rc = PR_ENOMEM;
 		goto done;
 	}
-	if (!(ws = pr_policy_work_new(pol, err))) {
+	/* one work buffer serves every policy of these dimensions */
+	if (!(ws = pr_policy_work_new(cmaes ? pol : pr_learner_policy(L), err))) {
 		rc = PR_ENOMEM;
 		goto done;
 	}
@@ -348,9 +365,13 @@ static int run_rep(void *ctx, int rep, char *err)
 			int f = 0;
 
 			draw_context(c, rng, s);
-			if (old && (rc = pr_policy_eval(pol, s, bt.M + (size_t)i * da, NULL, &f, ws, err)))
-				goto done;
-			if ((rc = pr_policy_sample(pol, s, 1, rng, x, &f, ws, err)))
+			/* one context at a time: the stream's draws stay in the order
+			 * context, action, context, ... */
+			if (cmaes)
+				rc = pr_policy_sample(pol, s, 1, rng, x, &f, ws, err);
+			else if ((rc = pr_learner_ask(L, 1, s, x, err)) == PR_OK)
+				pr_learner_ask_info(L, NULL, &f);
+			if (rc)
 				goto done;
 			flags |= f;
 			bt.R[i] = objective(c, G, x, s, buf);
@@ -363,10 +384,17 @@ static int run_rep(void *ctx, int rep, char *err)
 				memcpy(bt.B + (size_t)i * bt.nq, psi, (size_t)bt.nq * sizeof *psi);
 		}
 		m[M_SAMPLES] = (double)(it + 1) * n;
-		if ((rc = score(c, pol, G, tc, ws, buf, m, &flags, err)))
+		if ((rc = score(c, cmaes ? pol : pr_learner_policy(L), G, tc, ws, buf, m, &flags, err)))
 			goto done;
-		next = cmaes ? update_ccmaes(c, cm, &bt, m, &fitflags, &rc, err)
-		             : update_creps(c, &bt, m, &fitflags, &rc, err);
+		if (!cmaes) {
+			rc = update_creps(L, &bt, m, &fitflags, err);
+			m[M_FLAGS] = flags | fitflags;
+			if (rc)
+				goto done;
+			pr_exp_ticker_add(&c->tick, 1);
+			continue;
+		}
+		next = update_ccmaes(c, cm, &bt, m, &fitflags, &rc, err);
 		/* the policy that drew this iteration's samples, and the fit it led to */
 		m[M_FLAGS] = flags | fitflags;
 		if (!next)
@@ -377,6 +405,7 @@ static int run_rep(void *ctx, int rep, char *err)
 	}
 done:
 	pr_cmaes_free(cm);
+	pr_learner_free(L);
 	pr_policy_work_free(ws);
 	pr_policy_free(pol);
 	if (rng)
@@ -387,7 +416,6 @@ done:
 	free(bt.X);
 	free(bt.R);
 	free(bt.phi);
-	free(bt.M);
 	free(bt.B);
 	free(psi);
 	free(buf);

@@ -79,15 +79,17 @@ int pr_learner_opts_check(const pr_learner_opts *o, char *err)
 		return pr_err(err, PR_EINVAL, "learner.value: unknown value features %d", o->value);
 	if (o->policy_type != PR_LEARNER_POLICY_TREE && o->policy_type != PR_LEARNER_POLICY_LINEAR)
 		return pr_err(err, PR_EINVAL, "learner.policy: unknown policy %d", o->policy_type);
-	if (o->window < 2 || o->window > MAX_WINDOW)
-		return pr_err(err, PR_EINVAL, "learner.window: must be in 2 .. %d (got %d)", MAX_WINDOW,
-		              o->window);
+	if ((o->window < 2 && o->window != 0) || o->window > MAX_WINDOW)
+		return pr_err(err, PR_EINVAL, "learner.window: must be 0 or in 2 .. %d (got %d)",
+		              MAX_WINDOW, o->window);
 	if (!(o->init_std > 0) || !isfinite(o->init_std))
 		return pr_err(err, PR_EINVAL, "learner.init_std: must be > 0 (got %g)", o->init_std);
 	if (!(o->max_norm >= 0) || !isfinite(o->max_norm))
 		return pr_err(err, PR_EINVAL, "learner.max_norm: must be >= 0 (got %g)", o->max_norm);
 	if (o->truncation < PR_LEARNER_REDRAW || o->truncation > PR_LEARNER_CORRECTED)
 		return pr_err(err, PR_EINVAL, "learner.truncation: unknown mode %d", o->truncation);
+	if (o->draw != PR_LEARNER_DRAW_QUERY && o->draw != PR_LEARNER_DRAW_FIT)
+		return pr_err(err, PR_EINVAL, "learner.draw: unknown mode %d", o->draw);
 	if (o->value_features != PR_VALUE_LEAVES && o->value_features != PR_VALUE_SAMPLES)
 		return pr_err(err, PR_EINVAL, "value.features: unknown kind %d", o->value_features);
 	if (!(o->reps.epsilon > 0) || !isfinite(o->reps.epsilon))
@@ -222,7 +224,7 @@ pr_learner *pr_learner_new(const pr_learner_opts *o, int dx, int da, gsl_rng *rn
 	L->cpol = 4;
 	L->ask_iter = -1;
 	L->last.status = PR_REPS_ACTIVE;
-	if (default_pi0(L, err)) {
+	if (default_pi0(L, err) || pr_learner_set_names(L, NULL, err)) {
 		pr_learner_free(L);
 		return NULL;
 	}
@@ -367,8 +369,10 @@ static double norm(const pr_learner *L, const double *a)
 	return sqrt(s);
 }
 
-static int draw(pr_learner *L, int i, const double *mean, const double *cov, double *a, char *err)
+static int draw(pr_learner *L, int i, const double *x, const double *mean, const double *cov,
+                double *a, char *err)
 {
+	const lpol *cur = &L->pol[L->npol - 1];
 	const double vmax = L->o.max_norm;
 	int rc, j, tries = 0, clipped = 0;
 
@@ -376,7 +380,10 @@ static int draw(pr_learner *L, int i, const double *mean, const double *cov, dou
 		if (tries++ == MAX_REDRAW)
 			return pr_err(err, PR_ENUM, "context row %d: %d actions drawn, all beyond "
 			              "learner.max_norm = %g", i, MAX_REDRAW, vmax);
-		if ((rc = pr_policy_gauss_sample(L->da, mean, cov, 1, L->rng, a, err)))
+		rc = L->o.draw == PR_LEARNER_DRAW_FIT
+		     ? pr_policy_sample(cur->p, x, 1, L->rng, a, NULL, cur->w, err)
+		     : pr_policy_gauss_sample(L->da, mean, cov, 1, L->rng, a, err);
+		if (rc)
 			return rc;
 		if (vmax > 0 && L->o.truncation == PR_LEARNER_CLIP && norm(L, a) > vmax) {
 			/* scaled strictly inside the limit (the product may round above it) */
@@ -405,7 +412,12 @@ static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 	*flags |= f;
 	if (w->mu)
 		memcpy(w->mu + (size_t)i * L->da, m, (size_t)L->da * sizeof *m);
-	if ((rc = draw(L, i, m, c, a, err)) || (rc = gauss_lp(L, m, c, a, &lp[L->npol - 1], err)))
+	if ((rc = draw(L, i, x, m, c, a, err)))
+		return rc;
+	/* the density of the decomposition the action was drawn with */
+	rc = L->o.draw == PR_LEARNER_DRAW_FIT ? pol_lp(L, cur, x, a, &lp[L->npol - 1], &f, err)
+	                                      : gauss_lp(L, m, c, a, &lp[L->npol - 1], err);
+	if (rc)
 		return rc;
 	for (k = 0; k < L->npol - 1; ++k) {
 		f = 0;
@@ -590,7 +602,8 @@ static void copy_row(double *dst, int j, const double *src, int s, int d)
 static int next_window(pr_learner *L, stage *S, const told *b, char *err)
 {
 	const win *o = &L->w;
-	const int total = o->n + b->n, n = total < L->o.window ? total : L->o.window;
+	const int wmax = L->o.window ? L->o.window : b->n; /* 0: the told episodes alone */
+	const int total = o->n + b->n, n = total < wmax ? total : wmax;
 	const int skip = total - n, dx = L->dx, da = L->da;
 	int j, rc, off;
 
@@ -720,7 +733,8 @@ static int reps_weights(pr_learner *L, stage *S, char *err)
 	memset(&pb, 0, sizeof pb);
 	pb.n = S->w.n;
 	pb.R = S->w.R;
-	pb.q = S->q;
+	/* window 0: on-policy, the base weights uniform as in C-REPS */
+	pb.q = L->o.window ? S->q : NULL;
 	if ((rc = value_features(L, S, &pb, err)) ||
 	    (rc = pr_reps_solve(&L->o.reps, &pb, &res, err)))
 		return rc;
@@ -901,25 +915,40 @@ int pr_learner_tell(pr_learner *L, int n, const double *contexts, const double *
 
 #define NAME_MAX_LEN 255
 
+/* Which list column j of the names is in, and its place there. */
+static const char *name_kind(const pr_learner *L, int j, int *k)
+{
+	*k = j < L->dx ? j : j - L->dx;
+	return j < L->dx ? "context" : "action";
+}
+
 int pr_learner_set_names(pr_learner *L, const char *const *names, char *err)
 {
 	const int n = L->dx + L->da;
 	char **c = calloc((size_t)n, sizeof *c);
-	int j;
+	int j, i, k, m, rc = c ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
 
-	if (!c)
-		return pr_err(err, PR_ENOMEM, "out of memory");
-	for (j = 0; j < n; ++j) {
-		size_t len = strlen(names[j]);
-		if (len < 1 || len > NAME_MAX_LEN || strpbrk(names[j], "\n\r")) {
-			free_names(c, n);
-			return pr_err(err, PR_EINVAL, "learner: column name %d must be 1 .. %d bytes without "
-			              "a line break", j, NAME_MAX_LEN);
+	for (j = 0; rc == PR_OK && j < n; ++j) {
+		const char *kind = name_kind(L, j, &k), *nm;
+		char def[16];
+		/* the defaults s0 .. and a0 .. (the thesis's s and a) */
+		snprintf(def, sizeof def, "%c%d", kind[0] == 'c' ? 's' : 'a', k);
+		nm = names && names[j] ? names[j] : def;
+		if (strlen(nm) < 1 || strlen(nm) > NAME_MAX_LEN || strpbrk(nm, "\n\r"))
+			rc = pr_err(err, PR_EINVAL, "learner: %s name %d must be 1 .. %d bytes without a "
+			            "line break", kind, k, NAME_MAX_LEN);
+		else if (!(c[j] = strdup(nm)))
+			rc = pr_err(err, PR_ENOMEM, "out of memory");
+		for (i = 0; rc == PR_OK && i < j; ++i) {
+			const char *other = name_kind(L, i, &m);
+			if (!strcmp(c[i], c[j]))
+				rc = pr_err(err, PR_EINVAL, "learner: %s name %d '%s' is also %s name %d", kind, k,
+				            c[j], other, m);
 		}
-		if (!(c[j] = strdup(names[j]))) {
-			free_names(c, n);
-			return pr_err(err, PR_ENOMEM, "out of memory");
-		}
+	}
+	if (rc) {
+		free_names(c, n);
+		return rc;
 	}
 	free_names(L->names, n);
 	L->names = c;
@@ -1011,7 +1040,8 @@ static void put_d(wbuf *w, const double *v, size_t n)
 	X(o->reps.allow_failed) X(o->reps.solver) X(o->reps.threads) X(o->policy.target) \
 	X(o->policy.cov) X(o->policy.cov_center) X(o->policy.forest.trees) \
 	X(o->policy.forest.cuts) X(o->policy.forest.n_min) X(o->policy.forest.n_c) \
-	X(o->policy.forest.score) X(o->policy.forest.with_replacement) X(o->policy.forest.outputs)
+	X(o->policy.forest.score) X(o->policy.forest.with_replacement) X(o->policy.forest.outputs) \
+	X(o->draw)
 #define OPT_DOUBLES(X, o) \
 	X(o->init_std) X(o->max_norm) X(o->reps.epsilon) X(o->reps.ridge) X(o->reps.eta_min) \
 	X(o->policy.lambda) X(o->policy.min_std)
@@ -1090,8 +1120,8 @@ int pr_learner_save(const pr_learner *L, unsigned char **buf, size_t *len, char 
 	/* the reason's bytes after its NUL as zeros: the same state, the same bytes */
 	memcpy(reason, s->reason, strnlen(s->reason, sizeof reason - 1));
 	put(&b, reason, sizeof reason);
-	put_i(&b, L->names ? L->dx + L->da : 0);
-	for (k = 0; L->names && k < L->dx + L->da; ++k) {
+	put_i(&b, L->dx + L->da);
+	for (k = 0; k < L->dx + L->da; ++k) {
 		put_i(&b, (int)strlen(L->names[k]));
 		put(&b, L->names[k], strlen(L->names[k]));
 	}
@@ -1193,7 +1223,8 @@ static void get_pol(rbuf *r, pr_learner *L, int k)
 {
 	lpol *P = &L->pol[k];
 	const int tree = L->o.policy_type == PR_LEARNER_POLICY_TREE;
-	int n = get_i(r, L->pbase + k == 0 ? 0 : 2, L->pbase + k == 0 ? 0 : L->o.window, "fit size");
+	const int wmax = L->o.window ? L->o.window : MAX_WINDOW;
+	int n = get_i(r, L->pbase + k == 0 ? 0 : 2, L->pbase + k == 0 ? 0 : wmax, "fit size");
 	int dy = get_i(r, 0, MAX_DIM, "targets"), hm = get_i(r, 0, 1, "means");
 	size_t m = (size_t)n;
 
@@ -1299,8 +1330,10 @@ static void get_names(rbuf *r, pr_learner *L)
 	const int n = L->dx + L->da;
 	int k, len;
 
+	/* none (a state saved before names were kept): the defaults stay */
 	if (get_i(r, 0, n, "names") == 0 || r->rc)
 		return;
+	free_names(L->names, n);
 	if (!(L->names = calloc((size_t)n, sizeof *L->names))) {
 		r->rc = pr_err(r->err, PR_ENOMEM, "out of memory");
 		return;

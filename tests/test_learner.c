@@ -311,6 +311,48 @@ static void test_learns(void **state)
 	}
 }
 
+/* window 0: each tell's episodes alone, with uniform base weights; window
+ * 1 is refused. Column names default to s0 .., a0 .., and a repeated name
+ * is refused without touching them. */
+static void test_window_zero_and_names(void **state)
+{
+	const char *dup[DX + DA] = {"x", "y", "a", "x"};
+	const char *const *nm;
+	gsl_rng *r = new_rng(31), *c = new_rng(32);
+	pr_learner_opts o;
+	pr_learner *L;
+	double A[B * DA];
+	char err[PR_ERRLEN];
+	int t;
+
+	(void)state;
+	pr_learner_opts_init(&o);
+	o.value = PR_LEARNER_VALUE_LINEAR;
+	o.policy_type = PR_LEARNER_POLICY_LINEAR;
+	o.window = 1;
+	assert_null(pr_learner_new(&o, DX, DA, r, err));
+	assert_non_null(strstr(err, "learner.window"));
+	o.window = 0;
+	L = pr_learner_new(&o, DX, DA, r, err);
+	assert_non_null(L);
+	for (t = 0; t < 3; ++t) {
+		step(L, c, A);
+		assert_int_equal(pr_learner_last(L)->n, B);
+		assert_true(fabs(pr_learner_last(L)->q_ess - B) < 1e-9);
+	}
+	nm = pr_learner_names(L);
+	assert_string_equal(nm[0], "s0");
+	assert_string_equal(nm[1], "s1");
+	assert_string_equal(nm[2], "a0");
+	assert_string_equal(nm[3], "a1");
+	assert_int_equal(pr_learner_set_names(L, dup, err), PR_EINVAL);
+	assert_non_null(strstr(err, "action name 1 'x' is also context name 0"));
+	assert_string_equal(pr_learner_names(L)[3], "a1");
+	pr_learner_free(L);
+	gsl_rng_free(r);
+	gsl_rng_free(c);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -319,6 +361,7 @@ int main(void)
 		cmocka_unit_test(test_load_refuses),
 		cmocka_unit_test(test_first_refit_is_least_squares),
 		cmocka_unit_test(test_learns),
+		cmocka_unit_test(test_window_zero_and_names),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -28,8 +28,8 @@ def write(path, header, m):
             f.write(",".join(repr(float(v)) for v in row) + "\n")
 
 
-def cli_ask(tmp_path, st, X):
-    write(tmp_path / "c.csv", ["x", "y"], X)
+def cli_ask(tmp_path, st, X, names=("x", "y")):
+    write(tmp_path / "c.csv", names, X)
     r = run_poolreps(["learner", "ask", st, "-i", tmp_path / "c.csv", "-o", tmp_path / "a.csv"])
     assert r.returncode == 0, r.stderr
     m = np.loadtxt(tmp_path / "a.csv", delimiter=",", skiprows=1, ndmin=2)
@@ -37,8 +37,8 @@ def cli_ask(tmp_path, st, X):
     return m[:, 2:]
 
 
-def cli_tell(tmp_path, st, X, A, R):
-    write(tmp_path / "e.csv", ["x", "y", "a", "b", "ret"], np.column_stack([X, A, R]))
+def cli_tell(tmp_path, st, X, A, R, names=("x", "y", "a", "b")):
+    write(tmp_path / "e.csv", [*names, "ret"], np.column_stack([X, A, R]))
     r = run_poolreps(["learner", "tell", st, "--return", "ret", "-i", tmp_path / "e.csv"])
     assert r.returncode == 0, r.stderr
 
@@ -67,6 +67,49 @@ def test_same_bits_as_the_command_line(tmp_path, value, policy):
     assert r.returncode == 0, r.stderr
     m = np.loadtxt(tmp_path / "mo.csv", delimiter=",", skiprows=1, ndmin=2)
     assert np.array_equal(L.mean(X), m[:, 2:])
+
+
+@pytest.mark.parametrize("names", [None, ("x", "y", "a", "b")])
+@pytest.mark.usefixtures("poolreps")
+def test_a_state_saved_from_python_goes_through_the_command_line(tmp_path, names):
+    """Python saves, `poolreps learner` asks and tells on the file, Python
+    loads it back: the same actions and the same state bytes as a learner
+    that stayed in Python throughout. Without names the columns are s0, s1,
+    a0, a1."""
+    kw = {} if names is None else {"context_names": names[:2], "action_names": names[2:]}
+    cols = names or ("s0", "s1", "a0", "a1")
+    L = poolreps.Learner(2, 2, value="nrvr", seed=4, set=KEYS, **kw)
+    M = copy.deepcopy(L)  # stays in Python
+    assert (L.context_names, L.action_names) == (list(cols[:2]), list(cols[2:]))
+    rng = np.random.default_rng(8)
+    st = tmp_path / "st"
+    for t in range(4):
+        X = rng.uniform(-1, 1, (12, 2))
+        if t % 2 == 0:  # the command line plays this iteration
+            st.write_bytes(L.save())
+            A = cli_ask(tmp_path, st, X, cols[:2])
+            cli_tell(tmp_path, st, X, A, returns(X, A), cols)
+            L = poolreps.Learner.load(st.read_bytes())
+        else:
+            A = L.ask(X)
+            L.tell(X, A, returns(X, A))
+        B = M.ask(X)
+        assert np.array_equal(A, B)
+        M.tell(X, B, returns(X, B))
+    assert L.save() == M.save() and L.context_names == list(cols[:2])
+
+
+def test_column_names_are_checked():
+    with pytest.raises(ValueError, match="context_names"):
+        poolreps.Learner(2, 1, context_names=["x"])
+    with pytest.raises(ValueError, match="action_names"):
+        poolreps.Learner(2, 1, action_names="a")
+    with pytest.raises(ValueError, match="action name 0 'x' is also context name 0"):
+        poolreps.Learner(2, 1, context_names=["x", "y"], action_names=["x"])
+    with pytest.raises(ValueError, match="context name 1 must be"):
+        poolreps.Learner(2, 1, context_names=["x", "y\n"])
+    with pytest.raises(ValueError, match="action name 0 's1' is also context name 1"):
+        poolreps.Learner(2, 1, action_names=["s1"])  # the default context names
 
 
 def trained(n=4, **kw):

@@ -146,15 +146,20 @@ int pr_bind_policy_logpdf(const pr_policy *p, long nq, const double *S, const do
 
 /* The ask/tell learner (learner.h) with the options of c (learner.*,
  * value.*, reps.*, policy.*), contexts of dx and actions of da dimensions,
+ * the dx + da column names of `poolreps learner` (NULL ones: s0 .., a0 ..),
+ * pi_0's mean init_mean (da; NULL: 0; a learner with one is saved only
+ * once pi_0's episodes have left the window),
  * drawing from rng (pr_bind_rng_new(experiment.seed) gives the stream of
  * `poolreps learner new`). NULL and err on failure. */
-pr_learner *pr_bind_learner_new(const pr_config *c, int dx, int da, gsl_rng *rng, char *err);
+pr_learner *pr_bind_learner_new(const pr_config *c, int dx, int da, const char *const *names,
+                                const double *init_mean, gsl_rng *rng, char *err);
 /* pr_learner_tell_batch with flat arguments (G n x d or NULL, Y n x dy or NULL). */
 int pr_bind_learner_tell(pr_learner *L, int n, const double *X, const double *A, const double *R,
                          const double *G, int d, const double *Y, int dy, char *err);
 /* The last tell's summary: d[0..6] = eta, kl, ess, q_ess, residual, kl_gap,
  * residual_rel; i[0..6] = iteration, n, bound, features, dual evaluations,
- * status, flags; the reason text (empty unless status is failed). */
-const char *pr_bind_learner_summary(const pr_learner *L, double *d, int *i);
+ * status, flags; the reason text (empty unless status is failed). names,
+ * unless NULL: the dx + da column names (valid while L lives). */
+const char *pr_bind_learner_summary(const pr_learner *L, double *d, int *i, const char **names);
 
 #endif

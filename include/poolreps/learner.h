@@ -52,14 +52,21 @@ enum { PR_LEARNER_POLICY_TREE = 0, PR_LEARNER_POLICY_LINEAR = 1 };
  * (redraw); scaled onto the limit (clip); or drawn again with the density
  * divided by the mass inside the limit (corrected; two action dimensions). */
 enum { PR_LEARNER_REDRAW = 0, PR_LEARNER_CLIP = 1, PR_LEARNER_CORRECTED = 2 };
+/* learner.draw: an action from N(mean, cov) with cov decomposed at the
+ * context (query), or with the eigen-decomposition the policy's fit kept
+ * (fit, as pr_policy_sample; the C-REPS benchmarks draw so). The two agree
+ * up to round-off. */
+enum { PR_LEARNER_DRAW_QUERY = 0, PR_LEARNER_DRAW_FIT = 1 };
 
 typedef struct {
 	int value;             /* PR_LEARNER_VALUE_* */
 	int policy_type;       /* PR_LEARNER_POLICY_* */
-	int window;            /* episodes REPS and the fit reuse, >= 2 */
+	int window;            /* episodes REPS and the fit reuse, >= 2; 0: each tell's
+	                        * own alone, base weights uniform (C-REPS) */
 	double init_std;       /* pi_0 = N(0, init_std^2 I) */
 	double max_norm;       /* > 0: actions are kept within this norm; 0: no limit */
 	int truncation;        /* PR_LEARNER_REDRAW, _CLIP or _CORRECTED */
+	int draw;              /* PR_LEARNER_DRAW_QUERY or _FIT */
 	int refit;             /* 1: no REPS, p = q (a control: pi refitted to its own samples) */
 	pr_forest_opts value_forest; /* value.* */
 	int value_features;    /* value.features: PR_VALUE_* */
@@ -119,7 +126,7 @@ const pr_learner_summary *pr_learner_last(const pr_learner *L);
  * and each live policy's fit (refitted on load, bit for bit).
  * PR_LEARNER_FORMAT is the version this library writes and the only one it
  * reads. */
-#define PR_LEARNER_FORMAT 1
+#define PR_LEARNER_FORMAT 2
 /* The state into a new buffer *buf of *len bytes (free()). */
 int pr_learner_save(const pr_learner *L, unsigned char **buf, size_t *len, char *err);
 /* A learner from len bytes in that format, drawing from rng, whose state is

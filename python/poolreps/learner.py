@@ -1,7 +1,8 @@
 """poolreps.Learner: the ask/tell learner of the C library (learner.h) on
 numpy arrays.
 
-    L = Learner(context_dim, action_dim, value="trees", policy="tree", seed=0, set=None)
+    L = Learner(context_dim, action_dim, value="trees", policy="tree", seed=0, set=None,
+                context_names=None, action_names=None)
     A = L.ask(contexts)                  # (n, action_dim): one draw per context
     L.tell(contexts, actions, returns)   # one iteration: REPS and a new policy
     L.mean(contexts), L.iteration, L.summary
@@ -12,10 +13,15 @@ experiment.seed. The stream is a GSL mt19937 set to the seed, as `poolreps
 learner new --seed` sets it, so the same seed and keys give the same bits
 as the command line. A pickled or deep-copied learner goes on with the same
 draws (its state is the library's saved state, random stream included).
+init_mean (action_dim numbers) is pi_0's mean instead of 0; such a learner
+is saved once pi_0's episodes have left the window. save() gives the bytes
+of a STATE file: `poolreps learner ask|tell|mean`
+read its context and action columns by the names given here (default s0 ..,
+a0 ..), and Learner.load reads what they wrote.
 """
 import ctypes
 from ctypes import POINTER, c_char_p, c_double, c_int, c_size_t, c_void_p
-from typing import Any, Dict, Optional
+from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
 
@@ -24,9 +30,9 @@ from ._lib import Handle, addr, array, assignments, check, config, errbuf, lib, 
 
 _P = c_void_p
 for _name, (_res, _args) in {
-    "pr_bind_learner_new": (_P, [_P, c_int, c_int, _P, c_char_p]),
+    "pr_bind_learner_new": (_P, [_P, c_int, c_int, _P, _P, _P, c_char_p]),
     "pr_bind_learner_tell": (c_int, [_P, c_int, _P, _P, _P, _P, c_int, _P, c_int, c_char_p]),
-    "pr_bind_learner_summary": (c_char_p, [_P, _P, _P]),
+    "pr_bind_learner_summary": (c_char_p, [_P, _P, _P, _P]),
     "pr_learner_ask": (c_int, [_P, c_int, _P, _P, c_char_p]),
     "pr_learner_mean": (c_int, [_P, c_int, _P, _P, c_char_p]),
     "pr_learner_save": (c_int, [_P, POINTER(_P), POINTER(c_size_t), c_char_p]),
@@ -50,21 +56,35 @@ def _dim(name, v, hi):
     return int(v)
 
 
+def _names(name, v, n):
+    """A list of n column names as bytes (None: the library's defaults)."""
+    if v is None:
+        return None
+    if isinstance(v, (str, bytes)) or len(v) != n or not all(isinstance(x, str) for x in v):
+        raise ValueError(f"{name}: must be a sequence of {n} strings (got {v!r})")
+    return [x.encode() for x in v]
+
+
 class Learner:
     """The thesis's method as an ask/tell learner: value features from
     extremely randomized trees, episodic contextual REPS over a window of
     past episodes, a tree-LWR (or linear) Gaussian policy refitted each tell."""
 
     def __init__(self, context_dim: int, action_dim: int, *, value: str = "trees",
-                 policy: str = "tree", seed: int = 0, set: Optional[Dict[str, Any]] = None):
+                 policy: str = "tree", seed: int = 0, set: Optional[Dict[str, Any]] = None,
+                 context_names: Optional[Sequence[str]] = None,
+                 action_names: Optional[Sequence[str]] = None, init_mean: Any = None):
         dx, da = _dim("context_dim", context_dim, 100000), _dim("action_dim", action_dim, 64)
+        cn, an = _names("context_names", context_names, dx), _names("action_names", action_names, da)
+        names = (c_char_p * (dx + da))(*(cn or [None] * dx), *(an or [None] * da))
+        mu = None if init_mean is None else array("init_mean", init_mean, 1, rows=da)
         keys = {"learner.value": value, "learner.policy": policy,
                 "experiment.seed": _lib.seed_value("seed", seed)}
         keys.update(set or {})
         cfg = config(assignments(keys))
         self._rng = rng_handle(lib.pr_bind_rng_new(int(float(cfg.number("experiment.seed")))))
         err = errbuf()
-        ptr = lib.pr_bind_learner_new(cfg.ptr, dx, da, self._rng.ptr, err)
+        ptr = lib.pr_bind_learner_new(cfg.ptr, dx, da, names, addr(mu), self._rng.ptr, err)
         if not ptr:
             check(_lib.PR_EINVAL, err)
         self._h = Handle(ptr, lib.pr_learner_free)
@@ -119,7 +139,7 @@ class Learner:
         """The last tell's REPS certificate and fit."""
         d = (c_double * 7)()
         i = (c_int * 7)()
-        reason = lib.pr_bind_learner_summary(self._h.ptr, d, i).decode(errors="replace")
+        reason = lib.pr_bind_learner_summary(self._h.ptr, d, i, None).decode(errors="replace")
         out = dict(zip(("eta", "kl", "ess", "q_ess", "residual", "kl_gap", "residual_rel"),
                        (float(v) for v in d)))
         out.update(zip(("iteration", "n", "bound", "features", "dual_evals"), (int(v) for v in i[:5])))
@@ -127,6 +147,21 @@ class Learner:
         out["policy_flags"] = int(i[6])
         out["reason"] = reason
         return out
+
+    def _names(self):
+        names = (c_char_p * (self._dx + self._da))()
+        lib.pr_bind_learner_summary(self._h.ptr, (c_double * 7)(), (c_int * 7)(), names)
+        return [v.decode(errors="replace") for v in names]
+
+    @property
+    def context_names(self) -> List[str]:
+        """The context columns' names in a STATE file (`poolreps learner`)."""
+        return self._names()[:self._dx]
+
+    @property
+    def action_names(self) -> List[str]:
+        """The action columns' names in a STATE file."""
+        return self._names()[self._dx:]
 
     # ---- saving ----
 

@@ -2,8 +2,9 @@
  * learner (learner.h) across processes, so that episodes can be played
  * anywhere between ask and tell.
  *
- * STATE is the learner's saved state (docs/learner.md). new writes it with
- * the names of the context and action columns; ask reads the context
+ * STATE is the learner's saved state (docs/learner.md), written by new or
+ * by poolreps.Learner.save(), with the names of the context and action
+ * columns (default s0 .., a0 ..); ask reads the context
  * columns by name and writes them followed by the drawn action columns;
  * tell reads the context, action and return columns (and the features or
  * targets the options need); mean writes the mean actions. ask and tell
@@ -74,12 +75,6 @@ static pr_learner *load(const char *path, gsl_rng *rng, char *err)
 	if (read_state(path, &buf, &len, err) == PR_OK)
 		L = pr_learner_load(buf, len, path, rng, err);
 	free(buf);
-	if (L && !pr_learner_names(L)) {
-		pr_err(err, PR_EIO, "%s: a learner state without column names (not written by "
-		       "poolreps learner new)", path);
-		pr_learner_free(L);
-		L = NULL;
-	}
 	return L;
 }
 

@@ -217,7 +217,9 @@ typedef struct {
 int pr_learner_tell_batch(pr_learner *L, const pr_learner_batch *b, char *err);
 /* Names of the dx context then da action columns, kept in the saved
  * state for the caller (the command line's CSV columns); each 1 .. 255
- * bytes without a NUL or line break. pr_learner_names: NULL if none. */
+ * bytes without a NUL or line break, all distinct. A NULL name (or NULL
+ * names) is the default s0 .. s{dx-1}, a0 .. a{da-1}, which every new
+ * learner (and one loaded from a state without names) has. */
 int pr_learner_set_names(pr_learner *L, const char *const *names, char *err);
 const char *const *pr_learner_names(const pr_learner *L);
 /* The current policy (the one ask draws from); valid until the next tell. */
