@@ -19,6 +19,7 @@
 #include "poolreps/shotparams.h"
 #include "poolreps/sim.h"
 #include "poolreps/internal.h"
+#include "common_priv.h"
 #include "streams.h"
 
 /* Constructors and fits return NULL for bad input and for a failed allocation
@@ -73,52 +74,106 @@ char *pr_bind_config_ini(const pr_config *c, char *err)
 	return buf;
 }
 
-int pr_bind_shoot_params(const pr_config *c, long lo, long hi, int nballs, const double *balls,
-                         const double *actions, int nkeys, const char *const *keys,
-                         const double *values, double *final, int *pocket, unsigned char *hit,
-                         double *min_gap, double *reward, double *t_end, long *events, char *err)
+/* One thread's rows of pr_bind_shoot_params: the arrays are the whole
+ * batch's, the part writes rows lo .. hi - 1 only. */
+typedef struct {
+	const pr_config *c;
+	long lo, hi;
+	int nballs, nkeys;
+	const char *const *keys;
+	const double *balls, *actions, *values;
+	double *final, *min_gap, *reward, *t_end;
+	int *pocket;
+	unsigned char *hit;
+	long *events;
+	int rc;
+	char err[PR_ERRLEN];
+} shoot_part;
+
+/* Rows of a part with its own simulator (pr_shot_params), so that a row's
+ * bits do not depend on which thread shot it. */
+static void *shoot_part_run(void *arg)
 {
+	shoot_part *s = arg;
 	char why[PR_ERRLEN];
 	pr_shot_params *p;
 	long r;
-	int j, rc = PR_OK;
+	int j;
 
-	if (nballs > PR_SIM_MAX_BALLS || nballs < 1 + c->table.reward_balls)
-		return pr_err(err, PR_EINVAL, "%d balls: need 1 + table.reward_balls (%d) to %d",
-		              nballs, c->table.reward_balls, PR_SIM_MAX_BALLS);
-	if (!(p = pr_shot_params_new(c, nkeys, keys, err)))
-		return null_status(err);
-	for (r = lo; r < hi; ++r) {
-		const size_t k = (size_t)r * (size_t)nballs;
+	s->rc = PR_OK;
+	if (!(p = pr_shot_params_new(s->c, s->nkeys, s->keys, s->err))) {
+		s->rc = null_status(s->err);
+		return NULL;
+	}
+	for (r = s->lo; r < s->hi; ++r) {
+		const size_t k = (size_t)r * (size_t)s->nballs;
 		pr_sim *sim;
 		pr_shot res;
 
 		/* a binding's worker thread is told to stop (a Ctrl-C in Python) */
 		if (pr_interrupted) {
-			rc = pr_err(err, PR_EINTR, "shoot: interrupted");
+			s->rc = pr_err(s->err, PR_EINTR, "shoot: interrupted");
 			break;
 		}
-		sim = pr_shot_params_row(p, values + (size_t)r * (size_t)nkeys, &rc, why);
-		if (!sim || (rc = pr_sim_shoot(sim, balls + 2 * k, nballs, actions + 2 * r, &res, NULL,
-		                               why))) {
-			pr_err(err, rc, "row %ld: %s", r, why);
+		sim = pr_shot_params_row(p, s->values + (size_t)r * (size_t)s->nkeys, &s->rc, why);
+		if (!sim || (s->rc = pr_sim_shoot(sim, s->balls + 2 * k, s->nballs, s->actions + 2 * r,
+		                                  &res, NULL, why))) {
+			pr_err(s->err, s->rc, "row %ld: %s", r, why);
 			break;
 		}
 		/* plain loops: for a few balls a memcpy call costs more than the copy */
-		for (j = 0; j < nballs; ++j) {
-			final[2 * (k + j)] = res.final[2 * j];
-			final[2 * (k + j) + 1] = res.final[2 * j + 1];
-			pocket[k + j] = res.pocket[j];
+		for (j = 0; j < s->nballs; ++j) {
+			s->final[2 * (k + j)] = res.final[2 * j];
+			s->final[2 * (k + j) + 1] = res.final[2 * j + 1];
+			s->pocket[k + j] = res.pocket[j];
 		}
-		hit[r] = (unsigned char)res.hit;
-		min_gap[r] = res.min_gap;
-		reward[r] = pr_sim_reward(&pr_shot_params_config(p)->table,
-		                          &pr_shot_params_config(p)->reward, &res);
-		t_end[r] = res.t_end;
-		events[r] = res.events;
+		s->hit[r] = (unsigned char)res.hit;
+		s->min_gap[r] = res.min_gap;
+		s->reward[r] = pr_sim_reward(&pr_shot_params_config(p)->table,
+		                             &pr_shot_params_config(p)->reward, &res);
+		s->t_end[r] = res.t_end;
+		s->events[r] = res.events;
 	}
 	pr_shot_params_free(p);
-	return rc;
+	return NULL;
+}
+
+/* Rows per thread below which another thread costs more than it saves
+ * (starting one takes tens of microseconds, a shot one to ten). */
+#define SHOOT_ROWS_PER_THREAD 64
+
+int pr_bind_shoot_params(const pr_config *c, long lo, long hi, int nballs, const double *balls,
+                         const double *actions, int nkeys, const char *const *keys,
+                         const double *values, double *final, int *pocket, unsigned char *hit,
+                         double *min_gap, double *reward, double *t_end, long *events,
+                         int threads, char *err)
+{
+	shoot_part part[PR_MAX_THREADS];
+	long n = hi > lo ? hi - lo : 0, most;
+	int nt, t;
+
+	if (nballs > PR_SIM_MAX_BALLS || nballs < 1 + c->table.reward_balls)
+		return pr_err(err, PR_EINVAL, "%d balls: need 1 + table.reward_balls (%d) to %d",
+		              nballs, c->table.reward_balls, PR_SIM_MAX_BALLS);
+	if (threads < 0)
+		return pr_err(err, PR_EINVAL, "threads: must be >= 0 (0: one per CPU), got %d",
+		              threads);
+	nt = threads == 0 ? pr_cpu_count() : threads > PR_MAX_THREADS ? PR_MAX_THREADS : threads;
+	most = (n + SHOOT_ROWS_PER_THREAD - 1) / SHOOT_ROWS_PER_THREAD;
+	if (nt > most)
+		nt = most > 1 ? (int)most : 1;
+	/* contiguous parts: the first part that failed holds the first failed row */
+	for (t = 0; t < nt; ++t)
+		part[t] = (shoot_part){c, lo + n * t / nt, lo + n * (t + 1) / nt, nballs, nkeys, keys,
+		                       balls, actions, values, final, min_gap, reward, t_end, pocket,
+		                       hit, events, PR_OK, ""};
+	pr_run_parts(nt, shoot_part_run, part, sizeof *part);
+	for (t = 0; t < nt; ++t)
+		if (part[t].rc) {
+			snprintf(err, PR_ERRLEN, "%s", part[t].err);
+			return part[t].rc;
+		}
+	return PR_OK;
 }
 
 int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const double *balls,
@@ -126,7 +181,7 @@ int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const 
                         double *min_gap, double *reward, double *t_end, long *events, char *err)
 {
 	return pr_bind_shoot_params(c, lo, hi, nballs, balls, actions, 0, NULL, NULL, final, pocket,
-	                            hit, min_gap, reward, t_end, events, err);
+	                            hit, min_gap, reward, t_end, events, 1, err);
 }
 
 int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,
