@@ -7,6 +7,8 @@
  * only place that follows pr_reps_result's layout.
  */
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -74,11 +76,17 @@ char *pr_bind_config_ini(const pr_config *c, char *err)
 	return buf;
 }
 
-/* One thread's rows of pr_bind_shoot_params: the arrays are the whole
- * batch's, the part writes rows lo .. hi - 1 only. */
+/* A batch of pr_bind_shoot_params shared by the threads that shoot it.
+ * Rows are claimed in chunks from an atomic counter, so a thread the
+ * scheduler holds back (a busy machine) delays no other: the caller shoots
+ * whatever is left and waits only for chunks already claimed. Helpers are
+ * detached; the last thread out frees the batch, so a helper that starts
+ * after the call returned finds nothing to claim and touches nothing of
+ * the caller's. Each thread has its own simulator (pr_shot_params), so a
+ * row's bits do not depend on which thread shot it. */
 typedef struct {
 	const pr_config *c;
-	long lo, hi;
+	long lo, hi, chunk;
 	int nballs, nkeys;
 	const char *const *keys;
 	const double *balls, *actions, *values;
@@ -86,56 +94,126 @@ typedef struct {
 	int *pocket;
 	unsigned char *hit;
 	long *events;
-	int rc;
+	atomic_long next; /* the first row not claimed */
+	atomic_long bad;  /* the first row that failed (hi: none) */
+	pthread_mutex_t mu;
+	pthread_cond_t cv;
+	long done;        /* rows shot or skipped */
+	int refs, rc;     /* threads holding the batch; the first bad row's status */
 	char err[PR_ERRLEN];
-} shoot_part;
+} shoot_batch;
 
-/* Rows of a part with its own simulator (pr_shot_params), so that a row's
- * bits do not depend on which thread shot it. */
-static void *shoot_part_run(void *arg)
+/* Row r failed with status rc and message why: kept if it is the first. */
+static void shoot_fail(shoot_batch *b, long r, int rc, const char *why)
 {
-	shoot_part *s = arg;
+	pthread_mutex_lock(&b->mu);
+	if (r < atomic_load(&b->bad)) {
+		atomic_store(&b->bad, r);
+		b->rc = rc;
+		snprintf(b->err, sizeof b->err, "%s", why);
+	}
+	pthread_mutex_unlock(&b->mu);
+}
+
+static void shoot_row(shoot_batch *b, pr_shot_params *p, long r)
+{
+	const size_t k = (size_t)r * (size_t)b->nballs;
+	char why[PR_ERRLEN], msg[PR_ERRLEN];
+	pr_sim *sim;
+	pr_shot res;
+	int j, rc = PR_OK;
+
+	/* a binding's worker thread is told to stop (a Ctrl-C in Python) */
+	if (pr_interrupted) {
+		shoot_fail(b, r, pr_err(msg, PR_EINTR, "shoot: interrupted"), msg);
+		return;
+	}
+	sim = pr_shot_params_row(p, b->values + (size_t)r * (size_t)b->nkeys, &rc, why);
+	if (!sim || (rc = pr_sim_shoot(sim, b->balls + 2 * k, b->nballs, b->actions + 2 * r, &res,
+	                               NULL, why))) {
+		shoot_fail(b, r, pr_err(msg, rc, "row %ld: %s", r, why), msg);
+		return;
+	}
+	/* plain loops: for a few balls a memcpy call costs more than the copy */
+	for (j = 0; j < b->nballs; ++j) {
+		b->final[2 * (k + j)] = res.final[2 * j];
+		b->final[2 * (k + j) + 1] = res.final[2 * j + 1];
+		b->pocket[k + j] = res.pocket[j];
+	}
+	b->hit[r] = (unsigned char)res.hit;
+	b->min_gap[r] = res.min_gap;
+	b->reward[r] = pr_sim_reward(&pr_shot_params_config(p)->table,
+	                             &pr_shot_params_config(p)->reward, &res);
+	b->t_end[r] = res.t_end;
+	b->events[r] = res.events;
+}
+
+/* Claims and shoots chunks until none is left; p is the thread's
+ * simulator, made at its first chunk when NULL (c lives while a chunk is
+ * claimed and not done). Rows after the first failed one are skipped. */
+static void shoot_chunks(shoot_batch *b, pr_shot_params *p)
+{
+	pr_shot_params *own = NULL;
 	char why[PR_ERRLEN];
-	pr_shot_params *p;
-	long r;
-	int j;
+	long r0, r;
 
-	s->rc = PR_OK;
-	if (!(p = pr_shot_params_new(s->c, s->nkeys, s->keys, s->err))) {
-		s->rc = null_status(s->err);
-		return NULL;
-	}
-	for (r = s->lo; r < s->hi; ++r) {
-		const size_t k = (size_t)r * (size_t)s->nballs;
-		pr_sim *sim;
-		pr_shot res;
+	while ((r0 = atomic_fetch_add(&b->next, b->chunk)) < b->hi) {
+		const long r1 = r0 + b->chunk < b->hi ? r0 + b->chunk : b->hi;
 
-		/* a binding's worker thread is told to stop (a Ctrl-C in Python) */
-		if (pr_interrupted) {
-			s->rc = pr_err(s->err, PR_EINTR, "shoot: interrupted");
-			break;
-		}
-		sim = pr_shot_params_row(p, s->values + (size_t)r * (size_t)s->nkeys, &s->rc, why);
-		if (!sim || (s->rc = pr_sim_shoot(sim, s->balls + 2 * k, s->nballs, s->actions + 2 * r,
-		                                  &res, NULL, why))) {
-			pr_err(s->err, s->rc, "row %ld: %s", r, why);
-			break;
-		}
-		/* plain loops: for a few balls a memcpy call costs more than the copy */
-		for (j = 0; j < s->nballs; ++j) {
-			s->final[2 * (k + j)] = res.final[2 * j];
-			s->final[2 * (k + j) + 1] = res.final[2 * j + 1];
-			s->pocket[k + j] = res.pocket[j];
-		}
-		s->hit[r] = (unsigned char)res.hit;
-		s->min_gap[r] = res.min_gap;
-		s->reward[r] = pr_sim_reward(&pr_shot_params_config(p)->table,
-		                             &pr_shot_params_config(p)->reward, &res);
-		s->t_end[r] = res.t_end;
-		s->events[r] = res.events;
+		if (!p && !(p = own = pr_shot_params_new(b->c, b->nkeys, b->keys, why)))
+			shoot_fail(b, r0, null_status(why), why);
+		for (r = r0; p && r < r1 && r < atomic_load(&b->bad); ++r)
+			shoot_row(b, p, r);
+		pthread_mutex_lock(&b->mu);
+		if ((b->done += r1 - r0) == b->hi - b->lo)
+			pthread_cond_broadcast(&b->cv);
+		pthread_mutex_unlock(&b->mu);
 	}
-	pr_shot_params_free(p);
+	pr_shot_params_free(own);
+}
+
+static void shoot_release(shoot_batch *b)
+{
+	int last;
+
+	pthread_mutex_lock(&b->mu);
+	last = --b->refs == 0;
+	pthread_mutex_unlock(&b->mu);
+	if (last) {
+		pthread_mutex_destroy(&b->mu);
+		pthread_cond_destroy(&b->cv);
+		free(b);
+	}
+}
+
+static void *shoot_helper(void *arg)
+{
+	shoot_chunks(arg, NULL);
+	shoot_release(arg);
 	return NULL;
+}
+
+/* Starts up to n detached helpers on b; a helper that cannot start is
+ * left out (the others and the caller shoot its rows). */
+static void shoot_helpers(shoot_batch *b, int n)
+{
+	pthread_attr_t attr;
+	pthread_t tid;
+
+	if (pthread_attr_init(&attr) != 0)
+		return;
+	if (pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED) == 0 &&
+	    pthread_attr_setstacksize(&attr, PR_THREAD_STACK) == 0)
+		while (n-- > 0) {
+			pthread_mutex_lock(&b->mu);
+			b->refs++;
+			pthread_mutex_unlock(&b->mu);
+			if (pthread_create(&tid, &attr, shoot_helper, b) != 0) {
+				shoot_release(b);
+				break;
+			}
+		}
+	pthread_attr_destroy(&attr);
 }
 
 /* Rows per thread below which another thread costs more than it saves
@@ -148,9 +226,11 @@ int pr_bind_shoot_params(const pr_config *c, long lo, long hi, int nballs, const
                          double *min_gap, double *reward, double *t_end, long *events,
                          int threads, char *err)
 {
-	shoot_part part[PR_MAX_THREADS];
-	long n = hi > lo ? hi - lo : 0, most;
-	int nt, t;
+	const long n = hi > lo ? hi - lo : 0;
+	long most = n / SHOOT_ROWS_PER_THREAD;
+	shoot_batch *b;
+	pr_shot_params *p;
+	int nt, rc;
 
 	if (nballs > PR_SIM_MAX_BALLS || nballs < 1 + c->table.reward_balls)
 		return pr_err(err, PR_EINVAL, "%d balls: need 1 + table.reward_balls (%d) to %d",
@@ -158,22 +238,52 @@ int pr_bind_shoot_params(const pr_config *c, long lo, long hi, int nballs, const
 	if (threads < 0)
 		return pr_err(err, PR_EINVAL, "threads: must be >= 0 (0: one per CPU), got %d",
 		              threads);
+	/* the keys are checked here, before any thread starts */
+	if (!(p = pr_shot_params_new(c, nkeys, keys, err)))
+		return null_status(err);
+	if (!(b = malloc(sizeof *b))) {
+		pr_shot_params_free(p);
+		return pr_err(err, PR_ENOMEM, "shoot: out of memory");
+	}
 	nt = threads == 0 ? pr_cpu_count() : threads > PR_MAX_THREADS ? PR_MAX_THREADS : threads;
-	most = (n + SHOOT_ROWS_PER_THREAD - 1) / SHOOT_ROWS_PER_THREAD;
 	if (nt > most)
 		nt = most > 1 ? (int)most : 1;
-	/* contiguous parts: the first part that failed holds the first failed row */
-	for (t = 0; t < nt; ++t)
-		part[t] = (shoot_part){c, lo + n * t / nt, lo + n * (t + 1) / nt, nballs, nkeys, keys,
-		                       balls, actions, values, final, min_gap, reward, t_end, pocket,
-		                       hit, events, PR_OK, ""};
-	pr_run_parts(nt, shoot_part_run, part, sizeof *part);
-	for (t = 0; t < nt; ++t)
-		if (part[t].rc) {
-			snprintf(err, PR_ERRLEN, "%s", part[t].err);
-			return part[t].rc;
-		}
-	return PR_OK;
+	memset(b, 0, sizeof *b);
+	b->c = c;
+	b->lo = lo;
+	b->hi = lo + n;
+	/* about 8 chunks a thread, of 8 to 1024 rows */
+	b->chunk = n / (8 * nt) < 8 ? 8 : n / (8 * nt) > 1024 ? 1024 : n / (8 * nt);
+	b->nballs = nballs;
+	b->nkeys = nkeys;
+	b->keys = keys;
+	b->balls = balls;
+	b->actions = actions;
+	b->values = values;
+	b->final = final;
+	b->min_gap = min_gap;
+	b->reward = reward;
+	b->t_end = t_end;
+	b->pocket = pocket;
+	b->hit = hit;
+	b->events = events;
+	atomic_init(&b->next, lo);
+	atomic_init(&b->bad, lo + n);
+	pthread_mutex_init(&b->mu, NULL);
+	pthread_cond_init(&b->cv, NULL);
+	b->refs = 1;
+	shoot_helpers(b, nt - 1);
+	shoot_chunks(b, p);
+	pthread_mutex_lock(&b->mu);
+	while (b->done < n)
+		pthread_cond_wait(&b->cv, &b->mu);
+	rc = b->rc;
+	if (rc)
+		snprintf(err, PR_ERRLEN, "%s", b->err);
+	pthread_mutex_unlock(&b->mu);
+	shoot_release(b);
+	pr_shot_params_free(p);
+	return rc;
 }
 
 int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const double *balls,

@@ -601,6 +601,32 @@ def test_native_vector_env_equals_sync_vector_env(kwargs):
 
 
 @needs_gym
+def test_native_vector_env_threads_change_no_number():
+    """200 sub-envs, their shots split over 1, 3 or one thread per CPU (the
+    default): the same bytes as SyncVectorEnv's, randomized physics too."""
+    kw = {"normalize_actions": True, "randomize": {"table.friction": (0.1, 0.6)}}
+    n = 200
+    envs = [gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=n, threads=t,
+                               vectorization_mode="vector_entry_point", **kw) for t in (1, 3, 0)]
+    assert [e.threads for e in envs] == [1, 3, 0]
+    sync = sync_same_step(n, **kw)
+    for e in envs + [sync]:
+        e.reset(seed=21)
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        act = rng.uniform(-1, 1, (n, 2)).astype(np.float32)
+        want = sync.step(act)
+        for e in envs:
+            got = e.step(act)
+            for k in (0, 1):
+                assert got[k].tobytes() == want[k].tobytes()
+            assert got[4]["final_obs"].tobytes() == np.stack(want[4]["final_obs"]).tobytes()
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="threads"):
+            poolreps.vector.PocketVectorEnv(num_envs=2, threads=bad)
+
+
+@needs_gym
 def test_native_vector_env_refuses_bad_input_and_changes_nothing():
     venv = gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=3)
     with pytest.raises(RuntimeError, match="reset"):

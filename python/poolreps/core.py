@@ -88,13 +88,13 @@ def thread_count(threads: Any) -> int:
 
 
 def shoot_rows(cfg, b: np.ndarray, a: np.ndarray, params: RowParams = None,
-               threads: int = 1) -> Dict[str, np.ndarray]:
+               threads: int = 1, short: int = SHORT_ROWS) -> Dict[str, np.ndarray]:
     """shoot on checked arrays with a built Config and row_params' values.
     The rows run in a worker thread (_lib.interruptible): Ctrl-C reaches the
     caller at once, however long a row takes, and stops the worker at its
-    next row. threads as for shoot. A few event-mode rows (microseconds
-    each: a Gymnasium step) run directly, sparing the thread's start (about
-    0.1 ms)."""
+    next row. threads as for shoot. Up to short event-mode rows
+    (microseconds each: a Gymnasium step) run directly, sparing the
+    thread's start (about 0.1 ms, as much as 100 rows)."""
     n, nb = b.shape[0], b.shape[1] // 2
     out = {
         "final": np.empty((n, nb, 2)),
@@ -115,7 +115,7 @@ def shoot_rows(cfg, b: np.ndarray, a: np.ndarray, params: RowParams = None,
     def call():  # no rows: the empty range all the same, which checks params' keys
         return lib.pr_bind_shoot_params(cfg.ptr, 0, n, nb, addr(b), addr(a), len(keys), names,
                                         addr(values), *ptrs, nt, err)
-    if n <= SHORT_ROWS and cfg.values()["sim.mode"] == "event":
+    if n <= short and cfg.values()["sim.mode"] == "event":
         _lib.settle()
         check(call(), err)
     else:

@@ -11,7 +11,7 @@ import numpy.typing as npt
 
 from . import _lib
 from ._lib import addr, array, check, chunks, config, errbuf, lib
-from .core import row_params, shoot_rows
+from .core import SHORT_ROWS, row_params, shoot_rows
 
 try:
     import gymnasium
@@ -322,13 +322,19 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         and velocity (the velocity shot, m/s), and params' keys. params:
         keys per row as for poolreps.shoot (e.g. reset_batch's info);
         threads as for poolreps.shoot (the same numbers for any count)."""
+        return self._step_batch(states, actions, params, threads, SHORT_ROWS)
+
+    def _step_batch(self, states: Any, actions: Any, params: Optional[Dict[str, Any]],
+                    threads: int, short: int
+                    ) -> Tuple[Floats, Floats, Bools, Bools, Dict[str, Any]]:
+        """step_batch, up to short rows without a worker thread (shoot_rows)."""
         S = array("states", states, 2, cols=2 * self.n_balls, allow_empty=True, finite=False)
         A, clipped = self.velocity(np.asarray(actions) if hasattr(actions, "shape") else actions)
         if A.shape[0] != S.shape[0]:
             raise ValueError(f"actions: expected {S.shape[0]} rows, got shape {A.shape}")
         n = S.shape[0]
         rows = row_params(params, n)
-        r = shoot_rows(self._cfg, S, A, rows, threads)
+        r = shoot_rows(self._cfg, S, A, rows, threads, short)
         info = {k: r[k] for k in ("pocket", "hit", "min_gap", "t_end", "events")}
         if rows:
             info.update({k: rows[1][:, j].copy() for j, k in enumerate(rows[0])})

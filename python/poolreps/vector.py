@@ -19,6 +19,11 @@ from .env import PocketEnv
 
 Obs = npt.NDArray[np.float64]
 
+# A step of up to this many sub-envs runs without the Ctrl-C worker thread
+# (core.shoot_rows), whose start costs as much as about 100 shots: a few
+# milliseconds of shots, after which the KeyboardInterrupt arrives.
+STEP_ROWS = 4096
+
 
 class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
     """num_envs PocketEnvs in one object: step(actions) shoots all of them
@@ -140,8 +145,8 @@ class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
         (float64, bool, int), not object arrays."""
         if self._states is None:
             raise RuntimeError("PocketVectorEnv: call reset() before step()")
-        final, rewards, terminated, truncated, shot = self.env.step_batch(
-            self._states, actions, self._params, self.threads)
+        final, rewards, terminated, truncated, shot = self.env._step_batch(
+            self._states, actions, self._params, self.threads, STEP_ROWS)
         self._states = self._starts()
         for k in list(shot):
             shot["_" + k] = self._mask()
