@@ -794,6 +794,69 @@ def test_rgb_array_list_through_gymnasium_make_and_human_plays_the_shot(monkeypa
     assert shown[-1] == pytest.approx(1 / human.metadata["render_fps"])
 
 
+def _shot_frames(seed, action):
+    """The frames a PocketEnv renders for one episode: after reset, then
+    after the shot."""
+    env = poolreps.PocketEnv(render_mode="rgb_array_list")
+    env.reset(seed=seed)
+    frames = env.render()
+    env.step(action)
+    return frames + env.render(), env.metadata["render_fps"]
+
+
+def _recorded_episode(folder, seed, action):
+    from poolreps.video import RecordVideo
+    env = gymnasium.make("poolreps/PocketEnv-v0", render_mode="rgb_array_list")
+    rec = RecordVideo(env, str(folder), episode_trigger=lambda e: True, disable_logger=True)
+    rec.reset(seed=seed)
+    rec.step(action)
+    rec.close()
+
+
+@needs_gym
+def test_record_video_writes_every_frame_of_the_shot(tmp_path, monkeypatch):
+    """poolreps.video.RecordVideo hands MoviePy every frame of the episode
+    (Gymnasium's keeps the last of each render's list), at render_fps; with
+    MoviePy installed, the clip written has as many frames as MoviePy
+    writes from those frames itself (its writer drops a last frame or two
+    to rounding)."""
+    import types
+    action = np.array([0.3, 0.05])
+    want, fps = _shot_frames(2, action)
+    assert len(want) >= 12
+    try:
+        from moviepy import ImageSequenceClip, VideoFileClip
+    except ImportError:
+        VideoFileClip = None
+    if VideoFileClip is not None:
+        _recorded_episode(tmp_path / "real", 2, action)
+        ImageSequenceClip(want, fps=fps).write_videofile(str(tmp_path / "ref.mp4"), logger=None)
+        counts = []
+        for path in (tmp_path / "real" / "rl-video-episode-0.mp4", tmp_path / "ref.mp4"):
+            clip = VideoFileClip(str(path))
+            assert clip.fps == fps
+            counts.append(sum(1 for _ in clip.iter_frames()))
+            clip.close()
+        assert counts[0] == counts[1] > len(want) - 3
+    got = []
+
+    class Clip:  # MoviePy's ImageSequenceClip as Gymnasium calls it
+        def __init__(self, frames, fps):
+            got.append((list(frames), fps))
+
+        def write_videofile(self, path, logger=None):
+            open(path, "wb").close()
+    mod = types.ModuleType("moviepy.video.io.ImageSequenceClip")
+    mod.ImageSequenceClip = Clip
+    for name in ("moviepy", "moviepy.video", "moviepy.video.io"):
+        monkeypatch.setitem(sys.modules, name, types.ModuleType(name))
+    monkeypatch.setitem(sys.modules, mod.__name__, mod)
+    _recorded_episode(tmp_path / "fake", 2, action)
+    [(frames, rate)] = got
+    assert rate == fps and len(frames) == len(want)
+    assert all(np.array_equal(a, b) for a, b in zip(frames, want))
+
+
 # ---- typing ----------------------------------------------------------------------
 
 USER_SCRIPT = '''
