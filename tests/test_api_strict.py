@@ -131,11 +131,12 @@ def test_python_refuses_what_the_cli_refuses(make, code, tmp_path):
 
 # ---- Ctrl-C reaches a Python caller at once, whatever a row costs ----
 
-@pytest.mark.parametrize("dt,rows", [(1e-6, 400), (2e-5, 20000)])
-def test_ctrl_c_reaches_shoot_within_half_a_second(dt, rows):
+@pytest.mark.parametrize("dt,rows,threads", [(1e-6, 400, 1), (2e-5, 20000, 1), (2e-5, 20000, 2)])
+def test_ctrl_c_reaches_shoot_within_half_a_second(dt, rows, threads):
     """Stepped rows of about 0.08 s (dt = 1e-6) or 4 ms (2e-5) each: the
     whole call would take many seconds; SIGINT 0.5 s in must raise
-    KeyboardInterrupt within 0.5 s, and the next call runs normally."""
+    KeyboardInterrupt within 0.5 s, and the next call runs normally (on
+    one thread or split over two)."""
     import signal
     import threading
     import time
@@ -151,12 +152,12 @@ def test_ctrl_c_reaches_shoot_within_half_a_second(dt, rows):
     t.start()
     try:
         with pytest.raises(KeyboardInterrupt):
-            poolreps.shoot(b, a, mode="stepped", set={"sim.dt": dt})
+            poolreps.shoot(b, a, mode="stepped", set={"sim.dt": dt}, threads=threads)
         late = time.monotonic() - sent[0]
     finally:
         t.join()
     assert late < 0.5, f"KeyboardInterrupt {late:.2f} s after SIGINT"
-    r = poolreps.shoot(b[:3], a[:3], mode="stepped", set={"sim.dt": 1e-4})
+    r = poolreps.shoot(b[:200], a[:200], mode="stepped", set={"sim.dt": 1e-4}, threads=threads)
     assert np.isfinite(r["reward"]).all()
 
 
