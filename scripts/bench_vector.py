@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """bench_vector.py [--envs N ...] [--rounds K] [--seconds S] — environment
 steps per second of the native vector env (PocketVectorEnv, one batch call
-per step) against Gymnasium's SyncVectorEnv of PocketEnvs (a Python loop
-over the sub-envs), both with same-step autoreset, on two action workloads:
+per step, its shots split over one thread per CPU by default; kind native1:
+threads=1, at the --sync-envs sizes) against Gymnasium's SyncVectorEnv of
+PocketEnvs (a Python loop over the sub-envs), both with same-step
+autoreset, on two action workloads:
 
   gauss    velocities N(0, 0.1^2 I) m/s (tests/bench/bench_sim.c's shots)
   uniform  normalize_actions=True, actions uniform in [-1, 1]^2 (a fresh
@@ -14,8 +16,8 @@ shoot, kind plain or params, envs = rows, steps_per_s = shots/s).
 
 Rounds alternate the kinds so that all see the same machine load; each
 round steps for S seconds. Writes CSV rows workload,envs,kind,round,
-steps_per_s,load1 (the 1-minute load average as the round ended) to
-stdout."""
+steps_per_s,load1 (the 1-minute load average as the round ended),threads
+(the threads the kind's batch calls use) to stdout."""
 import os
 import argparse
 import sys
@@ -42,9 +44,10 @@ WORKLOADS = {"gauss": {}, "uniform": {"normalize_actions": True}}
 
 
 def make(kind, n, kwargs):
-    if kind == "native":
+    if kind in ("native", "native1"):
+        threads = {"threads": 1} if kind == "native1" else {}
         return gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=n,
-                                  vectorization_mode="vector_entry_point", **kwargs)
+                                  vectorization_mode="vector_entry_point", **threads, **kwargs)
     return gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=n, vectorization_mode="sync",
                               vector_kwargs={"autoreset_mode": AutoresetMode.SAME_STEP}, **kwargs)
 
@@ -76,11 +79,15 @@ def shoot_rate(states, acts, params, seconds):
             return k * len(states) / dt
 
 
+CPUS = min(len(os.sched_getaffinity(0)), 64)  # what threads=0 means (the library's cap)
+
+
 def row(w, n, kind, r, rate):
-    print(f"{w},{n},{kind},{r},{rate:.0f},{os.getloadavg()[0]:.2f}", flush=True)
+    threads = CPUS if kind == "native" else 1
+    print(f"{w},{n},{kind},{r},{rate:.0f},{os.getloadavg()[0]:.2f},{threads}", flush=True)
 
 
-print("workload,envs,kind,round,steps_per_s,load1")
+print("workload,envs,kind,round,steps_per_s,load1,threads")
 rng = np.random.default_rng(1)
 states, _ = poolreps.PocketEnv().reset_batch(a.rows, seed=1)
 acts = rng.normal(0, 0.1, (a.rows, 2))
@@ -91,8 +98,9 @@ for r in range(a.rounds):
         row("shoot", a.rows, kind, r, shoot_rate(states, acts, p, a.seconds))
 for w, kwargs in WORKLOADS.items():
     sizes = sorted(set(a.envs) | set(a.sync_envs))
-    envs = {(kind, n): make(kind, n, kwargs) for n in sizes for kind in ("native", "sync")
-            if kind == "native" and n in a.envs or kind == "sync" and n in a.sync_envs}
+    envs = {(kind, n): make(kind, n, kwargs) for n in sizes
+            for kind in ("native", "native1", "sync")
+            if kind == "native" and n in a.envs or kind != "native" and n in a.sync_envs}
     for e in envs.values():
         e.reset(seed=1)
     acts = {n: [actions(w, n, rng) for _ in range(16)] for n in sizes}

@@ -18,7 +18,8 @@ import doc_block
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DOCS = [os.path.join(ROOT, "docs", "python.md")]
-NAMES = {"native": "native (`vector_entry_point`)", "sync": "`SyncVectorEnv`",
+NAMES = {"native": "native (`vector_entry_point`)", "native1": "native, `threads=1`",
+         "sync": "`SyncVectorEnv`",
          "plain": "`shoot`", "params": "`shoot(params=...)`, 2 keys per row"}
 
 
@@ -32,7 +33,7 @@ def render(rows):
            "|---|---:|---|---:|---:|"]
     ratios = {}
     for w, n, kind in groups:
-        other = {"native": "sync", "params": "plain"}.get(kind)
+        other = {"native": "sync", "native1": "sync", "params": "plain"}.get(kind)
         med = statistics.median(rate[(w, n, kind, r)] for r in rounds[(w, n, kind)])
         cell = ""
         if other and (w, n, other) in rounds:
@@ -42,15 +43,20 @@ def render(rows):
             cell = f"{ratios[(w, n, kind)]:.3g} × {NAMES[other]}"
         out.append(f"| {w} | {n:,} | {NAMES[kind]} | {med:,.0f} | {cell} |")
     n_rounds = max(len(v) for v in rounds.values())
+    cpus = max(int(r.get("threads") or 1) for r in rows)  # the native env's threads=0
     text = "\n".join(out) + "\n\n"
     text += (f"{n_rounds} rounds of `scripts/bench_vector.sh`, 1-minute load average "
-             f"{min(load):.1f} to {max(load):.1f} on 2 cores during the run.")
+             f"{min(load):.1f} to {max(load):.1f} on {cpus} CPUs during the run.")
     g = ratios.get(("gauss", 256, "native"))
     if g is not None:
-        text += (f" At 256 envs the native vector env steps {g:.0f} times as fast as "
-                 f"`SyncVectorEnv` on the gauss workload, "
-                 f"{ratios[('uniform', 256, 'native')]:.0f} times on the uniform one (its "
-                 f"faster shots spend more of each step in the simulator, which both share).")
+        threads = {int(r.get("threads") or 1) for r in rows if r["kind"] == "native"}
+        text += (f" At 256 envs the native vector env ({'/'.join(map(str, sorted(threads)))} "
+                 f"threads) steps {g:.0f} times as fast as `SyncVectorEnv` on the gauss "
+                 f"workload, {ratios[('uniform', 256, 'native')]:.0f} times on the uniform one "
+                 f"(its faster shots spend more of each step in the simulator).")
+        one = ratios.get(("uniform", 256, "native1"))
+        if one is not None:
+            text += f" With one thread the uniform workload's ratio is {one:.0f}."
     p = ratios.get(("shoot", max(k[1] for k in ratios if k[0] == "shoot"), "params")) \
         if any(k[0] == "shoot" for k in ratios) else None
     if p is not None:

@@ -7,6 +7,8 @@
  * only place that follows pr_reps_result's layout.
  */
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -19,6 +21,7 @@
 #include "poolreps/shotparams.h"
 #include "poolreps/sim.h"
 #include "poolreps/internal.h"
+#include "common_priv.h"
 #include "streams.h"
 
 /* Constructors and fits return NULL for bad input and for a failed allocation
@@ -73,50 +76,212 @@ char *pr_bind_config_ini(const pr_config *c, char *err)
 	return buf;
 }
 
+/* A batch of pr_bind_shoot_params shared by the threads that shoot it.
+ * Rows are claimed in chunks from an atomic counter, so a thread the
+ * scheduler holds back (a busy machine) delays no other: the caller shoots
+ * whatever is left and waits only for chunks already claimed. Helpers are
+ * detached; the last thread out frees the batch, so a helper that starts
+ * after the call returned finds nothing to claim and touches nothing of
+ * the caller's. Each thread has its own simulator (pr_shot_params), so a
+ * row's bits do not depend on which thread shot it. */
+typedef struct {
+	const pr_config *c;
+	long lo, hi, chunk;
+	int nballs, nkeys;
+	const char *const *keys;
+	const double *balls, *actions, *values;
+	double *final, *min_gap, *reward, *t_end;
+	int *pocket;
+	unsigned char *hit;
+	long *events;
+	atomic_long next; /* the first row not claimed */
+	atomic_long bad;  /* the first row that failed (hi: none) */
+	pthread_mutex_t mu;
+	pthread_cond_t cv;
+	long done;        /* rows shot or skipped */
+	int refs, rc;     /* threads holding the batch; the first bad row's status */
+	char err[PR_ERRLEN];
+} shoot_batch;
+
+/* Row r failed with status rc and message why: kept if it is the first. */
+static void shoot_fail(shoot_batch *b, long r, int rc, const char *why)
+{
+	pthread_mutex_lock(&b->mu);
+	if (r < atomic_load(&b->bad)) {
+		atomic_store(&b->bad, r);
+		b->rc = rc;
+		snprintf(b->err, sizeof b->err, "%s", why);
+	}
+	pthread_mutex_unlock(&b->mu);
+}
+
+static void shoot_row(shoot_batch *b, pr_shot_params *p, long r)
+{
+	const size_t k = (size_t)r * (size_t)b->nballs;
+	char why[PR_ERRLEN], msg[PR_ERRLEN];
+	pr_sim *sim;
+	pr_shot res;
+	int j, rc = PR_OK;
+
+	/* a binding's worker thread is told to stop (a Ctrl-C in Python) */
+	if (pr_interrupted) {
+		shoot_fail(b, r, pr_err(msg, PR_EINTR, "shoot: interrupted"), msg);
+		return;
+	}
+	sim = pr_shot_params_row(p, b->values + (size_t)r * (size_t)b->nkeys, &rc, why);
+	if (!sim || (rc = pr_sim_shoot(sim, b->balls + 2 * k, b->nballs, b->actions + 2 * r, &res,
+	                               NULL, why))) {
+		shoot_fail(b, r, pr_err(msg, rc, "row %ld: %s", r, why), msg);
+		return;
+	}
+	/* plain loops: for a few balls a memcpy call costs more than the copy */
+	for (j = 0; j < b->nballs; ++j) {
+		b->final[2 * (k + j)] = res.final[2 * j];
+		b->final[2 * (k + j) + 1] = res.final[2 * j + 1];
+		b->pocket[k + j] = res.pocket[j];
+	}
+	b->hit[r] = (unsigned char)res.hit;
+	b->min_gap[r] = res.min_gap;
+	b->reward[r] = pr_sim_reward(&pr_shot_params_config(p)->table,
+	                             &pr_shot_params_config(p)->reward, &res);
+	b->t_end[r] = res.t_end;
+	b->events[r] = res.events;
+}
+
+/* Claims and shoots chunks until none is left; p is the thread's
+ * simulator, made at its first chunk when NULL (c lives while a chunk is
+ * claimed and not done). Rows after the first failed one are skipped. */
+static void shoot_chunks(shoot_batch *b, pr_shot_params *p)
+{
+	pr_shot_params *own = NULL;
+	char why[PR_ERRLEN];
+	long r0, r;
+
+	while ((r0 = atomic_fetch_add(&b->next, b->chunk)) < b->hi) {
+		const long r1 = r0 + b->chunk < b->hi ? r0 + b->chunk : b->hi;
+
+		if (!p && !(p = own = pr_shot_params_new(b->c, b->nkeys, b->keys, why)))
+			shoot_fail(b, r0, null_status(why), why);
+		for (r = r0; p && r < r1 && r < atomic_load(&b->bad); ++r)
+			shoot_row(b, p, r);
+		pthread_mutex_lock(&b->mu);
+		if ((b->done += r1 - r0) == b->hi - b->lo)
+			pthread_cond_broadcast(&b->cv);
+		pthread_mutex_unlock(&b->mu);
+	}
+	pr_shot_params_free(own);
+}
+
+static void shoot_release(shoot_batch *b)
+{
+	int last;
+
+	pthread_mutex_lock(&b->mu);
+	last = --b->refs == 0;
+	pthread_mutex_unlock(&b->mu);
+	if (last) {
+		pthread_mutex_destroy(&b->mu);
+		pthread_cond_destroy(&b->cv);
+		free(b);
+	}
+}
+
+static void *shoot_helper(void *arg)
+{
+	shoot_chunks(arg, NULL);
+	shoot_release(arg);
+	return NULL;
+}
+
+/* Starts up to n detached helpers on b; a helper that cannot start is
+ * left out (the others and the caller shoot its rows). */
+static void shoot_helpers(shoot_batch *b, int n)
+{
+	pthread_attr_t attr;
+	pthread_t tid;
+
+	if (pthread_attr_init(&attr) != 0)
+		return;
+	if (pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED) == 0 &&
+	    pthread_attr_setstacksize(&attr, PR_THREAD_STACK) == 0)
+		while (n-- > 0) {
+			pthread_mutex_lock(&b->mu);
+			b->refs++;
+			pthread_mutex_unlock(&b->mu);
+			if (pthread_create(&tid, &attr, shoot_helper, b) != 0) {
+				shoot_release(b);
+				break;
+			}
+		}
+	pthread_attr_destroy(&attr);
+}
+
+/* Rows per thread below which another thread costs more than it saves
+ * (starting one takes tens of microseconds, a shot one to ten). */
+#define SHOOT_ROWS_PER_THREAD 64
+
 int pr_bind_shoot_params(const pr_config *c, long lo, long hi, int nballs, const double *balls,
                          const double *actions, int nkeys, const char *const *keys,
                          const double *values, double *final, int *pocket, unsigned char *hit,
-                         double *min_gap, double *reward, double *t_end, long *events, char *err)
+                         double *min_gap, double *reward, double *t_end, long *events,
+                         int threads, char *err)
 {
-	char why[PR_ERRLEN];
+	const long n = hi > lo ? hi - lo : 0;
+	long most = n / SHOOT_ROWS_PER_THREAD;
+	shoot_batch *b;
 	pr_shot_params *p;
-	long r;
-	int j, rc = PR_OK;
+	int nt, rc;
 
 	if (nballs > PR_SIM_MAX_BALLS || nballs < 1 + c->table.reward_balls)
 		return pr_err(err, PR_EINVAL, "%d balls: need 1 + table.reward_balls (%d) to %d",
 		              nballs, c->table.reward_balls, PR_SIM_MAX_BALLS);
+	if (threads < 0)
+		return pr_err(err, PR_EINVAL, "threads: must be >= 0 (0: one per CPU), got %d",
+		              threads);
+	/* the keys are checked here, before any thread starts */
 	if (!(p = pr_shot_params_new(c, nkeys, keys, err)))
 		return null_status(err);
-	for (r = lo; r < hi; ++r) {
-		const size_t k = (size_t)r * (size_t)nballs;
-		pr_sim *sim;
-		pr_shot res;
-
-		/* a binding's worker thread is told to stop (a Ctrl-C in Python) */
-		if (pr_interrupted) {
-			rc = pr_err(err, PR_EINTR, "shoot: interrupted");
-			break;
-		}
-		sim = pr_shot_params_row(p, values + (size_t)r * (size_t)nkeys, &rc, why);
-		if (!sim || (rc = pr_sim_shoot(sim, balls + 2 * k, nballs, actions + 2 * r, &res, NULL,
-		                               why))) {
-			pr_err(err, rc, "row %ld: %s", r, why);
-			break;
-		}
-		/* plain loops: for a few balls a memcpy call costs more than the copy */
-		for (j = 0; j < nballs; ++j) {
-			final[2 * (k + j)] = res.final[2 * j];
-			final[2 * (k + j) + 1] = res.final[2 * j + 1];
-			pocket[k + j] = res.pocket[j];
-		}
-		hit[r] = (unsigned char)res.hit;
-		min_gap[r] = res.min_gap;
-		reward[r] = pr_sim_reward(&pr_shot_params_config(p)->table,
-		                          &pr_shot_params_config(p)->reward, &res);
-		t_end[r] = res.t_end;
-		events[r] = res.events;
+	if (!(b = malloc(sizeof *b))) {
+		pr_shot_params_free(p);
+		return pr_err(err, PR_ENOMEM, "shoot: out of memory");
 	}
+	nt = threads == 0 ? pr_cpu_count() : threads > PR_MAX_THREADS ? PR_MAX_THREADS : threads;
+	if (nt > most)
+		nt = most > 1 ? (int)most : 1;
+	memset(b, 0, sizeof *b);
+	b->c = c;
+	b->lo = lo;
+	b->hi = lo + n;
+	/* about 8 chunks a thread, of 8 to 1024 rows */
+	b->chunk = n / (8 * nt) < 8 ? 8 : n / (8 * nt) > 1024 ? 1024 : n / (8 * nt);
+	b->nballs = nballs;
+	b->nkeys = nkeys;
+	b->keys = keys;
+	b->balls = balls;
+	b->actions = actions;
+	b->values = values;
+	b->final = final;
+	b->min_gap = min_gap;
+	b->reward = reward;
+	b->t_end = t_end;
+	b->pocket = pocket;
+	b->hit = hit;
+	b->events = events;
+	atomic_init(&b->next, lo);
+	atomic_init(&b->bad, lo + n);
+	pthread_mutex_init(&b->mu, NULL);
+	pthread_cond_init(&b->cv, NULL);
+	b->refs = 1;
+	shoot_helpers(b, nt - 1);
+	shoot_chunks(b, p);
+	pthread_mutex_lock(&b->mu);
+	while (b->done < n)
+		pthread_cond_wait(&b->cv, &b->mu);
+	rc = b->rc;
+	if (rc)
+		snprintf(err, PR_ERRLEN, "%s", b->err);
+	pthread_mutex_unlock(&b->mu);
+	shoot_release(b);
 	pr_shot_params_free(p);
 	return rc;
 }
@@ -126,7 +291,7 @@ int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const 
                         double *min_gap, double *reward, double *t_end, long *events, char *err)
 {
 	return pr_bind_shoot_params(c, lo, hi, nballs, balls, actions, 0, NULL, NULL, final, pocket,
-	                            hit, min_gap, reward, t_end, events, err);
+	                            hit, min_gap, reward, t_end, events, 1, err);
 }
 
 int pr_bind_shoot(const pr_config *c, long n, int nballs, const double *balls,

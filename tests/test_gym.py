@@ -601,6 +601,32 @@ def test_native_vector_env_equals_sync_vector_env(kwargs):
 
 
 @needs_gym
+def test_native_vector_env_threads_change_no_number():
+    """200 sub-envs, their shots split over 1, 3 or one thread per CPU (the
+    default): the same bytes as SyncVectorEnv's, randomized physics too."""
+    kw = {"normalize_actions": True, "randomize": {"table.friction": (0.1, 0.6)}}
+    n = 200
+    envs = [gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=n, threads=t,
+                               vectorization_mode="vector_entry_point", **kw) for t in (1, 3, 0)]
+    assert [e.threads for e in envs] == [1, 3, 0]
+    sync = sync_same_step(n, **kw)
+    for e in envs + [sync]:
+        e.reset(seed=21)
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        act = rng.uniform(-1, 1, (n, 2)).astype(np.float32)
+        want = sync.step(act)
+        for e in envs:
+            got = e.step(act)
+            for k in (0, 1):
+                assert got[k].tobytes() == want[k].tobytes()
+            assert got[4]["final_obs"].tobytes() == np.stack(want[4]["final_obs"]).tobytes()
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="threads"):
+            poolreps.vector.PocketVectorEnv(num_envs=2, threads=bad)
+
+
+@needs_gym
 def test_native_vector_env_refuses_bad_input_and_changes_nothing():
     venv = gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=3)
     with pytest.raises(RuntimeError, match="reset"):
@@ -766,6 +792,69 @@ def test_rgb_array_list_through_gymnasium_make_and_human_plays_the_shot(monkeypa
     human.step(np.array([0.3, 0.05]))
     assert len(shown) == len(frames)  # the start frame, then the shot's frames
     assert shown[-1] == pytest.approx(1 / human.metadata["render_fps"])
+
+
+def _shot_frames(seed, action):
+    """The frames a PocketEnv renders for one episode: after reset, then
+    after the shot."""
+    env = poolreps.PocketEnv(render_mode="rgb_array_list")
+    env.reset(seed=seed)
+    frames = env.render()
+    env.step(action)
+    return frames + env.render(), env.metadata["render_fps"]
+
+
+def _recorded_episode(folder, seed, action):
+    from poolreps.video import RecordVideo
+    env = gymnasium.make("poolreps/PocketEnv-v0", render_mode="rgb_array_list")
+    rec = RecordVideo(env, str(folder), episode_trigger=lambda e: True, disable_logger=True)
+    rec.reset(seed=seed)
+    rec.step(action)
+    rec.close()
+
+
+@needs_gym
+def test_record_video_writes_every_frame_of_the_shot(tmp_path, monkeypatch):
+    """poolreps.video.RecordVideo hands MoviePy every frame of the episode
+    (Gymnasium's keeps the last of each render's list), at render_fps; with
+    MoviePy installed, the clip written has as many frames as MoviePy
+    writes from those frames itself (its writer drops a last frame or two
+    to rounding)."""
+    import types
+    action = np.array([0.3, 0.05])
+    want, fps = _shot_frames(2, action)
+    assert len(want) >= 12
+    try:
+        from moviepy import ImageSequenceClip, VideoFileClip
+    except ImportError:
+        VideoFileClip = None
+    if VideoFileClip is not None:
+        _recorded_episode(tmp_path / "real", 2, action)
+        ImageSequenceClip(want, fps=fps).write_videofile(str(tmp_path / "ref.mp4"), logger=None)
+        counts = []
+        for path in (tmp_path / "real" / "rl-video-episode-0.mp4", tmp_path / "ref.mp4"):
+            clip = VideoFileClip(str(path))
+            assert clip.fps == fps
+            counts.append(sum(1 for _ in clip.iter_frames()))
+            clip.close()
+        assert counts[0] == counts[1] > len(want) - 3
+    got = []
+
+    class Clip:  # MoviePy's ImageSequenceClip as Gymnasium calls it
+        def __init__(self, frames, fps):
+            got.append((list(frames), fps))
+
+        def write_videofile(self, path, logger=None):
+            open(path, "wb").close()
+    mod = types.ModuleType("moviepy.video.io.ImageSequenceClip")
+    mod.ImageSequenceClip = Clip
+    for name in ("moviepy", "moviepy.video", "moviepy.video.io"):
+        monkeypatch.setitem(sys.modules, name, types.ModuleType(name))
+    monkeypatch.setitem(sys.modules, mod.__name__, mod)
+    _recorded_episode(tmp_path / "fake", 2, action)
+    [(frames, rate)] = got
+    assert rate == fps and len(frames) == len(want)
+    assert all(np.array_equal(a, b) for a, b in zip(frames, want))
 
 
 # ---- typing ----------------------------------------------------------------------

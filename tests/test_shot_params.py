@@ -150,3 +150,54 @@ def test_cli_key_columns_with_keep_and_trace(tmp_path):
         one = "x0,y0,x1,y1,vx,vy\n-0.25,0,0.1,0.05,1.2,0.6\n"
         ref = run_poolreps(["shoot", "--set", f"table.restitution={k}"], input=one.encode())
         assert read_csv(ref.stdout.decode())[1] == rows[i + 1][7:]
+
+
+OUTPUTS = ("final", "pocket", "hit", "min_gap", "reward", "t_end", "events")
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_threads_give_the_same_bytes_as_one_thread(seed):
+    """shoot(threads=T) splits the rows over T threads, each with its own
+    simulator; every output byte equals the one-thread batch's (and, with
+    params, one call per row's), whatever T and whatever the rows cost."""
+    rng = np.random.default_rng(200 + seed)
+    n = 700 + 37 * seed  # parts of unequal size, more than 64 rows each
+    states, actions = problem(seed, n, nballs=2 + seed)
+    # cheap and costly rows mixed (speeds within sim.max_speed, 10 m/s)
+    actions = np.clip(actions * rng.choice([0.1, 1.0, 8.0], size=(n, 1)), -7.0, 7.0)
+    params = {"table.friction": rng.uniform(0.05, 2.0, n),
+              "table.restitution": rng.uniform(0.0, 1.0, n)}
+    params["table.friction"][::5] = 0.2  # runs of equal values reuse a simulator
+    mode = "stepped" if seed == 2 else "event"
+    for p in (None, params):
+        want = poolreps.shoot(states, actions, mode=mode, params=p)
+        for t in (2, 3, 0, 64, 1000):
+            got = poolreps.shoot(states, actions, mode=mode, params=p, threads=t)
+            for k in OUTPUTS:
+                assert got[k].dtype == want[k].dtype
+                assert got[k].tobytes() == want[k].tobytes(), (k, t, p is None)
+    one = per_row(states[:50], actions[:50], {k: v[:50] for k, v in params.items()}, mode=mode)
+    got = poolreps.shoot(states, actions, mode=mode, params=params, threads=4)
+    for k in OUTPUTS:
+        assert got[k][:50].tobytes() == one[k].tobytes(), k
+
+
+def test_threads_name_the_first_bad_row():
+    """Bad rows in two threads' parts: the message names the first, as one
+    thread does; a bad threads value is refused."""
+    n = 400
+    states, actions = problem(1, n)
+    fric = np.full(n, 0.3)
+    fric[[300, 390]] = -1.0  # in the last parts of 2 and of 4 threads
+    msgs = set()
+    for t in (1, 2, 4, 0):
+        with pytest.raises(ValueError) as e:
+            poolreps.shoot(states, actions, params={"table.friction": fric}, threads=t)
+        msgs.add(str(e.value))
+    assert len(msgs) == 1 and "row 300" in msgs.pop()
+    fric[10] = -1.0
+    with pytest.raises(ValueError, match="row 10"):
+        poolreps.shoot(states, actions, params={"table.friction": fric}, threads=4)
+    for bad in (-1, 1.5, True, "2", None):
+        with pytest.raises(ValueError, match="threads"):
+            poolreps.shoot(states, actions, threads=bad)

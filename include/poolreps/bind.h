@@ -57,11 +57,15 @@ int pr_bind_shoot_range(const pr_config *c, long lo, long hi, int nballs, const 
 /* The same with per-row parameters (shotparams.h): values is n x nkeys,
  * row r's values for keys[0..nkeys-1] (number keys of table., sim. and
  * reward.); row r is shot as with --set KEY=VALUE for each, bit for bit,
- * and a value --set refuses stops the batch with "row R: <message>". */
+ * and a value --set refuses stops the batch with "row R: <message>" (the
+ * first such row). The rows are split into contiguous parts on up to
+ * threads threads (0: one per CPU; at least 64 rows a thread), each with
+ * its own simulator: every output byte is the same whatever the count. */
 int pr_bind_shoot_params(const pr_config *c, long lo, long hi, int nballs, const double *balls,
                          const double *actions, int nkeys, const char *const *keys,
                          const double *values, double *final, int *pocket, unsigned char *hit,
-                         double *min_gap, double *reward, double *t_end, long *events, char *err);
+                         double *min_gap, double *reward, double *t_end, long *events,
+                         int threads, char *err);
 
 /* pr_sim_check_state on the configuration's table. */
 int pr_bind_check_state(const pr_config *c, const double *state, int nballs, char *err);

@@ -8,6 +8,7 @@ Search*, on numpy arrays, at the C library's speed.
     Policy(**keys).fit(S, A, w).mean_cov(S) / .sample / .log_prob   # poolreps policy
     PocketEnv(set=None, render_mode=None, normalize_actions=False)  # Gymnasium API
     gymnasium.make_vec("poolreps/PocketEnv-v0", num_envs=N)   # PocketVectorEnv, batched
+    poolreps.sb3.PocketVecEnv(N) / poolreps.video.RecordVideo(env, folder)  # SB3; clips
     Learner(context_dim, action_dim).ask(X) / .tell(X, A, R)   # poolreps learner
 
 Keys are the CLI's (`poolreps --help`), given as a dict {'section.key':

@@ -115,7 +115,7 @@ _PROTOTYPES = {
     "pr_bind_shoot_range": (c_int, [_P, c_long, c_long, c_int, _P, _P, _P, _P, _P, _P, _P, _P,
                                     _P, c_char_p]),
     "pr_bind_shoot_params": (c_int, [_P, c_long, c_long, c_int, _P, _P, c_int, _P, _P, _P, _P,
-                                     _P, _P, _P, _P, _P, c_char_p]),
+                                     _P, _P, _P, _P, _P, c_int, c_char_p]),
     "pr_bind_uniforms_each": (None, [_P, c_long, c_int, _P]),
     "pr_bind_check_state": (c_int, [_P, _P, c_int, c_char_p]),
     "pr_bind_exp3_start_rng": (_P, [c_ulong, c_ulong]),

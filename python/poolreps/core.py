@@ -6,6 +6,7 @@ same options and seed, so the numbers are equal bit for bit.
 from __future__ import annotations
 
 import ctypes
+import numbers
 from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
@@ -26,7 +27,7 @@ SHORT_ROWS = 64
 
 
 def shoot(balls: ArrayLike, actions: ArrayLike, mode: str = "event",
-          set: Keys = None, params: Keys = None) -> Dict[str, np.ndarray]:
+          set: Keys = None, params: Keys = None, threads: int = 1) -> Dict[str, np.ndarray]:
     """Simulate one shot per row, as `poolreps shoot`.
 
     balls: (N, 2*n_balls) start positions x0, y0, x1, y1, ... (ball 0 is the
@@ -37,6 +38,9 @@ def shoot(balls: ArrayLike, actions: ArrayLike, mode: str = "event",
     (N,) arrays or scalars (broadcast), e.g. {'table.friction': f,
     'table.restitution': k}: row i is shot as with set={key: value[i]} on
     top of set, bit for bit (domain randomisation in one call).
+    threads: the rows are split over up to this many threads (0: one per
+    CPU; at least 64 rows a thread); every output is the same whatever the
+    count.
 
     Returns a dict of arrays: final (N, n_balls, 2) final positions (a
     pocketed ball at its pocket's centre), pocket (N, n_balls) pocket id or
@@ -52,7 +56,7 @@ def shoot(balls: ArrayLike, actions: ArrayLike, mode: str = "event",
         raise ValueError(f"balls: expected 2 columns per ball (x0, y0, x1, y1, ...), "
                          f"got shape {b.shape}")
     a = array("actions", actions, 2, cols=2, rows=b.shape[0], allow_empty=True, finite=False)
-    return shoot_rows(cfg, b, a, row_params(params, b.shape[0]))
+    return shoot_rows(cfg, b, a, row_params(params, b.shape[0]), threads)
 
 
 RowParams = Optional[Tuple[Tuple[str, ...], np.ndarray]]
@@ -75,13 +79,22 @@ def row_params(params: Keys, n: int) -> RowParams:
     return keys, np.ascontiguousarray(np.stack(cols, axis=1).reshape(n, len(keys)))
 
 
-def shoot_rows(cfg, b: np.ndarray, a: np.ndarray,
-               params: RowParams = None) -> Dict[str, np.ndarray]:
+def thread_count(threads: Any) -> int:
+    """threads as an int >= 0 (0: one per CPU); ValueError otherwise."""
+    if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, numbers.Integral) \
+            or not 0 <= threads <= 2**31 - 1:
+        raise ValueError(f"threads: must be an integer >= 0 (0: one per CPU), got {threads!r}")
+    return int(threads)
+
+
+def shoot_rows(cfg, b: np.ndarray, a: np.ndarray, params: RowParams = None,
+               threads: int = 1, short: int = SHORT_ROWS) -> Dict[str, np.ndarray]:
     """shoot on checked arrays with a built Config and row_params' values.
     The rows run in a worker thread (_lib.interruptible): Ctrl-C reaches the
     caller at once, however long a row takes, and stops the worker at its
-    next row. A few event-mode rows (microseconds each: a Gymnasium step)
-    run directly, sparing the thread's start (about 0.1 ms)."""
+    next row. threads as for shoot. Up to short event-mode rows
+    (microseconds each: a Gymnasium step) run directly, sparing the
+    thread's start (about 0.1 ms, as much as 100 rows)."""
     n, nb = b.shape[0], b.shape[1] // 2
     out = {
         "final": np.empty((n, nb, 2)),
@@ -96,12 +109,13 @@ def shoot_rows(cfg, b: np.ndarray, a: np.ndarray,
     ptrs = [addr(out[k]) for k in ("final", "pocket", "hit", "min_gap", "reward", "t_end",
                                    "events")]
     keys, values = params if params else ((), None)
+    nt = thread_count(threads)
     names = (ctypes.c_char_p * max(1, len(keys)))(*[k.encode() for k in keys])
 
     def call():  # no rows: the empty range all the same, which checks params' keys
         return lib.pr_bind_shoot_params(cfg.ptr, 0, n, nb, addr(b), addr(a), len(keys), names,
-                                        addr(values), *ptrs, err)
-    if n <= SHORT_ROWS and cfg.values()["sim.mode"] == "event":
+                                        addr(values), *ptrs, nt, err)
+    if n <= short and cfg.values()["sim.mode"] == "event":
         _lib.settle()
         check(call(), err)
     else:

@@ -11,7 +11,7 @@ import numpy.typing as npt
 
 from . import _lib
 from ._lib import addr, array, check, chunks, config, errbuf, lib
-from .core import row_params, shoot_rows
+from .core import SHORT_ROWS, row_params, shoot_rows
 
 try:
     import gymnasium
@@ -239,8 +239,8 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
         options = _lib.options(options, ("state", "repetition"))
         rep = options.get("repetition")
         # checked first: a refused seed leaves np_random as it was
-        if seed is not None:
-            _lib.seed_value("seed", seed)
+        if seed is not None:  # Experiment 3's seeds are experiment.seed values
+            (_lib.seed_value if rep is not None else _lib.env_seed)("seed", seed)
         if rep is not None:
             _lib.seed_value("repetition", rep)
         if gymnasium:
@@ -314,20 +314,27 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
             self.render()
         return obs[0], float(reward[0]), True, False, {k: v[0] for k, v in info.items()}
 
-    def step_batch(self, states: Any, actions: Any, params: Optional[Dict[str, Any]] = None
-                   ) -> Tuple[Floats, Floats, Bools, Bools, Dict[str, Any]]:
+    def step_batch(self, states: Any, actions: Any, params: Optional[Dict[str, Any]] = None,
+                   threads: int = 1) -> Tuple[Floats, Floats, Bools, Bools, Dict[str, Any]]:
         """One shot from each row of states (N, 2*n_balls) with actions
         (N, 2): (observations, rewards, terminated, truncated, info), each
         with N rows; info holds pocket, hit, min_gap, t_end, events, clipped
         and velocity (the velocity shot, m/s), and params' keys. params:
-        keys per row as for poolreps.shoot (e.g. reset_batch's info)."""
+        keys per row as for poolreps.shoot (e.g. reset_batch's info);
+        threads as for poolreps.shoot (the same numbers for any count)."""
+        return self._step_batch(states, actions, params, threads, SHORT_ROWS)
+
+    def _step_batch(self, states: Any, actions: Any, params: Optional[Dict[str, Any]],
+                    threads: int, short: int
+                    ) -> Tuple[Floats, Floats, Bools, Bools, Dict[str, Any]]:
+        """step_batch, up to short rows without a worker thread (shoot_rows)."""
         S = array("states", states, 2, cols=2 * self.n_balls, allow_empty=True, finite=False)
         A, clipped = self.velocity(np.asarray(actions) if hasattr(actions, "shape") else actions)
         if A.shape[0] != S.shape[0]:
             raise ValueError(f"actions: expected {S.shape[0]} rows, got shape {A.shape}")
         n = S.shape[0]
         rows = row_params(params, n)
-        r = shoot_rows(self._cfg, S, A, rows)
+        r = shoot_rows(self._cfg, S, A, rows, threads, short)
         info = {k: r[k] for k in ("pocket", "hit", "min_gap", "t_end", "events")}
         if rows:
             info.update({k: rows[1][:, j].copy() for j, k in enumerate(rows[0])})

@@ -14,9 +14,15 @@ from gymnasium.vector.utils import batch_space
 
 from . import _lib
 from ._lib import addr, check, errbuf, lib
+from .core import thread_count
 from .env import PocketEnv
 
 Obs = npt.NDArray[np.float64]
+
+# A step of up to this many sub-envs runs without the Ctrl-C worker thread
+# (core.shoot_rows), whose start costs as much as about 100 shots: a few
+# milliseconds of shots, after which the KeyboardInterrupt arrives.
+STEP_ROWS = 4096
 
 
 class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
@@ -30,15 +36,19 @@ class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
     PocketEnv reset with seed + i (wrapped to 0..2**32-1): the start
     states, rewards and observations equal those of a SyncVectorEnv of
     PocketEnvs (autoreset_mode SAME_STEP) on the same seeds, randomized
-    parameters (randomize=) included. Keyword arguments are PocketEnv's
-    (set, normalize_actions, randomize).
+    parameters (randomize=) included. threads: each step's shots are split
+    over up to this many threads (0, the default: one per CPU this process
+    may run on; 1 for one env per core, e.g. under SubprocVecEnv); every
+    number is the same whatever the count. Other keyword arguments are
+    PocketEnv's (set, normalize_actions, randomize).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
-    def __init__(self, num_envs: int = 1, **kwargs: Any) -> None:
+    def __init__(self, num_envs: int = 1, threads: int = 0, **kwargs: Any) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs: must be an integer >= 1 (got {num_envs!r})")
+        self.threads = thread_count(threads)
         if kwargs.get("render_mode") is not None:
             raise ValueError("PocketVectorEnv: render_mode is not supported; render a PocketEnv")
         kwargs.pop("render_mode", None)
@@ -55,7 +65,7 @@ class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
         self._params: Optional[Dict[str, npt.NDArray[np.float64]]] = None
 
     def __repr__(self) -> str:
-        return f"PocketVectorEnv(num_envs={self.num_envs}, {self.env!r})"
+        return f"PocketVectorEnv(num_envs={self.num_envs}, threads={self.threads}, {self.env!r})"
 
     def _seed(self, seeds: Sequence[int]) -> None:
         self._rngs = [_lib.rng_handle(lib.pr_bind_rng_new(_lib.env_seed(f"seed[{i}]", s)))
@@ -135,8 +145,8 @@ class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
         (float64, bool, int), not object arrays."""
         if self._states is None:
             raise RuntimeError("PocketVectorEnv: call reset() before step()")
-        final, rewards, terminated, truncated, shot = self.env.step_batch(
-            self._states, actions, self._params)
+        final, rewards, terminated, truncated, shot = self.env._step_batch(
+            self._states, actions, self._params, self.threads, STEP_ROWS)
         self._states = self._starts()
         for k in list(shot):
             shot["_" + k] = self._mask()
