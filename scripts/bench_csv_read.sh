@@ -3,16 +3,16 @@
 # on a user's workload: `poolreps reps` on a 1e6-row input (a return and 6
 # features, 17 significant digits, 137 MB), whole process, in one run.
 #   scripts/bench_csv_read.sh [ROUNDS] [PYTHON]       (default 5 rounds)
-# Four builds of this checkout (git archive HEAD into build/bench_csv/):
+# Three builds of this checkout (git archive HEAD into build/bench_csv/):
 #   plain     libcsv + strtod: the decimal parser compiled out
 #             (-U__SIZEOF_INT128__ takes decimal.c's strtod branch) and
 #             every line through libcsv
 #   decimal   libcsv + the exact decimal parser (src/decimal.c)
 #   bypass    + plain lines split without libcsv, numbers read in place
 #             (this checkout as it is)
-#   threads   + the input read in parts (--threads 0: every core)
-#   pthread   threads with pthread's default stacks instead of the stacks
-#             pr_run_parts (src/common.c) maps by hand (--threads 0)
+# Two pieces measured by the earlier version of this script are gone: the
+# input read in parts on every core, and the thread stacks pr_run_parts
+# mapped by hand (their rows in docs/bench_csv_read.csv, until a new run).
 # The rounds interleave the builds; every build's weights must be the same
 # bytes. Raw times to docs/bench_csv_read.csv; scripts/bench_csv_read.py
 # --write puts the medians into docs/benchmarks.md.
@@ -23,7 +23,7 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 b=$here/build/bench_csv
 rm -rf "$b"
 mkdir -p "$b"
-for v in plain decimal bypass pthread; do
+for v in plain decimal bypass; do
 	mkdir -p "$b/$v"
 	(cd "$here" && git archive HEAD) | tar -x -C "$b/$v"
 done
@@ -32,31 +32,7 @@ for v in plain decimal; do
 	sed -i 's|int direct = !(r->flags \& PR_CSV_LIBCSV_ONLY) \&\& r->idle;|int direct = 0 \&\& r->idle;|' "$b/$v/src/csvio.c"
 	grep -q 'int direct = 0 &&' "$b/$v/src/csvio.c" || { echo "bench_csv_read: cannot switch the bypass off" >&2; exit 1; }
 done
-# the plain way of starting the parts' threads: pthread's own stacks
-"$PY" - "$b/pthread/src/common.c" <<'PYEOF'
-import sys
-p = sys.argv[1]
-s = open(p).read()
-i = s.index("void pr_run_parts(")
-j = s.index("\n}\n", i) + 3
-s = s[:i] + """void pr_run_parts(int nt, void *(*fn)(void *), void *parts, size_t size)
-{
-	pthread_t tid[PR_MAX_THREADS];
-	int started[PR_MAX_THREADS], t;
-
-	for (t = 1; t < nt; t++)
-		started[t] = pthread_create(&tid[t], NULL, fn, (char *)parts + t * size) == 0;
-	for (t = 0; t < nt; t++)
-		if (t == 0 || !started[t])
-			fn((char *)parts + t * size);
-	for (t = 1; t < nt; t++)
-		if (started[t])
-			pthread_join(tid[t], NULL);
-}
-""" + s[j:]
-open(p, "w").write(s)
-PYEOF
-for v in plain decimal bypass pthread; do
+for v in plain decimal bypass; do
 	x=; [ "$v" = plain ] && x=-U__SIZEOF_INT128__
 	(cd "$b/$v" && make -j2 build/rel/poolreps CFLAGS="-O2 -g $x" > build.log 2>&1) ||
 		{ echo "bench_csv_read: the $v build failed ($b/$v/build.log)" >&2; exit 1; }
@@ -76,15 +52,15 @@ out=$here/docs/bench_csv_read.csv
 load0=$(cut -d' ' -f1 /proc/loadavg)
 echo "round,build,threads,wall_s,cpu_s,load_avg" > "$out.tmp"
 for r in $(seq "$ROUNDS"); do
-	for spec in plain:1 decimal:1 bypass:1 threads:0 pthread:0; do
-		v=${spec%:*}; t=${spec#*:}; bin=$v; [ "$v" = threads ] && bin=bypass
-		/usr/bin/time -f "%e %U %S" -o "$b/t" "$b/$bin/build/rel/poolreps" reps --return R \
+	for spec in plain:1 decimal:1 bypass:1; do
+		v=${spec%:*}; t=${spec#*:}
+		/usr/bin/time -f "%e %U %S" -o "$b/t" "$b/$v/build/rel/poolreps" reps --return R \
 			--features 'f*' --threads "$t" -i "$b/reps1e6.csv" -o "$b/w_$v.csv"
 		read -r wall user sys < "$b/t"
 		echo "$r,$v,$t,$wall,$(echo "$user $sys" | awk '{ printf "%.2f", $1 + $2 }'),$(cut -d' ' -f1 /proc/loadavg)" >> "$out.tmp"
 	done
 done
-for v in plain decimal threads pthread; do
+for v in plain decimal; do
 	cmp -s "$b/w_$v.csv" "$b/w_bypass.csv" || { echo "bench_csv_read: $v's weights differ" >&2; exit 1; }
 done
 mv "$out.tmp" "$out"
