@@ -3,14 +3,16 @@
 # on a user's workload: `poolreps reps` on a 1e6-row input (a return and 6
 # features, 17 significant digits, 137 MB), whole process, in one run.
 #   scripts/bench_csv_read.sh [ROUNDS] [PYTHON]       (default 5 rounds)
-# Four builds of this checkout (git archive HEAD into build/bench_csv/):
+# Three builds of this checkout (git archive HEAD into build/bench_csv/):
 #   plain     libcsv + strtod: the decimal parser compiled out
 #             (-U__SIZEOF_INT128__ takes decimal.c's strtod branch) and
 #             every line through libcsv
 #   decimal   libcsv + the exact decimal parser (src/decimal.c)
 #   bypass    + plain lines split without libcsv, numbers read in place
 #             (this checkout as it is)
-#   threads   + the input read in parts (--threads 0: every core)
+# Two pieces measured by the earlier version of this script are gone: the
+# input read in parts on every core, and the thread stacks pr_run_parts
+# mapped by hand (their rows in docs/bench_csv_read.csv, until a new run).
 # The rounds interleave the builds; every build's weights must be the same
 # bytes. Raw times to docs/bench_csv_read.csv; scripts/bench_csv_read.py
 # --write puts the medians into docs/benchmarks.md.
@@ -50,15 +52,15 @@ out=$here/docs/bench_csv_read.csv
 load0=$(cut -d' ' -f1 /proc/loadavg)
 echo "round,build,threads,wall_s,cpu_s,load_avg" > "$out.tmp"
 for r in $(seq "$ROUNDS"); do
-	for spec in plain:1 decimal:1 bypass:1 threads:0; do
-		v=${spec%:*}; t=${spec#*:}; bin=$v; [ "$v" = threads ] && bin=bypass
-		/usr/bin/time -f "%e %U %S" -o "$b/t" "$b/$bin/build/rel/poolreps" reps --return R \
+	for spec in plain:1 decimal:1 bypass:1; do
+		v=${spec%:*}; t=${spec#*:}
+		/usr/bin/time -f "%e %U %S" -o "$b/t" "$b/$v/build/rel/poolreps" reps --return R \
 			--features 'f*' --threads "$t" -i "$b/reps1e6.csv" -o "$b/w_$v.csv"
 		read -r wall user sys < "$b/t"
 		echo "$r,$v,$t,$wall,$(echo "$user $sys" | awk '{ printf "%.2f", $1 + $2 }'),$(cut -d' ' -f1 /proc/loadavg)" >> "$out.tmp"
 	done
 done
-for v in plain decimal threads; do
+for v in plain decimal; do
 	cmp -s "$b/w_$v.csv" "$b/w_bypass.csv" || { echo "bench_csv_read: $v's weights differ" >&2; exit 1; }
 done
 mv "$out.tmp" "$out"

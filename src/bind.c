@@ -37,20 +37,6 @@ const char *pr_bind_init(void)
 	return pr_version();
 }
 
-pr_config *pr_bind_config_new(void)
-{
-	pr_config *c = malloc(sizeof *c);
-
-	if (c)
-		pr_config_init(c, pr_exp_config);
-	return c;
-}
-
-void pr_bind_config_free(pr_config *c)
-{
-	free(c);
-}
-
 void pr_bind_free(void *p)
 {
 	free(p);

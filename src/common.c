@@ -15,7 +15,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -111,14 +110,6 @@ void pr_gsl_error_handler(const char *reason, const char *file, int line, int gs
 		longjmp(*gsl_jump, 1);
 }
 
-/* Set in a thread whose failures are retried by the caller (pr_oom_retried). */
-static _Thread_local int oom_retried;
-
-void pr_oom_retried(int on)
-{
-	oom_retried = on;
-}
-
 int pr_err(char *err, int status, const char *fmt, ...)
 {
 	/* room for a message around a path of PATH_MAX bytes, each byte escaped */
@@ -126,7 +117,7 @@ int pr_err(char *err, int status, const char *fmt, ...)
 	size_t n;
 	va_list ap;
 
-	if (status == PR_ENOMEM && !oom_retried)
+	if (status == PR_ENOMEM)
 		pr_out_of_memory = 1;
 	if (err) {
 		va_start(ap, fmt);
@@ -474,41 +465,19 @@ int pr_cpu_count(void)
 	return n < 1 ? 1 : n > PR_MAX_THREADS ? PR_MAX_THREADS : (int)n;
 }
 
-/* Stacks of PR_THREAD_STACK bytes that this maps and unmaps itself: the
- * parts hold a few locals, and glibc keeps the stacks it makes (8 MiB by
- * default) in a cache after the join, address space that a later
- * allocation under a limit then lacked, so that the thread count decided
- * whether a command ran out of memory. A guard page below each. */
 void pr_run_parts(int nt, void *(*fn)(void *), void *parts, size_t size)
 {
-	const size_t page = (size_t)sysconf(_SC_PAGESIZE), len = PR_THREAD_STACK + page;
 	pthread_t tid[PR_MAX_THREADS];
-	void *stack[PR_MAX_THREADS];
 	int started[PR_MAX_THREADS], t;
 
-	for (t = 0; t < nt; t++) {
-		pthread_attr_t attr;
-
-		started[t] = 0;
-		stack[t] = MAP_FAILED;
-		if (t == 0 || pthread_attr_init(&attr) != 0)
-			continue;
-		stack[t] = mmap(NULL, len, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_STACK,
-		                -1, 0);
-		started[t] = stack[t] != MAP_FAILED && mprotect(stack[t], page, PROT_NONE) == 0 &&
-		             pthread_attr_setstack(&attr, (char *)stack[t] + page, PR_THREAD_STACK) == 0 &&
-		             pthread_create(&tid[t], &attr, fn, (char *)parts + t * size) == 0;
-		pthread_attr_destroy(&attr);
-	}
+	for (t = 1; t < nt; t++)
+		started[t] = pthread_create(&tid[t], NULL, fn, (char *)parts + t * size) == 0;
 	for (t = 0; t < nt; t++)
-		if (!started[t])
+		if (t == 0 || !started[t])
 			fn((char *)parts + t * size);
-	for (t = 1; t < nt; t++) {
+	for (t = 1; t < nt; t++)
 		if (started[t])
 			pthread_join(tid[t], NULL);
-		if (stack[t] != MAP_FAILED)
-			munmap(stack[t], len);
-	}
 }
 
 int pr_weights_check(const double *w, long n, const char *what, long *bad, char *err)

@@ -15,11 +15,6 @@
  * jumps to jb; NULL disarms it. */
 void pr_gsl_guard(jmp_buf *jb);
 
-/* on = 1: in this thread, a PR_ENOMEM report leaves pr_out_of_memory alone,
- * for work whose failures are retried another way (a CSV read in parts,
- * read again on one thread); on = 0 restores it. */
-void pr_oom_retried(int on);
-
 /* ---- threads ----
  * The CPUs this process may run on (its affinity mask, as taskset or a
  * Slurm allocation set it; the online CPUs if that is unknown), 1 ..
@@ -27,10 +22,9 @@ void pr_oom_retried(int on);
 #define PR_MAX_THREADS 64
 int pr_cpu_count(void);
 /* Runs fn on nt parts (each `size` bytes from parts, nt <= PR_MAX_THREADS):
- * part 0 in the calling thread, the others on threads of their own with
- * stacks of PR_THREAD_STACK bytes; a part whose thread cannot start runs in
- * the calling thread too. Returns when all have run. */
-#define PR_THREAD_STACK ((size_t)256 << 10)
+ * part 0 in the calling thread, the others on threads of their own; a part
+ * whose thread cannot start runs in the calling thread too. Returns when
+ * all have run. */
 void pr_run_parts(int nt, void *(*fn)(void *), void *parts, size_t size);
 
 /* A file or folder path the library builds (PATH_MAX on Linux). */

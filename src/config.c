@@ -818,6 +818,85 @@ int pr_config_set(pr_config *c, const char *assignment, char *err)
 	return set_value(c, i, eq + 1, "--set: ", err);
 }
 
+/* ---- one key by name (the public accessors) ---- */
+
+int pr_config_set_string(pr_config *c, const char *key, const char *value, char *err)
+{
+	size_t nk = strlen(key), nv = strlen(value);
+	char *a;
+	int rc;
+
+	/* "key=value" through the --set path: the same checks and messages */
+	if (strchr(key, '='))
+		return pr_err(err, PR_EINVAL, "--set: %.80s: unknown key", key);
+	a = malloc(nk + nv + 2);
+	if (!a)
+		return pr_err(err, PR_ENOMEM, "config: out of memory");
+	memcpy(a, key, nk);
+	a[nk] = '=';
+	memcpy(a + nk + 1, value, nv + 1);
+	rc = pr_config_set(c, a, err);
+	free(a);
+	return rc;
+}
+
+int pr_config_set_double(pr_config *c, const char *key, double v, char *err)
+{
+	char text[40];
+
+	if (!isfinite(v))
+		return pr_err(err, PR_EINVAL, "--set: %.80s: not a finite number", key);
+	pr_csv_format_double(v, text, sizeof text);
+	return pr_config_set_string(c, key, text, err);
+}
+
+/* The key "section.key" or an error naming it. */
+static int known_key(const pr_config *c, const char *key, char *err)
+{
+	int i = find_dotted(c, key);
+
+	return i >= 0 ? i : pr_err(err, PR_EINVAL, "%.80s: unknown key", key);
+}
+
+int pr_config_get_string(const pr_config *c, const char *key, char *buf, size_t n, char *err)
+{
+	int i = known_key(c, key, err);
+	char *text;
+
+	if (i < 0)
+		return i;
+	text = value_text(c, i);
+	if (!text)
+		return pr_err(err, PR_ENOMEM, "config: out of memory");
+	if (strlen(text) >= n) {
+		free(text);
+		return pr_err(err, PR_EINVAL, "%.80s: the value does not fit in %zu bytes", key, n);
+	}
+	memcpy(buf, text, strlen(text) + 1);
+	free(text);
+	return PR_OK;
+}
+
+int pr_config_get_double(const pr_config *c, const char *key, double *v, char *err)
+{
+	int i = known_key(c, key, err);
+	const pr_config_key *k;
+	char *base;
+
+	if (i < 0)
+		return i;
+	k = key_at(c, i, &base);
+	base += k->off;
+	/* whole-number keys are exact: their ranges end below 2^53 */
+	switch (k->type) {
+	case PR_KEY_DOUBLE: *v = *(const double *)base; return PR_OK;
+	case PR_KEY_INT: *v = *(const int *)base; return PR_OK;
+	case PR_KEY_LONG: *v = (double)*(const long *)base; return PR_OK;
+	case PR_KEY_ULONG: *v = (double)*(const unsigned long *)base; return PR_OK;
+	default: return pr_err(err, PR_EINVAL, "%.80s: not a number key (read it as text)", key);
+	}
+}
+
 const char *pr_config_where(const pr_config *c, const char *key, char *buf, size_t n)
 {
 	const char *src = c->source[0] ? c->source : "defaults";

@@ -8,9 +8,8 @@
  * a record, is split at its commas directly (what libcsv would do with it,
  * at a fraction of the cost); the callbacks and limits are the same. In a
  * numeric table such a line's numbers are read in place (plain_numbers).
- * pr_csv_read_threads reads a large file in parts on several threads.
  */
-#define _DEFAULT_SOURCE /* realpath; MAP_ANONYMOUS */
+#define _DEFAULT_SOURCE /* realpath */
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -20,7 +19,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/xattr.h>
 #include <unistd.h>
@@ -39,47 +37,7 @@ struct pr_csv {
 	double *data;
 	long *lines;
 	char *path;
-	int mapped; /* data and lines are mappings of cap rows (map_rows), not malloc's */
 };
-
-/* The data and line arrays of cap rows of ncols at *data and *lines (both
- * NULL, or mappings of old rows) as new anonymous mappings, with the first
- * rows copied: a read in parts keeps its rows there, so that its threads
- * never call malloc (a thread's first malloc gives it an arena of its own,
- * which keeps 64 MiB of address space reserved for good). 0 when the
- * system refused: then the arrays are as they were. */
-static void unmap_rows(double *data, long *lines, long cap, int ncols);
-
-static int map_rows(double **data, long **lines, long old, long cap, int ncols)
-{
-	const size_t w = (size_t)ncols * sizeof **data, keep = (size_t)(old < cap ? old : cap);
-	void *d = mmap(NULL, (size_t)cap * w, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-	void *l = d == MAP_FAILED ? MAP_FAILED
-	                          : mmap(NULL, (size_t)cap * sizeof **lines, PROT_READ | PROT_WRITE,
-	                                 MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-
-	if (l == MAP_FAILED) {
-		if (d != MAP_FAILED)
-			munmap(d, (size_t)cap * w);
-		return 0;
-	}
-	if (keep) {
-		memcpy(d, *data, keep * w);
-		memcpy(l, *lines, keep * sizeof **lines);
-	}
-	unmap_rows(*data, *lines, old, ncols);
-	*data = d;
-	*lines = l;
-	return 1;
-}
-
-static void unmap_rows(double *data, long *lines, long cap, int ncols)
-{
-	if (data)
-		munmap(data, (size_t)cap * (size_t)ncols * sizeof *data);
-	if (lines)
-		munmap(lines, (size_t)cap * sizeof *lines);
-}
 
 pr_csv *pr_csv_new(int ncols, const char *const *names, char *err)
 {
@@ -117,12 +75,8 @@ void pr_csv_free(pr_csv *t)
 		for (j = 0; j < t->ncols; ++j)
 			free(t->names[j]);
 	free(t->names);
-	if (t->mapped) {
-		unmap_rows(t->data, t->lines, t->cap, t->ncols);
-	} else {
-		free(t->data);
-		free(t->lines);
-	}
+	free(t->data);
+	free(t->lines);
 	free(t->path);
 	free(t);
 }
@@ -147,11 +101,7 @@ int pr_csv_find(const pr_csv *t, const char *name)
 
 static int add_row(pr_csv *t, const double *row, long line, char *err)
 {
-	if (t->nrows == t->cap && t->mapped) {
-		if (!map_rows(&t->data, &t->lines, t->cap, 2 * t->cap, t->ncols))
-			return pr_err(err, PR_ENOMEM, "out of memory reading %ld rows", t->nrows);
-		t->cap *= 2;
-	} else if (t->nrows == t->cap) {
+	if (t->nrows == t->cap) {
 		long cap = t->cap ? 2 * t->cap : 64;
 		double *d = realloc(t->data, (size_t)cap * (size_t)t->ncols * sizeof *d);
 		long *l;
@@ -700,9 +650,8 @@ static int numeric_row(void *user, const char *path, long line, int n, char **fi
 	return add_row(u->t, u->row, line, err);
 }
 
-/* The table's arrays cut to its rows (the room doubling left unused),
- * as a read in parts leaves them: a command's later steps find the same
- * memory whichever way the table was read. */
+/* The table's arrays cut to its rows: the room doubling left unused goes
+ * back before a command's later steps. */
 static void fit_rows(pr_csv *t)
 {
 	double *d;
@@ -732,258 +681,6 @@ int pr_csv_read(const char *path, pr_csv **out, char *err)
 	}
 	*out = u.t;
 	return rc;
-}
-
-/* ---- a large file on several threads ----
- *
- * A regular file of at least PAR_MIN bytes is read in parts split at line
- * ends, each by a thread of its own. The header line is read first, alone,
- * by the one reader. A part takes only what that reader would split
- * directly and read in place: whole plain lines (plain_bytes) of numbers
- * (numbers_in_place) or blank ones, lines carried whole from one block to
- * the next; its rows go to mappings (map_rows), so its thread allocates
- * nothing. The parts' rows are joined in file order with their lines
- * renumbered. Anything else in a part (a quote, a blank, a NUL, a bad or
- * short row, a line longer than a block or without a line end, a file
- * that shrank, memory refused), a header line that is not the header alone
- * (a bare carriage return ends a record), and the whole file is read again
- * by the one reader: every value, line and message is pr_csv_read's, and
- * what the attempt held is all given back first. */
-#define PAR_MIN ((off_t)1 << 20)
-#define PAR_PART ((off_t)1 << 19) /* bytes per part at least */
-
-typedef struct {
-	int fd, ncols, redo;
-	off_t off, end;  /* bytes off .. end - 1; end < 0: to the end of the file */
-	char *buf;       /* SCAN_BLOCK + 8 bytes (mapped), zero after what was read */
-	double *data;    /* cap rows of ncols (map_rows) */
-	long *lines;     /* each row's line in the part, from 1 */
-	long nrows, cap, nl; /* rows, room, line ends read */
-} part;
-
-/* One whole line of n bytes (its line end included) into the part's rows;
- * 0 when the one reader must decide. */
-static int part_line(part *a, const char *s, size_t n)
-{
-	size_t end;
-
-	if (!plain_bytes(s, n, &end))
-		return 0;
-	if (!end)
-		return 1; /* a blank line: no record */
-	if (a->nrows == a->cap) {
-		long cap = a->cap ? 2 * a->cap : 1024;
-
-		if (!map_rows(&a->data, &a->lines, a->cap, cap, a->ncols))
-			return 0;
-		a->cap = cap;
-	}
-	if (!numbers_in_place(s, end, a->ncols, a->data + (size_t)a->nrows * a->ncols))
-		return 0;
-	a->lines[a->nrows++] = a->nl + 1;
-	return 1;
-}
-
-static void *part_run(void *arg)
-{
-	part *a = arg;
-	off_t off = a->off;
-	size_t have = 0; /* bytes of an unfinished line at the start of buf */
-
-	while (!a->redo) {
-		size_t want = SCAN_BLOCK - have;
-		ssize_t k;
-		char *s, *e, *nl;
-
-		if (a->end >= 0 && a->end - off < (off_t)want)
-			want = (size_t)(a->end - off);
-		if ((k = want ? pread(a->fd, a->buf + have, want, off) : 0) < 0 && errno == EINTR &&
-		    !pr_interrupted)
-			continue;
-		if (k <= 0) {
-			/* an error, a part cut short, a last line without its end */
-			a->redo = k < 0 || (a->end >= 0 && off < a->end) || have > 0;
-			break;
-		}
-		off += k;
-		for (s = a->buf, e = a->buf + have + k; !a->redo && (nl = memchr(s, '\n', (size_t)(e - s)));
-		     s = nl + 1, a->nl++)
-			a->redo = !part_line(a, s, (size_t)(nl + 1 - s));
-		/* a line longer than a block is the one reader's */
-		have = (size_t)(e - s);
-		a->redo |= have == SCAN_BLOCK;
-		memmove(a->buf, s, have);
-	}
-	return NULL;
-}
-
-/* The first line start at or after off (off > 0) within a block; 0 when
- * there is none, or at or past size. */
-static off_t line_start(int fd, char *buf, off_t off, off_t size)
-{
-	ssize_t k = pread(fd, buf, SCAN_BLOCK, off - 1);
-	const char *nl = k > 0 ? memchr(buf, '\n', (size_t)k) : NULL;
-	off_t at = nl ? off + (nl - buf) : 0;
-
-	return at < size ? at : 0;
-}
-
-/* The header, the h bytes of the file's first line, by the one reader into
- * u: 1 when they are the header alone, with *nl their line ends. */
-static int read_header(int fd, const char *path, off_t h, numeric *u, long *nl)
-{
-	source src;
-	char err[PR_ERRLEN];
-	int ok = 0;
-
-	memset(&src, 0, sizeof src);
-	src.eager = 1;
-	if (source_setup(&src, path, 0, numeric_header, numeric_row, u, err))
-		return 0;
-	if (pread(fd, src.buf, (size_t)h, 0) == (ssize_t)h) {
-		scan_block(&src, src.buf, (size_t)h);
-		ok = !src.r.status && u->t && u->t->nrows == 0 && src.last == '\n' &&
-		     src.r.idle;
-		*nl = src.r.line - 1;
-	}
-	source_release(&src);
-	return ok;
-}
-
-/* The rows of the np parts into t, their lines shifted by the line ends
- * before them (the header's, hl, then the parts'); 0 when memory ran out.
- * Part 0's mapping grows to hold them all and becomes t's. */
-static int join_parts(pr_csv *t, part *pt, int np, long hl)
-{
-	const size_t w = (size_t)t->ncols;
-	long rows = 0, shift = hl, i;
-	int k;
-
-	for (k = 0; k < np; k++)
-		rows += pt[k].nrows;
-	if (!rows)
-		return 1;
-	if (!map_rows(&pt[0].data, &pt[0].lines, pt[0].cap, rows, t->ncols))
-		return 0;
-	pt[0].cap = rows;
-	for (k = 0; k < np; k++) {
-		if (k > 0 && pt[k].nrows) {
-			memcpy(pt[0].data + (size_t)t->nrows * w, pt[k].data, (size_t)pt[k].nrows * w * sizeof(double));
-			memcpy(pt[0].lines + t->nrows, pt[k].lines, (size_t)pt[k].nrows * sizeof(long));
-		}
-		for (i = t->nrows; i < t->nrows + pt[k].nrows; i++)
-			pt[0].lines[i] += shift;
-		t->nrows += pt[k].nrows;
-		shift += pt[k].nl;
-	}
-	t->data = pt[0].data;
-	t->lines = pt[0].lines;
-	t->cap = rows;
-	t->mapped = 1;
-	pt[0].data = NULL;
-	pt[0].lines = NULL;
-	return 1;
-}
-
-/* Splits [h, size) into the np parts at line ends; 0 when a bound has no
- * line end near it. */
-static int split_parts(part *pt, int np, int fd, off_t h, off_t size)
-{
-	off_t at = h;
-	int k;
-
-	for (k = 0; k < np; k++) {
-		pt[k].off = at;
-		pt[k].end = -1;
-		if (k < np - 1) {
-			off_t want = h + (size - h) / np * (k + 1);
-
-			at = line_start(fd, pt[k].buf, want > at ? want : at + 1, size);
-			if (at <= pt[k].off)
-				return 0;
-			pt[k].end = at;
-		}
-	}
-	return 1;
-}
-
-/* pr_csv_read of a regular file of at least PAR_MIN bytes on up to threads
- * threads: 1 with *out, or 0 (everything given back) to read it on one. It
- * is never opened unless it is one (a FIFO would wait for a writer, and
- * lose what one wrote), and never waits to open. */
-static int read_parts(const char *path, int threads, pr_csv **out)
-{
-	struct stat st, fst;
-	numeric u = { NULL, NULL };
-	part *pt = NULL;
-	long hl = 0;
-	off_t h;
-	int fd, np = 0, k, ok = 0;
-
-	if (stat(path, &st) || !S_ISREG(st.st_mode) || st.st_size < PAR_MIN ||
-	    (fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK)) < 0)
-		return 0;
-	/* a failure here is not the read's: the one reader reads again */
-	pr_oom_retried(1);
-	if (fstat(fd, &fst) || !S_ISREG(fst.st_mode) || fst.st_dev != st.st_dev || fst.st_ino != st.st_ino)
-		goto done;
-	np = fst.st_size / PAR_PART < threads ? (int)(fst.st_size / PAR_PART) : threads;
-	if (!(pt = calloc((size_t)np, sizeof *pt)))
-		goto done;
-	/* blocks mapped (zeroed; given back whole), not from the heap */
-	for (k = 0; k < np; k++) {
-		pt[k].fd = fd;
-		if ((pt[k].buf = mmap(NULL, SCAN_BLOCK + 8, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS,
-		                      -1, 0)) == MAP_FAILED) {
-			pt[k].buf = NULL;
-			goto done;
-		}
-	}
-	if (!(h = line_start(fd, pt[0].buf, 1, fst.st_size)) || h > (off_t)SCAN_BLOCK ||
-	    !read_header(fd, path, h, &u, &hl) || !split_parts(pt, np, fd, h, fst.st_size))
-		goto done;
-	for (k = 0; k < np; k++)
-		pt[k].ncols = u.t->ncols;
-	pr_run_parts(np, part_run, pt, sizeof *pt);
-	for (k = 0; k < np && !pt[k].redo; k++)
-		;
-	if (k == np && (ok = join_parts(u.t, pt, np, hl))) {
-		*out = u.t;
-		u.t = NULL;
-	}
-done:
-	if (pt)
-		for (k = 0; k < np; k++) {
-			unmap_rows(pt[k].data, pt[k].lines, pt[k].cap, pt[k].ncols);
-			if (pt[k].buf)
-				munmap(pt[k].buf, SCAN_BLOCK + 8);
-		}
-	free(pt);
-	free(u.row);
-	pr_csv_free(u.t);
-	close(fd);
-	pr_oom_retried(0);
-	return ok;
-}
-
-static atomic_long parts_reads;
-
-long pr_csv_parts_reads(void)
-{
-	return atomic_load(&parts_reads);
-}
-
-int pr_csv_read_threads(const char *path, int threads, pr_csv **out, char *err)
-{
-	if (threads == 0)
-		threads = pr_cpu_count();
-	if (threads > PR_MAX_THREADS)
-		threads = PR_MAX_THREADS;
-	if (threads > 1 && path && strcmp(path, "-") != 0 && read_parts(path, threads, out)) {
-		atomic_fetch_add(&parts_reads, 1);
-		return PR_OK;
-	}
-	return pr_csv_read(path, out, err);
 }
 
 /* ---- a numeric table read in chunks ----

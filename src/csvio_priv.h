@@ -44,8 +44,5 @@ typedef int (*pr_csv_record_fn)(void *user, const char *path, long line, int n,
                                 char **fields, char *err);
 int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,
                 pr_csv_record_fn row, void *user, char *err);
-/* How many pr_csv_read_threads calls so far read their file in parts (the
- * tests tell the parts' way from the one-thread way by it). */
-long pr_csv_parts_reads(void);
 
 #endif

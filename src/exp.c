@@ -2,6 +2,7 @@
  * key block and defaults of every experiment. It is also the schema of
  * every configuration (pr_exp_config): the keys of the experiments follow
  * the modules' keys in the order of this table. */
+#include <stdlib.h>
 #include <string.h>
 
 #include "poolreps/bench.h"
@@ -58,6 +59,20 @@ int pr_exp_config(int i, pr_config_exp *out)
 	out->defaults = experiments[i].defaults;
 	out->reads = experiments[i].reads;
 	return 1;
+}
+
+pr_config *pr_config_new(void)
+{
+	pr_config *c = malloc(sizeof *c);
+
+	if (c)
+		pr_config_init(c, pr_exp_config);
+	return c;
+}
+
+void pr_config_free(pr_config *c)
+{
+	free(c);
 }
 
 int pr_exp_variants(const pr_config *cfg, pr_variants *out, char *err)

@@ -242,6 +242,70 @@ static void test_write_round_trip(void **state)
 	assert_memory_equal(&a.start, &b.start, sizeof a.start);
 }
 
+/* The public accessors: the checks and messages of --set, exact numbers. */
+static void test_accessors_by_key(void **state)
+{
+	pr_config *c = pr_config_new(), *d = pr_config_new();
+	char err[PR_ERRLEN], want[PR_ERRLEN], buf[64], where[PR_WHERE_LEN];
+	double v;
+
+	(void)state;
+	assert_non_null(c);
+	assert_non_null(d);
+	assert_int_equal(pr_config_get_double(c, "reps.epsilon", &v, err), PR_OK);
+	assert_true(v == c->reps.epsilon);
+	assert_int_equal(pr_config_set_double(c, "reps.epsilon", 0.1 + 0.2, err), PR_OK);
+	assert_true(c->reps.epsilon == 0.1 + 0.2);
+	assert_int_equal(pr_config_get_double(c, "reps.epsilon", &v, err), PR_OK);
+	assert_true(v == 0.1 + 0.2);
+	assert_string_equal(pr_config_where(c, "reps.epsilon", where, sizeof where), "--set");
+	/* a bad value: --set's status and message, the value unchanged */
+	assert_int_equal(pr_config_set_double(c, "reps.epsilon", -1, err), PR_EINVAL);
+	assert_int_equal(pr_config_set(d, "reps.epsilon=-1", want), PR_EINVAL);
+	assert_string_equal(err, want);
+	assert_true(c->reps.epsilon == 0.1 + 0.2);
+	assert_int_equal(pr_config_set_double(c, "table.balls", 2.5, err), PR_EINVAL);
+	assert_int_equal(pr_config_set(d, "table.balls=2.5", want), PR_EINVAL);
+	assert_string_equal(err, want);
+	assert_int_equal(pr_config_set_double(c, "reps.epsilon", 1.0 / 0.0, err), PR_EINVAL);
+	assert_non_null(strstr(err, "reps.epsilon: not a finite number"));
+	assert_int_equal(pr_config_set_double(c, "table.balls", 3, err), PR_OK);
+	assert_int_equal(c->table.balls, 3);
+	/* text keys, and numbers read as text in the file's form */
+	assert_int_equal(pr_config_set_string(c, "sim.mode", "stepped", err), PR_OK);
+	assert_int_equal(pr_config_get_string(c, "sim.mode", buf, sizeof buf, err), PR_OK);
+	assert_string_equal(buf, "stepped");
+	assert_int_equal(pr_config_get_double(c, "sim.mode", &v, err), PR_EINVAL);
+	assert_non_null(strstr(err, "sim.mode: not a number key"));
+	assert_int_equal(pr_config_set_string(c, "sim.mode", "fast", err), PR_EINVAL);
+	assert_int_equal(pr_config_set(d, "sim.mode=fast", want), PR_EINVAL);
+	assert_string_equal(err, want);
+	assert_int_equal(pr_config_get_string(c, "reps.epsilon", buf, sizeof buf, err), PR_OK);
+	assert_string_equal(buf, "0.30000000000000004");
+	assert_int_equal(pr_config_get_string(c, "sim.mode", buf, 7, err), PR_EINVAL);
+	assert_non_null(strstr(err, "does not fit"));
+	/* whole numbers, as numbers and as text */
+	assert_int_equal(pr_config_set_string(c, "experiment.seed", "4294967295", err), PR_OK);
+	assert_int_equal(pr_config_get_double(c, "experiment.seed", &v, err), PR_OK);
+	assert_true(v == 4294967295.0);
+	assert_int_equal(pr_config_set_double(c, "sim.max_events", 1e9, err), PR_OK);
+	assert_int_equal(pr_config_get_string(c, "sim.max_events", buf, sizeof buf, err), PR_OK);
+	assert_string_equal(buf, "1000000000");
+	assert_int_equal(pr_config_set_double(c, "experiment.seed", 4294967296.0, err), PR_EINVAL);
+	assert_int_equal(pr_config_set(d, "experiment.seed=4294967296", want), PR_EINVAL);
+	assert_string_equal(err, want);
+	/* unknown keys, also one that would split into another assignment */
+	assert_int_equal(pr_config_get_double(c, "reps.nope", &v, err), PR_EINVAL);
+	assert_non_null(strstr(err, "reps.nope: unknown key"));
+	assert_int_equal(pr_config_get_string(c, "nodot", buf, sizeof buf, err), PR_EINVAL);
+	assert_int_equal(pr_config_set_string(c, "sim.mode=stepped", "x", err), PR_EINVAL);
+	assert_int_equal(pr_config_set_string(c, "sim.nope", "1", err), PR_EINVAL);
+	assert_int_equal(pr_config_validate(c, err), PR_OK);
+	pr_config_free(c);
+	pr_config_free(d);
+	pr_config_free(NULL);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -253,6 +317,7 @@ int main(void)
 		cmocka_unit_test(test_where_and_bench_defaults),
 		cmocka_unit_test(test_experiment_defaults),
 		cmocka_unit_test(test_write_round_trip),
+		cmocka_unit_test(test_accessors_by_key),
 	};
 	int rc = cmocka_run_group_tests(tests, NULL, NULL);
 	unlink(path);

@@ -96,3 +96,19 @@ def test_every_export_is_used_by_python_an_example_or_documented():
     for t in texts:
         used |= set(re.findall(r"\b(pr_\w+)\b", t))
     assert sorted(set(exports.declared()) - used) == []
+
+
+def test_the_configuration_is_opaque_to_public_users(tmp_path):
+    """pr_config's layout is private: a program of the public headers
+    cannot take its size, so its limits may change under the same SONAME."""
+    src = tmp_path / "size.c"
+    src.write_text('#include "poolreps/config.h"\nunsigned long n = sizeof(pr_config);\n'
+                   'int main(void) { pr_config *c = pr_config_new(); pr_config_free(c); '
+                   'return (int)(n & 1); }\n')
+    cc = ["cc", "-std=c11", "-fsyntax-only", f"-I{ROOT / 'include'}", str(src)]
+    gsl = subprocess.run(["pkg-config", "--cflags", "gsl"], capture_output=True, text=True)
+    p = subprocess.run(cc + gsl.stdout.split(), capture_output=True, text=True)
+    assert p.returncode != 0 and "incomplete" in p.stderr, p.stderr
+    src.write_text(src.read_text().replace("sizeof(pr_config)", "sizeof(pr_config *)"))
+    p = subprocess.run(cc + gsl.stdout.split(), capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr

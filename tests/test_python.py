@@ -183,6 +183,18 @@ def test_key_values_of_every_type_reach_the_config():
             poolreps.shoot([[-0.25, 0, 0.1, 0]], [[0, 0]], set=bad)
 
 
+def test_config_reads_keys_through_the_public_accessors():
+    from poolreps import _lib
+    cfg = _lib.Config(("reps.epsilon=0.30000000000000004", "sim.mode=stepped"))
+    assert cfg.number("reps.epsilon") == 0.1 + 0.2
+    assert cfg.number("table.balls") == 2 and cfg.text("sim.mode") == "stepped"
+    assert cfg.text("reps.epsilon") == cfg.values()["reps.epsilon"]
+    with pytest.raises(ValueError, match="sim.mode: not a number key"):
+        cfg.number("sim.mode")
+    with pytest.raises(ValueError, match="reps.nope: unknown key"):
+        cfg.text("reps.nope")
+
+
 # ---- forest --------------------------------------------------------------------
 
 @pytest.mark.parametrize("seed", range(6))

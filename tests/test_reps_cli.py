@@ -245,45 +245,6 @@ def test_reps_threads_give_the_same_bytes(tmp_path, seed):
     assert read_csv(tmp_path / "s1.csv")[0]["status"] in ("active", "unreachable")
 
 
-@pytest.mark.parametrize("defect", ["none", "blank_lines", "bad_number", "short_row", "quote"])
-def test_reps_input_read_in_parts(tmp_path, defect):
-    """An input of 1 MiB or more is read in parts on --threads threads: the
-    same bytes out, or the same one-line failure and exit code with nothing
-    written, as on one thread (the defect sits late in the file, in the
-    last part)."""
-    rng = np.random.default_rng(77)
-    n, d = 2600, 40
-    phi = rng.normal(size=(n, d))
-    R = phi[:, :3].sum(1) + rng.normal(size=n)
-    lines = ["R," + ",".join(f"phi{j}" for j in range(d))]
-    lines += [",".join(repr(float(v)) for v in row) for row in np.c_[R, phi]]
-    at = n * 9 // 10
-    if defect == "blank_lines":
-        lines[at:at] = [""] * 9000
-    elif defect == "bad_number":
-        lines[at] = lines[at].replace(",", ",1.5x,", 1).rsplit(",", 1)[0]
-    elif defect == "short_row":
-        lines[at] = lines[at].rsplit(",", 1)[0]
-    elif defect == "quote":
-        lines[at] = '"' + lines[at].replace(",", '",', 1)
-    t = tmp_path / "t.csv"
-    t.write_text("\r\n".join(lines) + "\r\n")
-    assert t.stat().st_size >= 1 << 20
-    res = []
-    for threads in (1, 2, 3, 0):
-        r = run(["reps", "--return", "R", "--features", "phi*", "--threads", threads, "-i", t,
-                 "-o", f"p{threads}.csv", "--summary", f"s{threads}.csv"], tmp_path)
-        if defect in ("bad_number", "short_row"):
-            fails(r, "t.csv:%d:" % (at + 1))
-            no_files(tmp_path, f"p{threads}.csv", f"s{threads}.csv")
-            res.append((r.returncode, r.stderr))
-        else:
-            ok(r)
-            res.append(((tmp_path / f"p{threads}.csv").read_bytes(),
-                        (tmp_path / f"s{threads}.csv").read_bytes()))
-    assert all(x == res[0] for x in res[1:])
-
-
 @pytest.mark.parametrize("value", ["65", "1.5", "two", "-1", "", "0x2", "1e1", "+2", " 2", "2 ", "640"])
 def test_reps_bad_threads(tmp_path, value):
     good = reps_table(tmp_path)

@@ -30,11 +30,6 @@
  * same for the CLI). Returns the library version string. */
 const char *pr_bind_init(void);
 
-/* A configuration with every default (pr_config_init) on the heap; NULL when
- * out of memory. Fill it with pr_config_set, check it with
- * pr_config_validate. */
-pr_config *pr_bind_config_new(void);
-void pr_bind_config_free(pr_config *c);
 /* The effective configuration as INI text (pr_config_write), NUL-terminated;
  * free it with pr_bind_free. NULL and err on failure. */
 char *pr_bind_config_ini(const pr_config *c, char *err);

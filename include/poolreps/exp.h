@@ -56,8 +56,4 @@ typedef struct {
 /* The experiment called `name`, or NULL. */
 const pr_experiment *pr_exp_find(const char *name);
 
-/* The registry as the schema of pr_config_init: every pr_config of the CLI
- * is made with pr_config_init(&c, pr_exp_config). */
-int pr_exp_config(int i, struct pr_config_exp *out);
-
 #endif

@@ -105,12 +105,14 @@ lib, LIBRARY_PATH = _load()
 _P = c_void_p
 _PROTOTYPES = {
     "pr_bind_init": (c_char_p, []),
-    "pr_bind_config_new": (_P, []),
-    "pr_bind_config_free": (None, [_P]),
+    "pr_config_new": (_P, []),
+    "pr_config_free": (None, [_P]),
     "pr_bind_config_ini": (_P, [_P, c_char_p]),
     "pr_bind_free": (None, [_P]),
     "pr_config_set": (c_int, [_P, c_char_p, c_char_p]),
     "pr_config_validate": (c_int, [_P, c_char_p]),
+    "pr_config_get_double": (c_int, [_P, c_char_p, POINTER(c_double), c_char_p]),
+    "pr_config_get_string": (c_int, [_P, c_char_p, c_char_p, c_size_t, c_char_p]),
     "pr_bind_shoot": (c_int, [_P, c_long, c_int, _P, _P, _P, _P, _P, _P, _P, _P, _P, c_char_p]),
     "pr_bind_shoot_range": (c_int, [_P, c_long, c_long, c_int, _P, _P, _P, _P, _P, _P, _P, _P,
                                     _P, c_char_p]),
@@ -400,10 +402,10 @@ class Config:
     pr_config_validate. Read-only once built, so it may be shared."""
 
     def __init__(self, sets):
-        ptr = lib.pr_bind_config_new()
+        ptr = lib.pr_config_new()
         if not ptr:
             raise MemoryError("config: out of memory")
-        self._h = Handle(ptr, lib.pr_bind_config_free)
+        self._h = Handle(ptr, lib.pr_config_free)
         err = errbuf()
         for a in sets:
             if "\0" in a:
@@ -439,7 +441,16 @@ class Config:
         return self._ini
 
     def number(self, key):
-        return float(self.values()[key])
+        """A number key's value (pr_config_get_double)."""
+        v, err = c_double(), errbuf()
+        check(lib.pr_config_get_double(self.ptr, key.encode(), ctypes.byref(v), err), err)
+        return v.value
+
+    def text(self, key):
+        """Any key's value as the parameter file writes it (pr_config_get_string)."""
+        buf, err = ctypes.create_string_buffer(4096), errbuf()
+        check(lib.pr_config_get_string(self.ptr, key.encode(), buf, len(buf), err), err)
+        return buf.value.decode()
 
 
 @functools.lru_cache(maxsize=64)

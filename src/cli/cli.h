@@ -20,7 +20,7 @@
 #include <stddef.h>
 #include <stdio.h>
 
-#include "poolreps/config.h"
+#include "poolreps/internal.h"
 #include "poolreps/csvio.h"
 #include "poolreps/rundir.h"
 

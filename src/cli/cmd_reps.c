@@ -124,7 +124,7 @@ static int pr_cmd_reps(const pr_config *cfg, const reps_args *a, char *err)
 		o.threads = (int)a->threads;
 	if (!a->ret)
 		return pr_err(err, PR_EINVAL, "reps: --return COL is required");
-	if ((rc = pr_csv_read_threads(a->input, o.threads, &in, err)) || (rc = read_problem(a, in, &pb, &m, err)) ||
+	if ((rc = pr_csv_read(a->input, &in, err)) || (rc = read_problem(a, in, &pb, &m, err)) ||
 	    (rc = pr_reps_solve(&o, &pb, &r, err)))
 		goto done;
 	if (r->status == PR_REPS_FAILED) {
@@ -199,7 +199,7 @@ static const cli_opt reps_opts[] = {
 	CLI_OPT_NUMBER("epsilon", "E", reps_args, epsilon, epsilon_set, parse_epsilon,
 	               "the KL bound, > 0 and <= 1e6 (default reps.epsilon)"),
 	CLI_OPT_NUMBER("threads", "N", reps_args, threads, threads_set, parse_threads,
-	               "threads for reading an input of 1 MiB or more and\n"
+	               "threads for a large problem's residuals and\n"
 	               "for a wide dense problem's Hessian, 0 .. 64\n"
 	               "(default 0: one per CPU, and no more than that;\n"
 	               "the same bits for any N)"),

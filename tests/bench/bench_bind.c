@@ -20,6 +20,7 @@
 #include <gsl/gsl_randist.h>
 
 #include "poolreps/bind.h"
+#include "poolreps/internal.h"
 #include "poolreps/sim.h"
 #include "bench_util.h"
 
@@ -31,7 +32,7 @@ int main(int argc, char **argv)
 		{"shots", required_argument, NULL, 'n'}, {"runs", required_argument, NULL, 'r'},
 		{"seed", required_argument, NULL, 's'}, {NULL, 0, NULL, 0}};
 	char err[PR_ERRLEN];
-	pr_config *c = pr_bind_config_new();
+	pr_config *c = pr_config_new();
 	gsl_rng *rng;
 	long shots = 1000000, i, events = 0;
 	int runs = 5, k, ch;
@@ -100,7 +101,7 @@ int main(int argc, char **argv)
 	printf("mode=event actions=gauss shots=%ld runs=%d median_shots_per_s=%.0f min=%.0f max=%.0f "
 	       "events_per_shot=%.2f\n", shots, runs, rate[runs / 2], rate[0], rate[runs - 1],
 	       (double)events / (double)shots);
-	pr_bind_config_free(c);
+	pr_config_free(c);
 	pr_bind_rng_free(rng);
 	free(st), free(act), free(fin), free(gap), free(rew), free(tend), free(pocket), free(hit);
 	free(ev), free(rate);

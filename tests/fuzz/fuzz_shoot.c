@@ -9,6 +9,7 @@
 #include "poolreps/config.h"
 #include "poolreps/csvio.h"
 #include "poolreps/exp.h"
+#include "poolreps/internal.h"
 #include "poolreps/shoot.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)

@@ -19,12 +19,6 @@ void pr_csv_free(pr_csv *t);
  * field must be a finite number. Errors name file, line and column:
  * "in.csv:7: column 'vx': not a number: 'abc'". *out is owned by the caller. */
 int pr_csv_read(const char *path, pr_csv **out, char *err);
-/* pr_csv_read on up to threads threads (0: one per CPU this process may run
- * on; at most 64): a regular file of 1 MiB or more is split at line ends
- * into parts read at once (plain rows of numbers; anything else and the
- * whole file is read by pr_csv_read). The same table, lines and messages as
- * pr_csv_read, whatever the number of threads. */
-int pr_csv_read_threads(const char *path, int threads, pr_csv **out, char *err);
 
 int pr_csv_ncols(const pr_csv *t);
 long pr_csv_nrows(const pr_csv *t);

@@ -20,6 +20,72 @@
 #include "poolreps/sim.h"
 #include "poolreps/learner.h"
 
+/* ---- the configuration's layout (config.h keeps pr_config opaque) ---- */
+
+#define PR_CONFIG_MAXKEYS 128       /* keys of the modules and every experiment */
+#define PR_CONFIG_MAXBLOCKS 16      /* experiments' option blocks */
+#define PR_CONFIG_OPTS_BYTES 8192   /* room for the experiments' option blocks */
+#define PR_CONFIG_SOURCE_LEN 256    /* the parameter file's name */
+#define PR_WHERE_LEN 320            /* pr_config_where's answer: "file:line" */
+
+/* A list-valued key such as "10,20,50". */
+typedef struct {
+	int n;
+	double v[PR_LIST_MAX];
+} pr_list;
+
+/* Keys experiment.*: which experiment a parameter file runs. */
+typedef struct {
+	char name[32];        /* a registered experiment (pr_exp_find) */
+	unsigned long seed;   /* master seed; --seed overrides */
+	int repetitions;      /* independent repetitions */
+	int repetition;       /* -1: all; k: only repetition k (sweeps) */
+	int variant;          /* -1: all; v: only variant v (sweeps; pr_exp_variants) */
+	int threads;          /* repetitions run on this many threads */
+} pr_run_opts;
+
+/* An experiment's option block and per-experiment defaults (config_priv.h). */
+struct pr_config_block;
+struct pr_config_exp;
+/* The schema: fills *out with the i-th experiment and returns 1, or returns
+ * 0 past the last one. The experiments' keys follow the modules' keys, block
+ * by block in this order (a block shared by several experiments once). */
+typedef int (*pr_config_schema)(int i, struct pr_config_exp *out);
+
+struct pr_config {
+	pr_run_opts run;          /* experiment.* */
+	pr_table table;           /* table.* */
+	pr_sim_opts sim;          /* sim.* */
+	pr_reward_opts reward;    /* reward.* */
+	pr_start_opts start;      /* start.* */
+	pr_expert_opts expert;    /* ghost.* */
+	pr_forest_opts forest;    /* forest.* (the forest command) */
+	pr_reps_opts reps;        /* reps.* */
+	pr_policy_opts policy;    /* policy.* */
+	pr_forest_opts value;     /* value.*: forests for REPS value features */
+	int value_features;       /* value.features: PR_VALUE_* */
+	pr_learner_opts learner;  /* learner.* (its value, reps and policy parts unused) */
+	/* the experiments' option blocks, read through pr_config_opts */
+	pr_config_schema schema;
+	int nblocks;
+	const struct pr_config_block *block[PR_CONFIG_MAXBLOCKS];
+	size_t block_off[PR_CONFIG_MAXBLOCKS];
+	int dropped;              /* blocks that did not fit: pr_config_validate fails */
+	union {
+		max_align_t align;
+		unsigned char bytes[PR_CONFIG_OPTS_BYTES];
+	} opts;
+	char source[PR_CONFIG_SOURCE_LEN]; /* the parameter file, or "" */
+	int key_line[PR_CONFIG_MAXKEYS]; /* per key: file line, -1 for --set, 0 default;
+	                                  * keys left at 0 follow experiment.name */
+};
+
+/* Defaults of the modules and of every experiment of schema. */
+void pr_config_init(pr_config *c, pr_config_schema schema);
+/* The registry as the schema of pr_config_init: every pr_config of the CLI
+ * is made with pr_config_init(&c, pr_exp_config). */
+int pr_exp_config(int i, struct pr_config_exp *out);
+
 /* ---- beside common.h ---- */
 
 /* Escape s as pr_err does into out (size n >= 1). */
