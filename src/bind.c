@@ -188,8 +188,7 @@ static void shoot_helpers(shoot_batch *b, int n)
 
 	if (pthread_attr_init(&attr) != 0)
 		return;
-	if (pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED) == 0 &&
-	    pthread_attr_setstacksize(&attr, PR_THREAD_STACK) == 0)
+	if (pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED) == 0)
 		while (n-- > 0) {
 			pthread_mutex_lock(&b->mu);
 			b->refs++;

@@ -62,7 +62,7 @@ static void test_same_bytes(void **state)
 	static double balls[N * 2 * BALLS], actions[2 * N], values[2 * N];
 	static outputs one, many;
 	static const int counts[] = {2, 3, 8, 0, 64, 1000};
-	pr_config *c = pr_bind_config_new();
+	pr_config *c = pr_config_new();
 	char err[PR_ERRLEN];
 	unsigned long seed;
 	size_t k;
@@ -82,7 +82,7 @@ static void test_same_bytes(void **state)
 			}
 		}
 	}
-	pr_bind_config_free(c);
+	pr_config_free(c);
 }
 
 static void test_first_bad_row(void **state)
@@ -90,7 +90,7 @@ static void test_first_bad_row(void **state)
 	static double balls[N * 2 * BALLS], actions[2 * N], values[2 * N];
 	static outputs o;
 	static const int counts[] = {1, 2, 4, 0};
-	pr_config *c = pr_bind_config_new();
+	pr_config *c = pr_config_new();
 	char want[PR_ERRLEN], err[PR_ERRLEN];
 	size_t k;
 
@@ -107,13 +107,13 @@ static void test_first_bad_row(void **state)
 	}
 	assert_int_equal(shoot(c, balls, actions, values, -1, &o, err), PR_EINVAL);
 	assert_non_null(strstr(err, "threads"));
-	pr_bind_config_free(c);
+	pr_config_free(c);
 }
 
 static void test_bad_key_without_rows(void **state)
 {
 	const char *const keys[] = {"table.frction"};
-	pr_config *c = pr_bind_config_new();
+	pr_config *c = pr_config_new();
 	char err[PR_ERRLEN];
 
 	(void)state;
@@ -121,7 +121,7 @@ static void test_bad_key_without_rows(void **state)
 	assert_int_equal(pr_bind_shoot_params(c, 0, 0, BALLS, NULL, NULL, 1, keys, NULL, NULL, NULL,
 	                                      NULL, NULL, NULL, NULL, NULL, 4, err), PR_EINVAL);
 	assert_non_null(strstr(err, "table.frction"));
-	pr_bind_config_free(c);
+	pr_config_free(c);
 }
 
 int main(void)
