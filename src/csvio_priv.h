@@ -48,4 +48,9 @@ int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,
  * tests tell the parts' way from the one-thread way by it). */
 long pr_csv_parts_reads(void);
 
+/* The extended attributes of file from (ACLs, user.* notes) onto fd, the
+ * file that replaces it. 0, or -1 with errno and *bad the attribute that
+ * could not be kept; a file system without them has none to keep. */
+int pr_csv_copy_xattrs(const char *from, int fd, char *bad, size_t nbad);
+
 #endif

@@ -207,3 +207,21 @@ def test_shoot_o_keeps_extended_attributes(tmp_path):
     assert old.read_bytes().startswith(b"x0,y0,x1,y1,pocket0")
     assert os.getxattr(old, "user.note") == b"checked by hand"
     assert [p.name for p in tmp_path.iterdir()] != [] and not list(tmp_path.glob(".poolreps-tmp*"))
+
+
+def test_run_folder_files_keep_extended_attributes(tmp_path):
+    """A run into its earlier folder replaces its files: each keeps its
+    extended attributes, as a replaced single output does."""
+    import os
+    r = run([Q, "-o", "out"] + QUICK, tmp_path)
+    assert r.returncode == 0, r.stderr
+    curve = tmp_path / "out" / "bench_curve.csv"
+    try:
+        os.setxattr(curve, "user.note", b"checked by hand")
+    except OSError:
+        pytest.skip("no user extended attributes on this file system")
+    r = run([Q, "-o", "out", "--seed", "9"] + QUICK, tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "seed: 9" in (tmp_path / "out" / "provenance.txt").read_text()
+    assert os.getxattr(curve, "user.note") == b"checked by hand"
+    assert not [p for p in (tmp_path / "out").iterdir() if p.name.startswith(".")]
