@@ -317,6 +317,22 @@ def test_sweep_setup_writes_no_folder_per_point(tmp_path):
     assert firsts == values
 
 
+def test_job_line_too_long_for_sweep_missing_is_refused(tmp_path):
+    """Grid values travel in the job lines, which `sweep --missing` reads
+    into a fixed buffer: a line longer than it is refused at setup, one
+    line, nothing written."""
+    long = "0" * 3000
+    grid = [f"bench.samples={long}20", f"bench.iterations={long}20", f"bench.dims={long}1",
+            f"bench.context_dims={long}1", f"bench.init_std={long}1"]
+    out = tmp_path / "s"
+    r = run_poolreps(["sweep", ROOT / "data" / "quadratic.ini", "-o", out] +
+                     [a for g in grid for a in ("--grid", g)])
+    assert r.returncode == 1
+    assert r.stderr.decode() == ("poolreps: sweep: job 0: its line of jobs.txt is longer than "
+                                 "12286 bytes (grid values or paths too long)\n")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_jobs_sh_prints_the_sweep_jobs(tmp_path):
     config = ROOT / "data" / "quadratic.ini"
     r = run_cmd(["sh", ROOT / "scripts" / "jobs.sh", config, tmp_path / "s",
