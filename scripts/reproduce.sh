@@ -16,7 +16,9 @@
 # All or nothing: everything is made in a staging folder OUT/.reproduce-stage.*
 # and published only when complete, by renames (the folders and files above
 # replace theirs whole; anything else in OUT stays); interrupted, the
-# previous results stay complete. A second reproduction into the same OUT
+# previous results stay complete. OUT/.reproduce-files records what was
+# published: a file a user put into a result folder since is refused before
+# any work, as its folder would be replaced. A second reproduction into the same OUT
 # while one runs is refused (a lock on OUT).
 set -e
 OUT=${1:-results}
@@ -36,6 +38,16 @@ mkdir -p "$FINAL"
 # one reproduction per OUT: the lock lasts as long as this shell (fd 9)
 exec 9< "$FINAL"
 flock -n 9 || { echo "reproduce: $FINAL: another reproduction is writing into it; wait for it to end" >&2; exit 1; }
+# what is published, each replaced whole; the record of their paths
+ENTRIES="$(echo "$reg" | cut -d, -f2 | sort -u | tr '\n' ' ')figures timings.csv report.html"
+RECORD=.reproduce-files
+if [ -f "$FINAL/$RECORD" ]; then
+	for e in $ENTRIES; do
+		[ -d "$FINAL/$e" ] && [ ! -L "$FINAL/$e" ] || continue
+		mine=$(cd "$FINAL" && find "$e" | LC_ALL=C sort | LC_ALL=C comm -23 - "$RECORD" | head -n 1)
+		[ -z "$mine" ] || { echo "reproduce: $FINAL/$mine: not written by a reproduction; move it out of $FINAL/$e, which is replaced whole" >&2; exit 1; }
+	done
+fi
 # a staging folder left by a killed run: no live run holds it (the lock)
 rm -rf "$FINAL"/.reproduce-stage.*
 OUT=$(mktemp -d "$FINAL/.reproduce-stage.XXXXXX")
@@ -145,10 +157,12 @@ total=$(echo "$start $(date +%s.%N)" | awk '{ printf "%.2f", $2 - $1 }')
 echo "total,$total" >> "$OUT/timings.csv"
 quick=; [ "$QUICK" = 1 ] && quick=--quick
 "$PY" scripts/report.py "$OUT" $quick
+# shellcheck disable=SC2086 # the entries are meant to split
+(cd "$OUT" && find $ENTRIES | LC_ALL=C sort) > "$OUT/$RECORD"
+ENTRIES="$ENTRIES $RECORD"
 # publish: each earlier entry is moved aside into the staging folder, the new
 # one renamed into place; a failed rename puts every earlier entry back. The
 # signals wait until all are in place (a dozen renames).
-ENTRIES="$(echo "$reg" | cut -d, -f2 | sort -u | tr '\n' ' ')figures timings.csv report.html"
 put_back() { # an entry no longer staged was published: it goes, the earlier one returns
 	for e in $ENTRIES; do
 		[ -e "$OUT/$e" ] || rm -rf "$FINAL/$e"

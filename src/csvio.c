@@ -962,10 +962,7 @@ static void sweep_stale(const char *folder)
 
 /* A new, registered file in folder named TMP_PREFIX<owner tag>-<n>, opened for
  * writing with mode 0666 less the umask; fd, or -1 with errno set. */
-/* The extended attributes of file from (ACLs, user.* notes) onto fd, the
- * file that replaces it. 0, or -1 with errno and *bad the attribute that
- * could not be kept; a file system without them has none to keep. */
-static int copy_xattrs(const char *from, int fd, char *bad, size_t nbad)
+int pr_csv_copy_xattrs(const char *from, int fd, char *bad, size_t nbad)
 {
 	ssize_t n = listxattr(from, NULL, 0), k;
 	char *names, *p, *val = NULL;
@@ -1061,7 +1058,7 @@ static pr_csvw *open_file(pr_csvw *w, const char *path, const struct stat *sb, i
 		}
 		/* and its extended attributes (after the owner: a chown drops some) */
 		char xa[256] = "";
-		if (copy_xattrs(w->target, fd, xa, sizeof xa) != 0) {
+		if (pr_csv_copy_xattrs(w->target, fd, xa, sizeof xa) != 0) {
 			*st = pr_err(err, pr_errno_status(), "%s: cannot keep its extended attribute %s: %s", path,
 			             xa, strerror(errno));
 			close(fd);

@@ -45,4 +45,9 @@ typedef int (*pr_csv_record_fn)(void *user, const char *path, long line, int n,
 int pr_csv_scan(const char *path, unsigned flags, pr_csv_record_fn header,
                 pr_csv_record_fn row, void *user, char *err);
 
+/* The extended attributes of file from (ACLs, user.* notes) onto fd, the
+ * file that replaces it. 0, or -1 with errno and *bad the attribute that
+ * could not be kept; a file system without them has none to keep. */
+int pr_csv_copy_xattrs(const char *from, int fd, char *bad, size_t nbad);
+
 #endif

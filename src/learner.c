@@ -1163,6 +1163,19 @@ static void get(rbuf *r, void *v, size_t n)
 	r->at += n;
 }
 
+/* 1 if what is left holds count items of at least each bytes: a count is
+ * checked against the state's size before anything is allocated for it. */
+static int holds(rbuf *r, size_t count, size_t each, const char *name)
+{
+	char why[96];
+
+	if (r->rc || count <= (r->n - r->at) / each)
+		return r->rc == PR_OK;
+	snprintf(why, sizeof why, "truncated (%zu %s, more than its %zu bytes hold)", count, name, r->n);
+	bad(r, why);
+	return 0;
+}
+
 /* An integer in lo .. hi. */
 static int get_i(rbuf *r, int lo, int hi, const char *name)
 {
@@ -1201,7 +1214,11 @@ static void get_win(rbuf *r, pr_learner *L, win *w, int lc, int dy, int dg)
 
 	if (get_i(r, n ? lc : 0, lc, "columns") != lc && n)
 		return;
-	if (r->rc)
+	/* an episode: its numbers (a mean too when kept) and its policy */
+	size_t each = (size_t)L->dx + (size_t)L->da + 1 + (size_t)dy + (size_t)dg + (size_t)lc +
+	              (L->o.policy.cov_center == PR_COV_CENTER_OLD ? (size_t)L->da : 0);
+
+	if (r->rc || !holds(r, (size_t)n, sizeof(int32_t) + sizeof(double) * each, "episodes"))
 		return;
 	if (win_alloc(L, w, n, lc, dy, dg, r->err)) {
 		r->rc = PR_ENOMEM;
@@ -1234,6 +1251,9 @@ static void get_pol(rbuf *r, pr_learner *L, int k)
 		bad(r, "a policy's fit does not match the options");
 		return;
 	}
+	/* contexts, actions, targets, weights and means: at least dx + da + dy + 1 numbers a row */
+	if (!holds(r, m, sizeof(double) * ((size_t)L->dx + (size_t)L->da + (size_t)dy + 1), "fit rows"))
+		return;
 	lpol_free(P);
 	P->n = n;
 	P->dy = dy;
@@ -1294,6 +1314,8 @@ static void get_counts(rbuf *r, pr_learner *L, gsl_rng *rng, const unsigned char
 	L->niter = get_i(r, 0, INT32_MAX - 1, "iteration");
 	L->pbase = get_i(r, 0, L->niter, "oldest policy");
 	get_i(r, L->niter - L->pbase + 1, L->niter - L->pbase + 1, "policies");
+	/* each policy: its fit size, targets and means, at least */
+	holds(r, (size_t)(L->niter - L->pbase + 1), 3 * sizeof(int32_t), "policies");
 	L->ask_iter = get_i(r, -1, L->niter, "ask");
 	L->redraws = get_i(r, 0, INT32_MAX, "redraws");
 	L->ask_flags = get_i(r, 0, INT32_MAX, "flags");

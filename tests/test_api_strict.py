@@ -131,17 +131,11 @@ def test_python_refuses_what_the_cli_refuses(make, code, tmp_path):
 
 # ---- Ctrl-C reaches a Python caller at once, whatever a row costs ----
 
-@pytest.mark.parametrize("dt,rows,threads", [(1e-6, 400, 1), (2e-5, 20000, 1), (2e-5, 20000, 2)])
-def test_ctrl_c_reaches_shoot_within_half_a_second(dt, rows, threads):
-    """Stepped rows of about 0.08 s (dt = 1e-6) or 4 ms (2e-5) each: the
-    whole call would take many seconds; SIGINT 0.5 s in must raise
-    KeyboardInterrupt within 0.5 s, and the next call runs normally (on
-    one thread or split over two)."""
+def interrupted_late(call):
+    """Seconds from a SIGINT sent 0.5 s into call() to its KeyboardInterrupt."""
     import signal
     import threading
     import time
-    b = np.tile([-0.25, 0, 0.1, 0], (rows, 1))
-    a = np.tile([0.615, 0.03], (rows, 1))
     sent = []
 
     def fire():
@@ -152,13 +146,59 @@ def test_ctrl_c_reaches_shoot_within_half_a_second(dt, rows, threads):
     t.start()
     try:
         with pytest.raises(KeyboardInterrupt):
-            poolreps.shoot(b, a, mode="stepped", set={"sim.dt": dt}, threads=threads)
-        late = time.monotonic() - sent[0]
+            call()
+        return time.monotonic() - sent[0]
     finally:
         t.join()
+
+
+@pytest.mark.parametrize("dt,rows,threads", [(1e-6, 400, 1), (2e-5, 20000, 1), (2e-5, 20000, 2)])
+def test_ctrl_c_reaches_shoot_within_half_a_second(dt, rows, threads):
+    """Stepped rows of about 0.08 s (dt = 1e-6) or 4 ms (2e-5) each: the
+    whole call would take many seconds; SIGINT 0.5 s in must raise
+    KeyboardInterrupt within 0.5 s, and the next call runs normally (on
+    one thread or split over two)."""
+    b = np.tile([-0.25, 0, 0.1, 0], (rows, 1))
+    a = np.tile([0.615, 0.03], (rows, 1))
+    late = interrupted_late(lambda: poolreps.shoot(b, a, mode="stepped", set={"sim.dt": dt},
+                                                   threads=threads))
     assert late < 0.5, f"KeyboardInterrupt {late:.2f} s after SIGINT"
     r = poolreps.shoot(b[:200], a[:200], mode="stepped", set={"sim.dt": 1e-4}, threads=threads)
     assert np.isfinite(r["reward"]).all()
+
+
+def chain_forest(depth, trees):
+    """A forest whose trees are chains: a large x walks all depth splits of
+    each (a row costs about a millisecond)."""
+    lines = ["poolreps-forest 1", f"trees {trees} samples {depth + 1} inputs 1 outputs 1 "
+             f"nodes {trees * (2 * depth + 1)} leaves {trees * (depth + 1)}", "input x0", "output y0"]
+    for t in range(trees):
+        lines.append(f"tree {t}")
+        for i in range(depth):
+            lines += [f"split 0 {float(i).hex()}", f"leaf 1 {float(i).hex()} {i}"]
+        lines.append(f"leaf 1 {float(depth).hex()} {depth}")
+    return poolreps.Forest.from_text(("\n".join(lines + ["end"]) + "\n").encode())
+
+
+def test_ctrl_c_reaches_forest_and_policy_calls_within_half_a_second():
+    """Forest.predict/apply of rows of about a millisecond, Policy.sample of
+    20,000 draws per state (a few ms): calls of many seconds, in which a
+    fixed piece of rows (8,192 or 1,024) takes seconds. SIGINT 0.5 s in must
+    raise KeyboardInterrupt within 0.5 s; the next call gives the same
+    numbers as before."""
+    f = chain_forest(50000, 2)
+    X = np.full((20000, 1), 1e9)
+    assert np.array_equal(f.predict(X[:3]).ravel(), [50000.0] * 3)
+    rng = np.random.default_rng(0)
+    S = rng.normal(size=(300, 2))
+    p = poolreps.Policy(n_min=40).fit(S, rng.normal(size=(300, 2)), None)
+    Q = np.repeat(S, 7, axis=0)
+    first = p.sample(Q[:5], 3, n=20000)
+    for call in (lambda: f.predict(X), lambda: f.apply(X), lambda: p.sample(Q, 3, n=20000)):
+        late = interrupted_late(call)
+        assert late < 0.5, f"KeyboardInterrupt {late:.2f} s after SIGINT"
+    assert np.array_equal(f.predict(X[:3]).ravel(), [50000.0] * 3)
+    assert np.array_equal(p.sample(Q[:5], 3, n=20000), first)
 
 
 # ---- PocketEnv on extreme actions, seeds and counts ----

@@ -168,6 +168,26 @@ def test_script_on_a_non_number_prints_one_line(script, folder, quick_reproducti
     assert r.returncode != 0
     assert "Traceback" not in r.stderr, r.stderr
     assert r.stderr.count("\n") == 1 and r.stderr.startswith(script), r.stderr
+    assert f"{csv.name}:2: bad input: " in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("read", [
+    "rows = list(csv.DictReader(open(path, newline='')))\ntotal = sum(float(r['b']) for r in rows)",
+    "r = csv.reader(open(path, newline=''))\nnext(r)\nm = [[float(v) for v in row] for row in r]",
+    "for row in csv.DictReader(open(path, newline='')):\n    x = int(row['b'])"])
+def test_bad_data_names_the_file_and_line(read, tmp_path):
+    """The row a script was working on when a value failed names its file
+    and line, however the rows were read and kept."""
+    import subprocess
+    import os
+    (tmp_path / "t.csv").write_text("a,b\n1,2\n3,4\n5,x\n6,7\n")
+    (tmp_path / "s.py").write_text(f"import sys\nsys.path.insert(0, {str(SCRIPTS)!r})\n"
+                                   f"import bad_data  # noqa\nimport csv\npath = 't.csv'\n{read}\n")
+    py = os.environ.get("PYTHON") or "/usr/bin/python3"
+    r = subprocess.run([py, "s.py"], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2
+    assert r.stderr.startswith("s.py: t.csv:4: bad input: ") and r.stderr.count("\n") == 1, r.stderr
+    assert "'x'" in r.stderr, r.stderr
 
 
 # ---- a replaced output keeps its extended attributes ----
@@ -187,3 +207,21 @@ def test_shoot_o_keeps_extended_attributes(tmp_path):
     assert old.read_bytes().startswith(b"x0,y0,x1,y1,pocket0")
     assert os.getxattr(old, "user.note") == b"checked by hand"
     assert [p.name for p in tmp_path.iterdir()] != [] and not list(tmp_path.glob(".poolreps-tmp*"))
+
+
+def test_run_folder_files_keep_extended_attributes(tmp_path):
+    """A run into its earlier folder replaces its files: each keeps its
+    extended attributes, as a replaced single output does."""
+    import os
+    r = run([Q, "-o", "out"] + QUICK, tmp_path)
+    assert r.returncode == 0, r.stderr
+    curve = tmp_path / "out" / "bench_curve.csv"
+    try:
+        os.setxattr(curve, "user.note", b"checked by hand")
+    except OSError:
+        pytest.skip("no user extended attributes on this file system")
+    r = run([Q, "-o", "out", "--seed", "9"] + QUICK, tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "seed: 9" in (tmp_path / "out" / "provenance.txt").read_text()
+    assert os.getxattr(curve, "user.note") == b"checked by hand"
+    assert not [p for p in (tmp_path / "out").iterdir() if p.name.startswith(".")]

@@ -24,7 +24,17 @@ def earlier_results(out):
         (out / e / "old.csv").write_text(f"{e}\n")
     (out / "timings.csv").write_text("step,seconds\n")
     (out / "report.html").write_text("<p>earlier</p>\n")
+    (out / ".reproduce-files").write_text("".join(f"{p}\n" for p in published(out)))
     (out / "notes.txt").write_text("the user's\n")
+
+
+def published(out):
+    """Every path below OUT that a reproduction publishes, sorted as in C."""
+    paths = []
+    for e in ENTRIES + ["timings.csv", "report.html"]:
+        if (out / e).exists():
+            paths += [e] + [str(p.relative_to(out)) for p in (out / e).rglob("*")]
+    return sorted(paths)
 
 
 def reproduce(out, **kw):
@@ -75,6 +85,38 @@ def test_completed_reproduction_replaced_the_earlier_one_whole(quick_reproductio
     assert not (out / "figures" / "fig7_99_old.png").exists()
     assert not list(out.glob(".reproduce-stage.*"))
     assert (out / "report.html").is_file() and (out / "timings.csv").is_file()
+
+
+def test_completed_reproduction_records_what_it_published(quick_reproduction):
+    out = quick_reproduction
+    assert (out / ".reproduce-files").read_text().splitlines() == published(out)
+
+
+@pytest.mark.parametrize("what", ["file", "folder", "symlink"])
+def test_a_users_file_in_a_result_folder_is_refused_before_running(what, tmp_path):
+    """A result folder is replaced whole: a file (or folder, or link) put
+    into it since the last reproduction is named, and nothing runs."""
+    out = tmp_path / "o u t"
+    earlier_results(out)
+    mine = out / "exp3" / "mine"
+    if what == "file":
+        mine.write_text("the user's notes\n")
+    elif what == "folder":
+        mine.mkdir()
+    else:
+        mine.symlink_to(out / "notes.txt")
+    before = snapshot(tmp_path)
+    p = reproduce(out, start_new_session=True)
+    try:
+        _, err = p.communicate(timeout=120)
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGTERM)
+            p.wait()
+    assert p.returncode == 1, err
+    assert err.decode() == (f"reproduce: {out}/exp3/mine: not written by a reproduction; move it "
+                            f"out of {out}/exp3, which is replaced whole\n")
+    assert changed(before, snapshot(tmp_path)) == set()
 
 
 @pytest.mark.parametrize("target", ["baselines", "reproduce-run"])

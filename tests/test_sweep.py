@@ -214,16 +214,28 @@ def points(sweep):
     return sorted(p for p in Path(sweep).iterdir() if p.name.startswith("point-"))
 
 
+def point_sets(sweep):
+    """{point folder name: the --set options of its grid values} (manifest.csv)."""
+    with open(Path(sweep) / "manifest.csv", newline="") as f:
+        rows = list(csv.reader(f))
+    keys = rows[0][2:-4]
+    width = len(str(int(rows[-1][1])))
+    return {f"point-{int(r[1]):0{width}d}": set_args(f"{k}={v}" for k, v in zip(keys, r[2:-4]))
+            for r in rows[1:]}
+
+
 def assert_points_match_single_process(sweep, tmp_path):
     """Every grid point's merged folder holds the bytes one process writes
-    from that point's config.ini (all CSVs and config.ini)."""
+    from the sweep's config.ini with that point's values (all CSVs and
+    config.ini)."""
+    sets = point_sets(sweep)
+    assert sorted(sets) == [p.name for p in points(sweep)]
     for p in points(sweep):
         ref = tmp_path / f"ref-{p.name}"
-        run_ok(["run", p / "config.ini", "-q", "-o", ref])
+        run_ok(["run", Path(sweep) / "config.ini", "-q", "-o", ref] + sets[p.name])
         assert csvs(ref), "the run wrote no CSV"
         assert csvs(p / "merged") == csvs(ref), p.name
         assert (p / "merged" / "config.ini").read_bytes() == (ref / "config.ini").read_bytes()
-        assert (p / "config.ini").read_bytes() == (ref / "config.ini").read_bytes()
 
 
 def assert_summary_is_the_points_summaries(sweep, keys, summary):
@@ -275,6 +287,50 @@ def test_sweep_through_parallel_matches_single_process(single, tmp_path):
     # one grid point, no grid keys: the table is the experiment's summary itself
     assert (out / "sweep_summary.csv").read_bytes() == (ref / SUMMARY[name]).read_bytes()
     assert not list(out.glob(".collect-*")) and not list(out.glob(".partial-*"))
+
+
+def test_sweep_setup_writes_no_folder_per_point(tmp_path):
+    """Setting up a sweep writes the same few files whatever the grid's size:
+    each job carries its point's values as --set options (shell-quoted) and
+    creates its own point-P/runs/NAME; collect rebuilds each point's
+    configuration from config.ini and the manifest."""
+    out = tmp_path / "s"
+    values = [str(v) for v in range(20, 420, 2)] + [" 1000 "]
+    man, jobs = make_sweep(ROOT / "data" / "quadratic.ini", out,
+                           ["experiment.repetitions=1", "bench.iterations=3"],
+                           grid=["bench.samples=" + ",".join(values)])
+    assert sorted(p.name for p in out.iterdir()) == [
+        "config.ini", "jobs.txt", "logs", "manifest.csv", "parallel.sh",
+        "provenance.txt", "slurm.sbatch"]
+    assert len(jobs) == len(values) == len(man)
+    for m, line, v in zip(man, jobs, values):
+        words = shlex.split(line)
+        assert words[2:4] == ["-q", str(out / "config.ini")]
+        assert words[4:6] == ["--set", f"bench.samples={v}"]
+        assert m["bench.samples"] == v and m["output"] == f"point-{int(m['point']):03d}/runs/rep-0"
+    run_jobs(jobs, order=[len(jobs) - 1, 0] + list(range(1, len(jobs) - 1)))
+    run_ok(["collect", "-q", out])
+    assert (out / "point-200" / "merged" / "config.ini").read_text().count("samples = 1000\n") == 1
+    summary = [r["bench.samples"] for r in csv.DictReader(open(out / "sweep_summary.csv",
+                                                                newline=""))]
+    firsts = [r for i, r in enumerate(summary) if i == 0 or r != summary[i - 1]]
+    assert firsts == values
+
+
+def test_job_line_too_long_for_sweep_missing_is_refused(tmp_path):
+    """Grid values travel in the job lines, which `sweep --missing` reads
+    into a fixed buffer: a line longer than it is refused at setup, one
+    line, nothing written."""
+    long = "0" * 3000
+    grid = [f"bench.samples={long}20", f"bench.iterations={long}20", f"bench.dims={long}1",
+            f"bench.context_dims={long}1", f"bench.init_std={long}1"]
+    out = tmp_path / "s"
+    r = run_poolreps(["sweep", ROOT / "data" / "quadratic.ini", "-o", out] +
+                     [a for g in grid for a in ("--grid", g)])
+    assert r.returncode == 1
+    assert r.stderr.decode() == ("poolreps: sweep: job 0: its line of jobs.txt is longer than "
+                                 "12286 bytes (grid values or paths too long)\n")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_jobs_sh_prints_the_sweep_jobs(tmp_path):
@@ -356,7 +412,7 @@ def test_grid_points_are_the_direct_runs_in_any_job_order(tmp_path):
         run_ok([config, "-q", "-o", direct, "--set", f"forest.n_c={nc}", "--set",
                 f"exp1.aim_speed={speed}"] + set_args(EXP1_TINY))
         assert csvs(p / "merged") == csvs(direct), p.name
-        assert (p / "config.ini").read_bytes() == (direct / "config.ini").read_bytes()
+        assert (p / "merged" / "config.ini").read_bytes() == (direct / "config.ini").read_bytes()
     assert_summary_is_the_points_summaries(tmp_path / "s", keys, "exp1_summary.csv")
 
 
@@ -424,12 +480,12 @@ def test_collect_refuses_jobs_run_with_another_configuration(tmp_path):
     sweep = tmp_path / "s"
     _, jobs = make_sweep(ROOT / "data" / "quadratic.ini", sweep, SWEEPS["quadratic"][1])
     run_jobs(jobs)
-    cfg = sweep / "point-0" / "config.ini"
+    cfg = sweep / "config.ini"
     cfg.write_text(cfg.read_text().replace("test_contexts = 100", "test_contexts = 99"))
     r = run_poolreps(["collect", sweep])
     assert r.returncode == 1
     assert r.stderr.decode() == (f"poolreps: {cfg}: differs from the configuration the jobs "
-                                 f"ran with (bench.test_contexts = 99, jobs: 100)\n")
+                                 f"of point 0 ran with (bench.test_contexts = 99, jobs: 100)\n")
     assert not (sweep / "sweep_summary.csv").exists()
     assert not list(sweep.glob(".partial-*")) and not (sweep / "point-0" / "merged").exists()
 
@@ -486,7 +542,7 @@ def test_sweep_refusals_outside_the_grid(tmp_path):
     man, _ = make_sweep(ROOT / "data" / "quadratic.ini", out, ["experiment.repetitions=2"])
     assert len(man) == 2
     assert sorted(p.name for p in out.iterdir()) == [
-        "config.ini", "jobs.txt", "logs", "manifest.csv", "parallel.sh", "point-0",
+        "config.ini", "jobs.txt", "logs", "manifest.csv", "parallel.sh",
         "provenance.txt", "slurm.sbatch"]
 
 

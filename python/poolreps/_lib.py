@@ -12,6 +12,7 @@ import os
 import signal
 import subprocess
 import threading
+import time
 from ctypes import POINTER, c_char, c_char_p, c_double, c_int, c_long, c_size_t, c_ulong, c_void_p
 from pathlib import Path
 
@@ -311,6 +312,39 @@ def interruptible_call(fn, *args):
 def chunks(n, rows=CHUNK_ROWS):
     """(lo, hi) ranges covering 0..n-1 in pieces."""
     return ((lo, min(n, lo + rows)) for lo in range(0, n, rows))
+
+
+# A row-wise call whose bound on its work (rows x the most elementary steps
+# a row can take: node visits, multiply-adds) is below this runs on the
+# caller's thread, a few milliseconds at most; a longer one in a worker.
+DIRECT_WORK = 2e6
+# a worker's pieces grow (from one row) to about this long each
+PIECE_SECONDS = 0.02
+
+
+def rows_interruptibly(n, piece, row_work, most=CHUNK_ROWS):
+    """piece(lo, hi) over the rows 0..n-1 (a library call per piece that
+    does not poll pr_interrupted), with Ctrl-C honoured by time, whatever a
+    row costs. row_work bounds a row's work: a call of at most DIRECT_WORK
+    runs here, in pieces of at most `most` rows. A longer one runs in a
+    worker (interruptible(): the caller gets KeyboardInterrupt within 50 ms),
+    in pieces sized by their time, from one row up to about PIECE_SECONDS:
+    told to stop, the worker ends after its current piece."""
+    if n * row_work <= DIRECT_WORK or threading.current_thread() is not threading.main_thread():
+        for lo, hi in chunks(n, most):
+            piece(lo, hi)
+        return
+
+    def call():
+        lo, rows = 0, 1
+        while lo < n and not _INTERRUPTED.value:
+            hi = min(n, lo + rows)
+            t = time.perf_counter()
+            piece(lo, hi)
+            took = time.perf_counter() - t
+            rows = max(1, min(4 * rows, most, int(rows * PIECE_SECONDS / max(took, 1e-9))))
+            lo = hi
+    interruptible(call)
 
 
 def seed_value(name, seed):

@@ -12,7 +12,7 @@ from typing import Any, Dict, Optional, Tuple, Union
 import numpy as np
 
 from . import _lib
-from ._lib import Handle, addr, array, check, chunks, config, count, errbuf, lib
+from ._lib import Handle, addr, array, check, config, count, errbuf, lib
 
 ArrayLike = Any  # anything np.asarray takes
 Keys = Optional[Dict[str, Any]]
@@ -343,8 +343,8 @@ class Forest(_Model):
         n = count("X", X.shape[0])
         dx, dy = X.shape[1], lib.pr_forest_dy(h.ptr)
         Y = np.empty((n, dy))
-        for lo, hi in chunks(n):
-            lib.pr_forest_predict_many(h.ptr, addr(X) + 8 * lo * dx, hi - lo, addr(Y) + 8 * lo * dy)
+        _lib.rows_interruptibly(n, lambda lo, hi: lib.pr_forest_predict_many(
+            h.ptr, addr(X) + 8 * lo * dx, hi - lo, addr(Y) + 8 * lo * dy), self._row_work(h) * dy)
         if not np.isfinite(Y).all():
             # as the CLI, which refuses to write it (exit 3): never a silent inf or NaN
             i = int(np.argmin(np.isfinite(Y).all(axis=1)))
@@ -360,10 +360,15 @@ class Forest(_Model):
         M, dx = lib.pr_forest_ntrees(h.ptr), X.shape[1]
         out = np.empty((X.shape[0], M), dtype=np.intc)
         err = errbuf()
-        for lo, hi in chunks(X.shape[0]):
-            check(lib.pr_bind_forest_apply(h.ptr, hi - lo, addr(X) + 8 * lo * dx,
-                                           addr(out) + out.itemsize * lo * M, err), err)
+        _lib.rows_interruptibly(X.shape[0], lambda lo, hi: check(lib.pr_bind_forest_apply(
+            h.ptr, hi - lo, addr(X) + 8 * lo * dx, addr(out) + out.itemsize * lo * M, err), err),
+            self._row_work(h))
         return out
+
+    @staticmethod
+    def _row_work(h):
+        # a row visits at most every node of every tree: fewer than 2 x leaves
+        return 2 * lib.pr_forest_tree_leaf0(h.ptr, lib.pr_forest_ntrees(h.ptr))
 
     @property
     def leaf_offsets(self) -> np.ndarray:
@@ -384,6 +389,18 @@ class Forest(_Model):
 
 # a policy query walks its forest and solves a small fit: fewer rows per piece
 POLICY_CHUNK = 1024
+
+
+def _policy_rows(p, h, nq, piece, draws=1):
+    """piece(lo, hi) over nq states of policy p (handle h), interruptible
+    (_lib.rows_interruptibly). A state's work is bounded by a walk through
+    every node of every tree (fewer than 2 x samples each), a fit over all
+    samples, and its draws."""
+    n, ds = h.meta["S"].shape
+    da = lib.pr_policy_da(h.ptr)
+    trees = int(p._cfg.values()["policy.trees"])
+    work = n * (2 * trees + (ds + 1) ** 2 * (da + 1)) + draws * (da + 1) ** 2
+    _lib.rows_interruptibly(nq, piece, work, POLICY_CHUNK)
 
 
 class Policy(_Model):
@@ -438,10 +455,9 @@ class Policy(_Model):
         st = np.empty(nq, dtype=np.intc)
         err = errbuf()
         ds = S.shape[1]
-        for lo, hi in chunks(nq, POLICY_CHUNK):
-            check(lib.pr_bind_policy_eval(h.ptr, hi - lo, addr(S) + 8 * lo * ds,
-                                          addr(mean) + 8 * lo * da, addr(cov) + 8 * lo * da * da,
-                                          addr(st) + st.itemsize * lo, err), err)
+        _policy_rows(self, h, nq, lambda lo, hi: check(lib.pr_bind_policy_eval(
+            h.ptr, hi - lo, addr(S) + 8 * lo * ds, addr(mean) + 8 * lo * da,
+            addr(cov) + 8 * lo * da * da, addr(st) + st.itemsize * lo, err), err))
         return (mean, cov, st) if status else (mean, cov)
 
     def sample(self, S: ArrayLike, seed: int, n: Optional[int] = None) -> np.ndarray:
@@ -458,10 +474,9 @@ class Policy(_Model):
         st = np.empty(nq, dtype=np.intc)
         err = errbuf()
         ds = S.shape[1]
-        for lo, hi in chunks(nq, POLICY_CHUNK):
-            check(lib.pr_bind_policy_sample_rng(h.ptr, hi - lo, addr(S) + 8 * lo * ds, k, rng.ptr,
-                                                addr(draws) + 8 * lo * k * da,
-                                                addr(st) + st.itemsize * lo, err), err)
+        _policy_rows(self, h, nq, lambda lo, hi: check(lib.pr_bind_policy_sample_rng(
+            h.ptr, hi - lo, addr(S) + 8 * lo * ds, k, rng.ptr, addr(draws) + 8 * lo * k * da,
+            addr(st) + st.itemsize * lo, err), err), k)
         return draws[:, 0, :].copy() if n is None else draws
 
     def log_prob(self, S: ArrayLike, A: ArrayLike) -> np.ndarray:
@@ -473,8 +488,7 @@ class Policy(_Model):
         st = np.empty(nq, dtype=np.intc)
         err = errbuf()
         ds = S.shape[1]
-        for lo, hi in chunks(nq, POLICY_CHUNK):
-            check(lib.pr_bind_policy_logpdf(h.ptr, hi - lo, addr(S) + 8 * lo * ds,
-                                            addr(A) + 8 * lo * da, addr(lp) + 8 * lo,
-                                            addr(st) + st.itemsize * lo, err), err)
+        _policy_rows(self, h, nq, lambda lo, hi: check(lib.pr_bind_policy_logpdf(
+            h.ptr, hi - lo, addr(S) + 8 * lo * ds, addr(A) + 8 * lo * da, addr(lp) + 8 * lo,
+            addr(st) + st.itemsize * lo, err), err))
         return lp

@@ -210,4 +210,10 @@ int pr_cmd_weights(const pr_csv *t, int col, const char *name, const char *what,
 int pr_cmd_disjoint(const pr_csv *t, const int *a, int na, const char *an, const int *b, int nb,
                     const char *bn, char *err);
 
+/* The whole of file path into a new buffer *text of *len bytes (free()):
+ * a regular file only (PR_EIO "not a regular file"), refused after its
+ * first bytes unless it starts with magic (PR_EIO, "path" + not_it). */
+int pr_cmd_read_whole(const char *path, const char *magic, const char *not_it, char **text,
+                      size_t *len, char *err);
+
 #endif

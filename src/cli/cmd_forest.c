@@ -162,55 +162,6 @@ static int write_outputs(const forest_args *a, pr_outset **set, const pr_forest 
 	return pr_query_forest(te, f, nm + pr_forest_dx(f), pw, lw, st, err);
 }
 
-/* n bytes of fd into buf, retrying short reads; the count read. */
-static size_t read_full(int fd, char *buf, size_t n)
-{
-	size_t got = 0;
-	ssize_t k;
-
-	while (got < n && ((k = read(fd, buf + got, n - got)) > 0 || (k < 0 && errno == EINTR)))
-		got += k > 0 ? (size_t)k : 0;
-	return got;
-}
-
-/* The whole of a saved forest into memory: a regular file only (a device or
- * a FIFO would be read without end), its size taken once, and another
- * file given by mistake refused after its first bytes, not read whole. */
-static int read_file(const char *path, char **text, size_t *len, char *err)
-{
-	static const char magic[] = "poolreps-forest ";
-	int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-	struct stat st;
-	char *buf = NULL, extra;
-	size_t n = 0;
-	int rc = PR_OK;
-
-	*text = NULL;
-	*len = 0;
-	if (fd < 0)
-		return pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
-	if (fstat(fd, &st) != 0)
-		rc = pr_err(err, PR_EIO, "%s: cannot read: %s", path, strerror(errno));
-	else if (!S_ISREG(st.st_mode))
-		rc = pr_err(err, PR_EIO, "%s: not a regular file", path);
-	else if (!(buf = malloc((size_t)st.st_size + 1)))
-		rc = pr_err(err, PR_ENOMEM, "forest: out of memory");
-	else if ((n = read_full(fd, buf, sizeof magic - 1)) < sizeof magic - 1 ||
-	         memcmp(buf, magic, n))
-		rc = pr_err(err, PR_EIO, "%s:1: not a poolreps forest file", path);
-	else if ((n += read_full(fd, buf + n, (size_t)st.st_size - n)) != (size_t)st.st_size ||
-	         read_full(fd, &extra, 1))
-		rc = pr_err(err, PR_EIO, "%s: cannot read: the file changed while it was read", path);
-	close(fd);
-	if (rc)
-		free(buf);
-	else {
-		*text = buf;
-		*len = n;
-	}
-	return rc;
-}
-
 /* --load FILE: predict the test CSV with a saved forest. */
 static int forest_loaded(const forest_args *a, char *err)
 {
@@ -226,7 +177,8 @@ static int forest_loaded(const forest_args *a, char *err)
 		return pr_err(err, PR_EINVAL, "forest: --load takes no --train, --target, --weight or --save");
 	if (!a->test)
 		return pr_err(err, PR_EINVAL, "forest: --load needs --test");
-	if ((rc = read_file(a->load, &text, &len, err)))
+	if ((rc = pr_cmd_read_whole(a->load, "poolreps-forest ", ":1: not a poolreps forest file",
+	                             &text, &len, err)))
 		return rc;
 	if (!(f = pr_forest_load(text, len, a->load, &nm, err))) {
 		rc = pr_out_of_memory ? PR_ENOMEM : strstr(err, "format version") ? PR_EINVAL : PR_EIO;

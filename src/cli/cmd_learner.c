@@ -43,37 +43,17 @@ static int verb_of(const learner_args *a)
 	return -1;
 }
 
-/* The whole of STATE into memory. */
-static int read_state(const char *path, unsigned char **buf, size_t *len, char *err)
-{
-	FILE *fp = fopen(path, "rb");
-	long size = 0;
-	int rc = PR_OK;
-
-	*buf = NULL;
-	if (!fp)
-		return pr_err(err, errno == ENOMEM ? PR_ENOMEM : PR_EIO, "%s: cannot open: %s", path,
-		              strerror(errno));
-	if (fseek(fp, 0, SEEK_END) || (size = ftell(fp)) < 0 || fseek(fp, 0, SEEK_SET))
-		rc = pr_err(err, PR_EIO, "%s: not a regular file", path);
-	else if (!(*buf = malloc(size > 0 ? (size_t)size : 1)))
-		rc = pr_err(err, PR_ENOMEM, "learner: out of memory");
-	else if (fread(*buf, 1, (size_t)size, fp) != (size_t)size)
-		rc = pr_err(err, PR_EIO, "%s: cannot read", path);
-	fclose(fp);
-	*len = rc ? 0 : (size_t)size;
-	return rc;
-}
-
 /* The learner saved in STATE, drawing from rng. */
 static pr_learner *load(const char *path, gsl_rng *rng, char *err)
 {
-	unsigned char *buf;
+	char *buf;
 	size_t len = 0;
 	pr_learner *L = NULL;
 
-	if (read_state(path, &buf, &len, err) == PR_OK)
-		L = pr_learner_load(buf, len, path, rng, err);
+	/* the first bytes of a state (learner.c's MAGIC): another file is refused unread */
+	if (pr_cmd_read_whole(path, "poolreps-learner\n", ": not a poolreps learner state", &buf, &len,
+	                      err) == PR_OK)
+		L = pr_learner_load((const unsigned char *)buf, len, path, rng, err);
 	free(buf);
 	return L;
 }

@@ -125,8 +125,8 @@ const cli_command cli_sweep = {
 	"  Write jobs over every combination of the grid values: one `poolreps run` per\n"
 	"  grid point and repetition and/or variant (exp1: setting, exp3: policy, exp4:\n"
 	"  policy, start and covariance), listed in SWEEP_DIR/jobs.txt and manifest.csv,\n"
-	"  with slurm.sbatch and parallel.sh to run them and point-N/config.ini per grid\n"
-	"  point.",
+	"  with slurm.sbatch and parallel.sh to run them; a job sets its grid point's\n"
+	"  values on SWEEP_DIR/config.ini with --set.",
 	sweep_opts, sizeof(sweep_args), NULL, CLI_OPS_SWEEP, CLI_GRACEFUL | CLI_EXPERIMENT,
 	sweep_check, sweep_main
 };

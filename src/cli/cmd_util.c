@@ -1,6 +1,12 @@
 /* cmd_util.c — steps the table commands share (cmd_util.h). */
+#define _POSIX_C_SOURCE 200809L /* O_CLOEXEC */
+#include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <sys/stat.h>
 
 #include "cli.h"
 
@@ -83,4 +89,53 @@ int pr_cmd_disjoint(const pr_csv *t, const int *a, int na, const char *an, const
 				return pr_err(err, PR_EINVAL, "%s: column '%s' is both %s and %s", pr_csv_path(t),
 				              pr_csv_name(t, a[i]), an, bn);
 	return PR_OK;
+}
+
+/* n bytes of fd into buf, retrying short reads; the count read. */
+static size_t read_full(int fd, char *buf, size_t n)
+{
+	size_t got = 0;
+	ssize_t k;
+
+	while (got < n && ((k = read(fd, buf + got, n - got)) > 0 || (k < 0 && errno == EINTR)))
+		got += k > 0 ? (size_t)k : 0;
+	return got;
+}
+
+/* A regular file only (a device or a FIFO would be read without end, and
+ * opening a FIFO would wait), its size taken once, and another file given
+ * by mistake refused after its first bytes, not read whole. */
+int pr_cmd_read_whole(const char *path, const char *magic, const char *not_it, char **text,
+                      size_t *len, char *err)
+{
+	int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+	size_t n = 0, nm = strlen(magic);
+	struct stat st;
+	char *buf = NULL, extra;
+	int rc = PR_OK;
+
+	*text = NULL;
+	*len = 0;
+	if (fd < 0)
+		return pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
+	if (fstat(fd, &st) != 0)
+		rc = pr_err(err, PR_EIO, "%s: cannot read: %s", path, strerror(errno));
+	else if (!S_ISREG(st.st_mode))
+		rc = pr_err(err, PR_EIO, "%s: not a regular file", path);
+	else if (!(buf = malloc((size_t)st.st_size + 1)))
+		rc = pr_err(err, PR_ENOMEM, "%s: out of memory", path);
+	else if ((n = read_full(fd, buf, nm < (size_t)st.st_size ? nm : (size_t)st.st_size)) < nm ||
+	         memcmp(buf, magic, n))
+		rc = pr_err(err, PR_EIO, "%s%s", path, not_it);
+	else if ((n += read_full(fd, buf + n, (size_t)st.st_size - n)) != (size_t)st.st_size ||
+	         read_full(fd, &extra, 1))
+		rc = pr_err(err, PR_EIO, "%s: cannot read: the file changed while it was read", path);
+	close(fd);
+	if (rc)
+		free(buf);
+	else {
+		*text = buf;
+		*len = n;
+	}
+	return rc;
 }

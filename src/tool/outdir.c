@@ -22,6 +22,7 @@
 
 #include "poolreps/csvio.h"
 #include "poolreps/internal.h"
+#include "csvio_priv.h"
 #include "outdir.h"
 
 
@@ -412,6 +413,20 @@ static int lock_dir(const char *dir)
 	return -1;
 }
 
+/* The extended attributes of file old onto file path, which replaces it. */
+static int keep_xattrs(const char *old, const char *path, char *bad, size_t nbad)
+{
+	int fd = open(path, O_RDONLY | O_CLOEXEC), rc, e;
+
+	if (fd < 0)
+		return -1;
+	rc = pr_csv_copy_xattrs(old, fd, bad, nbad);
+	e = errno;
+	close(fd);
+	errno = e;
+	return rc;
+}
+
 /* Put back what the renames of sets [0, s] moved, the files of set s
  * below i: an earlier file from its second link, a new one removed. */
 static void put_back(pr_outdir_pub *p, int s, int i)
@@ -432,7 +447,7 @@ static void put_back(pr_outdir_pub *p, int s, int i)
 
 int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 {
-	char from[2 * PR_PATHLEN], to[2 * PR_PATHLEN], bak[2 * PR_PATHLEN];
+	char from[2 * PR_PATHLEN], to[2 * PR_PATHLEN], bak[2 * PR_PATHLEN], xa[256] = "";
 	struct stat st;
 	sigset_t mask;
 	int rc = PR_OK, s, i, held = 0;
@@ -485,6 +500,10 @@ int pr_outdir_publish(pr_outdir_pub *p, int n, char *err)
 			else if (S_ISREG(st.st_mode) && (chmod(from, st.st_mode & 07777) != 0 ||
 			                                 (geteuid() == 0 && chown(from, st.st_uid, st.st_gid) != 0)))
 				rc = pr_err(err, pr_errno_status(), "%s: cannot keep its permissions: %s", to, strerror(errno));
+			/* and its extended attributes (after the owner: a chown drops some) */
+			else if (S_ISREG(st.st_mode) && keep_xattrs(to, from, xa, sizeof xa) != 0)
+				rc = pr_err(err, pr_errno_status(), "%s: cannot keep its extended attribute %s: %s", to,
+				            xa, strerror(errno));
 			else if (link(to, bak) != 0)
 				rc = pr_err(err, pr_errno_status(), "%s: cannot keep the earlier file while replacing it: %s",
 				            to, strerror(errno));

@@ -10,10 +10,11 @@
  *   jobs.txt            line j + 1 is job j: one sh command, absolute paths
  *   slurm.sbatch        a Slurm array over jobs.txt (logs/ for its output)
  *   parallel.sh         the GNU Parallel command line over jobs.txt
- *   point-P/config.ini  the effective configuration of grid point P
  *   config.ini, provenance.txt  the base configuration and how it was made
- * Job j is `poolreps run point-P/config.ini` restricted to one repetition
- * and/or one variant, into point-P/runs/NAME. A run publishes its folder
+ * Job j is `poolreps run config.ini --set KEY=VALUE...` with the values of
+ * its grid point P, restricted to one repetition and/or one variant, into
+ * point-P/runs/NAME, which the job creates: setting up a sweep writes these
+ * few files whatever the grid's size (no folder per point). A run publishes its folder
  * only when it succeeded, provenance.txt with it: that file marks a job done.
  * Every job draws only from the streams of its own (repetition, variant), so
  * the bytes do not depend on where, when or in which order jobs run.
@@ -46,6 +47,7 @@
 #define NAMEMAX 400
 #define MAX_AXES 16
 #define MAX_JOBS 1000000L
+#define JOBLINE (3 * PR_PATHLEN) /* a line of jobs.txt, its newline included */
 
 enum { SPLIT_REP = 1, SPLIT_VAR = 2 };
 enum { JOB_DONE, JOB_MISSING, JOB_FAILED };
@@ -354,15 +356,22 @@ static void put_path(FILE *fp, const char *root, const char *name)
 	pr_outdir_shell_word(fp, path);
 }
 
-static void write_job(FILE *fp, const char *exe, const char *root, const char *point, int rep,
+/* Job line of point p into fp: the base configuration with the point's
+ * values (as set_value sets them), its repetition and variant, its output. */
+static void write_job(FILE *fp, const char *exe, const char *root, const grid *g, long p, int rep,
                       int var, const char *out)
 {
-	char cfg[PR_PATHLEN];
+	char set[PR_PATHLEN];
+	int i;
 
 	pr_outdir_shell_word(fp, exe);
 	fputs(" run -q ", fp);
-	fmt(cfg, sizeof cfg, "%s/config.ini", point);
-	put_path(fp, root, cfg);
+	put_path(fp, root, "config.ini");
+	for (i = 0; i < g->nax; ++i) {
+		fmt(set, sizeof set, "%s=%s", g->ax[i].key, g->ax[i].value[value_index(g, p, i)]);
+		fputs(" --set ", fp);
+		pr_outdir_shell_word(fp, set);
+	}
 	if (rep >= 0)
 		fprintf(fp, " --set experiment.repetition=%d", rep);
 	if (var >= 0)
@@ -478,6 +487,8 @@ typedef struct {
 	char root[PR_PATHLEN];  /* SWEEP_DIR, absolute */
 	char exe[PR_PATHLEN];   /* this poolreps, absolute */
 	FILE *jobs;
+	FILE *line;          /* a job's line, rendered into buf first */
+	char buf[JOBLINE];
 	pr_csvw *man;
 	long njobs;
 	int cpus;            /* threads a job can use: Slurm's --cpus-per-task */
@@ -506,7 +517,7 @@ static int sweep_point(sweep_out *s, long p, char *err)
 	const grid *g = s->g;
 	pr_config pt;
 	pr_variants *vl = malloc(sizeof *vl);
-	char point[64], path[PR_PATHLEN], out[PR_PATHLEN];
+	char point[64], out[PR_PATHLEN];
 	int r, v, i, nr, nv, units, rc;
 
 	if (!vl)
@@ -533,16 +544,20 @@ static int sweep_point(sweep_out *s, long p, char *err)
 		s->cpus = units;
 	if (rc == PR_OK && s->njobs + (long)nr * nv > MAX_JOBS)
 		rc = pr_err(err, PR_EINVAL, "sweep: more than %ld jobs", MAX_JOBS);
-	fmt(path, sizeof path, "%s/%s", s->dir, point);
-	if (rc == PR_OK && mkdir(path, 0777) != 0)
-		rc = pr_err(err, pr_errno_status(), "%s: cannot create folder: %s", path, strerror(errno));
-	if (rc == PR_OK)
-		rc = pr_outdir_write_config(&pt, path, err);
 	for (r = 0; rc == PR_OK && r < nr; ++r)
 		for (v = 0; rc == PR_OK && v < nv; ++v) {
 			int rep = g->split & SPLIT_REP ? r : -1, var = g->split & SPLIT_VAR ? v : -1;
+			long len;
 			job_output(out, sizeof out, point, rep, var >= 0 ? vl->name[var] : NULL);
-			write_job(s->jobs, s->exe, s->root, point, rep, var, out);
+			rewind(s->line);
+			write_job(s->line, s->exe, s->root, g, p, rep, var, out);
+			/* sweep --missing reads a line into JOBLINE bytes */
+			if (fflush(s->line) != 0 || (len = ftell(s->line)) < 0 || len >= JOBLINE - 1) {
+				rc = pr_err(err, PR_EINVAL, "sweep: job %ld: its line of jobs.txt is longer than "
+				            "%d bytes (grid values or paths too long)", s->njobs, JOBLINE - 2);
+				break;
+			}
+			fwrite(s->buf, 1, (size_t)len, s->jobs);
 			pr_csvw_int(s->man, s->njobs++);
 			pr_csvw_int(s->man, p);
 			for (i = 0; i < g->nax; ++i)
@@ -592,6 +607,8 @@ static int sweep_work(const pr_config *cfg, const char *dir, const void *arg, ch
 		rc = pr_err(err, PR_EINVAL, "%s: a line break in the path of the %s: jobs.txt holds one "
 		            "job a line", strchr(s.root, '\n') ? s.root : s.exe,
 		            strchr(s.root, '\n') ? "sweep folder" : "poolreps executable");
+	if (rc == PR_OK && !(s.line = fmemopen(s.buf, sizeof s.buf, "w")))
+		rc = pr_err(err, PR_ENOMEM, "out of memory");
 	if (rc == PR_OK && !(s.jobs = open_text(dir, "jobs.txt", path, err)))
 		rc = PR_EIO;
 	if (rc == PR_OK)
@@ -602,6 +619,8 @@ static int sweep_work(const pr_config *cfg, const char *dir, const void *arg, ch
 		else
 			rc = sweep_point(&s, p, err);
 	}
+	if (s.line)
+		fclose(s.line);
 	if (s.jobs && rc == PR_OK)
 		rc = close_text(s.jobs, path, err);
 	else if (s.jobs)
@@ -614,12 +633,6 @@ static int sweep_work(const pr_config *cfg, const char *dir, const void *arg, ch
 	if (rc == PR_OK)
 		rc = write_runners(dir, s.root, s.njobs, s.cpus, err);
 	if (rc != PR_OK) {
-		for (p = 0; p < g.npoints; ++p) {
-			char point[64];
-			point_name(point, sizeof point, p, g.npoints);
-			fmt(path, sizeof path, "%s/%s", dir, point);
-			pr_remove_tree(path);
-		}
 		fmt(path, sizeof path, "%s/logs", dir);
 		rmdir(path);
 	}
@@ -806,26 +819,31 @@ int pr_rundir_sweep(const pr_config *cfg, const pr_rundir_args *a, char *err)
 
 /* ---- collect ---- */
 
-/* PR_EINVAL unless the point's configuration pt (read from mine) is the one
- * its jobs ran (the merged folder's config.ini, read like any parameter
- * file: memory stays bounded whatever the files hold). */
-static int same_config(const pr_config *pt, const char *mine, const char *merged, char *err)
+/* PR_EINVAL unless the base configuration (root's config.ini, read into
+ * base) with point p's grid values is the one its jobs ran (ran): every key
+ * but the grid's, which check_grid_value checks against the manifest. */
+static int same_config(const pr_config *base, const manifest *m, long first, const pr_config *ran,
+                       const char *root, long p, char *err)
 {
-	pr_config *ran = malloc(sizeof *ran);
-	char key[64], va[160], vb[160];
-	int rc, d;
+	pr_config *pt = malloc(sizeof *pt);
+	char key[64], va[160], vb[160], set[PR_ERRLEN];
+	int rc = PR_OK, d, j;
 
-	if (!ran)
+	if (!pt)
 		return pr_err(err, PR_ENOMEM, "out of memory");
-	pr_config_init(ran, pr_exp_config);
-	rc = pr_config_load(ran, merged, err);
+	*pt = *base;
+	for (j = 0; rc == PR_OK && j < m->nax; ++j) {
+		snprintf(set, sizeof set, "%s=%s", pr_exp_table_name(m->t, 2 + j),
+		         pr_exp_table_str(m->t, first, 2 + j));
+		rc = pr_config_set(pt, set, err);
+	}
 	d = rc == PR_OK ? pr_config_diff(pt, ran, NULL, key, sizeof key, va, vb, sizeof va) : 0;
 	if (d < 0)
 		rc = pr_err(err, PR_ENOMEM, "out of memory");
 	else if (d)
-		rc = pr_err(err, PR_EINVAL, "%s: differs from the configuration the jobs ran with (%s = %s, "
-		            "jobs: %s)", mine, key, va, vb);
-	free(ran);
+		rc = pr_err(err, PR_EINVAL, "%s/config.ini: differs from the configuration the jobs of point "
+		            "%ld ran with (%s = %s, jobs: %s)", root, p, key, va, vb);
+	free(pt);
 	return rc;
 }
 
@@ -833,6 +851,7 @@ typedef struct {
 	const pr_rundir_args *a;
 	const char *root;
 	const manifest *m;
+	pr_config base;     /* root's config.ini: each point's jobs add its values */
 	char stage[PR_PATHLEN];
 	pr_csvw *w;
 	int ncols;          /* summary columns, once the first point is read */
@@ -864,9 +883,9 @@ static int check_header(collector *c, const pr_exp_table *t, char *err)
 	return PR_OK;
 }
 
-/* Row i of the manifest names in grid column j the value point config pt
- * (read from cfg) holds: a wrong one would label the point's rows wrongly. */
-static int check_grid_value(const collector *c, long i, int j, const pr_config *pt, const char *cfg,
+/* Row i of the manifest names in grid column j the value the jobs of point
+ * p ran with (ran): a wrong one would label the point's rows wrongly. */
+static int check_grid_value(const collector *c, long i, int j, const pr_config *pt, long p,
                             char *err)
 {
 	const manifest *m = c->m;
@@ -886,8 +905,8 @@ static int check_grid_value(const collector *c, long i, int j, const pr_config *
 	} else if ((d = pr_config_diff(pt, v, NULL, key, sizeof key, va, vb, sizeof va)) < 0) {
 		rc = pr_err(err, PR_ENOMEM, "out of memory");
 	} else if (d) {
-		rc = pr_err(err, PR_EIO, "%s/manifest.csv:%ld: column '%s': '%.60s', but %s ran %s = %s",
-		            c->root, pr_exp_table_line(m->t, i), name, value, cfg, key, va);
+		rc = pr_err(err, PR_EIO, "%s/manifest.csv:%ld: column '%s': '%.60s', but the jobs of point "
+		            "%ld ran %s = %s", c->root, pr_exp_table_line(m->t, i), name, value, p, key, va);
 	}
 	free(v);
 	return rc;
@@ -898,16 +917,18 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 {
 	const manifest *m = c->m;
 	pr_rundir_args ma;
-	pr_config pt;
+	pr_config *ran = malloc(sizeof *ran);
 	pr_exp_table *t = NULL;
 	const pr_experiment *e;
-	char point[64], out[PR_PATHLEN], path[PR_PATHLEN], mine[PR_PATHLEN], **in;
+	char point[64], out[PR_PATHLEN], path[PR_PATHLEN], **in;
 	long i, r;
 	int j, rc = PR_OK;
 
 	point_name(point, sizeof point, p, m->npoints);
-	if (!(in = calloc((size_t)(last - first), sizeof *in)))
+	if (!ran || !(in = calloc((size_t)(last - first), sizeof *in))) {
+		free(ran);
 		return pr_err(err, PR_ENOMEM, "out of memory");
+	}
 	for (i = first; rc == PR_OK && i < last; ++i)
 		if (!(in[i - first] = malloc(PR_PATHLEN)))
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
@@ -922,18 +943,19 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 	ma.allow_versions = c->a->allow_versions;
 	if (rc == PR_OK)
 		rc = pr_rundir_merge(&ma, err);
-	fmt(mine, sizeof mine, "%s/%s/config.ini", c->root, point);
+	/* what the jobs ran, read like any parameter file: memory stays
+	 * bounded whatever the files hold */
 	fmt(path, sizeof path, "%s/config.ini", out);
-	pr_config_init(&pt, pr_exp_config);
+	pr_config_init(ran, pr_exp_config);
 	if (rc == PR_OK)
-		rc = pr_config_load(&pt, mine, err);
-	if (rc == PR_OK)
-		rc = same_config(&pt, mine, path, err);
+		rc = pr_config_load(ran, path, err);
 	for (i = first; rc == PR_OK && i < last; ++i)
 		for (j = 0; rc == PR_OK && j < m->nax; ++j)
-			rc = check_grid_value(c, i, j, &pt, mine, err);
-	if (rc == PR_OK && (!(e = pr_exp_find(pt.run.name)) || !e->summary))
-		rc = pr_err(err, PR_EINVAL, "%s: experiment.name: %s has no summary table", mine, pt.run.name);
+			rc = check_grid_value(c, i, j, ran, p, err);
+	if (rc == PR_OK)
+		rc = same_config(&c->base, m, first, ran, c->root, p, err);
+	if (rc == PR_OK && (!(e = pr_exp_find(ran->run.name)) || !e->summary))
+		rc = pr_err(err, PR_EINVAL, "%s: experiment.name: %s has no summary table", path, ran->run.name);
 	if (rc == PR_OK) {
 		fmt(path, sizeof path, "%s/%s", out, e->summary);
 		rc = pr_exp_table_read(path, &t, err);
@@ -951,6 +973,7 @@ static int collect_point(collector *c, long p, long first, long last, char *err)
 	for (i = 0; i < last - first; ++i)
 		free(in[i]);
 	free(in);
+	free(ran);
 	return rc;
 }
 
@@ -1068,6 +1091,12 @@ int pr_rundir_collect(const pr_rundir_args *a, char *err)
 	c.a = a;
 	c.root = a->inputs[0];
 	c.m = &m;
+	fmt(path, sizeof path, "%s/config.ini", c.root);
+	pr_config_init(&c.base, pr_exp_config);
+	if ((rc = pr_config_load(&c.base, path, err))) {
+		manifest_free(&m);
+		return rc;
+	}
 	/* staged like a run's folder: a signal removes it, and the next collect
 	 * one left by SIGKILL */
 	fmt(c.stage, sizeof c.stage, "%s/.partial-%s", c.root, pr_owner_tag());
