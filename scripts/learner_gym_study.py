@@ -19,6 +19,7 @@ import sys
 import time
 from ctypes import POINTER, Structure, c_char_p, c_double, c_int, c_void_p
 
+import bad_data  # noqa: F401 (bad input: one line, exit 2, no traceback)
 import gymnasium as gym
 import numpy as np
 
