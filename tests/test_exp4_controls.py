@@ -358,6 +358,32 @@ def test_split_adds_up():
     assert n >= 2 * (8 + 8 + 11 + 4)
 
 
+@pytest.mark.slow
+def test_study_script_runs_its_own_arms(tmp_path):
+    """scripts/exp4_study.sh at a tiny size: the six arms of the study (not
+    study_lib.sh's physics arms), every control in runs.csv, and the answer
+    generated from them."""
+    out, docs = tmp_path / "out", tmp_path / "docs"
+    docs.mkdir()
+    opts = [w for s in TINY if not s.startswith("experiment.") for w in ("--set", s)]
+    env = dict(os.environ, NICE="0",
+               POOLREPS=os.environ.get("POOLREPS", str(ROOT / "poolreps")))
+    p = subprocess.run(["sh", str(ROOT / "scripts" / "exp4_study.sh"), str(out), "2", str(docs),
+                        PY] + opts, capture_output=True, text=True, env=env, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    _, runs = csv_rows(docs / "exp4_study" / "runs.csv")
+    assert sorted({r["arm"] for r in runs}) == sorted(
+        ["main", "eps0.1", "eps0.25", "floor3", "floor10", "floor0"])
+    assert {r["init"] for r in runs if r["arm"] == "main"} == set(INITS)
+    assert {r["init"] for r in runs if r["arm"] == "floor0"} == set(INITS)
+    doc = tmp_path / "exp4.md"
+    doc.write_text((ROOT / "docs" / "exp4.md").read_text())
+    p = subprocess.run([PY, str(ROOT / "scripts" / "exp4_study.py"), "docs",
+                        str(docs / "exp4_study"), "--doc", str(doc)],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 0 and "2 paired repetitions" in doc.read_text(), p.stderr
+
+
 def test_docs_match_the_committed_csvs():
     """docs/exp4.md's and README.md's generated blocks are those of
     docs/exp4_study/*.csv."""
