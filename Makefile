@@ -185,15 +185,11 @@ reproduce: deps
 reproduce-run:
 	sh scripts/reproduce.sh "$(OUT)" "$(PYTHON)" "$(QUICK)"
 
-# Experiment 3 power study (docs/power.md; not part of reproduce). Only the
-# default study writes docs/ and the README column; others write OUT/power.
+# A standalone Experiment 3 power study (not part of reproduce): its report
+# goes to OUT/power; docs/power.md describes the verdict study (make verdicts).
 POWER_REPS ?= 50
 POWER_ARGS ?=
-ifeq ($(POWER_REPS)$(POWER_ARGS),50)
-  POWER_DOCS ?= docs
-else
-  POWER_DOCS ?= $(OUT)/power
-endif
+POWER_DOCS ?= $(OUT)/power
 power: all
 	sh scripts/power.sh "$(OUT)/power" "$(POWER_REPS)" "$(POWER_DOCS)" "$(PYTHON)" $(POWER_ARGS)
 
@@ -215,13 +211,15 @@ exp4-study: all
 # compact results go to data/study/ (committed), then `make verdicts`.
 STUDY_SEEDS ?= 20
 study: all
-	sh scripts/study.sh "$(OUT)/study" "$(POWER_REPS)" "$(STUDY_SEEDS)" data/study docs "$(PYTHON)"
+	sh scripts/study.sh "$(OUT)/study" "$(POWER_REPS)" "$(STUDY_SEEDS)" data/study "$(PYTHON)"
 	$(MAKE) verdicts
 
 # docs/verdicts.md, docs/verdicts_report.html and the README's verdict table
-# from data/study/; CHECK=1 writes nothing and fails on a difference
+# from data/study/, and Experiment 4's answer (docs/exp4.md, README.md) from
+# docs/exp4_study/; CHECK=1 writes nothing and fails on a difference
 verdicts:
 	$(PYTHON) scripts/verdicts.py data/study $(if $(CHECK),--check)
+	$(PYTHON) scripts/exp4_study.py docs docs/exp4_study --doc docs/exp4.md --readme README.md $(if $(CHECK),--check)
 
 # Sensitivity study (docs/sensitivity.md): Experiment 3's verdicts with one
 # open choice changed at a time. The default size writes docs/ and the README

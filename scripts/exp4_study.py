@@ -35,6 +35,7 @@ import numpy as np
 from scipy import stats
 
 import exp_data
+import verdict_stats as vs
 
 PROG = "exp4_study"
 POLICIES = ["nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a", "baseline", "handcrafted"]
@@ -43,6 +44,10 @@ FLOOR_ARMS = [("floor0", "1e-6 mm/s (off)"), ("main", "1 mm/s"), ("floor3", "3 m
               ("floor10", "10 mm/s")]
 ALPHA = 0.05
 FLOOR_BIT = 16  # PR_POLICY_FLOOR
+# the margin of every Experiment 3 verdict: the smallest return difference
+# counted as real (data/study/rules.ini, [margins] material)
+RULES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "study",
+                     "rules.ini")
 
 
 def die(msg):
@@ -128,7 +133,8 @@ def collect(a):
     if os.path.exists(tim):
         with open(tim) as f, open(os.path.join(a.out, "timing.csv"), "w") as g:
             g.write(f.read())
-    write_verdicts(a.out, runs)
+    # from runs.csv as written (nine digits), as read_dir recomputes them
+    write_verdicts(a.out, exp_data.read_csv(os.path.join(a.out, "runs.csv"), RUN_COLS))
 
 
 # ---- statistics ----
@@ -162,7 +168,12 @@ def paired(x, y):
 
 
 def comparisons(runs):
-    """(family measure, arm_a, variant_a, arm_b, variant_b, name) of the study."""
+    """(family measure, arm_a, variant_a, arm_b, variant_b, name) of the study.
+    Every REPS run against imitation, and split at its refit-only control of
+    the same resolution (refit at policy.n_min, refit_matched at pi_0's):
+    A - imitation = (A - control) + (control - imitation), the reweighting
+    and the refitting. The eps arms run no control of their own: a refit runs
+    no REPS, so the main arm's is theirs."""
     have = {(r["arm"], r["variant"]) for r in runs}
     out = []
     for p in POLICIES:
@@ -171,17 +182,29 @@ def comparisons(runs):
                     ("main", "refit", "main", "imitation", "refit-only vs imitation"),
                     ("main", "policy", "main", "refit", "REPS vs refit-only"),
                     ("main", "matched", "main", "imitation", "matched REPS (eps 0.5) vs imitation"),
-                    ("main", "matched", "main", "policy", "matched REPS vs REPS")]
+                    ("main", "matched", "main", "policy", "matched REPS vs REPS"),
+                    ("main", "refit_matched", "main", "imitation", "refit_matched vs imitation"),
+                    ("main", "matched", "main", "refit_matched", "matched REPS vs refit_matched")]
             for eps in ("0.25", "0.1"):
                 cand += [(f"eps{eps}", "policy", "main", "imitation",
                           f"REPS (eps {eps}) vs imitation"),
                          (f"eps{eps}", "matched", "main", "imitation",
-                          f"matched REPS (eps {eps}) vs imitation")]
+                          f"matched REPS (eps {eps}) vs imitation"),
+                         (f"eps{eps}", "policy", "main", "refit",
+                          f"REPS (eps {eps}) vs refit-only"),
+                         (f"eps{eps}", "matched", "main", "refit_matched",
+                          f"matched REPS (eps {eps}) vs refit_matched")]
             for arm, _ in FLOOR_ARMS:
                 if arm != "main":
                     cand += [(arm, "policy", arm, "imitation", f"REPS vs imitation, {arm}"),
                              (arm, "matched", arm, "imitation",
-                              f"matched REPS vs imitation, {arm}")]
+                              f"matched REPS vs imitation, {arm}"),
+                             (arm, "refit", arm, "imitation", f"refit-only vs imitation, {arm}"),
+                             (arm, "policy", arm, "refit", f"REPS vs refit-only, {arm}"),
+                             (arm, "refit_matched", arm, "imitation",
+                              f"refit_matched vs imitation, {arm}"),
+                             (arm, "matched", arm, "refit_matched",
+                              f"matched REPS vs refit_matched, {arm}")]
             for aa, ia, ab, ib, name in cand:
                 va, vb = f"{p}.{ia}.{c}", f"{p}.{ib}.{c}"
                 if (aa, va) in have and (ab, vb) in have:
@@ -189,15 +212,42 @@ def comparisons(runs):
     return out
 
 
+def margin():
+    """The material margin [m] of data/study/rules.ini."""
+    import configparser
+    cfg = configparser.ConfigParser(interpolation=None)
+    if not cfg.read(RULES) or not cfg.has_option("margins", "material"):
+        die(f"{RULES}: no [margins] material")
+    return float(cfg.get("margins", "material"))
+
+
+def margin_verdicts(fam, m):
+    """Each comparison against the margin m, three tests of its paired
+    differences: worse by more than m (H1: d < -m), better by more than m
+    (H1: d > m), within it (TOST, H1: -m < d < m); Holm over all three tests
+    of every comparison in the family. 'degrades' / 'improves' / 'within'
+    when that test holds at Holm's 0.05, else 'undecided'."""
+    ps = []
+    for r in fam:
+        e = vs.paired(r["x"], r["y"])
+        ps.append([vs.p_less(e, -m), vs.p_greater(e, m), vs.p_tost(e, -m, m)])
+    adj = vs.holm([p for t in ps for p in t]) if ps else []
+    for i, r in enumerate(fam):
+        below, above, within = adj[3 * i: 3 * i + 3]
+        r["p_below_holm"], r["p_above_holm"], r["p_within_holm"] = below, above, within
+        r["margin_verdict"] = ("degrades" if below < ALPHA else "improves" if above < ALPHA
+                               else "within" if within < ALPHA else "undecided")
+
+
 VERDICT_COLS = ["measure", "comparison", "policy", "cov", "arm_a", "variant_a", "arm_b",
                 "variant_b", "n", "mean_a", "mean_b", "diff", "ci_lo", "ci_hi", "p", "p_holm",
-                "verdict"]
+                "verdict", "p_below_holm", "p_above_holm", "p_within_holm", "margin_verdict"]
 
 
 def verdict_rows(runs):
     """The rows of verdicts.csv that runs gives."""
     idx = {(r["arm"], r["variant"], int(r["repetition"])): r for r in runs}
-    rows = []
+    rows, band = [], margin()
     for measure, col in (("sampled", "final_return"), ("mean_action", "mean_action_return")):
         fam = []
         for aa, va, ab, vb, name, p, c in comparisons(runs):
@@ -208,11 +258,12 @@ def verdict_rows(runs):
             fam.append({"measure": measure, "comparison": name, "policy": p, "cov": c,
                         "arm_a": aa, "variant_a": va, "arm_b": ab, "variant_b": vb, "n": n,
                         "mean_a": float(np.mean(x)), "mean_b": float(np.mean(y)), "diff": m,
-                        "ci_lo": lo, "ci_hi": hi, "p": pv})
+                        "ci_lo": lo, "ci_hi": hi, "p": pv, "x": x, "y": y})
         for r, ph in zip(fam, holm([r["p"] for r in fam])):
             r["p_holm"] = float(ph)
             r["verdict"] = ("no sig. change" if ph >= ALPHA else
                             "improves" if r["diff"] > 0 else "degrades")
+        margin_verdicts(fam, band)
         rows += fam
     return rows
 
@@ -247,15 +298,6 @@ def read_dir(d):
     return runs, ver
 
 
-def cell(r):
-    return (f"{float(r['diff']):+.3f} [{float(r['ci_lo']):+.3f}, {float(r['ci_hi']):+.3f}] "
-            f"p<sub>H</sub> {float(r['p_holm']):.2g}")
-
-
-def pv(r):
-    return f"{float(r['p_holm']):.2g}"
-
-
 def label_pc(p, c):
     return p if c == "none" else f"{p}, {c}"
 
@@ -265,111 +307,98 @@ def pcs():
                                                 else ["query", "residual"])]
 
 
-def table_verdict(ver, measure, names):
-    by = {(r["measure"], r["comparison"], r["policy"], r["cov"]): r for r in ver}
-    head = "| policy, covariance | " + " | ".join(names) + " |"
-    lines = [head, "|---|" + "---:|" * len(names)]
-    for p, c in pcs():
-        cells = []
-        for n in names:
-            r = by.get((measure, n, p, c))
-            cells.append(f"{cell(r)} **{r['verdict']}**" if r else "–")
-        lines.append(f"| {label_pc(p, c)} | " + " | ".join(cells) + " |")
-    return lines
+def pick(ver, measure, names):
+    """The tree policies' rows of verdicts.csv of one measure whose
+    comparison is in names."""
+    return [r for r in ver if r["measure"] == measure and r["comparison"] in names and
+            r["policy"] in TREES]
 
 
-def table_means(runs, arm, inits, col):
-    """Mean over the repetitions of col per (policy, cov) and init."""
-    acc = {}
-    for r in runs:
-        if r["arm"] == arm:
-            acc.setdefault((r["policy"], r["cov"], r["init"]), []).append(float(r[col]))
-    lines = ["| policy, covariance | " + " | ".join(inits) + " |",
-             "|---|" + "---:|" * len(inits)]
-    for p, c in pcs():
-        cells = [f"{np.mean(acc[(p, c, i)]):.3f}" if (p, c, i) in acc else "–" for i in inits]
-        lines.append(f"| {label_pc(p, c)} | " + " | ".join(cells) + " |")
-    return lines
+def say(rows):
+    """Margin verdicts of rows: worse, better, within, undecided of n, and the
+    range of the differences."""
+    n, d = len(rows), [float(r["diff"]) for r in rows]
+    k = [(sum(r["margin_verdict"] == w for r in rows), name) for w, name in
+         (("degrades", "worse"), ("improves", "better"), ("within", "within"),
+          ("undecided", "undecided"))]
+    return (", ".join(f"{c} {name}" for c, name in k if c) +
+            f" of {n} ({min(d):+.3f} to {max(d):+.3f} m)")
 
 
-def table_floor(runs, ver):
-    by = {(r["measure"], r["comparison"], r["policy"], r["cov"]): r for r in ver}
-    acc = {}
-    for r in runs:
-        acc.setdefault((r["arm"], r["policy"], r["cov"], r["init"]), []).append(r)
-    lines = ["| policy (residual) | policy.min_std | imitation [m] | REPS [m] | matched REPS [m] "
-             "| REPS vs imitation [m] | floored iterations, REPS [%] |",
-             "|---|---|---:|---:|---:|---:|---:|"]
-    for p in POLICIES:
-        c = "none" if p == "handcrafted" else "residual"
-        for arm, name in FLOOR_ARMS:
-            rs = {i: acc.get((arm, p, c, i), []) for i in ("imitation", "policy", "matched")}
-            if not rs["imitation"]:
-                continue
-            m = {i: (f"{np.mean([float(x['final_return']) for x in v]):.3f}" if v else "–")
-                 for i, v in rs.items()}
-            comp = "REPS (eps 0.5) vs imitation" if arm == "main" else f"REPS vs imitation, {arm}"
-            r = by.get(("sampled", comp, p, c))
-            fl = rs["policy"]
-            nit = sum(int(x["iterations"]) for x in fl)
-            fpct = (f"{100 * sum(int(x['floor_iterations']) for x in fl) / nit:.0f}"
-                    if nit else "–")
-            lines.append(f"| {p} | {name} | {m['imitation']} | {m['policy']} | {m['matched']} | "
-                         f"{cell(r) if r else '–'} | {fpct} |")
-    return lines
+def split_effect(ver, total, control, reweight):
+    """One headline effect and its split, sampled [mean actions]: the total
+    (A vs imitation), the refitting (the control vs imitation) and the
+    reweighting (A vs the control)."""
+    out = []
+    for what, names in (("total", total), ("refitting", control), ("reweighting", reweight)):
+        if names:
+            out.append(f"{what} {say(pick(ver, 'sampled', names))} "
+                       f"[{say(pick(ver, 'mean_action', names))}]")
+    return "; ".join(out)
 
 
-
-def sampled(ver, pred):
-    return [r for r in ver if r["measure"] == "sampled" and pred(r)]
-
-
-def words(rows):
-    """How many rows, degraded, improved, and the range of their differences."""
-    d = [float(r["diff"]) for r in rows]
-    return (len(rows), sum(r["verdict"] == "degrades" for r in rows),
-            sum(r["verdict"] == "improves" for r in rows), min(d), max(d))
+def mean_diff(ver, measure, names):
+    return float(np.mean([float(r["diff"]) for r in pick(ver, measure, names)]))
 
 
-def count(rows, what="policies"):
-    n, deg, imp, lo, hi = words(rows)
-    return f"degrades {deg} and improves {imp} of {n} {what} ({lo:+.3f} to {hi:+.3f} m)"
+MATCHED = (["matched REPS (eps 0.5) vs imitation"], ["refit_matched vs imitation"],
+           ["matched REPS vs refit_matched"])
 
 
-def closing(ver, runs):
+def closing(ver, runs, m):
+    """The bold headline, and the answer: it and the split of every effect."""
     nrep = len({r["repetition"] for r in runs})
-    tree = lambda r: r["policy"] in TREES  # noqa: E731
-    m05 = sampled(ver, lambda r: tree(r) and
-                  r["comparison"] == "matched REPS (eps 0.5) vs imitation")
-    msmall = sampled(ver, lambda r: tree(r) and r["comparison"] in (
-        "matched REPS (eps 0.25) vs imitation", "matched REPS (eps 0.1) vs imitation"))
-    refit = sampled(ver, lambda r: r["comparison"] == "refit-only vs imitation")
-    vs_refit = sampled(ver, lambda r: r["comparison"] == "REPS vs refit-only")
-    fl_hi = sampled(ver, lambda r: tree(r) and r["comparison"] in (
-        "REPS vs imitation, floor3", "REPS vs imitation, floor10"))
-    fl_off = sampled(ver, lambda r: tree(r) and r["comparison"] == "REPS vs imitation, floor0")
-    mvp = sampled(ver, lambda r: r["comparison"] == "matched REPS vs REPS")
-    q = [r for r in m05 if r["cov"] == "query"]
-    res = [r for r in m05 if r["cov"] == "residual"]
-    nm, dm, im, lom, him = words(m05)
-    head = (f"degrades {dm} of the {nm} imitated tree policies and improves none" if im == 0
-            else f"improves {im} and degrades {dm} of the {nm} imitated tree policies")
-    return [
-        f"**Once resolution, floor and step size are controlled, REPS {head}** ({nrep} paired "
-        f"repetitions, 95 % intervals, Holm; REPS at π₀'s resolution, ε 0.5, against "
-        f"imitation alone): with `query` it {count(q, 'tree policies')}, with `residual` it "
-        f"{count(res, 'tree policies')}. Smaller steps make it worse (ε 0.25 and 0.1: "
-        f"{count(msmall, 'cells')}); with the floor practically off REPS "
-        f"{count(fl_off, 'tree policies')}, and it gains only against the poorer imitated "
-        f"start of a 3 or 10 mm/s floor ({count(fl_hi, 'cells')}). Keeping π₀'s resolution "
-        f"matters with `query`: against REPS at `policy.n_min` it {count(mvp, 'tree runs')}. "
-        f"What loses most is refitting itself: refitted to its own samples at `policy.n_min` "
-        f"without REPS, the policy {count(refit)}, and REPS against that refit-only control "
-        f"{count(vs_refit)}."]
+    tot = pick(ver, "sampled", MATCHED[0])
+    tot_m = pick(ver, "mean_action", MATCHED[0])
+    cnt = lambda rows, w: sum(r["margin_verdict"] == w for r in rows)  # noqa: E731
+    parts = [mean_diff(ver, "sampled", names) for names in MATCHED]
+    fl = ["floor3", "floor10"]
+    eps = ["0.25", "0.1"]
+    off = (["matched REPS vs imitation, floor0"], ["refit_matched vs imitation, floor0"],
+           ["matched REPS vs refit_matched, floor0"])
+    nmin = (["REPS (eps 0.5) vs imitation"], ["refit-only vs imitation"], ["REPS vs refit-only"])
+    small = ([f"matched REPS (eps {e}) vs imitation" for e in eps], [],
+             [f"matched REPS (eps {e}) vs refit_matched" for e in eps])
+    high = ([f"REPS vs imitation, {a}" for a in fl], [f"refit-only vs imitation, {a}" for a in fl],
+            [f"REPS vs refit-only, {a}" for a in fl])
+    head = (
+        f"**Against Experiment 3's {m:g} m margin, REPS at π₀'s resolution (ε 0.5, 1 mm/s "
+        f"floor) degrades {cnt(tot, 'degrades')} and improves {cnt(tot, 'improves')} of the "
+        f"{len(tot)} imitated tree policies ({cnt(tot_m, 'degrades')} and "
+        f"{cnt(tot_m, 'improves')} by their mean actions); of its mean change, "
+        f"{parts[0]:+.3f} m, refitting at π₀'s resolution without REPS accounts for "
+        f"{parts[1]:+.3f} m and REPS's reweighting for {parts[2]:+.3f} m**")
+    return head, [
+        head + f" ({nrep} paired repetitions; each difference tested for worse than −{m:g} m, "
+        f"better than +{m:g} m and within ±{m:g} m, Holm over every test of its measure; "
+        f"counts for the sampled actions, [mean actions]). "
+        f"At π₀'s resolution: {split_effect(ver, *MATCHED)}. "
+        f"With the floor practically off: {split_effect(ver, *off)}. "
+        f"At `policy.n_min` (REPS as first run): {split_effect(ver, *nmin)}. "
+        f"Smaller steps at π₀'s resolution (ε 0.25, 0.1): {split_effect(ver, *small)}. "
+        f"A 3 or 10 mm/s floor, at `policy.n_min`: {split_effect(ver, *high)}."]
+
+
+def table_split(ver):
+    """The headline effect per tree policy: total, refitting, reweighting,
+    difference [m] and margin verdict, sampled and mean actions."""
+    by = {(r["measure"], r["comparison"], r["policy"], r["cov"]): r for r in ver}
+    lines = ["| policy, covariance | total | refitting | reweighting | total, mean actions "
+             "| refitting, mean actions | reweighting, mean actions |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for p, c in pcs():
+        if p not in TREES:
+            continue
+        cells = [by[(meas, names[0], p, c)] for meas in ("sampled", "mean_action")
+                 for names in MATCHED]
+        lines.append(f"| {label_pc(p, c)} | " + " | ".join(
+            f"{float(r['diff']):+.3f} {r['margin_verdict']}" for r in cells) + " |")
+    return lines
 
 
 def blocks(d):
     runs, ver = read_dir(d)
+    m = margin()
     nrep = len({r["repetition"] for r in runs})
     t = exp_data.read_csv(os.path.join(d, "timing.csv")) if os.path.exists(
         os.path.join(d, "timing.csv")) else []
@@ -378,10 +407,6 @@ def blocks(d):
     nruns = len(runs)
     nfail = sum(int(r["failed_solves"]) for r in runs)
     nfrun = sum(int(r["failed_solves"]) > 0 for r in runs)
-    main_names = ["REPS (eps 0.5) vs imitation", "refit-only vs imitation", "REPS vs refit-only",
-                  "matched REPS (eps 0.5) vs imitation", "matched REPS vs REPS"]
-    eps_names = ["REPS (eps 0.25) vs imitation", "REPS (eps 0.1) vs imitation",
-                 "matched REPS (eps 0.25) vs imitation", "matched REPS (eps 0.1) vs imitation"]
     b = {
         "setup": [f"{nrep} paired repetitions, {nruns} runs in six arms; the runs and their "
                   f"merges took {cpu:.0f} s of CPU ({wall:.0f} s wall on "
@@ -390,17 +415,11 @@ def blocks(d):
                   f"`{os.path.basename(os.path.normpath(d))}/timing.csv`). "
                   f"{nfail} REPS solves in {nfrun} runs could not be certified and were "
                   f"recorded (`reps.allow_failed`)."],
-        "controls": table_verdict(ver, "sampled", main_names),
-        "eps": table_verdict(ver, "sampled", eps_names),
-        "means": table_means(runs, "main", ["imitation", "policy", "refit", "matched"],
-                             "final_return"),
-        "mean_action": table_means(runs, "main", ["imitation", "policy", "refit", "matched"],
-                                   "mean_action_return"),
-        "mean_action_verdict": table_verdict(ver, "mean_action", main_names),
-        "floor": table_floor(runs, ver),
-        "closing": closing(ver, runs),
+        "split": table_split(ver),
     }
-    b["readme"] = b["closing"]
+    head, b["closing"] = closing(ver, runs, m)
+    b["readme"] = [head + f" ({nrep} paired repetitions; per policy, both evaluations and the "
+                   "split of every other effect: [docs/exp4.md](docs/exp4.md#answer))."]
     return b
 
 
@@ -457,7 +476,8 @@ def plot(a):
     style = [("imitation", "imitation only", "0.45", "--"),
              ("policy", "imitation + REPS", "C0", "-"),
              ("refit", "refit-only (no REPS)", "C1", "-"),
-             ("matched", "REPS at π₀'s resolution", "C2", "-")]
+             ("matched", "REPS at π₀'s resolution", "C2", "-"),
+             ("refit_matched", "refit-only at π₀'s resolution", "C3", ":")]
     handles = {}
     for row, c in enumerate(("query", "residual")):
         for col, p in enumerate(POLICIES):

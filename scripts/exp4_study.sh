@@ -5,9 +5,9 @@
 # per arm (it merges), then scripts/exp4_study.py for the statistics.
 #   scripts/exp4_study.sh OUT REPS DOCS PYTHON [poolreps options...]
 # Arms: main (reps.epsilon 0.5, policy.min_std 1 mm/s: imitation, policy,
-# refit, matched, both covariances); eps0.1, eps0.25 (policy and matched);
+# refit, matched, refit_matched, both covariances); eps0.1, eps0.25 (policy and matched);
 # floor3, floor10, floor0 (policy.min_std 3 and 10 mm/s, and 1e-9 m/s, the
-# floor practically off; imitation, policy, matched with the residual
+# floor practically off; every init but scratch and demo, residual
 # covariance). Same seed, so every arm's repetition k shares start states,
 # demonstrations and pi_0 with the others (common random numbers).
 # OUT/runs/ARM  the arm's sweep folder; OUT/ARM the merged arm
@@ -24,6 +24,8 @@ out=$1; reps=$2; docs=$3; py=$4; shift 4
 jobs=${STUDY_JOBS:-2}
 export POOLREPS="${POOLREPS:-./poolreps}"
 here=$(dirname "$0")
+# study_lib.sh first: its ARMS and arm are the physics arms, replaced here
+. "$here/study_lib.sh"
 ARMS="main eps0.1 eps0.25 floor3 floor10 floor0"
 
 
@@ -33,12 +35,11 @@ arm() {
 	main) echo "" ;;
 	eps0.1) echo "--set exp4.inits=policy,matched --set reps.epsilon=0.1" ;;
 	eps0.25) echo "--set exp4.inits=policy,matched --set reps.epsilon=0.25" ;;
-	floor3) echo "--set exp4.inits=imitation,policy,matched --set exp4.covs=residual --set policy.min_std=0.003" ;;
-	floor10) echo "--set exp4.inits=imitation,policy,matched --set exp4.covs=residual --set policy.min_std=0.01" ;;
-	floor0) echo "--set exp4.inits=imitation,policy,matched --set exp4.covs=residual --set policy.min_std=1e-9" ;;
+	floor3) echo "--set exp4.inits=imitation,policy,refit,matched,refit_matched --set exp4.covs=residual --set policy.min_std=0.003" ;;
+	floor10) echo "--set exp4.inits=imitation,policy,refit,matched,refit_matched --set exp4.covs=residual --set policy.min_std=0.01" ;;
+	floor0) echo "--set exp4.inits=imitation,policy,refit,matched,refit_matched --set exp4.covs=residual --set policy.min_std=1e-9" ;;
 	esac
 }
-. "$here/study_lib.sh"
 # cpu FILE: user + system seconds of this shell's finished children, from
 # `times` written to FILE by the shell itself (a subshell has its own)
 cpu() { awk 'NR == 2 { split($1, u, "m"); split($2, s, "m"); printf "%.1f", u[1] * 60 + u[2] + s[1] * 60 + s[2] }' "$1"; }

@@ -1,5 +1,5 @@
 #!/bin/sh
-# The Experiment 3 power study (docs/power.md): REPS repetitions of every
+# A standalone Experiment 3 power study (make power; report in DOCS): REPS
 # variant in three physics arms (event; stepped with dt 1 ms; stepped with
 # dt 0.5 ms), as one job list from scripts/jobs.sh (a `poolreps sweep` per
 # arm) run by GNU Parallel, one `poolreps collect` per arm (it merges), then

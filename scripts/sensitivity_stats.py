@@ -282,21 +282,16 @@ def render(res):
         " from the CSVs in [data/sensitivity/](data/sensitivity/); do not edit by hand.",
         "",
         f"Each point is Experiment 3 (`data/exp3.ini`) at {reps} repetitions with one choice "
-        "the thesis leaves open changed; everything else is the default (event mode). The "
-        "verdict on each claim of the thesis's section 7.5.2 comes from the project's verdict "
-        "generator (scripts/verdicts.py with data/study/rules.ini): the same claim parts and "
-        "margins, one-sided and equivalence (TOST) tests paired over the repetitions, "
-        "Holm-adjusted over every test of the point, which is the family verdicts.md uses for "
-        "Experiment 3 in each mode (one family per experiment and mode). The verdicts were "
-        "computed when the points ran: the `converged` column still follows the convergence "
-        "rule of that time (the share of runs still moving, with a `flat` margin derived from "
-        "the data), not the current rule (the mean square of the runs' changes against a "
-        "constant margin), until `make sensitivity` runs again. ✓ agrees, ✗ disagrees and ? "
-        "undecided mean what they mean in [verdicts.md](verdicts.md), where each rule is "
-        "spelled out. A **bold** verdict differs from its reference point's (the default; for "
-        "the deceleration's points the constant law at its default deceleration): the verdict "
-        "flips. Each table cell below the first table is the claim's deciding part: its "
-        "estimate and interval at the level Holm's procedure judged it at.",
+        "the thesis leaves open changed; everything else is the default (event mode). Each "
+        "verdict comes from scripts/verdicts.py with data/study/rules.ini and its current "
+        "rules: the same claim parts, margins and tests, Holm-adjusted over every test of the "
+        "point, the family verdicts.md uses for Experiment 3 in a mode. ✓ agrees, ✗ disagrees, "
+        "? undecided ([verdicts.md](verdicts.md)). A **bold** verdict differs from its "
+        "reference point's (the default; for the deceleration's points the constant law at "
+        "its default deceleration). Every point's deciding part per claim (estimate and "
+        "interval at its Holm level): [`claims.csv`](data/sensitivity/claims.csv); each "
+        "policy's mean return and paired effect against the baseline (95 % t intervals): "
+        "[`effects.csv`](data/sensitivity/effects.csv).",
         "",
         f"Cost: {cpu:.0f} CPU seconds over all points ({len(pts)} points, "
         f"{reps} repetitions of 6 policies each), {wall:.0f} s wall with {t['jobs']} jobs on "
@@ -319,29 +314,6 @@ def render(res):
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "The claims (data/study/rules.ini):", ""]
     lines += [f"- `{cid}`: {claim_short(cid)}" for cid in CLAIMS]
-    lines += ["", "## The deciding parts (intervals at the Holm levels)", ""]
-    lines.append("| point | " + " | ".join(f"`{c}`" for c in CLAIMS) + " |")
-    lines.append("|---|" + "---|" * len(CLAIMS))
-    for p in pts:
-        lines.append(f"| {BY_NAME[p][2]} | " + " | ".join(
-            f"{SYMBOL[res.verdict[(p, c)]]} {res.detail[(p, c)]}" for c in CLAIMS) + " |")
-    lines += ["", "## Mean returns and effects (95 % intervals)", "",
-              "Mean return of each policy's last episodes over the repetitions, and its paired "
-              "effect against the baseline (Δ, policy − baseline), with 95 % t intervals.", ""]
-    pol = [e["policy"] for e in res.effects if e["point"] == "default"]
-    lines.append("| point | " + " | ".join(pol) + " |")
-    lines.append("|---|" + "---|" * len(pol))
-    for p in pts:
-        cells = []
-        for q in pol:
-            e = next(x for x in res.effects if x["point"] == p and x["policy"] == q)
-            cell = ps.fmt_ci(float(e["mean_return"]), float(e["mean_lo"]), float(e["mean_hi"]),
-                             digits=2)
-            if q != ps.BASELINE:
-                cell += "; Δ " + ps.fmt_ci(float(e["effect"]), float(e["lo"]), float(e["hi"]),
-                                           digits=2)
-            cells.append(cell)
-        lines.append(f"| {BY_NAME[p][2]} | " + " | ".join(cells) + " |")
     lines += ["", "## Choice by choice", ""]
     for choice, what in CHOICES.items():
         mine = [p for p in pts if BY_NAME[p][1] == choice]
@@ -354,8 +326,8 @@ def render(res):
             if not fl:
                 text.append(f"At {BY_NAME[p][2]} no verdict changes (against {ref}).")
                 continue
-            parts = [f"`{c}` {res.verdict[(res.reference(p), c)]} → {res.verdict[(p, c)]} "
-                     f"({res.detail[(p, c)]})" for c in fl]
+            parts = [f"`{c}` {res.verdict[(res.reference(p), c)]} → {res.verdict[(p, c)]}"
+                     for c in fl]
             text.append(f"At {BY_NAME[p][2]} {len(fl)} of {len(CLAIMS)} verdicts change "
                         f"against {ref}: " + "; ".join(parts) + ".")
         lines += [" ".join(text), ""]

@@ -6,8 +6,9 @@
 # repetition, `poolreps collect` merges),
 # then scripts/study_extract.py writes the compact CSVs the verdicts are
 # computed from into DATA.
-#   scripts/study.sh OUT REPS SEEDS DATA DOCS PYTHON
-# OUT/power        the Experiment 3 study (scripts/power.sh; DOCS/power.md)
+#   scripts/study.sh OUT REPS SEEDS DATA PYTHON
+# OUT/power        the Experiment 3 study (scripts/power.sh, its report in
+#                  OUT/power; docs/power.md is scripts/verdicts.py's)
 # OUT/seeds/ARM/EXP  the sweep of EXP over the seeds in ARM; merged seed k in point-K/merged
 # OUT/sphere/METHOD  the contextual sphere benchmark (the README's sentence on it)
 # OUT/timing.csv   wall and CPU seconds per phase
@@ -16,8 +17,8 @@
 # STUDY_EXP1, STUDY_EXP2, STUDY_EXP3, STUDY_SPHERE: extra poolreps options for
 # that experiment's runs (tests pass tiny settings).
 set -e
-[ $# -eq 6 ] || { echo "usage: scripts/study.sh OUT REPS SEEDS DATA DOCS PYTHON" >&2; exit 1; }
-out=$1; reps=$2; seeds=$3; data=$4; docs=$5; py=$6
+[ $# -eq 5 ] || { echo "usage: scripts/study.sh OUT REPS SEEDS DATA PYTHON" >&2; exit 1; }
+out=$1; reps=$2; seeds=$3; data=$4; py=$5
 [ -n "$py" ] || { echo "study: no Python with matplotlib found; install python3-matplotlib or set PYTHON=" >&2; exit 1; }
 jobs=${POWER_JOBS:-2}
 export POOLREPS="${POOLREPS:-./poolreps}"
@@ -27,7 +28,7 @@ here=$(dirname "$0")
 mkdir -p "$out"
 t0=$(now)
 # shellcheck disable=SC2086  # the options are plain words
-sh "$here/power.sh" "$out/power" "$reps" "$docs" "$py" $STUDY_EXP3
+sh "$here/power.sh" "$out/power" "$reps" "$out/power" "$py" $STUDY_EXP3
 power=$(since "$t0")
 
 grid=$(seq -s, 1 "$seeds")

@@ -832,8 +832,8 @@ def ranking(d):
 
 
 def margin_rows(d, margins):
-    """The margins table: value, why, and the value against the task's scale
-    (or, for a share of it, in metres) per mode."""
+    """The margins table: value and the value against the task's scale (or,
+    for a share of it, in metres) per mode."""
     gap = {m: task_gap(d, m) for m in MODES}
     rows = []
     for k, mg in margins.items():
@@ -842,7 +842,7 @@ def margin_rows(d, margins):
         else:
             scale = "–"
         value = f"{mg['value']:g} {mg['unit']}"
-        rows.append([f"`{k}`", value, mg["why"], scale])
+        rows.append([f"`{k}`", value, scale])
     return rows, gap
 
 
@@ -854,23 +854,25 @@ def render_md(d, parts, per, comb, sens):
     srows = []
     for cid in CLAIM_IDS:
         c = rules["claims"][cid]
-        srows.append([f"{c['section']} {c['short']}"] +
-                     [cell(parts, per, cid, m, rules) for m in MODES] +
-                     [f"**{comb[cid]}**", need_cell(d["need"][cid], cid, comb[cid])])
+        srows.append([f"{c['section']} {c['short']}"] + [per[cid].get(m, "–") for m in MODES] +
+                     [f"**{comb[cid]}**", need_cell(d["need"][cid], cid, comb[cid], d)])
     out = [HEAD_MD.format(units=units_text(d), alpha=rules["alpha"], f1=fams["exp1"],
                           f2=fams["exp2"], f3=fams["exp3"], power=power_text(rules),
                           k0=rules["converged_at"])]
-    out.append(md_table(["margin", "value", "why", "against the task's scale, hand-crafted − "
+    out.append(md_table(["margin", "value", "against the task's scale, hand-crafted − "
                          f"baseline ({', '.join(num(gap[m], 'm') for m in MODES)} m)"], mrows))
-    out.append("\n## Verdicts\n\nEach cell: the mode's verdict, then the part that decides "
-               "it (the weakest support of an agreeing claim, the strongest refutation of a "
-               "disagreeing one, else the first undecided part): estimate [lo, hi] (level). "
-               + CI_LEGEND + " The verdict column is the verdict common to the modes, undecided "
+    out.append("\n## Verdicts\n\nEach cell: the mode's verdict. The part that decides it (the "
+               "weakest support of an agreeing claim, the strongest refutation of a disagreeing "
+               "one, else the first undecided part), with its estimate and interval at its Holm "
+               f"level, is a row of [`{PARTS_CSV}`]({PARTS_CSV[5:]}) (and in the README's table "
+               "for two modes). The verdict column is the verdict common to the modes, undecided "
                f"where they differ; the last column, for an undecided claim, the units (per mode) "
                f"needed to decide it at {power_text(rules)}.\n")
     out.append(md_table(["claim"] + [MODE_LABEL[m] for m in MODES] +
                         ["verdict", f"to decide ({power_text(rules)})"], srows))
-    out.append("\n" + "\n\n".join(not_reproduced(d, per, comb)))
+    # the lists by verdict are the README's; the page keeps the ranking
+    out.append("\n" + "\n\n".join(x for x in not_reproduced(d, per, comb)
+                                     if x.startswith("**Ranking")))
     out.append(holdout_md(d))
     out.append(f"\n![seed spread](figures/{exp_data.STUDY_SEEDS_STEM}.png)\n\n*Figure: the seed spread "
                "behind the Experiment 1 and 2 verdicts (event mode). Top: the test MSE of each "
@@ -881,22 +883,103 @@ def render_md(d, parts, per, comb, sens):
                "Below: Experiment 2's mean return at the largest training set per seed (the "
                "mean of its repetitions), with mean and sampled actions on one y-scale; the "
                "thesis's Fig. 7.6 shows one run over the training-set sizes.*")
-    out.append("\n## The claims one by one\n\nEach claim's test is in `data/study/rules.ini`. "
-               "Every part of every claim and mode is a row of "
-               f"[`{PARTS_CSV}`]({PARTS_CSV[5:]}): the part; its alternative hypothesis "
-               "(what the claim says); the estimate; the support's interval at the "
-               "level Holm's procedure judged the support at (it lies inside the H1 region "
-               "exactly when the support's Holm-adjusted p is below α); the support's p-value "
-               "raw and Holm-adjusted; the refutation's interval at its own Holm level (it lies "
-               "outside the H1 region exactly when the refutation's adjusted p is below α) and "
-               "p-values (the refutation is the complement: the other side of the same bound, "
-               "or outside the band); the part's verdict; the units it needs to agree and to "
-               f"disagree at {power_text(rules)}. " + CI_LEGEND)
+    out.append("\n## The claims one by one\n\nEach claim's test, and the thesis's words it "
+               "judges, are in `data/study/rules.ini`. Every part of every claim and mode is a "
+               f"row of [`{PARTS_CSV}`]({PARTS_CSV[5:]}): its H1, estimate, the support's and "
+               "the refutation's intervals at their Holm levels with their raw and adjusted "
+               f"p-values, its verdict and the units it needs at {power_text(rules)}.")
     for cid in CLAIM_IDS:
         out.append(claim_section(cid, rules, per, comb, d))
     out.append(sens_md(sens, rules))
     out.append(time_md(d))
     return "\n".join(out) + "\n"
+
+
+POWER_CSV = "docs/data/power/summary.csv"
+
+
+def power_rows(d, study):
+    """Per mode and policy of one study (d): the mean over the repetitions of
+    the run's mean return, its paired effect against the baseline (95 % t
+    intervals), balls in the target pockets, the SD of its returns and its
+    median cue speed."""
+    rows = []
+    for m in MODES:
+        pol = sorted({q for (a, q, _) in d["exp3"] if a == m}, key=POWER_ORDER.index)
+        get = lambda q, k: np.array([d["exp3"][(m, q, r)][k] for r in range(d["reps"])])  # noqa: E731
+        base = get("baseline", "mean_return")
+        for q in pol:
+            x = get(q, "mean_return")
+            mu, lo, hi = vs.t_interval(x)
+            e = vs.t_interval(x - base) if q != "baseline" else (math.nan,) * 3
+            rows.append([study, m, q, d["reps"]] + [f"{v:.6g}" for v in (
+                mu, lo, hi, *e, get(q, "target").mean(), get(q, "sd_return").mean(),
+                get(q, "median_speed").mean())])
+    return rows
+
+
+POWER_HEAD = ["study", "mode", "policy", "repetitions", "mean_return", "lo", "hi",
+              "effect_vs_baseline", "effect_lo", "effect_hi", "target_balls", "sd_return",
+              "median_speed"]
+POWER_ORDER = ["nrvr_rs", "rvr_rs", "nrvr_a", "rvr_a", "baseline", "handcrafted"]
+
+
+def power_csv(rows):
+    import io
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(POWER_HEAD)
+    w.writerows(rows)
+    return buf.getvalue()
+
+
+def power_md(d, rows):
+    """docs/power.md: Experiment 3's study and holdout at power, described
+    (the verdicts are verdicts.md's); the numbers in POWER_CSV."""
+    h = d.get("holdout")
+    studies = [("study", d)] + ([("holdout", h[0])] if h else [])
+    by = {(r[0], r[1], r[2]): r for r in rows}
+    head = ["policy"] + [f"{st}: {MODE_LABEL[m]}" for st, _ in studies for m in MODES]
+    body = []
+    for q in POWER_ORDER[:4] + POWER_ORDER[5:]:
+        body.append([q] + [f"{float(by[(st, m, q)][7]):+.3f} [{float(by[(st, m, q)][8]):+.3f}, "
+                           f"{float(by[(st, m, q)][9]):+.3f}]" for st, _ in studies for m in MODES])
+    t = d["timing"]["exp3"]
+    out = [
+        "# Experiment 3 at power: the verdict study and its holdout", "",
+        "<!-- Generated by scripts/verdicts.py (make verdicts) from data/study/; do not edit. -->",
+        "",
+        "The thesis judges Experiment 3 (section 7.5) on 5 repetitions per variant, and so does "
+        "`make reproduce`; at 5 the run-to-run spread of a variant's mean return is as large "
+        "as the differences 7.5.2 reads into them. The verdict study reruns Experiment 3 "
+        "unchanged (`data/exp3.ini`, seed " + d["seed"] + f") at {d['reps']} repetitions of "
+        "every variant in each physics mode: the exact event-driven simulator and the thesis's "
+        "time-stepped scheme at dt 1 ms and 0.5 ms." + (
+            f" The holdout reruns it at {h[0]['reps']} repetitions with seed {h[0]['seed']}, "
+            "which no study had used, after the rules were committed." if h else "") +
+        " The verdicts on the claims, their rules and their tests are in "
+        "[verdicts.md](verdicts.md); this page gives the runs they are computed from.", "",
+        "**Pairing.** Within a repetition every variant sees the same start states and the "
+        "same 200 initial episodes (common random numbers), so variants are compared per "
+        "repetition; the repetitions are the independent samples. **Per run** "
+        "(`data/study/exp3_runs.csv`, over its last "
+        f"{d['final']} episodes): the mean and SD of the returns, the reward balls in pockets "
+        "2 and 5, the median cue speed, the mean distance of the balls not in a target "
+        "pocket; `exp3_curves.csv` holds each run's mean return per iteration.", "",
+        "Paired effect of each policy against the baseline [m], mean over the repetitions with "
+        "its 95 % t interval (unadjusted: a description; the tests are verdicts.md's). Every "
+        f"policy's mean return, balls in the targets, SD of returns and cue speed: "
+        f"[`{POWER_CSV}`]({POWER_CSV[5:]}).", "",
+        md_table(head, body), "",
+        f"**Runs and time.** `make study POWER_REPS={d['reps']}` reruns the study whole (it "
+        "ran in batches: `scripts/study_extend.sh` added the later repetitions, rerunning "
+        "repetition 0 of every mode as a check), `make holdout` the holdout, both on the sweep "
+        f"and collect machinery ([cluster.md](cluster.md)). Experiment 3 took "
+        f"{float(t['cpu_seconds']):.0f} s CPU in the study's timing.csv"
+        + (f", {float(h[0]['timing']['exp3']['cpu_seconds']):.0f} s in the holdout's" if h
+           else "") + " (shared machine). `make power` runs a standalone study of its own size "
+        "(`POWER_REPS`, default 50) and reports into `OUT/power`, never here.", ""]
+    return "\n".join(out)
 
 
 PARTS_CSV = "docs/data/verdicts/parts.csv"
@@ -986,7 +1069,8 @@ the holdout (below) is the only data judged by rules committed before the data e
 Returns are minus the reward ball's final distance to the nearest target pocket (eq. 7.7),
 so return margins are distances in metres. The last column puts each against the task's
 scale, the distance between the one-node baseline and the hand-crafted policy (beyond the
-thesis) in the same mode: a description, no margin is derived from it. The sensitivity table
+thesis) in the same mode: a description, no margin is derived from it. Why each margin has
+its value is stated beside it in `data/study/rules.ini` (`KEY.why`). The sensitivity table
 below halves and doubles each margin.
 """
 
@@ -1005,11 +1089,11 @@ def control_text(d, rules):
 
 
 def claim_section(cid, rules, per, comb, d):
+    """A claim's rule (the thesis's words: rules.ini), its verdict over the
+    modes and, undecided, the units to decide it."""
     c = rules["claims"][cid]
-    verdicts = "; ".join(f"{MODE_LABEL[m]}: **{per[cid][m]}**" for m in MODES if m in per[cid])
-    return (f"\n### {c['section']} {c['short']} (`{cid}`)\n\n> {c['words']}\n\n"
-            f"**Reading.** {c['reading']}\n\n"
-            f"**Verdict**: {verdicts}; over the modes: **{comb[cid]}**. "
+    return (f"\n**{c['section']} {c['short']} (`{cid}`)**: {c['reading']} "
+            f"Verdict over the modes: **{comb[cid]}**. "
             f"{need_sentence(d['need'][cid], cid, comb[cid], rules)}" +
             (f"\n\n{control_text(d, rules)}" if cid == "converged" else ""))
 
@@ -1022,13 +1106,21 @@ def need_num(n):
     return "more than 10⁶" if not math.isfinite(n) else f"{n:,}".replace(",", " ")
 
 
-def need_cell(need, cid, verdict):
+def need_cell(need, cid, verdict, d=None):
     """The units needed to decide an undecided claim over the modes (per mode
-    when the modes point different ways), '–' for a decided one."""
+    when the modes point different ways), '–' for a decided one. With the
+    study d, an Experiment 3 claim also gets the repetitions still to run per
+    mode and their CPU time at the holdout's cost per repetition and mode."""
     if verdict != vs.UNDECIDED:
         return "–"
     if math.isfinite(need[1]):
-        return f"{need_num(need[1])} {unit_word(cid)}"
+        more = ""
+        if d is not None and d.get("rep_cpu") and EXPERIMENT[cid] == "exp3":
+            k = need[1] - d["reps"]
+            cpu = int(round(k * len(MODES) * d["rep_cpu"], -2))
+            more = (f": {need_num(k)} more per mode, about {need_num(cpu)} s CPU at the "
+                    f"holdout's {d['rep_cpu']:.2f} s per repetition and mode")
+        return f"{need_num(need[1])} {unit_word(cid)}{more}"
     return (f"per mode: " + ", ".join(f"{MODE_LABEL[m]} {need_num(n)}" for m, n in need[0].items())
             + f" {unit_word(cid)} (the modes point different ways)")
 
@@ -1083,12 +1175,9 @@ def time_md(d):
     f = lambda ph: (f"{float(t[ph]['wall_seconds']):.0f} s wall, "  # noqa: E731
                     f"{float(t[ph]['cpu_seconds']):.0f} s CPU")
     return ("\n## Data and time\n\n`make study` (not part of `make reproduce`) runs the study "
-            "on the sweep and collect machinery (docs/cluster.md) and writes the compact "
-            "results to `data/study/`: `exp3_runs.csv` (one row per run), `exp3_curves.csv` "
-            "(each run's mean return per iteration), `exp1_mse.csv`, `exp1_map.csv`, "
-            "`exp2_returns.csv`, `sphere_curves.csv` (the contextual sphere benchmark behind "
-            "the README's sentence on it) and `manifest.csv` (every unit's configuration; "
-            "mixed configurations are refused). Measured on this machine, shared with other "
+            "and writes its compact results to `data/study/` (`exp3_*`, `exp1_*`, `exp2_returns`, "
+            "`sphere_curves`, `manifest`: every unit's configuration, mixed ones refused). "
+            "Measured on this machine, shared with other "
             f"jobs: Experiment 3 ({d['reps']} repetitions × 6 variants × 3 modes) {f('exp3')}; "
             f"Experiments 1 and 2 ({len(d['seeds'])} seeds each in each of the three modes) "
             f"{f('exp12')}; the sphere benchmark (3 methods) {f('sphere')}. "
@@ -1123,7 +1212,7 @@ def readme_block(d, parts, per, comb):
         if (cid, "stepped05") in parts and per[cid]["stepped05"] != per[cid]["stepped"]:
             step += f" (dt 0.5 ms: {per[cid]['stepped05']})"
         rows.append([f"{c['section']} {c['short']}", cell(parts, per, cid, "event", rules), step,
-                     f"**{comb[cid]}**", need_cell(d["need"][cid], cid, comb[cid]),
+                     f"**{comb[cid]}**", need_cell(d["need"][cid], cid, comb[cid], d),
                      holdout_cell(d, cid)])
     legend = (f"Generated by `make verdicts` from the committed study ({units_text(d)}; "
               "rules, tests and every part: [docs/verdicts.md](docs/verdicts.md)). Each cell: "
@@ -1269,6 +1358,7 @@ def outputs(data, docs, readme, figures=True):
             hper, hcomb = verdict_table(hparts, rules)
             dh["need"] = needed(hparts, hper, hcomb, rules)
             d["holdout"] = (dh, hparts, hper, hcomb)
+            d["rep_cpu"] = float(dh["timing"]["exp3"]["cpu_seconds"]) / (dh["reps"] * len(MODES))
     except ValueError as e:
         raise Fail(f"{data}: the results allow no test: {e}", 3) from e
     figs = {}
@@ -1278,7 +1368,10 @@ def outputs(data, docs, readme, figures=True):
         for path in plot_study.study_seeds(data, tmp) if figures else ():
             with open(path, "rb") as f:
                 figs[os.path.join(docs, "figures", os.path.basename(path))] = f.read()
-    csvs = {os.path.join(docs, PARTS_CSV[5:]): parts_csv(parts, rules)}
+    prows = power_rows(d, "study") + (power_rows(dh, "holdout") if dh is not None else [])
+    csvs = {os.path.join(docs, PARTS_CSV[5:]): parts_csv(parts, rules),
+            os.path.join(docs, POWER_CSV[5:]): power_csv(prows),
+            os.path.join(docs, "power.md"): power_md(d, prows)}
     if dh is not None:
         csvs[os.path.join(docs, HOLDOUT_CSV[5:])] = parts_csv(d["holdout"][1], rules)
     return figs | csvs | {

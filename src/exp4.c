@@ -297,13 +297,17 @@ static int skip_starts(const pr_config *cfg, gsl_rng *start, int n, char *err)
 
 /* ---- the jobs ---- */
 
-/* A variant's own stream offset, fixed whatever the lists hold: 0..71 for
- * the four inits, 72.. for the controls. */
-static unsigned long variant_id(const pr_exp4_variant *v)
+/* A variant's own learning stream, fixed whatever the lists hold: variant
+ * ids 0..71 for the four inits, 72..107 for refit and matched; refit_matched
+ * (added later) has a range of its own, so the others keep theirs. */
+static unsigned long learn_stream(const pr_exp4_variant *v)
 {
+	if (v->init == PR_EXP4_REFIT_MATCHED)
+		return PR_STREAM_EXP4_LEARN_RM + (unsigned long)(v->policy * PR_EXP4_NCOV + v->cov);
 	if (v->init < PR_EXP4_REFIT)
-		return (unsigned long)((v->policy * PR_EXP4_REFIT + v->init) * PR_EXP4_NCOV + v->cov);
-	return (unsigned long)(PR_EXP3_NVAR * PR_EXP4_REFIT * PR_EXP4_NCOV +
+		return PR_STREAM_EXP4_LEARN +
+		       (unsigned long)((v->policy * PR_EXP4_REFIT + v->init) * PR_EXP4_NCOV + v->cov);
+	return PR_STREAM_EXP4_LEARN + (unsigned long)(PR_EXP3_NVAR * PR_EXP4_REFIT * PR_EXP4_NCOV +
 	                       ((v->policy * 2 + v->init - PR_EXP4_REFIT) * PR_EXP4_NCOV + v->cov));
 }
 
@@ -351,14 +355,15 @@ static int start_imitation(const pr_config *cfg, const pr_exp4_opts *e4, pr_exp4
 }
 
 /* The controls of the policy start (exp4_priv.h): refit without REPS, or
- * REPS with the tree policies at pi_0's resolution. */
+ * REPS with the tree policies at pi_0's resolution, or refit at it. */
 static int set_control(const pr_config *cfg, const pr_exp4_opts *e4, const pr_exp4_variant *v,
                        pr_exp3_learner *L, char *err)
 {
 	if (v->init == PR_EXP4_REFIT)
 		return pr_exp3_learner_set_control(L, 1, 0, err);
-	if (v->init == PR_EXP4_MATCHED)
-		return pr_exp3_learner_set_control(L, 0, matched_n_min(cfg, e4), err);
+	if (v->init == PR_EXP4_MATCHED || v->init == PR_EXP4_REFIT_MATCHED)
+		return pr_exp3_learner_set_control(L, v->init == PR_EXP4_REFIT_MATCHED,
+		                                   matched_n_min(cfg, e4), err);
 	return PR_OK;
 }
 
@@ -375,7 +380,7 @@ static int forest_n_min(const pr_config *cfg, const pr_exp4_opts *e4, const pr_e
 		return v->init == PR_EXP4_IMITATION && e4->n_demo > nb ? e4->n_demo : nb;
 	if (v->init == PR_EXP4_IMITATION)
 		return demo_n_min(e4);
-	if (v->init == PR_EXP4_MATCHED)
+	if (v->init == PR_EXP4_MATCHED || v->init == PR_EXP4_REFIT_MATCHED)
 		return matched_n_min(cfg, e4);
 	return cfg->policy.forest.n_min;
 }
@@ -439,7 +444,7 @@ static int run_job(void *ctx, int j, char *err)
 	               : pr_exp_rng(seed, PR_STREAM_EXP4_INIT + (unsigned long)(kind_of(v->policy) *
 	                            PR_EXP4_NCOV + v->cov), k);
 	learn = scratch ? pr_exp_rng(seed, PR_STREAM_EXP3_LEARN + (unsigned long)v->policy, k)
-	                : pr_exp_rng(seed, PR_STREAM_EXP4_LEARN + variant_id(v), k);
+	                : pr_exp_rng(seed, learn_stream(v), k);
 	if (!start || !init || !learn)
 		rc = pr_err(msg, PR_ENOMEM, "out of memory");
 	if (rc == PR_OK)
@@ -492,8 +497,8 @@ static int key_given(const pr_config *cfg, const char *key)
 }
 
 /* A control run with a key none of the runs reads: the REPS keys when
- * only refit (and imitation) runs, policy.n_min when only matched (and
- * imitation) runs. */
+ * only refit runs (at either resolution, and imitation), policy.n_min
+ * when only the matched resolution (and imitation) runs. */
 static int check_controls(const pr_config *cfg, char *err)
 {
 	static const char *const reps_keys[] = {
@@ -508,12 +513,13 @@ static int check_controls(const pr_config *cfg, char *err)
 		has[init[j]] = 1;
 	reps = has[PR_EXP4_SCRATCH] || has[PR_EXP4_DEMO] || has[PR_EXP4_POLICY] || has[PR_EXP4_MATCHED];
 	nmin = has[PR_EXP4_SCRATCH] || has[PR_EXP4_DEMO] || has[PR_EXP4_POLICY] || has[PR_EXP4_REFIT];
-	for (j = 0; has[PR_EXP4_REFIT] && !reps && j < (int)(sizeof reps_keys / sizeof *reps_keys); ++j)
+	for (j = 0; (has[PR_EXP4_REFIT] || has[PR_EXP4_REFIT_MATCHED]) && !reps &&
+	            j < (int)(sizeof reps_keys / sizeof *reps_keys); ++j)
 		if (key_given(cfg, reps_keys[j]))
 			return pr_err(err, PR_EINVAL, "%s: %s: exp4.inits = %s runs no REPS; the key has no "
 			              "effect on refit runs", pr_config_where(cfg, reps_keys[j], at, sizeof at),
 			              reps_keys[j], e4->inits);
-	if (has[PR_EXP4_MATCHED] && !nmin && key_given(cfg, "policy.n_min"))
+	if ((has[PR_EXP4_MATCHED] || has[PR_EXP4_REFIT_MATCHED]) && !nmin && key_given(cfg, "policy.n_min"))
 		return pr_err(err, PR_EINVAL, "%s: policy.n_min: exp4.inits = %s: matched runs refit at "
 		              "exp4.fit_n_min_frac x exp3.window, so the key has no effect",
 		              pr_config_where(cfg, "policy.n_min", at, sizeof at), e4->inits);

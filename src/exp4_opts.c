@@ -7,7 +7,7 @@
 #include "exp4_priv.h"
 
 const char *const pr_exp4_init_name[PR_EXP4_NINIT] = {"scratch", "imitation", "demo", "policy",
-                                                       "refit", "matched"};
+                                                       "refit", "matched", "refit_matched"};
 const char *const pr_exp4_cov_name[PR_EXP4_NCOV] = {"query", "residual", "none"};
 
 void pr_exp4_opts_init(pr_exp4_opts *o)
@@ -33,11 +33,12 @@ static const pr_config_key key_table[] = {
 	{"exp4", "demo_noise", PR_KEY_DOUBLE, F(demo_noise), 0, 100, 0, "m/s",
 	 "std of Gaussian noise added to each component of the expert's action"},
 	{"exp4", "inits", PR_KEY_NAMES, F(inits), 0, 0, 0,
-	 "scratch|imitation|demo|policy|refit|matched",
+	 "scratch|imitation|demo|policy|refit|matched|refit_matched",
 	 "how runs start: Exp. 3 from scratch, the fitted policy alone, or it + REPS with the "
 	 "demonstrations or its own episodes as first window; controls of policy: refit (no REPS, "
 	 "refitted with the importance weights), matched (REPS, tree policies at n_min = "
-	 "exp4.fit_n_min_frac * exp3.window: pi_0's resolution)"},
+	 "exp4.fit_n_min_frac * exp3.window: pi_0's resolution), refit_matched (refit at matched's "
+	 "resolution)"},
 	{"exp4", "covs", PR_KEY_NAMES, F(covs), 0, 0, 0, "query|residual",
 	 "policy.cov of the tree and baseline runs, one run each (policy.cov is not read)"},
 	{"exp4", "fit_n_min_frac", PR_KEY_DOUBLE, F(fit_n_min_frac), 0, 1, PR_KEY_OPEN_LO, "",
@@ -104,7 +105,7 @@ int pr_exp4_list(const pr_config *cfg, int selected, pr_exp4_variant *var, int *
 		for (c = 0; c < (hc ? 1 : nc); ++c)
 			for (j = 0; j < ni; ++j) {
 				/* the baseline and hand-crafted policies have one resolution */
-				if (init[j] == PR_EXP4_MATCHED && (hc || pol[i] == PR_EXP3_BASELINE))
+				if (init[j] >= PR_EXP4_MATCHED && (hc || pol[i] == PR_EXP3_BASELINE))
 					continue;
 				var[*nvar].policy = pol[i];
 				var[*nvar].init = init[j];

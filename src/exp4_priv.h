@@ -30,13 +30,14 @@ void pr_exp4_opts_init(pr_exp4_opts *o);
 const pr_exp4_opts *pr_exp4_opts_of(const pr_config *cfg);
 
 /* The controls refit (the policy start without REPS: pi_t refitted to the
- * window with the importance weights alone, at policy.n_min) and matched
+ * window with the importance weights alone, at policy.n_min), matched
  * (the policy start with REPS, the tree policies refitted at pi_0's
  * resolution: n_min = fit_n_min_frac x exp3.window, as many leaves per
- * tree as pi_0 has)
+ * tree as pi_0 has) and refit_matched (refit at matched's resolution: what
+ * matched is without REPS)
  * come after the four inits, so the others keep their stream ids. */
 enum { PR_EXP4_SCRATCH, PR_EXP4_IMITATION, PR_EXP4_DEMO, PR_EXP4_POLICY, PR_EXP4_REFIT,
-       PR_EXP4_MATCHED, PR_EXP4_NINIT };
+       PR_EXP4_MATCHED, PR_EXP4_REFIT_MATCHED, PR_EXP4_NINIT };
 extern const char *const pr_exp4_init_name[PR_EXP4_NINIT];
 /* Covariances: PR_COV_QUERY, PR_COV_RESIDUAL (policy.h), and none. */
 enum { PR_EXP4_COV_NONE = 2, PR_EXP4_NCOV };

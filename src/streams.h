@@ -40,6 +40,7 @@ enum {
 	PR_STREAM_EXP4_INIT = 0x4e60,      /* + 3 * kind + cov (0..11): pi_0's iteration 0 */
 	PR_STREAM_EXP4_LEARN = 0x4e80,     /* + variant id (0..107): forests and later actions */
 	PR_STREAM_EXP4_MEAN = 0x4ef0,      /* the mean-action evaluation states */
+	PR_STREAM_EXP4_LEARN_RM = 0x4f00,  /* + 3 * policy + cov (0..17): refit_matched's */
 
 	/* REPS benchmarks (exp_bench.c); index k: repetition k */
 	PR_STREAM_BENCH = 0xbe4c4

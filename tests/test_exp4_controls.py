@@ -28,7 +28,8 @@ TINY = ["experiment.repetitions=2", "experiment.threads=1", f"exp3.init_samples=
         f"exp3.window={N0}", f"exp3.samples={SAMPLES}", f"exp3.iterations={T}",
         f"exp3.final_episodes={LAST}", f"policy.n_min={NMIN}", "exp3.baseline_n_min=60",
         "value.n_min=12", f"exp4.n_demo={NDEMO}", f"exp4.mean_eval={NEVAL}"]
-INITS = ["imitation", "policy", "refit", "matched"]
+INITS = ["imitation", "policy", "refit", "matched", "refit_matched"]
+ONE_RESOLUTION = ("baseline", "handcrafted")
 
 
 def run(out, sets=(), check=True, ini="exp4_controls.ini"):
@@ -40,7 +41,7 @@ def labels():
     for p in POLICIES:
         for c in (["none"] if p == "handcrafted" else ["query", "residual"]):
             out += [f"{p}.{i}.{c}" for i in INITS
-                    if not (i == "matched" and p in ("baseline", "handcrafted"))]
+                    if not (i in ("matched", "refit_matched") and p in ONE_RESOLUTION)]
     return out
 
 
@@ -73,9 +74,10 @@ def test_variants_and_mean_csv(tiny):
 
 
 def test_matched_uses_pi0_resolution(tiny):
-    """n_min of the last fit: pi_0's fraction (0.1) of the window for matched,
-    policy.n_min for policy and refit, 0.1 x n_demo for pi_0; the matched trees
-    have more leaves than the policy.n_min ones on the same window size."""
+    """n_min of the last fit: pi_0's fraction (0.1) of the window for matched
+    and refit_matched, policy.n_min for policy and refit, 0.1 x n_demo for
+    pi_0; the matched trees have more leaves than the policy.n_min ones on the
+    same window size."""
     _, mean = csv_rows(tiny / "exp4_mean.csv")
     m = {(r["repetition"], r["policy"]): r for r in mean}
     for (k, lab), r in m.items():
@@ -84,7 +86,7 @@ def test_matched_uses_pi0_resolution(tiny):
             assert int(r["n_min"]) == (0 if p == "handcrafted" else 60), lab
             continue
         want = {"imitation": round(0.1 * NDEMO), "policy": NMIN, "refit": NMIN,
-                "matched": round(0.1 * N0)}[i]
+                "matched": round(0.1 * N0), "refit_matched": round(0.1 * N0)}[i]
         assert int(r["n_min"]) == want, lab
         if i == "matched":
             assert int(r["leaves"]) > int(m[(k, f"{p}.policy.{c}")]["leaves"]), lab
@@ -92,7 +94,7 @@ def test_matched_uses_pi0_resolution(tiny):
 
 
 def test_controls_share_the_start(tiny):
-    """Common random numbers: policy, refit and matched runs of a policy and
+    """Common random numbers: policy, refit, matched and refit_matched runs of a policy and
     covariance play the same iteration-0 episodes of pi_0, and all runs of a
     repetition the same start states; pi_0's mean action is the same under
     both covariances and for nrvr_x and rvr_x (one fitted pi_0)."""
@@ -103,8 +105,8 @@ def test_controls_share_the_start(tiny):
         for p in TREES:
             for c in ("query", "residual"):
                 it0 = [[tuple(r[x] for x in cols) for r in runs[(k, f"{p}.{i}.{c}")]
-                        if r["iteration"] == "0"] for i in ("policy", "refit", "matched")]
-                assert it0[0] == it0[1] == it0[2]
+                        if r["iteration"] == "0"] for i in INITS[1:]]
+                assert all(x == it0[0] for x in it0)
         starts = {lab: [(r["x1"], r["y1"]) for r in rs] for (kk, lab), rs in runs.items()
                   if kk == k}
         assert len(set(map(tuple, starts.values()))) == 1
@@ -117,10 +119,11 @@ def test_controls_share_the_start(tiny):
             assert len(vals) == 1
 
 
-def test_refit_rows_solve_nothing(tiny):
+@pytest.mark.parametrize("init", ["refit", "refit_matched"])
+def test_refit_rows_solve_nothing(tiny, init):
     _, reps = csv_rows(tiny / "exp4_reps.csv")
-    refit = [r for r in reps if ".refit." in r["policy"]]
-    assert len(refit) == 2 * T * sum(".refit." in lab for lab in labels())
+    refit = [r for r in reps if f".{init}." in r["policy"]]
+    assert len(refit) == 2 * T * sum(f".{init}." in lab for lab in labels()) > 0
     for r in refit:
         assert float(r["eta"]) == 0 and float(r["kl"]) == 0
         assert float(r["ess"]) == float(r["q_ess"])
@@ -146,12 +149,32 @@ def test_single_variant_equals_its_rows(tiny, tmp_path):
     controls' streams depend on the variant, not on the list)."""
     labs = labels()
     _, full = csv_rows(tiny / "exp4_episodes.csv")
-    for lab in ("rvr_a.matched.residual", "baseline.refit.query"):
+    for lab in ("rvr_a.matched.residual", "baseline.refit.query", "nrvr_rs.refit_matched.query"):
         v = labs.index(lab)
         out = tmp_path / lab
         run(out, [f"experiment.variant={v}"])
         _, one = csv_rows(out / "exp4_episodes.csv")
         assert one == [r for r in full if r["policy"] == lab]
+
+
+def test_refit_matched_changes_no_other_run(tiny, tmp_path):
+    """refit_matched came after the other inits with streams of its own: the
+    runs without it are byte-identical rows of the run with it; it is the
+    matched run without REPS (same pi_0 and iteration 0, then apart)."""
+    out = tmp_path / "without"
+    run(out, ["exp4.inits=imitation,policy,refit,matched"])
+    for name in ("exp4_episodes.csv", "exp4_final.csv", "exp4_mean.csv"):
+        _, full = csv_rows(tiny / name)
+        _, part = csv_rows(out / name)
+        assert part == [r for r in full if ".refit_matched." not in r["policy"]], name
+        assert len(part) < len(full)
+    _, eps = csv_rows(tiny / "exp4_episodes.csv")
+    runs = by_run(eps)
+    for k in ("0", "1"):
+        for p in TREES:
+            a, b = ([{c: r[c] for c in r if c != "policy"} for r in runs[(k, f"{p}.{i}.query")]]
+                    for i in ("refit_matched", "matched"))
+            assert first_diff(a, b) == 1
 
 
 def first_diff(a, b):
@@ -214,6 +237,9 @@ def refused(p, key):
     (["exp4.inits=refit,imitation", "reps.epsilon=0.1"], "reps.epsilon"),
     (["exp4.inits=matched", "policy.n_min=10"], "policy.n_min"),
     (["exp4.inits=matched,imitation", "policy.n_min=10"], "policy.n_min"),
+    (["exp4.inits=refit_matched,imitation", "reps.epsilon=0.1"], "reps.epsilon"),
+    (["exp4.inits=refit_matched", "policy.n_min=10", "reps.epsilon=0.1"], "reps.epsilon"),
+    (["exp4.inits=matched,refit_matched", "policy.n_min=10"], "policy.n_min"),
     (["exp4.inits=policy,bogus"], "exp4.inits"),
 ])
 def test_bad_control_keys(tmp_path, sets, key):
@@ -263,17 +289,99 @@ def test_holm_and_paired_against_scipy():
         ci = stats.t.interval(0.95, n - 1, loc=d.mean(), scale=stats.sem(d))
         assert nn == n and np.isclose(p, t.pvalue, rtol=1e-10, atol=0)
         assert np.isclose(m, d.mean()) and np.allclose([lo, hi], ci, rtol=1e-10)
-        k = int(rng.integers(1, 12))
-        ps = rng.random(k) ** 3
-        # Holm from its definition: max over j <= rank of (k - j) p_(j), capped at 1
-        order = np.argsort(ps)
-        want = np.empty(k)
-        for r, i in enumerate(order):
-            want[i] = min(1.0, max((k - j) * ps[order[j]] for j in range(r + 1)))
-        assert np.allclose(exp4_study.holm(ps), want, rtol=0, atol=1e-15)
+        ps = rng.random(int(rng.integers(1, 12))) ** 3
+        assert np.allclose(exp4_study.holm(ps), holm_def(ps), rtol=0, atol=1e-15)
     # degenerate: constant differences
     assert exp4_study.paired([1.0, 2.0], [1.0, 2.0])[3] == 1.0
     assert exp4_study.paired([1.0, 2.0], [0.5, 1.5])[3] == 0.0
+
+
+def holm_def(ps):
+    """Holm from its definition: max over j <= rank of (k - j) p_(j), capped."""
+    k, order = len(ps), np.argsort(ps, kind="stable")
+    want = np.empty(k)
+    for r, i in enumerate(order):
+        want[i] = min(1.0, max((k - j) * ps[order[j]] for j in range(r + 1)))
+    return want
+
+
+def test_margin_verdicts_against_scipy():
+    """Worse / better than the margin and within it (TOST), Holm over the
+    three tests of every comparison: against scipy's one-sample t tests."""
+    rng = np.random.default_rng(7)
+    m = 0.05
+    seen = set()
+    for _ in range(40):
+        fam = []
+        for _ in range(int(rng.integers(1, 8))):
+            n = int(rng.integers(3, 30))
+            x = rng.normal(size=n)
+            y = x - rng.normal(rng.normal(0, 0.08), rng.uniform(0.005, 0.1), size=n)
+            fam.append({"x": list(x), "y": list(y), "diff": float(np.mean(x - y))})
+        exp4_study.margin_verdicts(fam, m)
+        ps = []
+        for r in fam:
+            d = np.subtract(r["x"], r["y"])
+            t = lambda mu, alt: stats.ttest_1samp(d, mu, alternative=alt).pvalue  # noqa: E731
+            ps += [t(-m, "less"), t(m, "greater"), max(t(-m, "greater"), t(m, "less"))]
+        adj = holm_def(np.array(ps))
+        for i, r in enumerate(fam):
+            b, a, w = adj[3 * i: 3 * i + 3]
+            assert np.allclose([r["p_below_holm"], r["p_above_holm"], r["p_within_holm"]],
+                               [b, a, w], rtol=1e-9, atol=1e-12)
+            want = ("degrades" if b < 0.05 else "improves" if a < 0.05 else
+                    "within" if w < 0.05 else "undecided")
+            assert r["margin_verdict"] == want
+            seen.add(want)
+    assert seen == {"degrades", "improves", "within", "undecided"}
+
+
+def test_split_adds_up():
+    """Every REPS effect is its reweighting plus its refitting, run by run,
+    in the committed verdicts.csv: total = (A vs control) + (control vs
+    imitation) for the mean differences."""
+    rows = csv_rows(ROOT / "docs" / "exp4_study" / "verdicts.csv")[1]
+    by = {(r["measure"], r["arm_a"], r["variant_a"], r["arm_b"], r["variant_b"]): float(r["diff"])
+          for r in rows}
+    n = 0
+    for (meas, aa, va, ab, vb), d in by.items():
+        p, i, c = va.split(".")
+        if vb != f"{p}.imitation.{c}" or i not in ("policy", "matched"):
+            continue
+        ctl = "refit" if i == "policy" else "refit_matched"
+        carm = "main" if aa.startswith("eps") else aa
+        cv = f"{p}.{ctl}.{c}"
+        key1, key2 = (meas, aa, va, carm, cv), (meas, carm, cv, ab, vb)
+        if key1 in by and key2 in by:
+            assert np.isclose(d, by[key1] + by[key2], rtol=0, atol=2e-8), (meas, aa, va)
+            n += 1
+    assert n >= 2 * (8 + 8 + 11 + 4)
+
+
+@pytest.mark.slow
+def test_study_script_runs_its_own_arms(tmp_path):
+    """scripts/exp4_study.sh at a tiny size: the six arms of the study (not
+    study_lib.sh's physics arms), every control in runs.csv, and the answer
+    generated from them."""
+    out, docs = tmp_path / "out", tmp_path / "docs"
+    docs.mkdir()
+    opts = [w for s in TINY if not s.startswith("experiment.") for w in ("--set", s)]
+    env = dict(os.environ, NICE="0",
+               POOLREPS=os.environ.get("POOLREPS", str(ROOT / "poolreps")))
+    p = subprocess.run(["sh", str(ROOT / "scripts" / "exp4_study.sh"), str(out), "2", str(docs),
+                        PY] + opts, capture_output=True, text=True, env=env, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    _, runs = csv_rows(docs / "exp4_study" / "runs.csv")
+    assert sorted({r["arm"] for r in runs}) == sorted(
+        ["main", "eps0.1", "eps0.25", "floor3", "floor10", "floor0"])
+    assert {r["init"] for r in runs if r["arm"] == "main"} == set(INITS)
+    assert {r["init"] for r in runs if r["arm"] == "floor0"} == set(INITS)
+    doc = tmp_path / "exp4.md"
+    doc.write_text((ROOT / "docs" / "exp4.md").read_text())
+    p = subprocess.run([PY, str(ROOT / "scripts" / "exp4_study.py"), "docs",
+                        str(docs / "exp4_study"), "--doc", str(doc)],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 0 and "2 paired repetitions" in doc.read_text(), p.stderr
 
 
 def test_docs_match_the_committed_csvs():
@@ -289,14 +397,14 @@ def test_docs_match_the_committed_csvs():
 def test_docs_check_fails_on_a_changed_number(tmp_path):
     doc = tmp_path / "exp4.md"
     text = (ROOT / "docs" / "exp4.md").read_text()
-    i = text.index("\n| nrvr_rs", text.index("<!-- exp4-study:controls -->"))
+    i = text.index("\n| nrvr_rs", text.index("<!-- exp4-study:split -->"))
     while not text[i].isdigit():
         i += 1
     doc.write_text(text[:i] + ("2" if text[i] == "1" else "1") + text[i + 1:])
     p = subprocess.run([PY, str(ROOT / "scripts" / "exp4_study.py"), "docs",
                         str(ROOT / "docs" / "exp4_study"), "--doc", str(doc), "--check"],
                        capture_output=True, text=True, cwd=ROOT)
-    assert p.returncode == 1 and "controls" in p.stderr
+    assert p.returncode == 1 and "split" in p.stderr
 
 
 def test_docs_refuse_verdicts_not_those_of_the_runs(tmp_path):

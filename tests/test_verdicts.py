@@ -395,9 +395,14 @@ def test_claim_verdicts_follow_their_parts(want):
     labels_of = defaultdict(set)
     for r in csv_parts():
         labels_of[r["claim"]].add(r["part"])
-    for sec in re.split(r"\n### ", text)[1:]:
-        cid = re.search(r"\(`(\w+)`\)", sec.splitlines()[0]).group(1)
-        per_claim[cid] = (labels_of[cid], re.search(r"\*\*Verdict\*\*: (.*)", sec).group(1))
+    # each claim's row of the verdicts table: its verdict per mode
+    table = text[text.index("\n## Verdicts"):text.index("\n## Holdout")]
+    for cid in re.findall(r"^\*\*[^*]* \(`(\w+)`\)\*\*:", text, re.M):
+        c = R[f"claim.{cid}"]
+        row = re.search(r"^\| " + re.escape(f"{c['section']} {c['short']}") + r" \| (.*)$",
+                        table, re.M).group(1).split(" | ")
+        per_claim[cid] = (labels_of[cid], "; ".join(
+            f"{name}: **{v}**" for name, v in zip(MODES.values(), row)))
     assert len(per_claim) == 13
     for cid, (labels, line) in per_claim.items():
         for mode, name in MODES.items():
@@ -611,14 +616,15 @@ def test_tiny_study_end_to_end(tmp_path):
     data, docs = tmp_path / "data", tmp_path / "docs"
     docs.mkdir()
     p = subprocess.run(["sh", ROOT / "scripts" / "study.sh", tmp_path / "out", "3", "3", data,
-                        docs, PY], capture_output=True, text=True, env=env, cwd=tmp_path,
+                        PY], capture_output=True, text=True, env=env, cwd=tmp_path,
                        timeout=600)
     assert p.returncode == 0, p.stdout + p.stderr
     assert sorted(x.name for x in data.iterdir()) == sorted(
         ["manifest.csv", "exp3_runs.csv", "exp3_curves.csv", "exp1_mse.csv", "exp1_map.csv",
          "exp2_returns.csv", "sphere_curves.csv", "timing.csv"])
     assert len(list(csv.DictReader(open(data / "exp3_runs.csv")))) == 3 * 6 * 3
-    assert (docs / "power.md").is_file()
+    # the power report stays in OUT: docs/power.md is make verdicts's
+    assert (tmp_path / "out" / "power" / "power.md").is_file() and not (docs / "power.md").exists()
     rules_text = (DATA / "rules.ini").read_text(encoding="utf-8")
     (data / "rules.ini").write_text(rules_text.replace("converged_at = 60", "converged_at = 3"))
     readme = tmp_path / "README.md"
