@@ -21,6 +21,7 @@ from scipy import stats
 
 from conftest import ROOT, poolreps_path, run_cmd
 
+sys.path.insert(0, str(ROOT / "scripts"))  # power_stats imports its neighbours
 spec = importlib.util.spec_from_file_location("power_stats", ROOT / "scripts" / "power_stats.py")
 ps = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(ps)
