@@ -1195,13 +1195,25 @@ static void get_d(rbuf *r, double *v, size_t n, int any, const char *name)
 			bad(r, name);
 }
 
+/* 1 if n items of per bytes each are still to be read: a state's counts
+ * are believed only that far, so that what they allocate is bounded by the
+ * file's size. */
+static int room(rbuf *r, size_t n, size_t per)
+{
+	if (r->rc == PR_OK && n > (r->n - r->at) / per)
+		bad(r, "truncated");
+	return r->rc == PR_OK;
+}
+
 static void get_win(rbuf *r, pr_learner *L, win *w, int lc, int dy, int dg)
 {
 	int n = get_i(r, 0, MAX_WINDOW, "episodes"), i;
+	const size_t mu = L->o.policy.cov_center == PR_COV_CENTER_OLD ? (size_t)L->da : 0;
 
 	if (get_i(r, n ? lc : 0, lc, "columns") != lc && n)
 		return;
-	if (r->rc)
+	if (!room(r, (size_t)n, (L->dx + L->da + 1 + (size_t)dy + dg + mu + lc) * sizeof(double) +
+	                            sizeof *w->it))
 		return;
 	if (win_alloc(L, w, n, lc, dy, dg, r->err)) {
 		r->rc = PR_ENOMEM;
@@ -1234,6 +1246,8 @@ static void get_pol(rbuf *r, pr_learner *L, int k)
 		bad(r, "a policy's fit does not match the options");
 		return;
 	}
+	if (!room(r, m, (L->dx + L->da * (1 + (size_t)hm) + (size_t)dy + 1) * sizeof(double)))
+		return;
 	lpol_free(P);
 	P->n = n;
 	P->dy = dy;
@@ -1325,27 +1339,37 @@ static void get_summary(rbuf *r, pr_learner_summary *s)
 	s->reason[sizeof s->reason - 1] = '\0';
 }
 
+/* The column names, checked as pr_learner_set_names checks a caller's. */
 static void get_names(rbuf *r, pr_learner *L)
 {
 	const int n = L->dx + L->da;
-	int k, len;
+	char **c, why[PR_ERRLEN];
+	int k, len, count = get_i(r, 0, n, "names");
 
 	/* none (a state saved before names were kept): the defaults stay */
-	if (get_i(r, 0, n, "names") == 0 || r->rc)
+	if (r->rc || count == 0)
 		return;
-	free_names(L->names, n);
-	if (!(L->names = calloc((size_t)n, sizeof *L->names))) {
+	if (count != n) {
+		bad(r, "not a name for each column");
+		return;
+	}
+	if (!room(r, (size_t)n, sizeof(int32_t) + 1))
+		return;
+	if (!(c = calloc((size_t)n, sizeof *c))) {
 		r->rc = pr_err(r->err, PR_ENOMEM, "out of memory");
 		return;
 	}
 	for (k = 0; k < n && r->rc == PR_OK; ++k) {
 		len = get_i(r, 1, NAME_MAX_LEN, "name length");
-		if (r->rc == PR_OK && !(L->names[k] = calloc((size_t)len + 1, 1)))
+		if (r->rc == PR_OK && !(c[k] = calloc((size_t)len + 1, 1)))
 			r->rc = pr_err(r->err, PR_ENOMEM, "out of memory");
-		get(r, L->names[k], (size_t)len);
-		if (r->rc == PR_OK && (strlen(L->names[k]) != (size_t)len || strpbrk(L->names[k], "\n\r")))
-			bad(r, "a column name");
+		get(r, c[k], (size_t)len);
+		if (r->rc == PR_OK && strlen(c[k]) != (size_t)len)
+			bad(r, "a NUL in a column name");
 	}
+	if (r->rc == PR_OK && pr_learner_set_names(L, (const char *const *)c, why))
+		bad(r, why);
+	free_names(c, n);
 }
 
 pr_learner *pr_learner_load(const unsigned char *buf, size_t len, const char *what, gsl_rng *rng,
@@ -1364,7 +1388,9 @@ pr_learner *pr_learner_load(const unsigned char *buf, size_t len, const char *wh
 		r.rc = PR_EIO;
 	if (r.rc == PR_OK)
 		get_counts(&r, L, rng, &state);
-	if (r.rc == PR_OK && L->niter - L->pbase + 1 > L->cpol) {
+	/* each policy takes at least its three counts */
+	if (r.rc == PR_OK && room(&r, (size_t)(L->niter - L->pbase) + 1, 3 * sizeof(int32_t)) &&
+	    L->niter - L->pbase + 1 > L->cpol) {
 		lpol *p = realloc(L->pol, (size_t)(L->niter - L->pbase + 1) * sizeof *p);
 		if (!p)
 			r.rc = pr_err(err, PR_ENOMEM, "out of memory");

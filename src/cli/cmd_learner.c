@@ -78,6 +78,19 @@ static pr_learner *load(const char *path, gsl_rng *rng, char *err)
 	return L;
 }
 
+/* The status of a failed load of path: another format version is a usage
+ * error, anything else a bad file (the path itself may say "version"). */
+static int load_status(const char *path, const char *err)
+{
+	static const char version[] = ": learner format version ";
+	const size_t n = strlen(path);
+
+	if (pr_out_of_memory)
+		return PR_ENOMEM;
+	return !strncmp(err, path, n) && !strncmp(err + n, version, sizeof version - 1) ? PR_EINVAL
+	                                                                               : PR_EIO;
+}
+
 /* The state of L into path, committed with the set. */
 static int add_state(pr_outset *set, const char *path, const pr_learner *L, char *err)
 {
@@ -352,7 +365,7 @@ static int learner_main(const pr_config *cfg, const void *opts, char *err)
 	if (verb == NEW)
 		rc = learner_new(cfg, a, rng, err);
 	else if (!(L = load(a->ops[1], rng, err)))
-		rc = pr_out_of_memory ? PR_ENOMEM : strstr(err, "version") ? PR_EINVAL : PR_EIO;
+		rc = load_status(a->ops[1], err);
 	else if (verb == TELL)
 		rc = learner_tell(a, L, err);
 	else
