@@ -993,7 +993,7 @@ const pr_learner_opts *pr_learner_options(const pr_learner *L)
 /* ---- the state file (docs/learner.md) ---- */
 
 static const char MAGIC[] = "poolreps-learner\n";
-#define MAGIC_LEN 17
+#define MAGIC_LEN 17 /* then the version: PR_LEARNER_HEAD_LEN */
 
 typedef struct {
 	unsigned char *b;
@@ -1271,23 +1271,27 @@ static void get_pol(rbuf *r, pr_learner *L, int k)
 		bad(r, "a policy does not refit");
 }
 
+int pr_learner_check_head(const unsigned char *buf, size_t len, const char *what, char *err)
+{
+	int32_t v;
+
+	if (len < MAGIC_LEN || memcmp(buf, MAGIC, MAGIC_LEN))
+		return pr_err(err, PR_EIO, "%s: not a poolreps learner state", what);
+	if (len < PR_LEARNER_HEAD_LEN)
+		return pr_err(err, PR_EIO, "%s: not a valid learner state: truncated", what);
+	memcpy(&v, buf + MAGIC_LEN, sizeof v);
+	if (v != PR_LEARNER_FORMAT)
+		return pr_err(err, PR_EINVAL, "%s: learner format version %d, this library reads "
+		              "version %d", what, (int)v, PR_LEARNER_FORMAT);
+	return PR_OK;
+}
+
 /* The header and options of a state; *o filled. */
 static void get_head(rbuf *r, pr_learner_opts *o)
 {
-	char magic[MAGIC_LEN];
-	int32_t v = 0;
-
-	get(r, magic, MAGIC_LEN);
-	if (r->rc || memcmp(magic, MAGIC, MAGIC_LEN)) {
-		r->rc = pr_err(r->err, PR_EIO, "%s: not a poolreps learner state", r->what);
+	if ((r->rc = pr_learner_check_head(r->b, r->n, r->what, r->err)))
 		return;
-	}
-	get(r, &v, sizeof v);
-	if (r->rc == PR_OK && v != PR_LEARNER_FORMAT) {
-		r->rc = pr_err(r->err, PR_EINVAL, "%s: learner format version %d, this library reads "
-		               "version %d", r->what, (int)v, PR_LEARNER_FORMAT);
-		return;
-	}
+	r->at = PR_LEARNER_HEAD_LEN;
 	pr_learner_opts_init(o);
 #define GET_I(f) f = get_i(r, INT32_MIN + 1, INT32_MAX, "an option");
 #define GET_D(f) get_d(r, &f, 1, 0, "an option is not finite");

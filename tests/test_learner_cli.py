@@ -183,6 +183,24 @@ def test_the_exit_code_does_not_depend_on_the_state_name(tmp_path):
         assert r.returncode == 2 and b"truncated" in r.stderr, (name, r.stderr)
 
 
+def test_a_state_that_is_no_regular_file_or_too_big_is_refused_unread(tmp_path):
+    """A directory, a FIFO (no writer: not waited on) and a sparse 1 TB file
+    of zeros: one line, exit 2, at once and without reading the file."""
+    write_contexts(tmp_path / "c.csv", np.zeros((3, 2)))
+    (tmp_path / "dir").mkdir()
+    os.mkfifo(tmp_path / "fifo")
+    with open(tmp_path / "huge", "wb") as f:
+        f.truncate(2**40)
+    before = snapshot(tmp_path / "dir")
+    for name, want in [("dir", "not a regular file"), ("fifo", "not a regular file"),
+                       ("huge", "not a poolreps learner state")]:
+        r = run_poolreps(["learner", "mean", tmp_path / name, "-i", tmp_path / "c.csv"],
+                         timeout=20)
+        lines = r.stderr.decode().splitlines()
+        assert r.returncode == 2 and len(lines) == 1 and want in lines[0], (name, lines)
+    assert snapshot(tmp_path / "dir") == before
+
+
 def test_usage_errors(tmp_path):
     st = new(tmp_path)
     for args, want in [(["learner", "fly", st], "usage"),
