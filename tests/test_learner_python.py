@@ -104,6 +104,9 @@ def test_column_names_are_checked():
         poolreps.Learner(2, 1, context_names=["x"])
     with pytest.raises(ValueError, match="action_names"):
         poolreps.Learner(2, 1, action_names="a")
+    for unordered in ({"x", "y"}, {"x": 0, "y": 1}, (c for c in "xy")):
+        with pytest.raises(ValueError, match="context_names: must be a sequence"):
+            poolreps.Learner(2, 1, context_names=unordered)
     with pytest.raises(ValueError, match="action name 0 'x' is also context name 0"):
         poolreps.Learner(2, 1, context_names=["x", "y"], action_names=["x"])
     with pytest.raises(ValueError, match="context name 1 must be"):

@@ -60,7 +60,9 @@ def _names(name, v, n):
     """A list of n column names as bytes (None: the library's defaults)."""
     if v is None:
         return None
-    if isinstance(v, (str, bytes)) or len(v) != n or not all(isinstance(x, str) for x in v):
+    # a sequence, in its order: a set's or a generator's order is not the caller's
+    if isinstance(v, (str, bytes)) or not isinstance(v, (Sequence, np.ndarray)) \
+            or len(v) != n or not all(isinstance(x, str) for x in v):
         raise ValueError(f"{name}: must be a sequence of {n} strings (got {v!r})")
     out = []
     for i, x in enumerate(v):
