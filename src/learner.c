@@ -993,7 +993,7 @@ const pr_learner_opts *pr_learner_options(const pr_learner *L)
 /* ---- the state file (docs/learner.md) ---- */
 
 static const char MAGIC[] = "poolreps-learner\n";
-#define MAGIC_LEN 17
+#define MAGIC_LEN 17 /* then the version: PR_LEARNER_HEAD_LEN */
 
 typedef struct {
 	unsigned char *b;
@@ -1211,12 +1211,12 @@ static void get_d(rbuf *r, double *v, size_t n, int any, const char *name)
 static void get_win(rbuf *r, pr_learner *L, win *w, int lc, int dy, int dg)
 {
 	int n = get_i(r, 0, MAX_WINDOW, "episodes"), i;
+	const size_t mu = L->o.policy.cov_center == PR_COV_CENTER_OLD ? (size_t)L->da : 0;
 
 	if (get_i(r, n ? lc : 0, lc, "columns") != lc && n)
 		return;
 	/* an episode: its numbers (a mean too when kept) and its policy */
-	size_t each = (size_t)L->dx + (size_t)L->da + 1 + (size_t)dy + (size_t)dg + (size_t)lc +
-	              (L->o.policy.cov_center == PR_COV_CENTER_OLD ? (size_t)L->da : 0);
+	const size_t each = (size_t)L->dx + (size_t)L->da + 1 + (size_t)dy + (size_t)dg + (size_t)lc + mu;
 
 	if (r->rc || !holds(r, (size_t)n, sizeof(int32_t) + sizeof(double) * each, "episodes"))
 		return;
@@ -1277,23 +1277,27 @@ static void get_pol(rbuf *r, pr_learner *L, int k)
 		bad(r, "a policy does not refit");
 }
 
+int pr_learner_check_head(const unsigned char *buf, size_t len, const char *what, char *err)
+{
+	int32_t v;
+
+	if (len < MAGIC_LEN || memcmp(buf, MAGIC, MAGIC_LEN))
+		return pr_err(err, PR_EIO, "%s: not a poolreps learner state", what);
+	if (len < PR_LEARNER_HEAD_LEN)
+		return pr_err(err, PR_EIO, "%s: not a valid learner state: truncated", what);
+	memcpy(&v, buf + MAGIC_LEN, sizeof v);
+	if (v != PR_LEARNER_FORMAT)
+		return pr_err(err, PR_EINVAL, "%s: learner format version %d, this library reads "
+		              "version %d", what, (int)v, PR_LEARNER_FORMAT);
+	return PR_OK;
+}
+
 /* The header and options of a state; *o filled. */
 static void get_head(rbuf *r, pr_learner_opts *o)
 {
-	char magic[MAGIC_LEN];
-	int32_t v = 0;
-
-	get(r, magic, MAGIC_LEN);
-	if (r->rc || memcmp(magic, MAGIC, MAGIC_LEN)) {
-		r->rc = pr_err(r->err, PR_EIO, "%s: not a poolreps learner state", r->what);
+	if ((r->rc = pr_learner_check_head(r->b, r->n, r->what, r->err)))
 		return;
-	}
-	get(r, &v, sizeof v);
-	if (r->rc == PR_OK && v != PR_LEARNER_FORMAT) {
-		r->rc = pr_err(r->err, PR_EINVAL, "%s: learner format version %d, this library reads "
-		               "version %d", r->what, (int)v, PR_LEARNER_FORMAT);
-		return;
-	}
+	r->at = PR_LEARNER_HEAD_LEN;
 	pr_learner_opts_init(o);
 #define GET_I(f) f = get_i(r, INT32_MIN + 1, INT32_MAX, "an option");
 #define GET_D(f) get_d(r, &f, 1, 0, "an option is not finite");
@@ -1347,27 +1351,37 @@ static void get_summary(rbuf *r, pr_learner_summary *s)
 	s->reason[sizeof s->reason - 1] = '\0';
 }
 
+/* The column names, checked as pr_learner_set_names checks a caller's. */
 static void get_names(rbuf *r, pr_learner *L)
 {
 	const int n = L->dx + L->da;
-	int k, len;
+	char **c, why[PR_ERRLEN];
+	int k, len, count = get_i(r, 0, n, "names");
 
 	/* none (a state saved before names were kept): the defaults stay */
-	if (get_i(r, 0, n, "names") == 0 || r->rc)
+	if (r->rc || count == 0)
 		return;
-	free_names(L->names, n);
-	if (!(L->names = calloc((size_t)n, sizeof *L->names))) {
+	if (count != n) {
+		bad(r, "not a name for each column");
+		return;
+	}
+	if (!holds(r, (size_t)n, sizeof(int32_t) + 1, "names"))
+		return;
+	if (!(c = calloc((size_t)n, sizeof *c))) {
 		r->rc = pr_err(r->err, PR_ENOMEM, "out of memory");
 		return;
 	}
 	for (k = 0; k < n && r->rc == PR_OK; ++k) {
 		len = get_i(r, 1, NAME_MAX_LEN, "name length");
-		if (r->rc == PR_OK && !(L->names[k] = calloc((size_t)len + 1, 1)))
+		if (r->rc == PR_OK && !(c[k] = calloc((size_t)len + 1, 1)))
 			r->rc = pr_err(r->err, PR_ENOMEM, "out of memory");
-		get(r, L->names[k], (size_t)len);
-		if (r->rc == PR_OK && (strlen(L->names[k]) != (size_t)len || strpbrk(L->names[k], "\n\r")))
-			bad(r, "a column name");
+		get(r, c[k], (size_t)len);
+		if (r->rc == PR_OK && strlen(c[k]) != (size_t)len)
+			bad(r, "a NUL in a column name");
 	}
+	if (r->rc == PR_OK && pr_learner_set_names(L, (const char *const *)c, why))
+		bad(r, why);
+	free_names(c, n);
 }
 
 pr_learner *pr_learner_load(const unsigned char *buf, size_t len, const char *what, gsl_rng *rng,
@@ -1386,6 +1400,7 @@ pr_learner *pr_learner_load(const unsigned char *buf, size_t len, const char *wh
 		r.rc = PR_EIO;
 	if (r.rc == PR_OK)
 		get_counts(&r, L, rng, &state);
+	/* get_counts checked the policy count against the state's size */
 	if (r.rc == PR_OK && L->niter - L->pbase + 1 > L->cpol) {
 		lpol *p = realloc(L->pol, (size_t)(L->niter - L->pbase + 1) * sizeof *p);
 		if (!p)

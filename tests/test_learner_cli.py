@@ -134,6 +134,73 @@ def test_states_that_are_not_ours_are_refused(tmp_path):
         assert snapshot(tmp_path) == before, name
 
 
+def forged(good, case):
+    """good (a new learner's state; context x,y, action a,b for "names")
+    with counts or names a hostile file might claim."""
+    import struct
+    at = 189  # magic, version, the options: then dx, da, dy, dg, niter, pbase, npol
+    name = good.index(b"mt19937", at)
+    pol0 = name + 7 + 4 + struct.unpack_from("<i", good, name + 7)[0]
+    s = bytearray(good)
+    if case == "episodes":  # the window: 10^7 episodes in a file of a few kB
+        struct.pack_into("<i", s, pol0 + 12, 10_000_000)
+    elif case == "policies":  # 2^31 - 1 policies
+        struct.pack_into("<ii", s, at + 16, 2**31 - 2, 0)
+        struct.pack_into("<i", s, at + 24, 2**31 - 1)
+    else:  # the second context column named as the first
+        tail = b"\x01\x00\x00\x00y\x01\x00\x00\x00a"
+        assert s.endswith(tail + b"\x01\x00\x00\x00b")
+        s[-len(tail) - 5:-5] = tail.replace(b"y", b"x")
+    return bytes(s)
+
+
+@pytest.mark.parametrize("case", ["episodes", "policies", "names"])
+def test_a_forged_state_is_refused_as_a_bad_file(tmp_path, case):
+    """Counts are believed only as far as the file has bytes for them (no
+    allocation beyond the file's size, no out-of-memory exit), and loaded
+    names are checked as learner new checks them."""
+    st = new(tmp_path)
+    if case == "episodes":  # 10^7 x 3000 contexts: more memory than any machine's
+        cols = ",".join(f"c{j}" for j in range(3000))
+        assert run_poolreps(["learner", "new", st, "--context", cols, "--action", "a"]).returncode == 0
+    st.write_bytes(forged(st.read_bytes(), case))
+    write_contexts(tmp_path / "c.csv", np.zeros((3, 2)))
+    before = snapshot(tmp_path)
+    r = run_poolreps(["learner", "ask", st, "-i", tmp_path / "c.csv", "-o", tmp_path / "o.csv"])
+    lines = r.stderr.decode().splitlines()
+    assert r.returncode == 2 and len(lines) == 1, lines
+    assert "not a valid learner state" in lines[0], lines
+    assert snapshot(tmp_path) == before
+
+
+def test_the_exit_code_does_not_depend_on_the_state_name(tmp_path):
+    """A truncated state is a bad file (2) even when its path says "version"."""
+    good = new(tmp_path).read_bytes()
+    write_contexts(tmp_path / "c.csv", np.zeros((3, 2)))
+    for name in ("st", "version", "learner format version 2"):
+        (tmp_path / name).write_bytes(good[:100])
+        r = run_poolreps(["learner", "mean", tmp_path / name, "-i", tmp_path / "c.csv"])
+        assert r.returncode == 2 and b"truncated" in r.stderr, (name, r.stderr)
+
+
+def test_a_state_that_is_no_regular_file_or_too_big_is_refused_unread(tmp_path):
+    """A directory, a FIFO (no writer: not waited on) and a sparse 1 TB file
+    of zeros: one line, exit 2, at once and without reading the file."""
+    write_contexts(tmp_path / "c.csv", np.zeros((3, 2)))
+    (tmp_path / "dir").mkdir()
+    os.mkfifo(tmp_path / "fifo")
+    with open(tmp_path / "huge", "wb") as f:
+        f.truncate(2**40)
+    before = snapshot(tmp_path / "dir")
+    for name, want in [("dir", "not a regular file"), ("fifo", "not a regular file"),
+                       ("huge", "not a poolreps learner state")]:
+        r = run_poolreps(["learner", "mean", tmp_path / name, "-i", tmp_path / "c.csv"],
+                         timeout=20)
+        lines = r.stderr.decode().splitlines()
+        assert r.returncode == 2 and len(lines) == 1 and want in lines[0], (name, lines)
+    assert snapshot(tmp_path / "dir") == before
+
+
 def test_usage_errors(tmp_path):
     st = new(tmp_path)
     for args, want in [(["learner", "fly", st], "usage"),

@@ -104,12 +104,39 @@ def test_column_names_are_checked():
         poolreps.Learner(2, 1, context_names=["x"])
     with pytest.raises(ValueError, match="action_names"):
         poolreps.Learner(2, 1, action_names="a")
+    for unordered in ({"x", "y"}, {"x": 0, "y": 1}, (c for c in "xy")):
+        with pytest.raises(ValueError, match="context_names: must be a sequence"):
+            poolreps.Learner(2, 1, context_names=unordered)
     with pytest.raises(ValueError, match="action name 0 'x' is also context name 0"):
         poolreps.Learner(2, 1, context_names=["x", "y"], action_names=["x"])
     with pytest.raises(ValueError, match="context name 1 must be"):
         poolreps.Learner(2, 1, context_names=["x", "y\n"])
     with pytest.raises(ValueError, match="action name 0 's1' is also context name 1"):
         poolreps.Learner(2, 1, action_names=["s1"])  # the default context names
+
+
+def test_a_name_is_kept_whole_or_refused():
+    """A NUL would end a name in C: refused with the argument and index,
+    as is a string that has no bytes; other names come back as given."""
+    with pytest.raises(ValueError, match=r"context_names\[1\]: a NUL byte"):
+        poolreps.Learner(2, 1, context_names=["x", "y\0z"])
+    with pytest.raises(ValueError, match=r"action_names\[0\]: .* cannot be encoded"):
+        poolreps.Learner(2, 1, action_names=["\ud800"])
+    names = ["é,\"q\"", "s\udcff"]
+    L = poolreps.Learner(2, 1, context_names=names, action_names=["a b"])
+    M = poolreps.Learner.load(L.save())
+    assert M.context_names == names and M.action_names == ["a b"]
+
+
+def test_a_load_error_is_typed_by_what_failed_not_by_its_name():
+    """A truncated state is an OSError whatever `what` says; another
+    format version a ValueError."""
+    good = poolreps.Learner(1, 1).save()
+    for what in ("state", "version", "my learner format version 2"):
+        with pytest.raises(OSError, match="truncated"):
+            poolreps.Learner.load(good[:100], what)
+    with pytest.raises(ValueError, match="version 9"):
+        poolreps.Learner.load(good[:17] + b"\x09" + good[18:], "version")
 
 
 def trained(n=4, **kw):

@@ -5,6 +5,7 @@ arguments: pointers, integers, doubles, opaque handles) or is a plain public
 function of the library (pr_config_set, pr_forest_predict_many, ...), so no C
 struct layout is copied here.
 """
+import atexit
 import ctypes
 import functools
 import numbers
@@ -250,6 +251,12 @@ def settle():
     end, the library's flag would stop the next call too."""
     while _STOPPING:
         _STOPPING.pop().wait()
+
+
+# and before the interpreter exits: a worker still in the library when the
+# process's exit handlers free the libraries' state (OpenBLAS's buffers)
+# crashed it (a segfault after a KeyboardInterrupt ended the script)
+atexit.register(settle)
 
 
 def interruptible(call, *keep):

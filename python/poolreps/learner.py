@@ -60,9 +60,22 @@ def _names(name, v, n):
     """A list of n column names as bytes (None: the library's defaults)."""
     if v is None:
         return None
-    if isinstance(v, (str, bytes)) or len(v) != n or not all(isinstance(x, str) for x in v):
+    # a sequence, in its order: a set's or a generator's order is not the caller's
+    if isinstance(v, (str, bytes)) or not isinstance(v, (Sequence, np.ndarray)) \
+            or len(v) != n or not all(isinstance(x, str) for x in v):
         raise ValueError(f"{name}: must be a sequence of {n} strings (got {v!r})")
-    return [x.encode() for x in v]
+    out = []
+    for i, x in enumerate(v):
+        # bytes as os.fsencode gives them; a NUL would end the name in C:
+        # refused, not cut short
+        try:
+            b = x.encode(errors="surrogateescape")
+        except UnicodeEncodeError as e:
+            raise ValueError(f"{name}[{i}]: {x!r} cannot be encoded: {e.reason}") from None
+        if b"\0" in b:
+            raise ValueError(f"{name}[{i}]: a NUL byte in the name {x!r}")
+        out.append(b)
+    return out
 
 
 class Learner:
@@ -151,7 +164,7 @@ class Learner:
     def _names(self):
         names = (c_char_p * (self._dx + self._da))()
         lib.pr_bind_learner_summary(self._h.ptr, (c_double * 7)(), (c_int * 7)(), names)
-        return [v.decode(errors="replace") for v in names]
+        return [v.decode(errors="surrogateescape") for v in names]
 
     @property
     def context_names(self) -> List[str]:
@@ -187,7 +200,9 @@ class Learner:
         ptr = lib.pr_learner_load(state, len(state), what.encode(), self._rng.ptr, err)
         if not ptr:
             msg = err.value.decode(errors="replace")
-            raise ValueError(msg) if "version" in msg else OSError(msg)
+            # another format version is the caller's error; what may say "version" too
+            raise ValueError(msg) if msg.startswith(f"{what}: learner format version ") \
+                else OSError(msg)
         self._h = Handle(ptr, lib.pr_learner_free)
         self._dx = lib.pr_learner_context_dim(ptr)
         self._da = lib.pr_learner_action_dim(ptr)

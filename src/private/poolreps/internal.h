@@ -267,6 +267,13 @@ int pr_learner_set_policy(pr_learner *L, pr_policy *p, char *err);
 /* Other options before the first tell (after an ask, with the same
  * policy.cov_center, max_norm and truncation). */
 int pr_learner_set_options(pr_learner *L, const pr_learner_opts *o, char *err);
+/* A state's first bytes: the magic and the format version. */
+#define PR_LEARNER_HEAD_LEN 21
+/* PR_OK when the first len bytes of buf (PR_LEARNER_HEAD_LEN suffice)
+ * begin a state this library reads; else PR_EIO (not a state, or
+ * truncated) or PR_EINVAL (another format version), the message naming
+ * what. Lets a reader refuse a foreign file before reading all of it. */
+int pr_learner_check_head(const unsigned char *buf, size_t len, const char *what, char *err);
 /* What the last ask did: actions drawn again (or clipped) for exceeding
  * max_norm, and the PR_POLICY_* flags of its queries. */
 void pr_learner_ask_info(const pr_learner *L, int *redraws, int *flags);
