@@ -81,8 +81,8 @@ static const pr_config_key key_table[] = {
 	{"exp1", "subset", PR_KEY_INT, F(subset), 1, 10000000, 0, "", "training samples per forest"},
 	{"exp1", "test_subset", PR_KEY_INT, F(test_subset), 1, 10000000, 0, "", "test samples per forest"},
 	{"exp1", "n_min_list", PR_KEY_ILIST, F(n_min_list), 1, 10000000, 0, "", "n_min sweep (Fig. 7.4a)"},
-	{"exp1", "trees_list", PR_KEY_ILIST, F(trees_list), 1, 10000, 0, "", "M sweep (Fig. 7.4b)"},
-	{"exp1", "cuts_list", PR_KEY_ILIST, F(cuts_list), 1, 10000, 0, "", "K sweep (Fig. 7.4c)"},
+	{"exp1", "trees_list", PR_KEY_ILIST, F(trees_list), 1, PR_FOREST_MAX_TREES, 0, "", "M sweep (Fig. 7.4b)"},
+	{"exp1", "cuts_list", PR_KEY_ILIST, F(cuts_list), 1, PR_FOREST_MAX_CUTS, 0, "", "K sweep (Fig. 7.4c)"},
 	{"exp1", "map_grid", PR_KEY_INT, F(map_grid), 2, 1000, 0, "", "reward map grid points per side"},
 };
 #undef F

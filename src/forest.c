@@ -89,6 +89,13 @@ int pr_forest_opts_check(const pr_forest_opts *o, const char *prefix, char *err)
 		return pr_err(err, PR_EINVAL, "%s%strees: must be >= 1 (got %d)", p, dot, o->trees);
 	if (o->cuts < 1)
 		return pr_err(err, PR_EINVAL, "%s%scuts: must be >= 1 (got %d)", p, dot, o->cuts);
+	/* the keys' bounds too: a learner's state file holds options unchecked by them */
+	if (o->trees > PR_FOREST_MAX_TREES)
+		return pr_err(err, PR_EINVAL, "%s%strees: must be <= %d (got %d)", p, dot,
+		              PR_FOREST_MAX_TREES, o->trees);
+	if (o->cuts > PR_FOREST_MAX_CUTS)
+		return pr_err(err, PR_EINVAL, "%s%scuts: must be <= %d (got %d)", p, dot,
+		              PR_FOREST_MAX_CUTS, o->cuts);
 	if (o->n_min < 1)
 		return pr_err(err, PR_EINVAL, "%s%sn_min: must be >= 1 (got %d)", p, dot, o->n_min);
 	if (o->n_c < 1)

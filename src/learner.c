@@ -1391,13 +1391,15 @@ pr_learner *pr_learner_load(const unsigned char *buf, size_t len, const char *wh
 	pr_learner_opts o;
 	pr_learner *L = NULL;
 	const unsigned char *state = NULL;
+	const int oom = pr_out_of_memory;
+	char why[PR_ERRLEN];
 	int dx, da, k;
 
 	get_head(&r, &o);
 	dx = get_i(&r, 1, MAX_DIM, "context dimensions");
 	da = get_i(&r, 1, MAX_ACTION, "action dimensions");
-	if (r.rc == PR_OK && !(L = pr_learner_new(&o, dx, da, rng, err)))
-		r.rc = PR_EIO;
+	if (r.rc == PR_OK && !(L = pr_learner_new(&o, dx, da, rng, why)))
+		r.rc = pr_out_of_memory && !oom ? pr_err(err, PR_ENOMEM, "%s", why) : bad(&r, why);
 	if (r.rc == PR_OK)
 		get_counts(&r, L, rng, &state);
 	/* get_counts checked the policy count against the state's size */

@@ -139,6 +139,18 @@ def test_a_load_error_is_typed_by_what_failed_not_by_its_name():
         poolreps.Learner.load(good[:17] + b"\x09" + good[18:], "version")
 
 
+@pytest.mark.parametrize("field,name", [(5, "value.trees"), (6, "value.cuts"),
+                                        (20, "policy.trees"), (21, "policy.cuts")])
+def test_a_state_asking_for_endless_forests_is_refused(field, name):
+    """The options in a state are bounded as their keys are: 2^31 - 1 trees
+    or random tests per node would make a tell run for days."""
+    import struct
+    s = bytearray(poolreps.Learner(1, 1).save())
+    struct.pack_into("<i", s, 21 + 4 * field, 2**31 - 1)  # after the magic and version
+    with pytest.raises(OSError, match=f"not a valid learner state: {name}: must be <= 10000"):
+        poolreps.Learner.load(bytes(s))
+
+
 def trained(n=4, **kw):
     L = poolreps.Learner(2, 2, seed=5, set=KEYS, **kw)
     rng = np.random.default_rng(9)

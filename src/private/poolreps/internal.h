@@ -174,6 +174,9 @@ int pr_forest_node(const pr_forest *f, int node, int *dim, double *thr, int *rig
  * all 0): left as they are. */
 void pr_forest_weights_canonical(double *w, int n);
 
+/* The most trees M and random tests K a forest takes (the keys' ranges). */
+#define PR_FOREST_MAX_TREES 10000
+#define PR_FOREST_MAX_CUTS 10000
 /* Check the options; messages name "<prefix>.<key>" (prefix NULL: the bare
  * key), e.g. "forest.cuts: must be >= 1 (got 0)". */
 int pr_forest_opts_check(const pr_forest_opts *o, const char *prefix, char *err);
