@@ -197,3 +197,41 @@ def test_merge_replaces_one_learner_as_a_full_collect_would(tmp_path):
     with pytest.raises(SystemExit, match="differs"):
         br.merge(apart, tmp_path / "got")
     assert {p.name: p.read_bytes() for p in (tmp_path / "got").iterdir()} == before
+
+
+@pytest.mark.parametrize("method", ["creps", "ccmaes"])
+def test_exp3_mean_eval_shoots_from_the_python_learners_evaluation_states(tmp_path, method):
+    """exp3.mean_eval: pi_0's mean action is (0, 0), so its evaluation's mean
+    return is that of a still cue ball from the evaluation states, which
+    PocketEnv.reset_batch(n, seed=mean_eval_seed + k) draws for the Python
+    learners (the oracle: the binding's own start states and shots). Later
+    rows come every mean_eval_every episodes; without the key no file."""
+    from conftest import run_poolreps
+    if os.environ.get("SAN") == "1":
+        pytest.skip("under SAN=1 the binding would load the sanitized library without the "
+                    "sanitizer runtime preloaded")
+    sys.path.insert(0, str(ROOT / "python"))
+    import poolreps
+    base = [ROOT / "data/exp3.ini", "-q", "--set", "exp3.iterations=3",
+            "--set", "experiment.repetitions=2", "--set", "exp3.policies=handcrafted",
+            "--set", f"exp3.handcrafted_method={method}", "--set", "exp3.truncation=clip"]
+    p = run_poolreps(base + ["-o", tmp_path / "a", "--set", "exp3.mean_eval=40",
+                             "--set", "exp3.mean_eval_every=40", "--set",
+                             "exp3.mean_eval_seed=77"])
+    assert p.returncode == 0, p.stderr
+    rows = br.read(tmp_path / "a/exp3_mean.csv")
+    # 200 episodes at iteration 0, then 20 per iteration: 200, 240
+    assert [(r["repetition"], r["episodes"]) for r in rows] == [
+        ("0", "200"), ("0", "240"), ("1", "200"), ("1", "240")]
+    env = poolreps.PocketEnv()
+    for r in rows[::2]:
+        S = env.reset_batch(40, seed=77 + int(r["repetition"]))[0]
+        want = float(env.step_batch(S, np.zeros((40, 2)))[1].mean())
+        assert math.isclose(float(r["mean_return"]), want, rel_tol=1e-12), r
+    assert all(r["states"] == "40" for r in rows)
+    assert rows[1]["mean_return"] != rows[0]["mean_return"]  # the learned mean moved
+    p = run_poolreps(base + ["-o", tmp_path / "b"])
+    assert p.returncode == 0, p.stderr
+    assert not (tmp_path / "b/exp3_mean.csv").exists()
+    for f in ("exp3_episodes.csv", "exp3_reps.csv"):
+        assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes(), f
