@@ -121,7 +121,7 @@ def test_smoke_run_writes_the_csvs_and_the_report(tmp_path):
     secs = time.time() - t0
     runs = br.read(data / "runs.csv")
     learners = {r["learner"] for r in runs}
-    assert learners == {"cma_linear", "sac", "ppo_tuned", "reps_handcrafted",
+    assert learners == {"cma_linear", "sac", "ppo", "reps_handcrafted",
                         "reps_tree_nrvr_a", "ccmaes_handcrafted"}
     # a poolreps learner's value is the mean of its episodes 100..599 (independently)
     with open(out / "reps/creps_handcrafted/exp3_episodes.csv") as f:
@@ -235,3 +235,35 @@ def test_exp3_mean_eval_shoots_from_the_python_learners_evaluation_states(tmp_pa
     assert not (tmp_path / "b/exp3_mean.csv").exists()
     for f in ("exp3_episodes.csv", "exp3_reps.csv"):
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes(), f
+
+
+def test_merge_adds_seeds_run_apart_and_keeps_the_others(tmp_path):
+    """Seeds 3-4 of a learner, run apart, merged into data holding its seeds
+    0-2: the bytes of a collect of all five runs together."""
+    full, old, apart = tmp_path / "full", tmp_path / "old", tmp_path / "apart"
+    for s in range(5):
+        fake_run(full, "sac", s, [300, 600] if s < 3 else [300], 0.1)
+        fake_run(old if s < 3 else apart, "sac", s, [300, 600] if s < 3 else [300], 0.1)
+    br.collect(full, tmp_path / "want")
+    br.collect(old, tmp_path / "got")
+    br.merge(apart, tmp_path / "got")
+    for f in ("runs.csv", "curve.csv", "timing.csv"):
+        assert (tmp_path / "got" / f).read_bytes() == (tmp_path / "want" / f).read_bytes(), f
+    assert len({r["seed"] for r in br.read(tmp_path / "got/runs.csv")}) == 5
+
+
+def test_report_check_fails_on_a_changed_page_and_writes_nothing(tmp_path):
+    import shutil
+    docs, readme = tmp_path / "docs", tmp_path / "README.md"
+    shutil.copy(ROOT / "README.md", readme)
+    br.report(ROOT / "data/baselines", docs, readme)
+    br.report(ROOT / "data/baselines", docs, readme, check=True)  # agrees
+    page = docs / "baselines.md"
+    page.write_text(page.read_text().replace("| 20 |", "| 21 |", 1))
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    p = run_cmd([sys.executable, ROOT / "scripts/baselines_report.py", "report",
+                 ROOT / "data/baselines", docs, readme, "--check"],
+                capture_output=True, text=True)
+    assert p.returncode == 1 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert "baselines.md" in p.stderr
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
