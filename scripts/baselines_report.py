@@ -485,7 +485,7 @@ make baselines-report  # this page from data/baselines; make verdicts CHECK=1 ch
 
 TEXT_STATS = f"""## Results
 
-The rule, fixed before the runs: per budget the interquartile mean (IQM) of the seeds'
+The rule: per budget the interquartile mean (IQM) of the seeds'
 values with its 95 % stratified-bootstrap interval ({BOOT} resamples), and the
 probability of improvement P(X > Y) + P(X = Y)/2 of a seed of the learner over one of
 REPS + hand-crafted features, with its interval (Agarwal et al., NeurIPS 2021; the
