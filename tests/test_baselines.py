@@ -131,7 +131,9 @@ def test_smoke_run_writes_the_csvs_and_the_report(tmp_path):
     assert got == [float(np.mean(R[100:600]))]
     assert (docs / "figures/baselines.png").stat().st_size > 10000
     text = (docs / "baselines.md").read_text()
-    assert "## Budget 600 episodes" in text and "SAC (SB3 defaults)" in text
+    assert "**600 episodes**" in text and "SAC (SB3 defaults)" in text
+    # every learner has its mean-action evaluation, the poolreps ones too
+    assert all(r["deterministic_mean"] for r in runs), [r for r in runs if not r["deterministic_mean"]]
     print(f"smoke run: {secs:.1f} s")
 
 
