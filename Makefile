@@ -220,6 +220,7 @@ study: all
 verdicts:
 	$(PYTHON) scripts/verdicts.py data/study $(if $(CHECK),--check)
 	$(PYTHON) scripts/exp4_study.py docs docs/exp4_study --doc docs/exp4.md --readme README.md $(if $(CHECK),--check)
+	$(MAKE) --no-print-directory baselines-report
 
 # Sensitivity study (docs/sensitivity.md): Experiment 3's verdicts with one
 # open choice changed at a time. The default size writes docs/ and the README
@@ -331,6 +332,12 @@ BASELINES_SEEDS ?= 10
 baselines: all
 	POOLREPS=$(abspath $(BUILD)/poolreps) PYTHON=$(PYTHON) BASELINES_DATA=data/baselines \
 	  BASELINES_DOCS=docs BASELINES_README=README.md sh scripts/baselines.sh run "$(OUT)/baselines" $(BASELINES_SEEDS)
+
+# docs/baselines.md, its figures and the README's Experiment 5 paragraph
+# from data/baselines (no runs); CHECK=1 writes nothing and fails on a difference
+.PHONY: baselines-report
+baselines-report:
+	$(PYTHON) scripts/baselines_report.py report data/baselines docs README.md $(if $(CHECK),--check)
 
 # build/venv: the system's Python packages plus Gymnasium from PyPI (not a
 # Debian package), for tests/test_gym.py (which skips without it), and mypy

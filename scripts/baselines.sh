@@ -9,12 +9,13 @@
 #   scripts/baselines.sh run OUT SEEDS        every run into OUT (runs/*.csv
 #       for the Python learners, reps/VARIANT for poolreps), skipping runs
 #       already there; then the committed CSVs (OUT/data) and the report
+#   scripts/baselines.sh reps OUT SEEDS       the poolreps learners only
 #   scripts/baselines.sh smoke OUT            a tiny version (tests)
 #   scripts/baselines.sh one OUT LEARNER SEED BUDGETS   one Python run
 # Environment: POOLREPS (default ./poolreps), PYTHON (with matplotlib, for the
 # report), BASELINES_JOBS runs at once (default 2), BASELINES_DOCS the folder
 # for baselines.md and figures/ (default OUT/docs), BASELINES_SAC_BUDGETS,
-# BASELINES_SAC_TUNED_BUDGETS, BASELINES_PPO_BUDGETS, BASELINES_BUDGETS
+# BASELINES_PPO_BUDGETS, BASELINES_BUDGETS
 # (defaults below), BASELINES_DATA the folder for the CSVs (default
 # OUT/data), BASELINES_README a README.md whose Experiment 5 paragraph to
 # rewrite (default none).
@@ -35,7 +36,12 @@ NICE="nice -n 10"
 budgets=${BASELINES_BUDGETS:-2200,22000,55000}
 ppo_budgets=${BASELINES_PPO_BUDGETS:-2200,22000,55000}
 sac_budgets=${BASELINES_SAC_BUDGETS:-2200,22000,55000}
-sac_tuned_budgets=${BASELINES_SAC_TUNED_BUDGETS:-2200,22000,55000}
+# one over-speed rule for every learner: an action faster than sim.max_speed
+# is scaled onto the limit (PocketEnv does so for the Python learners); and
+# every learner's mean action on the same 2000 fresh states per seed, every
+# 1100 episodes (scripts/baselines.py: EVAL_STARTS, EVAL_SEED, --curve-every)
+REPS_SET="--set exp3.truncation=clip --set exp3.mean_eval=2000 --set exp3.mean_eval_seed=1000000"
+every=1100
 
 make_venv() {
 	[ -x "$venv/bin/python" ] && cmp -s "$requirements" "$venv/requirements.txt" &&
@@ -70,9 +76,7 @@ job_list() {
 	while [ "$s" -lt "$2" ]; do
 		echo "cma_linear $s $budgets"
 		echo "ppo $s $ppo_budgets"
-		echo "ppo_tuned $s $ppo_budgets"
 		echo "sac $s $sac_budgets"
-		echo "sac_tuned $s $sac_tuned_budgets"
 		s=$((s + 1))
 	done
 }
@@ -95,7 +99,8 @@ reps_runs() {
 		/usr/bin/time -f "wall %e cpu %U %S" -o "$d.time" $NICE "$POOLREPS" \
 			"$root/data/exp3.ini" -q -o "$d" --set "exp3.iterations=$3" \
 			--set "experiment.repetitions=$2" --set "exp3.policies=$pol" \
-			--set "exp3.handcrafted_method=$m" $4
+			--set "exp3.handcrafted_method=$m" $REPS_SET \
+			--set "exp3.mean_eval_every=$every" $4
 	done
 }
 
@@ -122,6 +127,12 @@ run)
 	report "$2"
 	;;
 one) one_run "$2" "$3" "$4" "$5" ;;
+reps)
+	[ $# -eq 3 ] || { echo "usage: scripts/baselines.sh reps OUT SEEDS" >&2; exit 1; }
+	mkdir -p "$2/reps"
+	last=$(echo "$budgets" | tr , '\n' | tail -n1)
+	reps_runs "$2" "$3" $(( (last - 200) / 20 ))
+	;;
 smoke)
 	[ $# -eq 2 ] || { echo "usage: scripts/baselines.sh smoke OUT" >&2; exit 1; }
 	mkdir -p "$2/runs" "$2/reps"
@@ -130,9 +141,10 @@ smoke)
 	export POOLREPS_LIB="${POOLREPS_LIB:-$root/build/rel/libpoolreps.so.0}"
 	for s in 0 1; do one_run "$2" cma_linear "$s" 300,600 "--curve-every 300"; done
 	one_run "$2" sac 0 300 "--curve-every 300"
-	one_run "$2" ppo_tuned 0 300,600 "--curve-every 300"
+	one_run "$2" ppo 0 300,600 "--curve-every 300"
+	every=300
 	reps_runs "$2" 2 20
 	report "$2"
 	;;
-*) echo "usage: scripts/baselines.sh venv | run OUT SEEDS | smoke OUT" >&2; exit 1 ;;
+*) echo "usage: scripts/baselines.sh venv | run OUT SEEDS | reps OUT SEEDS | smoke OUT" >&2; exit 1 ;;
 esac

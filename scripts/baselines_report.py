@@ -4,13 +4,18 @@
     baselines_report.py collect OUT DATA   OUT/runs/*.csv (scripts/baselines.py)
         and OUT/reps/* (poolreps Experiment 3 runs) -> DATA/runs.csv,
         DATA/curve.csv, DATA/timing.csv (what the repository commits)
-    baselines_report.py merge OUT DATA     the learners found in OUT replace
-        theirs in DATA; the other learners' rows stay (runs done apart, e.g.
-        one learner at a longer budget, or jobs of a Slurm array)
-    baselines_report.py report DATA DOCS [README]   -> DOCS/baselines.md and
-        DOCS/figures/baselines.png (and README's Experiment 5 paragraph)
+    baselines_report.py merge OUT DATA     the (learner, seed) runs found in
+        OUT replace theirs in DATA, and so do the poolreps learners' timings;
+        the other rows stay (runs done apart: more seeds, a longer budget, or
+        jobs of a Slurm array)
+    baselines_report.py report DATA DOCS [README] [--check]   -> DOCS/baselines.md,
+        DOCS/figures/baselines.png and baselines_profile.png (and README's
+        Experiment 5 paragraph); --check writes nothing and fails (exit 1,
+        one line) when the page or paragraph differ from what DATA gives
 
-Intervals are 95 % t intervals over seeds; a learner is compared with REPS
+Per budget: IQMs with 95 % stratified-bootstrap intervals and the
+probability of improvement over REPS with hand-crafted features (rliable's
+estimators, verdict_stats); the verdict: a learner is compared with REPS
 with hand-crafted features by the paired difference over the seeds both ran
 (seed k of every learner starts its n-th episode from the same state:
 Experiment 3's repetition k), and the p-values of one budget's comparisons
@@ -40,9 +45,7 @@ LEARNERS = {
     "ccmaes_handcrafted": ("our contextual CMA-ES", "`exp3.handcrafted_method = ccmaes`: contextual CMA-ES on the hand-crafted linear policy"),
     "cma_linear": ("pycma CMA-ES (linear policy)", "pycma on the 12 weights of a = W φ(s), φ the hand-crafted features, one episode per candidate"),
     "sac": ("SAC (SB3 defaults)", "Stable-Baselines3 SAC, defaults"),
-    "sac_tuned": ("SAC (tuned)", "SAC, network 64-64, learning rate 1e-3"),
     "ppo": ("PPO (SB3 defaults)", "Stable-Baselines3 PPO, defaults"),
-    "ppo_tuned": ("PPO (tuned)", "PPO, network 64-64, learning rate 1e-3, 200 steps per update, minibatch 50"),
 }
 REPS_DIRS = {"creps_handcrafted": "reps_handcrafted", "creps_nrvr_a": "reps_tree_nrvr_a",
              "ccmaes_handcrafted": "ccmaes_handcrafted"}
@@ -63,16 +66,22 @@ def read(path):
 
 def reps_rows(folder, learner, budgets, every, timing):
     """Per repetition: the last-500 mean at each budget and every `every`
-    episodes, from exp3_episodes.csv in file order."""
+    episodes, from exp3_episodes.csv in file order, and the mean action's
+    return at each budget (exp3_mean.csv, when the run has one)."""
     returns = defaultdict(list)
     for r in read(folder / "exp3_episodes.csv"):
         returns[int(r["repetition"])].append(float(r["return"]))
+    mean = {}
+    if (folder / "exp3_mean.csv").exists():
+        mean = {(int(r["repetition"]), int(r["episodes"])): r["mean_return"]
+                for r in read(folder / "exp3_mean.csv")}
     runs, curve = [], []
     for k, R in sorted(returns.items()):
         R = np.array(R)
         for b in budgets:
             if b <= len(R):
-                runs.append([learner, k, b, repr(float(R[max(0, b - LAST):b].mean())), "", "", ""])
+                runs.append([learner, k, b, repr(float(R[max(0, b - LAST):b].mean())),
+                             mean.get((k, b), ""), "", ""])
         for n in range(every, len(R) + 1, every):
             curve.append([learner, k, n, repr(float(R[max(0, n - LAST):n].mean()))])
     t = (folder.parent / (folder.name + ".time")).read_text().split()
@@ -86,7 +95,7 @@ def reps_rows(folder, learner, budgets, every, timing):
 def row_order(name):
     """The order of the rows of a committed CSV (collect's, and merge's):
     runs by (learner, budget, seed), curve by (learner, seed, episodes),
-    timing the Python learners by name, then the poolreps learners."""
+    timing the poolreps learners in their order."""
     reps = list(REPS_DIRS.values())
     if name == "timing.csv":
         return lambda r: (r[0] in reps, reps.index(r[0]) if r[0] in reps else 0, r[0])
@@ -99,7 +108,6 @@ def collect(out, data):
     out, data = Path(out), Path(data)
     budgets = [int(b) for b in (out / "budgets.txt").read_text().strip().split(",")]
     runs, curve, timing = [], [], []
-    longest = defaultdict(dict)  # learner -> seed -> (episodes, wall, cpu)
     every = None
     for f in sorted((out / "runs").glob("*.csv")):
         for r in read(f):
@@ -110,18 +118,9 @@ def collect(out, data):
             else:
                 runs.append([r["learner"], key[1], key[2], r["last500_mean"],
                              r["deterministic_mean"], r["wall_s"], r["cpu_s"]])
-                old = longest[key[0]].get(key[1])
-                if old is None or old[0] < key[2]:
-                    longest[key[0]][key[1]] = (key[2], float(r["wall_s"]), float(r["cpu_s"]))
     # a seed run at several budget lists: keep one row per (learner, seed, budget)
     runs = list({(r[0], r[1], r[2]): r for r in runs}.values())
     curve = list({(r[0], r[1], r[2]): r for r in curve}.values())
-    for learner, seeds in sorted(longest.items()):
-        v = list(seeds.values())
-        eps = max(x[0] for x in v)
-        at = [x for x in v if x[0] == eps]
-        timing.append([learner, len(at), eps, repr(float(np.mean([x[1] for x in at]))),
-                       repr(float(np.mean([x[2] for x in at])))])
     for d, learner in REPS_DIRS.items():
         if (out / "reps" / d / "exp3_episodes.csv").exists():
             r, c = reps_rows(out / "reps" / d, learner, budgets, every or 1100, timing)
@@ -147,11 +146,15 @@ def merge(out, data):
     with tempfile.TemporaryDirectory() as tmp:
         collect(out, tmp)
         new = {f: read(Path(tmp) / f) for f in ("runs.csv", "curve.csv", "timing.csv")}
-    learners = {r["learner"] for r in new["runs.csv"]}
+    runs = {(r["learner"], r["seed"]) for r in new["runs.csv"]}
+    timed = {r["learner"] for r in new["timing.csv"]}
     for f, rows in new.items():
         old = read(data / f)
-        header = list(old[0].keys()) if old else list(rows[0].keys())
-        kept = [[r[h] for h in header] for r in old if r["learner"] not in learners]
+        with open(data / f, newline="") as fh:
+            header = next(csv.reader(fh))
+        gone = (lambda r: r["learner"] in timed) if f == "timing.csv" else \
+            (lambda r: (r["learner"], r["seed"]) in runs)
+        kept = [[r[h] for h in header] for r in old if not gone(r)]
         added = [[r[h] for h in header] for r in rows]
         write(data / f, header, sorted(kept + added, key=row_order(f)))
 
@@ -235,10 +238,16 @@ def figure(curve, budgets, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    # each curve over the seeds run to its end, so that its seeds do not change along it
+    end = defaultdict(dict)
+    for r in curve:
+        k, s = r["learner"], r["seed"]
+        end[k][s] = max(end[k].get(s, 0), int(r["episodes"]))
     by = defaultdict(lambda: defaultdict(list))
     for r in curve:
-        by[r["learner"]][int(r["episodes"])].append(float(r["last500_mean"]))
-    fig, ax = plt.subplots(figsize=(8, 5.6), dpi=110)
+        if end[r["learner"]][r["seed"]] == max(end[r["learner"]].values()):
+            by[r["learner"]][int(r["episodes"])].append(float(r["last500_mean"]))
+    fig, ax = plt.subplots(figsize=(8, 5.6), dpi=90)
     for k in LEARNERS:
         if k not in by:
             continue
@@ -264,32 +273,42 @@ def figure(curve, budgets, path):
 
 
 BOOT, BOOT_SEED = 2000, 1
+COLUMNS = {"last500_mean": f"last {LAST}", "deterministic_mean": "mean action"}
 
 
-def by_learner(runs, b):
-    """{learner: array of its seeds' last-500 means} at budget b, in LEARNERS order."""
+def by_learner(runs, b, col="last500_mean"):
+    """{learner: array of its seeds' values of col} at budget b, in LEARNERS
+    order (learners with fewer than 2 seeds left out)."""
     acc = defaultdict(list)
     for r in runs:
-        if int(r["budget"]) == b:
-            acc[r["learner"]].append(float(r["last500_mean"]))
+        if int(r["budget"]) == b and r[col]:
+            acc[r["learner"]].append(float(r[col]))
     return {k: np.array(acc[k]) for k in LEARNERS if len(acc[k]) >= 2}
 
 
-def aggregate_table(runs, b):
-    """rliable's summary of one budget: per learner its seeds, IQM with the
-    95 % stratified-bootstrap interval, and the probability of improvement
-    over REPS + hand-crafted features with its interval."""
-    by = by_learner(runs, b)
-    ref = by.get(REFERENCE)
+def iqm_cell(x, seed):
+    """IQM [95 % stratified-bootstrap interval] of one learner's seeds."""
+    lo, hi = vs.bootstrap_ci(vs.iqm, [x], BOOT, seed)
+    return f"{vs.iqm(x):.3f} [{lo:.3f}, {hi:.3f}]"
+
+
+def results_table(runs, tables, b):
+    """One budget's rows: seeds, IQM of both evaluations, the probability of
+    improvement over the reference and the paired test's Holm verdict."""
+    cols = {c: by_learner(runs, b, c) for c in COLUMNS}
+    ref = cols["last500_mean"].get(REFERENCE)
+    test = {r["learner"]: r for r in tables[b]}
     rows = []
-    for i, (k, x) in enumerate(by.items()):
+    for i, (k, x) in enumerate(cols["last500_mean"].items()):
         seed = BOOT_SEED + 1000 * b + i
-        lo, hi = vs.bootstrap_ci(vs.iqm, [x], BOOT, seed)
+        d = cols["deterministic_mean"].get(k)
         pi = "reference" if k == REFERENCE or ref is None else (
             f"{vs.prob_improvement(x, ref):.2f} " + "[{:.2f}, {:.2f}]".format(
                 *vs.bootstrap_ci(vs.prob_improvement, [x, ref], BOOT, seed)))
-        rows.append(f"| {LEARNERS[k][0]} | {len(x)} | {vs.iqm(x):.3f} [{lo:.3f}, {hi:.3f}] "
-                    f"| {pi} |")
+        t = test[k]
+        rows.append(f"| {LEARNERS[k][0]} | {len(x)} | {iqm_cell(x, seed)} | "
+                    f"{iqm_cell(d, seed + 500) if d is not None else '—'} | {pi} | "
+                    f"{fmt(t['p'])} | {t['verdict']} |")
     return rows
 
 
@@ -299,7 +318,7 @@ def profile_figure(runs, budgets, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(1, len(budgets), figsize=(4 * len(budgets), 4.2), dpi=110,
+    fig, axes = plt.subplots(1, len(budgets), figsize=(4 * len(budgets), 5.0), dpi=90,
                              sharey=True, squeeze=False)
     allx = np.concatenate([x for b in budgets for x in by_learner(runs, b).values()])
     taus = np.linspace(allx.min() - 0.05, allx.max() + 0.05, 200)
@@ -308,10 +327,10 @@ def profile_figure(runs, budgets, path):
             ax.step(taus, vs.performance_profile(x, taus), where="post",
                     label=f"{LEARNERS[k][0]} ({len(x)} seeds)")
         ax.set_title(f"{b:,} episodes")
-        ax.set_xlabel("return τ (last 500 episodes)")
+        ax.set_xlabel(f"return τ (mean of the last {LAST} episodes)")
         ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel("share of runs with return > τ")
-    axes[0][0].legend(fontsize=6, loc="lower left")
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16))
+    axes[0][0].set_ylabel("share of seeds with return > τ")
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
     fig.savefig(path)
@@ -326,18 +345,12 @@ def summary(tables, budgets):
         if not t:
             continue
         best = max(t, key=lambda r: r["mean"][0])
-        below = [LEARNERS[r["learner"]][0] for r in t if r["verdict"] == "below"]
-        above = [LEARNERS[r["learner"]][0] for r in t if r["verdict"] == "above"]
-        same = [LEARNERS[r["learner"]][0] for r in t if r["verdict"] == "no difference shown"]
         s = (f"At {b:,} episodes the highest mean return is that of "
              f"{LEARNERS[best['learner']][0]} ({fmt(best['mean'][0])}, {best['seeds']} seeds).")
-        if below:
-            s += " Below REPS + hand-crafted features (Holm-adjusted paired t test, 5 %): " \
-                 + "; ".join(below) + "."
-        if above:
-            s += " Above it: " + "; ".join(above) + "."
-        if same:
-            s += " No difference shown: " + "; ".join(same) + "."
+        for word in ("below", "above", "no difference shown"):
+            names = [LEARNERS[r["learner"]][0] for r in t if r["verdict"] == word]
+            if names:
+                s += f" {word.capitalize()}: " + "; ".join(names) + "."
         out.append(s)
     return out
 
@@ -357,21 +370,30 @@ def readme_text(tables, budgets):
                      f"{best['seeds']} seeds), and {below} of the {tested} learners paired "
                      f"with REPS + hand-crafted features {'is' if below == 1 else 'are'} below it")
     return ("Experiment 5 ([docs/baselines.md](docs/baselines.md), `make baselines`) puts "
-            "SAC, PPO and CMA-ES on Experiment 3's task beside our REPS learners: "
-            + "; ".join(parts) + " (paired by seed, Holm-adjusted, 5 %; seed counts per "
-            "learner and budget in the tables).\n\n"
+            "SAC, PPO and CMA-ES on Experiment 3's task beside our REPS learners, all untuned "
+            "and under one speed-limit rule: "
+            + "; ".join(parts) + " (paired by seed, Holm-adjusted, 5 %; seeds per learner "
+            "and budget, IQMs and probabilities of improvement in the page).\n\n"
             "![Experiment 5: return against episodes](docs/figures/baselines.png)")
 
 
-def reached(runs):
-    """'SAC (SB3 defaults) 2,200, …, and PPO (tuned) 55,000': the largest
-    budget each SB3 learner has a row at."""
-    top = defaultdict(int)
-    for r in runs:
-        top[r["learner"]] = max(top[r["learner"]], int(r["budget"]))
-    parts = [f"{LEARNERS[k][0]} {top[k]:,}" for k in ("sac", "sac_tuned", "ppo", "ppo_tuned")
-             if top[k]]
-    return ", ".join(parts[:-1]) + " and " + parts[-1] if len(parts) > 1 else "".join(parts)
+def cpu_rows(runs, timing, budgets):
+    """CPU seconds per seed: the Python learners' at each budget (measured
+    inside the run, cumulative), the poolreps learners' whole process per
+    repetition (its longest run only)."""
+    rows = []
+    for k in LEARNERS:
+        cells = []
+        for b in budgets:
+            c = [float(r["cpu_s"]) for r in runs
+                 if r["learner"] == k and int(r["budget"]) == b and r["cpu_s"]]
+            cells.append(f"{np.mean(c):.1f} ({len(c)})" if c else "—")
+        t = [r for r in timing if r["learner"] == k]
+        if t:
+            cells[budgets.index(int(t[0]["episodes"]))] = \
+                f"{float(t[0]['cpu_s_per_run']):.1f} ({t[0]['runs']}, whole process)"
+        rows.append(f"| {LEARNERS[k][0]} | " + " | ".join(cells) + " |")
+    return rows
 
 
 def rewrite_readme(path, text):
@@ -382,129 +404,106 @@ def rewrite_readme(path, text):
     Path(path).write_text(s[:i] + "\n" + text + "\n" + s[j:])
 
 
-def report(data, docs, readme=None):
+def page(runs, timing, budgets, tables):
+    """docs/baselines.md's text."""
+    L = ["# Experiment 5: standard learners on the thesis's task", "",
+         "<!-- Generated by scripts/baselines_report.py from data/baselines/*.csv "
+         "(make baselines). Do not edit. -->", "", TEXT_SETUP, "",
+         "| learner | what |", "|---|---|"]
+    L += [f"| {LEARNERS[k][0]} | {LEARNERS[k][1]} |" for k in LEARNERS]
+    L += ["", TEXT_STATS, ""]
+    for b in budgets:
+        L += [f"**{b:,} episodes**", "",
+              f"| learner | seeds | IQM, last {LAST} [95 % CI] | IQM, mean action [95 % CI] | "
+              "P(better than REPS + hand-crafted) [95 % CI] | Holm p | verdict |",
+              "|---|---:|---|---|---|---:|---|"] + results_table(runs, tables, b) + [""]
+    L += ["![performance profiles](figures/baselines_profile.png)", "",
+          "*Performance profiles: per budget, the share of a learner's seeds whose mean "
+          f"return of the last {LAST} episodes exceeds τ; further right is better.*", "",
+          "![return against episodes](figures/baselines.png)", "",
+          f"*Mean over seeds of the mean return of the last {LAST} training episodes, "
+          "with its 95 % t band, over the seeds run to the curve's end (the legend's "
+          "count); dotted lines mark the budgets.*", "",
+          "## CPU time", "", "CPU seconds per seed (seeds measured) at each budget:", "",
+          "| learner | " + " | ".join(f"{b:,}" for b in budgets) + " |",
+          "|---|" + "---:|" * len(budgets)] + cpu_rows(runs, timing, budgets)
+    L += ["", TEXT_TIMING, "", "## What it means", "", " ".join(summary(tables, budgets)), "",
+          TEXT_MEANING, ""]
+    return "\n".join(L)
+
+
+def report(data, docs, readme=None, check=False):
+    """docs/baselines.md, its figures and the README paragraph; check: write
+    nothing and fail on a difference from the committed text."""
     data, docs = Path(data), Path(docs)
     runs, curve, timing = read(data / "runs.csv"), read(data / "curve.csv"), read(data / "timing.csv")
     budgets = [int(b) for b in (data / "budgets.txt").read_text().strip().split(",")]
+    tables = {b: budget_table(runs, b) for b in budgets}
+    text = page(runs, timing, budgets, tables)
+    if check:
+        bad = [] if (docs / "baselines.md").read_text() == text else [docs / "baselines.md"]
+        if readme:
+            s = Path(readme).read_text()
+            if "\n" + readme_text(tables, budgets) + "\n<!-- /baselines -->" not in s:
+                bad.append(readme)
+        if bad:
+            raise SystemExit("baselines_report: " + ", ".join(map(str, bad)) +
+                             " differ from what data/baselines gives (make baselines-report)")
+        return
     figure(curve, budgets, docs / "figures" / "baselines.png")
     profile_figure(runs, budgets, docs / "figures" / "baselines_profile.png")
-    tables = {b: budget_table(runs, b) for b in budgets}
-    L = ["# Experiment 5: standard learners on the thesis's task", "",
-         "<!-- Generated by scripts/baselines_report.py from data/baselines/*.csv "
-         "(make baselines). Do not edit. -->", ""]
-    L.append(TEXT_SETUP.replace("{reached}", reached(runs)))
-    L += ["", "## Learners", "", "| learner | what |", "|---|---|"]
-    L += [f"| {LEARNERS[k][0]} | {LEARNERS[k][1]} |" for k in LEARNERS]
-    L += ["", "## Sample efficiency", "", "![return against episodes](figures/baselines.png)", "",
-          f"Each curve: the mean over seeds of the mean return of the last {LAST} training "
-          "episodes, every " + f"{int(curve[0]['episodes']) if curve else 0:,}" +
-          " episodes, with its 95 % t band; dotted lines mark the budgets. A curve stops "
-          "where its runs stop.", ""]
-    for b in budgets:
-        t = tables[b]
-        L += [f"## Budget {b:,} episodes", "",
-              f"| learner | seeds | mean return, last {LAST} [95 % CI] | deterministic, 2000 "
-              "fresh starts [95 % CI] | paired difference vs REPS hand-crafted [95 % CI] | "
-              "pairs | Holm p | verdict |", "|---|---:|---|---|---|---:|---:|---|"]
-        for r in t:
-            L.append(f"| {LEARNERS[r['learner']][0]} | {r['seeds']} | {fmt_ci(*r['mean'])} | "
-                     f"{fmt_ci(*r['det']) if r['det_seeds'] else '— (not measured)'} | "
-                     f"{fmt_ci(*r['diff'], signed=True) if r['pairs'] else '—'} | "
-                     f"{r['pairs'] or '—'} | {fmt(r['p'])} | {r['verdict']} |")
-        if not t:
-            L.append("| (no runs at this budget) | | | | | | | |")
-        L.append("")
-    few = sorted({LEARNERS[k][0] for b in budgets for k, x in by_learner(runs, b).items()
-                  if len(x) < 20}, key=list(v[0] for v in LEARNERS.values()).index)
-    L += ["## Aggregate, the rliable way", "",
-          "As deep-RL results are now reported (Agarwal et al., NeurIPS 2021, the estimators of "
-          "the `rliable` library, written in scripts/verdict_stats.py and tested against "
-          "scipy): per budget the interquartile mean (IQM) of the seeds' mean returns of the "
-          f"last {LAST} training episodes, with its 95 % stratified-bootstrap interval "
-          f"({BOOT} resamples, each learner's seeds resampled on their own), and the "
-          "probability of improvement over REPS + hand-crafted features, P(X > Y) + P(X = Y) "
-          "/ 2 of a run of the learner against one of REPS, with its interval. Seeds per "
-          "learner as run (the tables' second column); " + (
-              f"fewer than the 20 such comparisons call for: {', '.join(few)}, whose intervals "
-              "are wide accordingly" if few else "every learner has 20 or more") +
-          ". Profiles: "
-          "[figures/baselines_profile.png](figures/baselines_profile.png).", ""]
-    for b in budgets:
-        L += [f"**{b:,} episodes**", "",
-              "| learner | seeds | IQM [95 % CI] | P(improvement over REPS hand-crafted) "
-              "[95 % CI] |", "|---|---:|---|---|"] + aggregate_table(runs, b) + [""]
-    L += ["![performance profiles](figures/baselines_profile.png)", "",
-          "*Figure: performance profiles per budget: the share of a learner's runs (seeds) whose "
-          f"mean return of the last {LAST} episodes exceeds τ; a curve further right is "
-          "better. Step curves over the seeds as run (the legend gives their number).*", ""]
-    L += ["## Time per run", "",
-          "| learner | runs | episodes per run | wall s per run | CPU s per run |",
-          "|---|---:|---:|---:|---:|"]
-    for r in timing:
-        L.append(f"| {LEARNERS.get(r['learner'], (r['learner'],))[0]} | {r['runs']} | "
-                 f"{int(r['episodes']):,} | {float(r['wall_s_per_run']):.1f} | "
-                 f"{float(r['cpu_s_per_run']):.1f} |")
-    L += ["", TEXT_TIMING, "", "## What it means", ""]
-    L += [" ".join(summary(tables, budgets)), "", TEXT_MEANING, ""]
     docs.mkdir(parents=True, exist_ok=True)
-    (docs / "baselines.md").write_text("\n".join(L))
+    (docs / "baselines.md").write_text(text)
     if readme:
         rewrite_readme(readme, readme_text(tables, budgets))
 
 
-TEXT_SETUP = """The thesis compares its tree features only with REPS on other features. This
-experiment asks how today's standard learners do on the same task: Experiment 3's
-(docs/exp3.md) cue ball at (−0.25, 0), the reward ball uniform in
-[0.05, 0.15] × [−0.1, 0.1], one shot per episode, the reward of eq. 7.7.
+TEXT_SETUP = """Today's standard learners on Experiment 3's task (docs/exp3.md): the cue ball
+at (−0.25, 0), the reward ball uniform in [0.05, 0.15] × [−0.1, 0.1], one shot per
+episode, the reward of eq. 7.7.
 
 ```sh
-make baselines        # venv with SB3 + pycma (PyPI), every run, data/baselines/*.csv, this file
+make baselines         # venv (SB3, pycma; pinned, scripts/baselines-requirements.txt), all runs, CSVs, this page
+sh scripts/baselines.sh one OUT sac 10 2200,22000   # one run (a Slurm array job)
+python3 scripts/baselines_report.py merge OUT data/baselines   # add runs made apart
+make baselines-report  # this page from data/baselines; make verdicts CHECK=1 checks it
 ```
 
-The venv's packages are pinned by version and sha256 in
-`scripts/baselines-requirements.txt` (`pip install --require-hashes`), so that two
-installs train with the same code; torch's CPU path is used (one thread per run).
+- **Same start states**: seed k of every learner plays Experiment 3's start states of
+  repetition k (`experiment.seed` 1), so the comparisons are paired by seed.
+- **One speed-limit rule**: an action faster than `sim.max_speed` is scaled onto the
+  limit for every learner (`exp3.truncation = clip`; PocketEnv does it for the Python
+  learners). SB3 acts in [−1, 1]² × `sim.max_speed`. Every run here followed it (the
+  poolreps learners, which used to draw such actions again, were run again under it).
+- **Equal tuning budget: none.** SB3's defaults; pycma's defaults with σ₀ = 0.1 m/s
+  (Experiment 3's `init_std`); REPS and our CMA-ES with data/exp3.ini's settings.
+- **Two evaluations** at each budget, of one long run per seed (torch on one thread):
+  the mean return of the last 500 training episodes (Experiment 3's), and the return of
+  the learner's mean action (SB3's `deterministic=True`, the CMA-ES mean, REPS's
+  policy mean, `exp3.mean_eval`) on 2,000 fresh start states (seed 1,000,000 + k), the
+  same states for every learner of a seed."""
 
-- **Start states**: seed k of every learner draws its n-th episode's start state from
-  Experiment 3's stream of repetition k (`PocketEnv.reset(seed=1, options={'repetition':
-  k})`, `experiment.seed` 1), so every learner of a seed meets the same states, and the
-  comparisons are paired by seed.
-- **Evaluation** as Experiment 3's: the mean return of the last 500 training episodes, at
-  each budget of one long run per seed (a run is not restarted per budget; the value at
-  2,200 episodes is what a 2,200-episode run gives, since nothing in a learner depends on
-  the total). Also the return of the learner's deterministic action (SB3's
-  `deterministic=True`, the CMA-ES mean) on 2,000 fresh start states (seed 1,000,000 + k,
-  apart from every training stream). Experiment 3's learners keep no policy, so their
-  deterministic evaluation is not measured.
-- **Max speed**: Experiment 3 draws an action faster than `sim.max_speed` again from its
-  Gaussian; SB3 and pycma hand the environment one action, which it scales down to
-  `sim.max_speed` (`info['clipped']`, docs/python.md). SB3 acts in [−1, 1]² ×
-  `sim.max_speed` (`normalize_actions=True`).
-- **Budgets**: Experiment 3's 2,200 episodes, 10× and 25× that. On a shared 2-core
-  machine the SB3 learners, whose SAC takes a gradient step at every step, ran up to
-  {reached} episodes (`BASELINES_SAC_BUDGETS`, `BASELINES_SAC_TUNED_BUDGETS` and
-  `BASELINES_PPO_BUDGETS` set them); the tables give each learner's seed count as run.
-- **Tuned settings** (one per SB3 learner, chosen before any run, not searched): a smaller
-  network (64-64) and learning rate 1e-3; PPO also updates every 200 episodes
-  (Experiment 3's window) with minibatches of 50.
-- **Slurm**: the poolreps learners are Experiment 3 runs and go through
-  `poolreps sweep`/`collect` like any other (docs/cluster.md); the Python learners are not
-  poolreps experiments, so `sweep` cannot schedule them: `scripts/baselines.sh one OUT
-  LEARNER SEED BUDGETS` is one job, which a Slurm array can run, and
-  `scripts/baselines_report.py collect` gathers the folder; `merge` puts the runs of
-  some learners, made apart, in place of theirs in the committed CSVs."""
+TEXT_STATS = f"""## Results
 
-TEXT_TIMING = """Wall and CPU seconds of one run of the length shown (Python learners: at their
-largest budget, measured inside the run, CPU of the process; poolreps learners: the whole
-process for all its repetitions, divided by their number). The machine was shared with
-other work at the time, so wall time is mostly waiting; CPU time is the cost."""
+The rule: per budget the interquartile mean (IQM) of the seeds'
+values with its 95 % stratified-bootstrap interval ({BOOT} resamples), and the
+probability of improvement P(X > Y) + P(X = Y)/2 of a seed of the learner over one of
+REPS + hand-crafted features, with its interval (Agarwal et al., NeurIPS 2021; the
+`rliable` estimators, in scripts/verdict_stats.py, tested against scipy). The verdict:
+the paired t test of the last-{LAST} means against REPS + hand-crafted features over the
+seeds both ran, Holm-adjusted over one budget's learners, 5 %: *below*, *above* or *no
+difference shown*. SAC, PPO and pycma have 10 seeds at 55,000 episodes."""
+
+TEXT_TIMING = """Python learners: the process's CPU up to that budget, measured inside
+the run; poolreps learners: the whole process (all repetitions, mean-action evaluations
+every 1,100 episodes included) divided by the repetitions. Measured on a shared 2-core
+machine; wall time was mostly waiting."""
 
 TEXT_MEANING = """For the thesis's question, whether tree features let REPS learn this task
-well, the comparison that matters is against learners that need no features at all:
-SAC and PPO learn their own from the state, CMA-ES searches the hand-crafted policy's
-weights directly. The verdicts above are per budget; a learner with fewer than 10
-seeds at a budget is reported with the seeds it has, and with fewer than 2 it has no
-interval."""
+well, the comparison that matters is against learners that need no features: SAC and
+PPO learn their own from the state, CMA-ES searches the hand-crafted policy's weights.
+*No difference shown* is a failure to reject at the seeds run, not a finding of
+equality."""
 
 
 def main(argv):
@@ -512,8 +511,12 @@ def main(argv):
         collect(argv[2], argv[3])
     elif len(argv) == 4 and argv[1] == "merge":
         merge(argv[2], argv[3])
-    elif len(argv) in (4, 5) and argv[1] == "report":
-        report(*argv[2:])
+    elif len(argv) in (4, 5, 6) and argv[1] == "report":
+        args = [a for a in argv[2:] if a != "--check"]
+        if len(args) not in (2, 3) or argv[2:].count("--check") > 1:
+            print(__doc__, file=sys.stderr)
+            return 1
+        report(*args, check="--check" in argv)
     else:
         print(__doc__, file=sys.stderr)
         return 1

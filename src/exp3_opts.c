@@ -23,6 +23,8 @@ void pr_exp3_opts_init(pr_exp3_opts *o)
 	o->final_episodes = 500;
 	o->state = PR_EXP3_STATE_VARYING;
 	o->truncation = PR_EXP3_TRUNC_REDRAW;
+	o->mean_eval_every = 1100;
+	o->mean_eval_seed = 1000000;
 }
 
 static void init_keys(void *o)
@@ -48,6 +50,12 @@ static const pr_config_key key_table[] = {
 	 "learning state: the coordinates that vary, or every ball's position (eq. 7.1: 4-D)"},
 	{"exp3", "truncation", PR_KEY_ENUM, F(truncation), 0, 0, 0, "redraw|clip|corrected",
 	 "actions above sim.max_speed: drawn again, scaled onto the limit, or drawn again with truncated densities"},
+	{"exp3", "mean_eval", PR_KEY_INT, F(mean_eval), 0, PR_KEY_COUNT_MAX, 0, "",
+	 "start states the policy's mean action is shot from (exp3_mean.csv; 0: none)"},
+	{"exp3", "mean_eval_every", PR_KEY_INT, F(mean_eval_every), 1, PR_KEY_COUNT_MAX, 0, "",
+	 "mean-action evaluation whenever a run's episodes are a multiple of this"},
+	{"exp3", "mean_eval_seed", PR_KEY_ULONG, F(mean_eval_seed), 0, 4294967295.0, 0, "",
+	 "repetition k's evaluation states: GSL mt19937 set to this + k"},
 };
 #undef F
 

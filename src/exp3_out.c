@@ -6,6 +6,8 @@
  *   exp3_episodes.csv  repetition,policy,iteration,x0,y0,...,vx,vy,return,rx,ry,pocket,hit
  *   exp3_reps.csv      repetition,policy,iteration,eta,kl,ess,bound,residual,q_ess,
  *                      features,dual_evals,redraws,policy_flags,kl_gap,residual_rel,status
+ *   exp3_mean.csv      repetition,policy,episodes,states,mean_return,pocket_rate
+ *                      (exp3.mean_eval > 0)
  * Derived: exp3_curve.csv (Fig. 7.7), exp3_final.csv (Fig. 7.8),
  * exp3_pockets.csv (Fig. 7.9), exp3_dist.csv (Fig. 7.10), exp3_reps_summary.csv.
  */
@@ -124,12 +126,43 @@ static int write_reps(const pr_exp3_job *runs, int nruns, const char *dir, char 
 	return pr_csvw_finish(w, rc, err);
 }
 
+/* exp3_mean.csv (exp3.mean_eval > 0): per run and evaluation, the episodes
+ * played so far and the mean action's mean return and target-pocket rate. */
+static int write_mean(const pr_exp3_opts *e, const pr_exp3_job *runs, int nruns,
+                      const char *dir, char *err)
+{
+	char path[PR_PATHLEN];
+	pr_csvw *w;
+	int j, i, rc;
+
+	snprintf(path, sizeof path, "%s/exp3_mean.csv", dir);
+	if (!(w = pr_csvw_open(path, err)))
+		return PR_EIO;
+	rc = pr_csvw_header(w, "repetition,policy,episodes,states,mean_return,pocket_rate");
+	for (j = 0; rc == PR_OK && j < nruns; ++j)
+		for (i = 0; rc == PR_OK && i < runs[j].nmean; ++i) {
+			rc |= pr_csvw_int(w, runs[j].repetition);
+			rc |= pr_csvw_str(w, pr_exp3_variant_name[runs[j].variant]);
+			rc |= pr_csvw_int(w, runs[j].mean_eps[i]);
+			rc |= pr_csvw_int(w, e->mean_eval);
+			rc |= pr_csvw_num(w, runs[j].mean_ret[i]);
+			rc |= pr_csvw_num(w, runs[j].mean_pocket[i]);
+			rc |= pr_csvw_endrow(w);
+		}
+	return pr_csvw_finish(w, rc, err);
+}
+
 int pr_exp3_write_raw(const pr_config *cfg, const pr_exp3_job *runs, int nruns, const char *dir,
                       char *err)
 {
+	const pr_exp3_opts *e = pr_exp3_opts_of(cfg);
 	int rc = write_episodes(cfg, runs, nruns, dir, err);
 
-	return rc ? rc : write_reps(runs, nruns, dir, err);
+	if (rc == PR_OK)
+		rc = write_reps(runs, nruns, dir, err);
+	if (rc == PR_OK && e->mean_eval > 0)
+		rc = write_mean(e, runs, nruns, dir, err);
+	return rc;
 }
 
 /* ---- summaries (from the raw CSVs on disk only) ---- */

@@ -43,6 +43,9 @@ typedef struct {
 	int handcrafted_method; /* PR_METHOD_*: the hand-crafted variant's learner */
 	int state;             /* PR_EXP3_STATE_*: the learner's state coordinates */
 	int truncation;        /* PR_EXP3_TRUNC_*: actions faster than sim.max_speed */
+	int mean_eval;         /* start states the mean action is evaluated on (0: none) */
+	int mean_eval_every;   /* ... whenever a run's episodes are a multiple of this */
+	unsigned long mean_eval_seed; /* repetition k's states: mt19937 set to this + k */
 } pr_exp3_opts;
 /* exp3.state: the coordinates whose start box has extent (the cue ball's is a
  * point), or every ball's position as in eq. 7.1 (4-D with two balls). */
@@ -177,13 +180,19 @@ void pr_exp3_learner_take(pr_exp3_learner *L, pr_exp3_episodes *out);
 
 /* ---- outputs (exp3_out.c) ---- */
 
-/* One learner's episodes with its repetition and variant. */
+/* One learner's episodes with its repetition and variant, and its mean-action
+ * evaluations (exp3.mean_eval > 0): nmean rows of (episodes so far, mean
+ * return, pocket rate). */
 typedef struct {
 	int repetition, variant;
 	pr_exp3_episodes ep;
+	int nmean;
+	int *mean_eps;
+	double *mean_ret, *mean_pocket;
 } pr_exp3_job;
 
-/* Raw dir/exp3_episodes.csv and dir/exp3_reps.csv of runs in order. */
+/* Raw dir/exp3_episodes.csv and dir/exp3_reps.csv of runs in order, and
+ * dir/exp3_mean.csv when exp3.mean_eval > 0. */
 int pr_exp3_write_raw(const pr_config *cfg, const pr_exp3_job *runs, int nruns, const char *dir,
                       char *err);
 

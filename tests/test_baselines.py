@@ -121,7 +121,7 @@ def test_smoke_run_writes_the_csvs_and_the_report(tmp_path):
     secs = time.time() - t0
     runs = br.read(data / "runs.csv")
     learners = {r["learner"] for r in runs}
-    assert learners == {"cma_linear", "sac", "ppo_tuned", "reps_handcrafted",
+    assert learners == {"cma_linear", "sac", "ppo", "reps_handcrafted",
                         "reps_tree_nrvr_a", "ccmaes_handcrafted"}
     # a poolreps learner's value is the mean of its episodes 100..599 (independently)
     with open(out / "reps/creps_handcrafted/exp3_episodes.csv") as f:
@@ -131,7 +131,9 @@ def test_smoke_run_writes_the_csvs_and_the_report(tmp_path):
     assert got == [float(np.mean(R[100:600]))]
     assert (docs / "figures/baselines.png").stat().st_size > 10000
     text = (docs / "baselines.md").read_text()
-    assert "## Budget 600 episodes" in text and "SAC (SB3 defaults)" in text
+    assert "**600 episodes**" in text and "SAC (SB3 defaults)" in text
+    # every learner has its mean-action evaluation, the poolreps ones too
+    assert all(r["deterministic_mean"] for r in runs), [r for r in runs if not r["deterministic_mean"]]
     print(f"smoke run: {secs:.1f} s")
 
 
@@ -197,3 +199,73 @@ def test_merge_replaces_one_learner_as_a_full_collect_would(tmp_path):
     with pytest.raises(SystemExit, match="differs"):
         br.merge(apart, tmp_path / "got")
     assert {p.name: p.read_bytes() for p in (tmp_path / "got").iterdir()} == before
+
+
+@pytest.mark.parametrize("method", ["creps", "ccmaes"])
+def test_exp3_mean_eval_shoots_from_the_python_learners_evaluation_states(tmp_path, method):
+    """exp3.mean_eval: pi_0's mean action is (0, 0), so its evaluation's mean
+    return is that of a still cue ball from the evaluation states, which
+    PocketEnv.reset_batch(n, seed=mean_eval_seed + k) draws for the Python
+    learners (the oracle: the binding's own start states and shots). Later
+    rows come every mean_eval_every episodes; without the key no file."""
+    from conftest import run_poolreps
+    if os.environ.get("SAN") == "1":
+        pytest.skip("under SAN=1 the binding would load the sanitized library without the "
+                    "sanitizer runtime preloaded")
+    sys.path.insert(0, str(ROOT / "python"))
+    import poolreps
+    base = [ROOT / "data/exp3.ini", "-q", "--set", "exp3.iterations=3",
+            "--set", "experiment.repetitions=2", "--set", "exp3.policies=handcrafted",
+            "--set", f"exp3.handcrafted_method={method}", "--set", "exp3.truncation=clip"]
+    p = run_poolreps(base + ["-o", tmp_path / "a", "--set", "exp3.mean_eval=40",
+                             "--set", "exp3.mean_eval_every=40", "--set",
+                             "exp3.mean_eval_seed=77"])
+    assert p.returncode == 0, p.stderr
+    rows = br.read(tmp_path / "a/exp3_mean.csv")
+    # 200 episodes at iteration 0, then 20 per iteration: 200, 240
+    assert [(r["repetition"], r["episodes"]) for r in rows] == [
+        ("0", "200"), ("0", "240"), ("1", "200"), ("1", "240")]
+    env = poolreps.PocketEnv()
+    for r in rows[::2]:
+        S = env.reset_batch(40, seed=77 + int(r["repetition"]))[0]
+        want = float(env.step_batch(S, np.zeros((40, 2)))[1].mean())
+        assert math.isclose(float(r["mean_return"]), want, rel_tol=1e-12), r
+    assert all(r["states"] == "40" for r in rows)
+    assert rows[1]["mean_return"] != rows[0]["mean_return"]  # the learned mean moved
+    p = run_poolreps(base + ["-o", tmp_path / "b"])
+    assert p.returncode == 0, p.stderr
+    assert not (tmp_path / "b/exp3_mean.csv").exists()
+    for f in ("exp3_episodes.csv", "exp3_reps.csv"):
+        assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes(), f
+
+
+def test_merge_adds_seeds_run_apart_and_keeps_the_others(tmp_path):
+    """Seeds 3-4 of a learner, run apart, merged into data holding its seeds
+    0-2: the bytes of a collect of all five runs together."""
+    full, old, apart = tmp_path / "full", tmp_path / "old", tmp_path / "apart"
+    for s in range(5):
+        fake_run(full, "sac", s, [300, 600] if s < 3 else [300], 0.1)
+        fake_run(old if s < 3 else apart, "sac", s, [300, 600] if s < 3 else [300], 0.1)
+    br.collect(full, tmp_path / "want")
+    br.collect(old, tmp_path / "got")
+    br.merge(apart, tmp_path / "got")
+    for f in ("runs.csv", "curve.csv", "timing.csv"):
+        assert (tmp_path / "got" / f).read_bytes() == (tmp_path / "want" / f).read_bytes(), f
+    assert len({r["seed"] for r in br.read(tmp_path / "got/runs.csv")}) == 5
+
+
+def test_report_check_fails_on_a_changed_page_and_writes_nothing(tmp_path):
+    import shutil
+    docs, readme = tmp_path / "docs", tmp_path / "README.md"
+    shutil.copy(ROOT / "README.md", readme)
+    br.report(ROOT / "data/baselines", docs, readme)
+    br.report(ROOT / "data/baselines", docs, readme, check=True)  # agrees
+    page = docs / "baselines.md"
+    page.write_text(page.read_text().replace("| 20 |", "| 21 |", 1))
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    p = run_cmd([sys.executable, ROOT / "scripts/baselines_report.py", "report",
+                 ROOT / "data/baselines", docs, readme, "--check"],
+                capture_output=True, text=True)
+    assert p.returncode == 1 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert "baselines.md" in p.stderr
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
