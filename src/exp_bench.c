@@ -290,6 +290,43 @@ static pr_policy *update_ccmaes(const bench_ctx *c, pr_cmaes *cm, const batch *b
 	return next;
 }
 
+/* One iteration's n episodes into bt, drawn from pol (C-CMA-ES) or asked
+ * of L (C-REPS); their mean return into m, the policies' flags into *flags. */
+static int sample_batch(const bench_ctx *c, gsl_rng *rng, pr_policy *pol, pr_learner *L,
+                        pr_policy_work *ws, const double *G, batch *bt, double *psi, double *buf,
+                        double *m, int *flags, char *err)
+{
+	const int k = c->k, da = c->dims;
+	int i, j, rc;
+
+	m[M_RETURN] = 0.0;
+	*flags = 0;
+	for (i = 0; i < bt->n; i++) {
+		double *s = bt->S + (size_t)i * k, *x = bt->X + (size_t)i * da;
+		int f = 0;
+
+		draw_context(c, rng, s);
+		/* one context at a time: the stream's draws stay in the order
+		 * context, action, context, ... */
+		if (pol)
+			rc = pr_policy_sample(pol, s, 1, rng, x, &f, ws, err);
+		else if ((rc = pr_learner_ask(L, 1, s, x, err)) == PR_OK)
+			pr_learner_ask_info(L, NULL, &f);
+		if (rc)
+			return rc;
+		*flags |= f;
+		bt->R[i] = objective(c, G, x, s, buf);
+		m[M_RETURN] += bt->R[i] / bt->n;
+		/* value features: s, or s and s_j s_k (eq. 3.4 with hand-made phi) */
+		pr_policy_features_quadratic(s, k, psi);
+		for (j = 0; j < bt->dv; j++)
+			bt->phi[(size_t)i * bt->dv + j] = psi[1 + j];
+		if (bt->B)
+			memcpy(bt->B + (size_t)i * bt->nq, psi, (size_t)bt->nq * sizeof *psi);
+	}
+	return PR_OK;
+}
+
 static int run_rep(void *ctx, int rep, char *err)
 {
 	bench_ctx *c = ctx;
@@ -358,31 +395,9 @@ static int run_rep(void *ctx, int rep, char *err)
 			rc = pr_err(err, PR_EINTR, "bench: interrupted");
 			goto done;
 		}
-		m[M_RETURN] = 0.0;
-		flags = 0;
-		for (i = 0; i < n; i++) {
-			double *s = bt.S + (size_t)i * k, *x = bt.X + (size_t)i * da;
-			int f = 0;
-
-			draw_context(c, rng, s);
-			/* one context at a time: the stream's draws stay in the order
-			 * context, action, context, ... */
-			if (cmaes)
-				rc = pr_policy_sample(pol, s, 1, rng, x, &f, ws, err);
-			else if ((rc = pr_learner_ask(L, 1, s, x, err)) == PR_OK)
-				pr_learner_ask_info(L, NULL, &f);
-			if (rc)
-				goto done;
-			flags |= f;
-			bt.R[i] = objective(c, G, x, s, buf);
-			m[M_RETURN] += bt.R[i] / n;
-			/* value features: s, or s and s_j s_k (eq. 3.4 with hand-made phi) */
-			pr_policy_features_quadratic(s, k, psi);
-			for (j = 0; j < bt.dv; j++)
-				bt.phi[(size_t)i * bt.dv + j] = psi[1 + j];
-			if (cmaes)
-				memcpy(bt.B + (size_t)i * bt.nq, psi, (size_t)bt.nq * sizeof *psi);
-		}
+		if ((rc = sample_batch(c, rng, cmaes ? pol : NULL, L, ws, G, &bt, psi, buf, m, &flags,
+		                       err)))
+			goto done;
 		m[M_SAMPLES] = (double)(it + 1) * n;
 		if ((rc = score(c, cmaes ? pol : pr_learner_policy(L), G, tc, ws, buf, m, &flags, err)))
 			goto done;

@@ -20,7 +20,7 @@
 #define MAX_REDRAW 100   /* draws of an action beyond max_norm */
 #define MAX_DIM 100000   /* context, action, target and feature dimensions */
 #define MAX_WINDOW 10000000
-#define MAX_ACTION 64    /* action dimensions (a query's covariance lives on the stack) */
+#define MAX_ACTION 1000  /* action dimensions (two da x da scratch covariances per learner) */
 
 typedef struct {
 	pr_policy *p;
@@ -49,6 +49,8 @@ struct pr_learner {
 	int redraws, ask_flags;
 	pr_learner_summary last;
 	char **names;            /* dx + da column names, or NULL */
+	double *m0, *c0, *m1, *c1; /* scratch mean (da) and covariance (da x da): two levels,
+	                            * as pol_lp runs inside ask_one */
 };
 
 void pr_learner_opts_init(pr_learner_opts *o)
@@ -175,6 +177,8 @@ void pr_learner_free(pr_learner *L)
 	win_free(&L->w);
 	win_free(&L->ask);
 	free_names(L->names, L->dx + L->da);
+	free(L->m0);
+	free(L->m1);
 	free(L);
 }
 
@@ -219,6 +223,15 @@ pr_learner *pr_learner_new(const pr_learner_opts *o, int dx, int da, gsl_rng *rn
 	L->o = *o;
 	L->dx = dx;
 	L->da = da;
+	L->m0 = malloc(((size_t)da * da + da) * sizeof *L->m0);
+	L->m1 = malloc(((size_t)da * da + da) * sizeof *L->m1);
+	if (!L->m0 || !L->m1) {
+		pr_learner_free(L);
+		pr_err(err, PR_ENOMEM, "out of memory");
+		return NULL;
+	}
+	L->c0 = L->m0 + da;
+	L->c1 = L->m1 + da;
 	L->rng = rng;
 	L->npol = 1;
 	L->cpol = 4;
@@ -330,7 +343,7 @@ static int gauss_lp(const pr_learner *L, const double *mean, const double *cov, 
 static int pol_lp(const pr_learner *L, const lpol *P, const double *x, const double *a,
                   double *lp, int *flags, char *err)
 {
-	double mean[MAX_ACTION], cov[MAX_ACTION * MAX_ACTION], *m = mean, *c = cov;
+	double *m = L->m1, *c = L->c1;
 	int rc;
 
 	if (!corrected(L))
@@ -402,7 +415,7 @@ static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 {
 	const lpol *cur = &L->pol[L->npol - 1];
 	const double *x = w->X + (size_t)i * L->dx;
-	double mean[MAX_ACTION], cov[MAX_ACTION * MAX_ACTION], *m = mean, *c = cov;
+	double *m = L->m0, *c = L->c0;
 	double *a = w->A + (size_t)i * L->da;
 	double *lp = w->lp + (size_t)i * w->lc;
 	int rc, k, f = 0;
@@ -485,7 +498,7 @@ void pr_learner_ask_info(const pr_learner *L, int *redraws, int *flags)
 int pr_learner_mean(pr_learner *L, int n, const double *contexts, double *actions, char *err)
 {
 	const lpol *cur = &L->pol[L->npol - 1];
-	double cov[MAX_ACTION * MAX_ACTION];
+	double *cov = L->c0;
 	int i, rc;
 
 	if ((rc = check_rows(n, contexts, actions, err)) ||
@@ -568,7 +581,7 @@ static int told_densities(pr_learner *L, stage *S, const told *b, int i, int j, 
 	const lpol *cur = &L->pol[L->npol - 1];
 	const double *x = b->contexts + (size_t)i * L->dx, *a = b->actions + (size_t)i * L->da;
 	double *lp = S->w.lp + (size_t)j * S->w.lc, *mu = S->w.mu ? S->w.mu + (size_t)j * L->da : NULL;
-	double cov[MAX_ACTION * MAX_ACTION];
+	double *cov = L->c0;
 	int k, rc, f = 0, off = S->pmin - L->pbase;
 
 	if (L->ask_iter == L->niter && i < L->ask.n &&
