@@ -309,11 +309,13 @@ def interruptible(call, *keep):
 CHUNK_ROWS = 8192
 
 
-def interruptible_call(fn, *args):
+def interruptible_call(fn, *args, keep=()):
     """fn(*args), a library call that cannot be cut into pieces (a fit, a
     REPS solve) and polls pr_interrupted in its loops, as interruptible()
-    runs one: Ctrl-C reaches the caller at once."""
-    return interruptible(lambda: fn(*args), *args)
+    runs one: Ctrl-C reaches the caller at once. keep: the objects behind
+    the addresses in args (arrays, the configuration), held until the call
+    ends: an interrupted caller unwinds while the worker still reads them."""
+    return interruptible(lambda: fn(*args), *args, *keep)
 
 
 def chunks(n, rows=CHUNK_ROWS):

@@ -190,7 +190,8 @@ def reps(returns: ArrayLike, features: Any = None, epsilon: Optional[float] = No
     res = ctypes.c_void_p()
     err = errbuf()
     rc = _lib.interruptible_call(lib.pr_bind_reps, cfg.ptr, n, d, addr(R), addr(q), addr(phi),
-                            addr(rowptr), addr(col), addr(val), ctypes.byref(res), err)
+                                 addr(rowptr), addr(col), addr(val), ctypes.byref(res), err,
+                                 keep=(cfg, R, q, phi, rowptr, col, val))
     check(rc, err)
     h = Handle(res.value, lib.pr_reps_result_free)
     out = {"p": np.ctypeslib.as_array(ctypes.cast(lib.pr_bind_reps_p(h.ptr),
@@ -261,10 +262,11 @@ class _Model:
             raise ValueError(f"{type(self).__name__}: call fit() first")
         return h
 
-    def _fit(self, fn, free, meta, *args):
+    def _fit(self, fn, free, meta, *args, keep=()):
         out = ctypes.c_void_p()
         err = errbuf()
-        check(_lib.interruptible_call(fn, self._cfg.ptr, *args, ctypes.byref(out), err), err)
+        check(_lib.interruptible_call(fn, self._cfg.ptr, *args, ctypes.byref(out), err,
+                                      keep=(self._cfg,) + keep), err)
         self._h = Handle(out.value, free, meta)
         return self
 
@@ -331,7 +333,7 @@ class Forest(_Model):
         w = (None if sample_weight is None else
              _lib.weights("sample_weight", array("sample_weight", sample_weight, 1, rows=n), "weight"))
         return self._fit(lib.pr_bind_forest_fit, lib.pr_forest_free, y.ndim == 1, n, X.shape[1],
-                         Y.shape[1], addr(X), addr(Y), addr(w))
+                         Y.shape[1], addr(X), addr(Y), addr(w), keep=(X, Y, w))
 
     def _inputs(self, h, X):
         return array("X", X, 2, cols=lib.pr_forest_dx(h.ptr), allow_empty=True)
@@ -439,7 +441,7 @@ class Policy(_Model):
                 "target": None if Y is None else Y.copy()}
         return self._fit(lib.pr_bind_policy_fit, lib.pr_policy_free, meta, n, S.shape[1],
                          A.shape[1], 0 if Y is None else Y.shape[1], addr(S), addr(A), addr(w),
-                         addr(Y))
+                         addr(Y), keep=(S, A, w, Y))
 
     def _states(self, h, S):
         S = array("S", S, 2, cols=lib.pr_policy_ds(h.ptr), allow_empty=True)
