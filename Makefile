@@ -313,7 +313,7 @@ ifeq ($(SAN),1)
 # (test_runtime_libs reads the library's NEEDED list, which the sanitizers
 # change: it runs in the plain build only)
 PYBIND_TESTS := tests/test_python.py tests/test_gym.py tests/test_api_strict.py \
-  tests/test_learner_python.py tests/test_shot_params.py
+  tests/test_learner_python.py tests/test_shot_params.py tests/test_learner_bench.py
 check-py: export PYTEST_ADDOPTS := $(patsubst %,--ignore=%,$(PYBIND_TESTS)) \
   --ignore=tests/test_python_install.py --ignore=tests/test_runtime_libs.py
 check-py: check-pybind
