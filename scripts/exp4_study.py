@@ -364,7 +364,7 @@ def closing(ver, runs, m):
     head = (
         f"**Against Experiment 3's {m:g} m margin, REPS at π₀'s resolution (ε 0.5, 1 mm/s "
         f"floor) degrades {cnt(tot, 'degrades')} and improves {cnt(tot, 'improves')} of the "
-        f"{len(tot)} imitated tree policies ({cnt(tot_m, 'degrades')} and "
+        f"{len(tot)} imitated tree policy × covariance cells ({cnt(tot_m, 'degrades')} and "
         f"{cnt(tot_m, 'improves')} by their mean actions); of its mean change, "
         f"{parts[0]:+.3f} m, refitting at π₀'s resolution without REPS accounts for "
         f"{parts[1]:+.3f} m and REPS's reweighting for {parts[2]:+.3f} m**")
