@@ -127,3 +127,24 @@ def test_wrong_file_is_not_read_whole(tmp_path):
     assert b"big.csv:1: not a poolreps forest file" in err, err
     assert peak < 100 * 1024, f"peak {peak} KiB"
     assert not (tmp_path / "p.csv").exists()
+
+
+def test_sparse_terabyte_is_refused_before_any_allocation(tmp_path):
+    """A sparse 1 TB file of zeros given to --load: refused by its first
+    bytes (exit 2, one line, nothing written), never allocated for (an
+    allocation of its size first would fail with "out of memory", exit 4).
+    The huge file lies outside the folder snapshotted (hashing it would read
+    it all)."""
+    (tmp_path / "in").mkdir()
+    (tmp_path / "work").mkdir()
+    (tmp_path / "in" / "tr.csv").write_bytes(TRAIN)
+    huge = tmp_path / "in" / "huge"
+    with open(huge, "wb") as f:
+        f.truncate(2**40)
+    before = snapshot(tmp_path / "work")
+    r = run(["forest", "--load", huge, "--test", tmp_path / "in" / "tr.csv", "-o", "p.csv"],
+            tmp_path / "work")
+    assert r.returncode == IO, r.stderr
+    assert one_line(r) == f"poolreps: {huge}:1: not a poolreps forest file\n", r.stderr
+    assert changed(before, snapshot(tmp_path / "work")) == set()
+    assert os.path.getsize(huge) == 2**40

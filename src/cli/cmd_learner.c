@@ -13,14 +13,9 @@
  * STATE and every other path as they were. The random stream is
  * mt19937 seeded with experiment.seed, as poolreps.Learner's.
  */
-#include <errno.h>
-#include <fcntl.h>
-#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <gsl/gsl_rng.h>
 
@@ -47,58 +42,21 @@ static int verb_of(const learner_args *a)
 	return -1;
 }
 
-/* The whole of STATE into memory, once its first bytes show it is a state
- * this library reads (a large foreign file is refused unread). */
-static int read_state(const char *path, unsigned char **buf, size_t *len, char *err)
-{
-	unsigned char head[PR_LEARNER_HEAD_LEN];
-	/* non-blocking: a FIFO is refused below, not waited on */
-	const int fd = open(path, O_RDONLY | O_NONBLOCK);
-	FILE *fp = fd < 0 ? NULL : fdopen(fd, "rb");
-	struct stat st;
-	size_t size = 0, n = 0;
-	int rc = PR_OK;
-
-	*buf = NULL;
-	*len = 0;
-	if (!fp) {
-		rc = pr_err(err, errno == ENOMEM ? PR_ENOMEM : PR_EIO, "%s: cannot open: %s", path,
-		            strerror(errno));
-		if (fd >= 0)
-			close(fd);
-		return rc;
-	}
-	if (fstat(fileno(fp), &st) || !S_ISREG(st.st_mode) || (uintmax_t)st.st_size > SIZE_MAX)
-		rc = pr_err(err, PR_EIO, "%s: not a regular file", path);
-	if (rc == PR_OK) {
-		n = fread(head, 1, sizeof head, fp);
-		rc = pr_learner_check_head(head, n, path, err);
-	}
-	size = rc ? 0 : (size_t)st.st_size;
-	if (rc == PR_OK && size < n)
-		rc = pr_err(err, PR_EIO, "%s: cannot read (changed while read?)", path);
-	if (rc == PR_OK && !(*buf = malloc(size)))
-		rc = pr_err(err, PR_ENOMEM, "learner: out of memory");
-	if (rc == PR_OK) {
-		memcpy(*buf, head, n);
-		if (fread(*buf + n, 1, size - n, fp) != size - n || getc(fp) != EOF)
-			rc = pr_err(err, PR_EIO, "%s: cannot read (changed while read?)", path);
-	}
-	fclose(fp);
-	*len = rc ? 0 : size;
-	return rc;
-}
-
 /* The learner saved in STATE, drawing from rng; NULL with *rc set. */
 static pr_learner *load(const char *path, gsl_rng *rng, int *rc, char *err)
 {
-	unsigned char *buf;
+	char *buf;
 	size_t len = 0;
 	pr_learner *L = NULL;
 
-	/* past the head, a load fails for a bad file or for memory */
-	if ((*rc = read_state(path, &buf, &len, err)) == PR_OK &&
-	    !(L = pr_learner_load(buf, len, path, rng, err)))
+	/* a foreign file is refused after its first bytes; the header decides
+	 * the status (another version: PR_EINVAL), past it a load fails for a
+	 * bad file or for memory */
+	*rc = pr_cmd_read_whole(path, "poolreps-learner\n", ": not a poolreps learner state", &buf,
+	                        &len, err);
+	if (*rc == PR_OK)
+		*rc = pr_learner_check_head((const unsigned char *)buf, len, path, err);
+	if (*rc == PR_OK && !(L = pr_learner_load((const unsigned char *)buf, len, path, rng, err)))
 		*rc = pr_out_of_memory ? PR_ENOMEM : PR_EIO;
 	free(buf);
 	return L;

@@ -104,30 +104,34 @@ static size_t read_full(int fd, char *buf, size_t n)
 
 /* A regular file only (a device or a FIFO would be read without end, and
  * opening a FIFO would wait), its size taken once, and another file given
- * by mistake refused after its first bytes, not read whole. */
+ * by mistake refused after its first bytes: neither read whole nor
+ * allocated for (a sparse terabyte of zeros is refused at once). */
 int pr_cmd_read_whole(const char *path, const char *magic, const char *not_it, char **text,
                       size_t *len, char *err)
 {
 	int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
 	size_t n = 0, nm = strlen(magic);
 	struct stat st;
-	char *buf = NULL, extra;
+	char *buf = NULL, head[64], extra;
 	int rc = PR_OK;
 
 	*text = NULL;
 	*len = 0;
 	if (fd < 0)
 		return pr_err(err, PR_EIO, "%s: cannot open: %s", path, strerror(errno));
-	if (fstat(fd, &st) != 0)
+	if (nm > sizeof head)
+		rc = pr_err(err, PR_EINVAL, "%s: magic longer than %zu bytes", path, sizeof head);
+	else if (fstat(fd, &st) != 0)
 		rc = pr_err(err, PR_EIO, "%s: cannot read: %s", path, strerror(errno));
 	else if (!S_ISREG(st.st_mode))
 		rc = pr_err(err, PR_EIO, "%s: not a regular file", path);
+	else if ((n = read_full(fd, head, nm < (size_t)st.st_size ? nm : (size_t)st.st_size)) < nm ||
+	         memcmp(head, magic, n))
+		rc = pr_err(err, PR_EIO, "%s%s", path, not_it);
 	else if (!(buf = malloc((size_t)st.st_size + 1)))
 		rc = pr_err(err, PR_ENOMEM, "%s: out of memory", path);
-	else if ((n = read_full(fd, buf, nm < (size_t)st.st_size ? nm : (size_t)st.st_size)) < nm ||
-	         memcmp(buf, magic, n))
-		rc = pr_err(err, PR_EIO, "%s%s", path, not_it);
-	else if ((n += read_full(fd, buf + n, (size_t)st.st_size - n)) != (size_t)st.st_size ||
+	else if (memcpy(buf, head, n),
+	         (n += read_full(fd, buf + n, (size_t)st.st_size - n)) != (size_t)st.st_size ||
 	         read_full(fd, &extra, 1))
 		rc = pr_err(err, PR_EIO, "%s: cannot read: the file changed while it was read", path);
 	close(fd);
