@@ -337,8 +337,20 @@ def split_effect(ver, total, control, reweight):
     return "; ".join(out)
 
 
-def mean_diff(ver, measure, names):
-    return float(np.mean([float(r["diff"]) for r in pick(ver, measure, names)]))
+def mean_diff_ci(runs, names, col="final_return"):
+    """The mean over the tree policy x covariance cells of the comparisons in
+    names, with its 95 % t interval over the repetitions: per repetition the
+    cells' differences are averaged, so the interval keeps their pairing."""
+    idx = {(r["arm"], r["variant"], int(r["repetition"])): float(r[col]) for r in runs}
+    cells = [c for c in comparisons(runs) if c[4] in names and c[5] in TREES]
+    reps = sorted({k for (_, _, k) in idx})
+    per_rep = [np.mean([idx[(aa, va, k)] - idx[(ab, vb, k)] for aa, va, ab, vb, *_ in cells])
+               for k in reps]
+    return vs.t_interval(per_rep)
+
+
+def fmt_ci(m, lo, hi):
+    return f"{m:+.3f} m [{lo:+.3f}, {hi:+.3f}]"
 
 
 MATCHED = (["matched REPS (eps 0.5) vs imitation"], ["refit_matched vs imitation"],
@@ -351,7 +363,9 @@ def closing(ver, runs, m):
     tot = pick(ver, "sampled", MATCHED[0])
     tot_m = pick(ver, "mean_action", MATCHED[0])
     cnt = lambda rows, w: sum(r["margin_verdict"] == w for r in rows)  # noqa: E731
-    parts = [mean_diff(ver, "sampled", names) for names in MATCHED]
+    parts = [fmt_ci(*mean_diff_ci(runs, names)) for names in MATCHED]
+    parts_m = [fmt_ci(*mean_diff_ci(runs, names, "mean_action_return")) for names in MATCHED]
+    ntest = 3 * sum(r["measure"] == "sampled" for r in ver)
     fl = ["floor3", "floor10"]
     eps = ["0.25", "0.1"]
     off = (["matched REPS vs imitation, floor0"], ["refit_matched vs imitation, floor0"],
@@ -366,12 +380,15 @@ def closing(ver, runs, m):
         f"floor) degrades {cnt(tot, 'degrades')} and improves {cnt(tot, 'improves')} of the "
         f"{len(tot)} imitated tree policy × covariance cells ({cnt(tot_m, 'degrades')} and "
         f"{cnt(tot_m, 'improves')} by their mean actions); of its mean change, "
-        f"{parts[0]:+.3f} m, refitting at π₀'s resolution without REPS accounts for "
-        f"{parts[1]:+.3f} m and REPS's reweighting for {parts[2]:+.3f} m**")
+        f"{parts[0]}, refitting at π₀'s resolution without REPS accounts for "
+        f"{parts[1]} and REPS's reweighting for {parts[2]}**")
     return head, [
-        head + f" ({nrep} paired repetitions; each difference tested for worse than −{m:g} m, "
-        f"better than +{m:g} m and within ±{m:g} m, Holm over every test of its measure; "
-        f"counts for the sampled actions, [mean actions]). "
+        head + f" ({nrep} paired repetitions; mean changes over the {len(tot)} cells with "
+        f"95 % t intervals over the repetitions; each difference tested for worse than "
+        f"−{m:g} m, better than +{m:g} m and within ±{m:g} m, Holm over all {ntest} tests "
+        f"of its measure, 3 for each of its {ntest // 3} comparisons; "
+        f"counts for the sampled actions, [mean actions]). By mean actions the change is "
+        f"{parts_m[0]}: refitting {parts_m[1]}, reweighting {parts_m[2]}. "
         f"At π₀'s resolution: {split_effect(ver, *MATCHED)}. "
         f"With the floor practically off: {split_effect(ver, *off)}. "
         f"At `policy.n_min` (REPS as first run): {split_effect(ver, *nmin)}. "

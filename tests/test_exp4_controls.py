@@ -358,6 +358,33 @@ def test_split_adds_up():
     assert n >= 2 * (8 + 8 + 11 + 4)
 
 
+def test_headline_split_intervals():
+    """The headline's three mean changes and their 95 % intervals, from
+    runs.csv by numpy and scipy: per repetition, the mean over the 8 tree
+    cells of matched - imitation, refit_matched - imitation and matched -
+    refit_matched in the main arm; scipy's t interval over the repetitions."""
+    runs = csv_rows(ROOT / "docs" / "exp4_study" / "runs.csv")[1]
+    val = {(r["arm"], r["variant"], r["repetition"]): r for r in runs}
+    reps = sorted({r["repetition"] for r in runs}, key=int)
+    cells = [(p, c) for p in TREES for c in ("query", "residual")]
+    text = (ROOT / "docs" / "exp4.md").read_text()
+    for col, lead in (("final_return", "of its mean change, "),
+                      ("mean_action_return", "By mean actions the change is ")):
+        def mean_change(a, b):
+            d = [np.mean([float(val[("main", f"{p}.{a}.{c}", k)][col]) -
+                          float(val[("main", f"{p}.{b}.{c}", k)][col]) for p, c in cells])
+                 for k in reps]
+            m, se = np.mean(d), stats.sem(d)
+            lo, hi = stats.t.interval(0.95, len(d) - 1, loc=m, scale=se)
+            return f"{m:+.3f} m [{lo:+.3f}, {hi:+.3f}]"
+        want = [mean_change("matched", "imitation"), mean_change("refit_matched", "imitation"),
+                mean_change("matched", "refit_matched")]
+        i = text.index(lead) + len(lead)
+        got = text[i:text.index(".", text.index("]", text.index("]", text.index("]", i) + 1) + 1))]
+        for w in want:
+            assert w in got, (col, w, got)
+
+
 @pytest.mark.slow
 def test_study_script_runs_its_own_arms(tmp_path):
     """scripts/exp4_study.sh at a tiny size: the six arms of the study (not
