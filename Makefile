@@ -340,13 +340,15 @@ baselines-report:
 	$(PYTHON) scripts/baselines_report.py report data/baselines docs README.md $(if $(CHECK),--check)
 
 # build/venv: the system's Python packages plus Gymnasium from PyPI (not a
-# Debian package), for tests/test_gym.py (which skips without it), and mypy
-# for its typing test
+# Debian package), for tests/test_gym.py (which skips without it), mypy
+# for its typing test, and pycma (the baselines' pinned version) for
+# scripts/bench_learner.sh's ask/tell peer
 venv: build/venv/.done
 build/venv/.done:
 	/usr/bin/python3 -m venv --system-site-packages build/venv
 	build/venv/bin/pip install -q gymnasium
 	build/venv/bin/pip install -q mypy
+	build/venv/bin/pip install -q cma==4.5.0
 	touch $@
 
 # the Python package: the library next to it, so that `pip install ./python`

@@ -143,7 +143,7 @@ def main():
           f"{1e3 * (t_py - t_bare):.3f} | |")
     c = pycma(a.rounds)
     print(f"| pycma es.ask() + es.tell(), population 100, 2-D, ms per call pair | {a.rounds} | "
-          + (f"{1e3 * c:.3f} | |" if c is not None else "not installed (make venv; pip install cma) | |"))
+          + (f"{1e3 * c:.3f} | |" if c is not None else "not installed (make venv) | |"))
     if a.csv:
         ms = {"exp3_cli_iteration": 10 * mc, "exp3_python_iteration": 10 * mp,
               "ask_tell_learner": 1e3 * t_py, "ask_tell_bare": 1e3 * t_bare}

@@ -3,7 +3,7 @@
 # Experiment 3's nrvr_a run through poolreps.Learner against the same run
 # inside Experiment 3 (target: within 1.2x), and the binding's overhead per
 # ask + tell at 100 episodes (target: below 0.2 ms) beside pycma's ask/tell
-# (build/venv with cma: `make venv`, then build/venv/bin/pip install cma).
+# (build/venv: `make venv` installs pycma).
 # CSV=docs/data/bench_learner.csv records the medians for the docs'
 # table (scripts/bench_learner_table.py --write).
 set -e
