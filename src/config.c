@@ -12,6 +12,7 @@
 #include <errno.h>
 #include <limits.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -402,16 +403,32 @@ static int in_range(const pr_config_key *k, double v)
 	       (k->open & PR_KEY_OPEN_HI ? v < k->hi : v <= k->hi);
 }
 
+/* A bad value's error, prefixed "WHERE section.key: " as every key's is. The
+ * buffer holds what pr_err's does, so a long message is cut where it was. */
+#if defined(__GNUC__)
+__attribute__((format(printf, 4, 5)))
+#endif
+static int key_err(const pr_config_key *k, const char *where, char *err, const char *fmt, ...)
+{
+	char msg[PATH_MAX + PR_ERRLEN];
+	va_list ap;
+
+	va_start(ap, fmt);
+	vsnprintf(msg, sizeof msg, fmt, ap);
+	va_end(ap);
+	return pr_err(err, PR_EINVAL, "%s%s.%s: %s", where, k->section, k->key, msg);
+}
+
 static int range_err(const pr_config_key *k, const char *where, const char *value, char *err)
 {
 	char lo[40], hi[40];
 
 	pr_csv_format_double(k->lo, lo, sizeof lo);
 	pr_csv_format_double(k->hi, hi, sizeof hi);
-	return pr_err(err, PR_EINVAL, "%s%s.%s: %s out of range: must be %s %s and %s %s%s",
-	              where, k->section, k->key, value, k->open & PR_KEY_OPEN_LO ? ">" : ">=", lo,
-	              k->open & PR_KEY_OPEN_HI ? "<" : "<=", hi,
-	              k->type == PR_KEY_ILIST ? ", whole numbers" : "");
+	return key_err(k, where, err, "%s out of range: must be %s %s and %s %s%s", value,
+	               k->open & PR_KEY_OPEN_LO ? ">" : ">=", lo,
+	               k->open & PR_KEY_OPEN_HI ? "<" : "<=", hi,
+	               k->type == PR_KEY_ILIST ? ", whole numbers" : "");
 }
 
 /* Split a comma list of finite numbers into v (capacity cap); returns count or -1. */
@@ -433,6 +450,18 @@ static int parse_numbers(const char *s, double *v, int cap)
 			return n;
 		s = q + 1;
 	}
+}
+
+/* Whether list[i] repeats an earlier entry: a list names each pocket or
+ * setting once (a repeated setting would run twice under one name). */
+static int listed_before(const double *list, int i)
+{
+	int j;
+
+	for (j = 0; j < i; ++j)
+		if (list[j] == list[i])
+			return 1;
+	return 0;
 }
 
 static char *trim(char *s)
@@ -470,8 +499,7 @@ static int set_integer(const pr_config_key *k, char *base, const char *value, co
 	while (*end == ' ' || *end == '\t')
 		++end;
 	if (end == value || *end || errno == ERANGE)
-		return pr_err(err, PR_EINVAL, "%s%s.%s: not an integer: '%.40s'",
-		              where, k->section, k->key, value);
+		return key_err(k, where, err, "not an integer: '%.40s'", value);
 	if (!in_range(k, (double)x))
 		return range_err(k, where, value, err);
 	if (k->type == PR_KEY_INT)
@@ -492,17 +520,15 @@ static int set_names(const pr_config_key *k, char *base, const char *value, cons
 	unsigned seen = 0;
 
 	if (strlen(value) >= PR_KEY_NAMES_LEN)
-		return pr_err(err, PR_EINVAL, "%s%s.%s: list too long", where, k->section, k->key);
+		return key_err(k, where, err, "list too long");
 	do {
 		size_t len = strcspn(p, ",");
 		int choice;
 		snprintf(item, sizeof item, "%.*s", (int)(len < NAMELEN - 1 ? len : NAMELEN - 1), p);
 		if ((choice = choice_index(k->unit, trim(item))) < 0)
-			return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' is not one of %s",
-			              where, k->section, k->key, trim(item), k->unit);
+			return key_err(k, where, err, "'%s' is not one of %s", trim(item), k->unit);
 		if (seen & 1u << choice)
-			return pr_err(err, PR_EINVAL, "%s%s.%s: '%s' listed twice",
-			              where, k->section, k->key, trim(item));
+			return key_err(k, where, err, "'%s' listed twice", trim(item));
 		seen |= 1u << choice;
 		p += len;
 	} while (*p++ == ',');
@@ -519,17 +545,12 @@ static int set_pockets(const pr_config_key *k, char *base, const char *value, co
 	int i, n = parse_numbers(value, list, PR_SIM_POCKETS);
 
 	if (n < 1)
-		return pr_err(err, PR_EINVAL, "%s%s.%s: expected 1 to 6 pocket ids, got '%.40s'",
-		              where, k->section, k->key, value);
+		return key_err(k, where, err, "expected 1 to 6 pocket ids, got '%.40s'", value);
 	for (i = 0; i < n; ++i) {
-		int j;
 		if (list[i] != floor(list[i]) || list[i] < 0 || list[i] > 5)
-			return pr_err(err, PR_EINVAL, "%s%s.%s: pocket id must be 0..5, got '%.40s'",
-			              where, k->section, k->key, value);
-		for (j = 0; j < i; ++j)
-			if (list[j] == list[i])
-				return pr_err(err, PR_EINVAL, "%s%s.%s: pocket %d listed twice",
-				              where, k->section, k->key, (int)list[i]);
+			return key_err(k, where, err, "pocket id must be 0..5, got '%.40s'", value);
+		if (listed_before(list, i))
+			return key_err(k, where, err, "pocket %d listed twice", (int)list[i]);
 		r->targets[i] = (int)list[i];
 	}
 	r->ntargets = n;
@@ -546,17 +567,13 @@ static int set_list(const pr_config_key *k, char *base, const char *value, const
 	int i, n = parse_numbers(value, list, PR_LIST_MAX);
 
 	if (n < 1)
-		return pr_err(err, PR_EINVAL, "%s%s.%s: expected a comma list of 1 to %d numbers, "
-		              "got '%.40s'", where, k->section, k->key, PR_LIST_MAX, value);
+		return key_err(k, where, err, "expected a comma list of 1 to %d numbers, "
+		               "got '%.40s'", PR_LIST_MAX, value);
 	for (i = 0; i < n; ++i) {
-		int j;
 		if (!in_range(k, list[i]) || (k->type == PR_KEY_ILIST && list[i] != floor(list[i])))
 			return range_err(k, where, value, err);
-		/* a repeated setting would run twice under one name */
-		for (j = 0; j < i; ++j)
-			if (list[j] == list[i])
-				return pr_err(err, PR_EINVAL, "%s%s.%s: %.15g listed twice",
-				              where, k->section, k->key, list[i]);
+		if (listed_before(list, i))
+			return key_err(k, where, err, "%.15g listed twice", list[i]);
 	}
 	l->n = n;
 	memcpy(l->v, list, (size_t)n * sizeof *list);
@@ -574,8 +591,7 @@ static int set_value_raw(pr_config *c, int ki, const char *value, const char *wh
 	switch (k->type) {
 	case PR_KEY_DOUBLE:
 		if (pr_csv_parse_double(value, &v))
-			return pr_err(err, PR_EINVAL, "%s%s.%s: not a finite number: '%.40s'",
-			              where, k->section, k->key, value);
+			return key_err(k, where, err, "not a finite number: '%.40s'", value);
 		if (!in_range(k, v))
 			return range_err(k, where, value, err);
 		*(double *)base = v;
@@ -587,16 +603,14 @@ static int set_value_raw(pr_config *c, int ki, const char *value, const char *wh
 	case PR_KEY_ENUM:
 		i = choice_index(k->unit, value);
 		if (i < 0)
-			return pr_err(err, PR_EINVAL, "%s%s.%s: '%.40s' is not one of %s",
-			              where, k->section, k->key, value, k->unit);
+			return key_err(k, where, err, "'%.40s' is not one of %s", value, k->unit);
 		*(int *)base = i;
 		return PR_OK;
 	case PR_KEY_EXPERIMENT: {
 		pr_config_exp e;
 		if (!find_experiment(c, value, &e))
-			return pr_err(err, PR_EINVAL, "%s%s.%s: '%.40s' is not one of %s",
-			              where, k->section, k->key, value,
-			              experiment_names(c, names, sizeof names));
+			return key_err(k, where, err, "'%.40s' is not one of %s", value,
+			               experiment_names(c, names, sizeof names));
 		snprintf(base, sizeof c->run.name, "%s", value);
 		return PR_OK;
 	}
@@ -607,16 +621,15 @@ static int set_value_raw(pr_config *c, int ki, const char *value, const char *wh
 	case PR_KEY_BOX:
 		n = parse_numbers(value, list, 4);
 		if (n != 4 || list[0] > list[1] || list[2] > list[3])
-			return pr_err(err, PR_EINVAL, "%s%s.%s: expected xmin,xmax,ymin,ymax with "
-			              "xmin <= xmax and ymin <= ymax, got '%.60s'",
-			              where, k->section, k->key, value);
+			return key_err(k, where, err, "expected xmin,xmax,ymin,ymax with "
+			               "xmin <= xmax and ymin <= ymax, got '%.60s'", value);
 		memcpy(base, list, 4 * sizeof *list);
 		return PR_OK;
 	case PR_KEY_LIST:
 	case PR_KEY_ILIST:
 		return set_list(k, base, value, where, err);
 	}
-	return pr_err(err, PR_EINVAL, "%s%s.%s: unsupported key type", where, k->section, k->key);
+	return key_err(k, where, err, "unsupported key type");
 }
 
 /* ---- INI loading ---- */
