@@ -169,6 +169,26 @@ static int phase_friction(pr_sim *s, stepper *k)
 	return ev;
 }
 
+/* The register loops below keep a ball's velocity in locals: a ball slower
+ * than the stop speed comes to rest (returns 1). */
+static inline int rests(pr_sim_ball *b, double *vx, double *vy, double vs2)
+{
+	if (!(*vx * *vx + *vy * *vy < vs2))
+		return 0;
+	*vx = *vy = 0;
+	b->st = PR_BALL_REST;
+	return 1;
+}
+
+/* A register loop's copy of a ball goes back into its state. */
+static inline void put_ball(pr_sim_ball *b, double x, double y, double vx, double vy)
+{
+	b->x = x;
+	b->y = y;
+	b->ux = vx;
+	b->uy = vy;
+}
+
 /* The same step as phase_move, phase_pairs and phase_friction, specialised
  * to one moving ball among resting ones and kept in registers: it runs
  * until that ball stops, falls, reaches the step limit (returns 0: the
@@ -230,18 +250,13 @@ static int run_single(pr_sim *s, stepper *k, long maxsteps)
 		}
 		vx *= decay;
 		vy *= decay;
-		if (vx * vx + vy * vy < vs2) {
-			vx = vy = 0;
-			bm->st = PR_BALL_REST;
+		if (rests(bm, &vx, &vy, vs2)) {
 			k->nmov = 0;
 			break;
 		}
 	}
 out:
-	bm->x = x;
-	bm->y = y;
-	bm->ux = vx;
-	bm->uy = vy;
+	put_ball(bm, x, y, vx, vy);
 	k->g2 = g2;
 	k->step = step;
 	return ret;
@@ -299,29 +314,15 @@ static void run_pair(pr_sim *s, stepper *k, long maxsteps)
 		vy0 *= decay;
 		vx1 *= decay;
 		vy1 *= decay;
-		if (vx0 * vx0 + vy0 * vy0 < vs2) {
-			vx0 = vy0 = 0;
-			b0->st = PR_BALL_REST;
-			--nmov;
-		}
-		if (vx1 * vx1 + vy1 * vy1 < vs2) {
-			vx1 = vy1 = 0;
-			b1->st = PR_BALL_REST;
-			--nmov;
-		}
+		nmov -= rests(b0, &vx0, &vy0, vs2);
+		nmov -= rests(b1, &vx1, &vy1, vs2);
 		if (!hit && gap && d2 < g2)
 			g2 = d2;
 		if (nmov < 2)
 			break;
 	}
-	b0->x = x0;
-	b0->y = y0;
-	b0->ux = vx0;
-	b0->uy = vy0;
-	b1->x = x1;
-	b1->y = y1;
-	b1->ux = vx1;
-	b1->uy = vy1;
+	put_ball(b0, x0, y0, vx0, vy0);
+	put_ball(b1, x1, y1, vx1, vy1);
 	k->g2 = g2;
 	k->step = step;
 	k->hit = hit;
@@ -496,15 +497,8 @@ static void win_single(pr_sim *s, stepper *k, int m, long K, int nt)
 				break;
 		}
 	}
-	if (vx * vx + vy * vy < vs2) {
-		vx = vy = 0;
-		bm->st = PR_BALL_REST;
-		--k->nmov;
-	}
-	bm->x = x;
-	bm->y = y;
-	bm->ux = vx;
-	bm->uy = vy;
+	k->nmov -= rests(bm, &vx, &vy, vs2);
+	put_ball(bm, x, y, vx, vy);
 	k->g2 = g2;
 	k->step += i;
 }
@@ -530,27 +524,12 @@ static void win_two(pr_sim *s, stepper *k, int m0, int m1, long K)
 		vy0 *= decay;
 		vx1 *= decay;
 		vy1 *= decay;
-		if (vx0 * vx0 + vy0 * vy0 < vs2) {
-			vx0 = vy0 = 0;
-			b0->st = PR_BALL_REST;
-			--k->nmov;
-			stop = 1;
-		}
-		if (vx1 * vx1 + vy1 * vy1 < vs2) {
-			vx1 = vy1 = 0;
-			b1->st = PR_BALL_REST;
-			--k->nmov;
-			stop = 1;
-		}
+		stop = rests(b0, &vx0, &vy0, vs2);
+		stop += rests(b1, &vx1, &vy1, vs2);
+		k->nmov -= stop;
 	}
-	b0->x = x0;
-	b0->y = y0;
-	b0->ux = vx0;
-	b0->uy = vy0;
-	b1->x = x1;
-	b1->y = y1;
-	b1->ux = vx1;
-	b1->uy = vy1;
+	put_ball(b0, x0, y0, vx0, vy0);
+	put_ball(b1, x1, y1, vx1, vy1);
 	k->step += i;
 }
 
@@ -578,9 +557,7 @@ static void win_any(pr_sim *s, stepper *k, long K, int track)
 				continue;
 			bj->ux *= decay;
 			bj->uy *= decay;
-			if (bj->ux * bj->ux + bj->uy * bj->uy < vs2) {
-				bj->ux = bj->uy = 0;
-				bj->st = PR_BALL_REST;
+			if (rests(bj, &bj->ux, &bj->uy, vs2)) {
 				--k->nmov;
 				stop = 1;
 			}
