@@ -731,7 +731,7 @@ static int check_centres(const pr_policy_data *d, int cov_center, char *err)
 pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double lambda,
                                 double min_std, int cov_center, int *flags, char *err)
 {
-	pr_policy *p = NULL;
+	pr_policy *p = NULL, *fit = NULL;
 	double *X = NULL, *wn = NULL, *rhs = NULL, *B = NULL, *u = NULL, sw, unit, *r;
 	eig ea = { 0 };
 	int nf, i, j, l, f = 0, st;
@@ -809,13 +809,8 @@ pr_policy *pr_policy_linear_fit(int features, const pr_policy_data *d, double la
 	keep_eig(d->da, &ea, p->V, p->lam, &p->logdet);
 	if (flags)
 		*flags = f;
-	free(X);
-	free(wn);
-	free(rhs);
-	free(B);
-	free(u);
-	eig_free(&ea);
-	return p;
+	fit = p; /* the scratch goes on either path; a failed fit with it */
+	p = NULL;
 fail:
 	free(X);
 	free(wn);
@@ -824,7 +819,7 @@ fail:
 	free(u);
 	eig_free(&ea);
 	pr_policy_free(p);
-	return NULL;
+	return fit;
 }
 
 /* ---- moment records ----
