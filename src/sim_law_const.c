@@ -113,38 +113,19 @@ static void const_own(const pr_sim *s, pr_sim_ball *b)
 {
 	const double a = s->t.deceleration;
 	pr_sim_hits h;
-	double best, lmax;
-	int type, other = -1;
+	double lmax;
 
-	b->ot = HUGE_VAL;
-	b->otype = PR_EV_NONE;
-	b->oother = -1;
-	if (b->st != PR_BALL_MOVING)
+	if (!pr_sim_own_moving(b))
 		return;
-	best = b->tr + stop_in(s, b->sp);
-	type = PR_EV_STOP;
+	b->ot = b->tr + stop_in(s, b->sp);
+	b->otype = PR_EV_STOP;
 	lmax = reach(s, b->sp);
 	/* along the unit direction the path parameter is the distance l */
 	pr_sim_path_hits(s, b->x, b->y, b->ex, b->ey, 1, &h);
-	if (h.cid >= 0 && h.cushion <= lmax) {
-		double t = b->tr + time_for(b->sp, a, h.cushion);
-		if (pr_sim_earlier(t, PR_EV_CUSHION, best, type)) {
-			best = t;
-			type = PR_EV_CUSHION;
-			other = h.cid;
-		}
-	}
-	if (h.pid >= 0 && h.pocket <= lmax) {
-		double t = b->tr + time_for(b->sp, a, h.pocket);
-		if (pr_sim_earlier(t, PR_EV_POCKET, best, type)) {
-			best = t;
-			type = PR_EV_POCKET;
-			other = h.pid;
-		}
-	}
-	b->ot = best;
-	b->otype = type;
-	b->oother = other;
+	if (h.cid >= 0 && h.cushion <= lmax)
+		pr_sim_own_offer(b, b->tr + time_for(b->sp, a, h.cushion), PR_EV_CUSHION, h.cid);
+	if (h.pid >= 0 && h.pocket <= lmax)
+		pr_sim_own_offer(b, b->tr + time_for(b->sp, a, h.pocket), PR_EV_POCKET, h.pid);
 }
 
 typedef struct {

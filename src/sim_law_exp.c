@@ -61,31 +61,17 @@ static void exp_own(const pr_sim *s, pr_sim_ball *b)
 {
 	const double c = s->t.friction;
 	pr_sim_hits h;
-	double best;
-	int type, other = -1;
 
-	b->ot = HUGE_VAL;
-	b->otype = PR_EV_NONE;
-	b->oother = -1;
-	if (b->st != PR_BALL_MOVING)
+	if (!pr_sim_own_moving(b))
 		return;
 	/* |u| (1 - c tau) = stop_speed */
-	best = fmax(b->tr, (1 - s->t.stop_speed / b->sp) / c);
-	type = PR_EV_STOP;
+	b->ot = fmax(b->tr, (1 - s->t.stop_speed / b->sp) / c);
+	b->otype = PR_EV_STOP;
 	pr_sim_path_hits(s, b->x, b->y, b->ux, b->uy, b->sp, &h);
-	if (h.cid >= 0 && pr_sim_earlier(b->tr + h.cushion, PR_EV_CUSHION, best, type)) {
-		best = b->tr + h.cushion;
-		type = PR_EV_CUSHION;
-		other = h.cid;
-	}
-	if (h.pid >= 0 && pr_sim_earlier(b->tr + h.pocket, PR_EV_POCKET, best, type)) {
-		best = b->tr + h.pocket;
-		type = PR_EV_POCKET;
-		other = h.pid;
-	}
-	b->ot = best;
-	b->otype = type;
-	b->oother = other;
+	if (h.cid >= 0)
+		pr_sim_own_offer(b, b->tr + h.cushion, PR_EV_CUSHION, h.cid);
+	if (h.pid >= 0)
+		pr_sim_own_offer(b, b->tr + h.pocket, PR_EV_POCKET, h.pid);
 }
 
 /* Contact time (absolute tau) of balls i and j seen from tau:

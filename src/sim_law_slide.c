@@ -157,26 +157,20 @@ static double first_rise(double f0, double v, double a, double S)
 static void slide_own(const pr_sim *s, pr_sim_ball *b)
 {
 	const double S = fmax(0, b->tend - b->tr);
-	double best, t, lt;
-	int j, type, other = -1;
+	double t, lt;
+	int j;
 
-	b->ot = HUGE_VAL;
-	b->otype = PR_EV_NONE;
-	b->oother = -1;
-	if (b->st != PR_BALL_MOVING)
+	if (!pr_sim_own_moving(b))
 		return;
-	best = b->tend;
-	type = PR_EV_STOP;
+	b->ot = b->tend;
+	b->otype = PR_EV_STOP;
 	for (j = 0; j < 4; ++j) {
 		/* cushion j: 0 x = -hx, 1 x = +hx, 2 y = -hy, 3 y = +hy; f = outward excess */
 		const double sg = j % 2 ? 1 : -1, h = j < 2 ? s->hx : s->hy;
 		const double x = j < 2 ? b->x : b->y, u = j < 2 ? b->ux : b->uy, a = j < 2 ? b->ex : b->ey;
 		t = b->tr + first_rise(sg * x - h, sg * u, sg * a, S);
-		if (t < HUGE_VAL && pr_sim_earlier(t, PR_EV_CUSHION, best, type)) {
-			best = t;
-			type = PR_EV_CUSHION;
-			other = j;
-		}
+		if (t < HUGE_VAL)
+			pr_sim_own_offer(b, t, PR_EV_CUSHION, j);
 	}
 	/* the speed is convex in time on a phase: the travel is at most S times its larger end */
 	lt = S * fmax(b->sp, norm(b->ux + S * b->ex, b->uy + S * b->ey));
@@ -186,15 +180,9 @@ static void slide_own(const pr_sim *s, pr_sim_ball *b)
 		if (pr_sim_accel_apart(&q, norm(q.D[0], q.D[1]) - q.r2, S, lt))
 			continue;
 		t = b->tr + pr_sim_accel_first_contact(&q, S);
-		if (t < HUGE_VAL && pr_sim_earlier(t, PR_EV_POCKET, best, type)) {
-			best = t;
-			type = PR_EV_POCKET;
-			other = j;
-		}
+		if (t < HUGE_VAL)
+			pr_sim_own_offer(b, t, PR_EV_POCKET, j);
 	}
-	b->ot = best;
-	b->otype = type;
-	b->oother = other;
 }
 
 /* The separation of bj from bi from time t, and the window up to the end

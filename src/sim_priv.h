@@ -7,6 +7,8 @@
 #ifndef POOLREPS_SIM_PRIV_H
 #define POOLREPS_SIM_PRIV_H
 
+#include <math.h>
+
 #include "poolreps/sim.h"
 #include "poolreps/internal.h"
 
@@ -81,6 +83,26 @@ void pr_sim_path_hits(const pr_sim *s, double x, double y, double ux, double uy,
 static inline int pr_sim_earlier(double t1, int k1, double t2, int k2)
 {
 	return t1 < t2 || (t1 == t2 && k1 < k2);
+}
+
+/* A law's search for a ball's own next event (ot, otype, oother): none
+ * for a ball not moving (returns 0); the law then sets the stop and offers
+ * each cushion or pocket entry, the earliest staying (ties by type). */
+static inline int pr_sim_own_moving(pr_sim_ball *b)
+{
+	b->ot = HUGE_VAL;
+	b->otype = PR_EV_NONE;
+	b->oother = -1;
+	return b->st == PR_BALL_MOVING;
+}
+
+static inline void pr_sim_own_offer(pr_sim_ball *b, double t, int type, int other)
+{
+	if (pr_sim_earlier(t, type, b->ot, b->otype)) {
+		b->ot = t;
+		b->otype = type;
+		b->oother = other;
+	}
 }
 
 /* After a hit or a bounce: sp = |u|, moving if sp > 0 (the changed of a
