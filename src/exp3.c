@@ -32,14 +32,13 @@ typedef struct {
  * exp3.mean_eval_every, the latest policy's mean action from the
  * repetition's evaluation states (the same at every evaluation and in
  * every variant: those of PocketEnv.reset_batch(n, seed=mean_eval_seed + k)). */
-static int mean_eval(const pr_config *cfg, const pr_exp3_opts *e, pr_exp3_learner *L,
-                     pr_exp3_job *run, char *err)
+static int mean_eval(const pr_exp3_opts *e, pr_exp3_learner *L, pr_exp3_job *run, char *err)
 {
 	const int n = e->mean_eval, eps = pr_exp3_learner_episodes(L)->n;
 	const int cap = (e->init_samples + e->iterations * e->samples) / e->mean_eval_every + 1;
 	gsl_rng *rng;
-	double *ret;
-	int *pocket, *hit, i, rc;
+	double sum;
+	int in, hits, rc;
 
 	if (n <= 0 || eps % e->mean_eval_every != 0)
 		return PR_OK;
@@ -49,30 +48,18 @@ static int mean_eval(const pr_config *cfg, const pr_exp3_opts *e, pr_exp3_learne
 		run->mean_pocket = malloc((size_t)cap * sizeof *run->mean_pocket);
 	}
 	rng = gsl_rng_alloc(gsl_rng_mt19937);
-	ret = malloc((size_t)n * sizeof *ret);
-	pocket = malloc((size_t)n * sizeof *pocket);
-	hit = malloc((size_t)n * sizeof *hit);
-	rc = rng && ret && pocket && hit && run->mean_eps && run->mean_ret && run->mean_pocket
+	rc = rng && run->mean_eps && run->mean_ret && run->mean_pocket
 	         ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
 	if (rc == PR_OK) {
 		gsl_rng_set(rng, (e->mean_eval_seed + (unsigned long)run->repetition) & 0xffffffffUL);
-		rc = pr_exp3_learner_mean_eval(L, n, rng, ret, pocket, hit, err);
+		rc = pr_exp3_learner_mean_eval(L, n, rng, &sum, &in, &hits, err);
 	}
 	if (rc == PR_OK) {
-		double sum = 0;
-		int in = 0;
-		for (i = 0; i < n; ++i) {
-			sum += ret[i];
-			in += pocket[i] >= 0 && pr_exp3_is_target(&cfg->reward, pocket[i]);
-		}
 		run->mean_eps[run->nmean] = eps;
 		run->mean_ret[run->nmean] = sum / n;
 		run->mean_pocket[run->nmean++] = (double)in / n;
 	}
 	gsl_rng_free(rng);
-	free(ret);
-	free(pocket);
-	free(hit);
 	return rc;
 }
 
@@ -104,7 +91,7 @@ static int run_job(void *ctx, int j, char *err)
 	if (rc == PR_OK)
 		pr_exp_ticker_add(&su->tick, e->init_samples);
 	if (rc == PR_OK)
-		rc = mean_eval(su->cfg, e, L, run, msg);
+		rc = mean_eval(e, L, run, msg);
 	for (t = 1; rc == PR_OK && t <= e->iterations; ++t) {
 		if (pr_interrupted) {
 			rc = pr_err(msg, PR_EINTR, "interrupted");
@@ -114,7 +101,7 @@ static int run_job(void *ctx, int j, char *err)
 		if (rc == PR_OK)
 			pr_exp_ticker_add(&su->tick, e->samples);
 		if (rc == PR_OK)
-			rc = mean_eval(su->cfg, e, L, run, msg);
+			rc = mean_eval(e, L, run, msg);
 	}
 	if (L)
 		pr_exp3_learner_take(L, &run->ep);

@@ -559,8 +559,8 @@ const pr_policy *pr_exp3_learner_policy(const pr_exp3_learner *L)
 	return L->lr ? pr_learner_policy(L->lr) : L->pi0;
 }
 
-int pr_exp3_learner_mean_eval(pr_exp3_learner *L, int n, gsl_rng *states, double *ret,
-                              int *pocket, int *hit, char *err)
+int pr_exp3_learner_mean_eval(pr_exp3_learner *L, int n, gsl_rng *states, double *sum,
+                              int *in, int *hits, char *err)
 {
 	const pr_policy *p = pr_exp3_learner_policy(L);
 	const double vmax = L->cfg->sim.max_speed;
@@ -570,6 +570,8 @@ int pr_exp3_learner_mean_eval(pr_exp3_learner *L, int n, gsl_rng *states, double
 	pr_shot shot;
 	int i, j, rc = p ? PR_OK : pr_err(err, PR_EINVAL, "internal: no policy to evaluate");
 
+	*sum = 0;
+	*in = *hits = 0;
 	if (rc == PR_OK && (!s || !x || !ws))
 		rc = pr_err(err, PR_ENOMEM, "out of memory");
 	for (i = 0; rc == PR_OK && i < n; ++i) {
@@ -587,9 +589,9 @@ int pr_exp3_learner_mean_eval(pr_exp3_learner *L, int n, gsl_rng *states, double
 		}
 		if ((rc = pr_sim_shoot(L->sim, s, L->nballs, a, &shot, NULL, err)))
 			break;
-		ret[i] = pr_sim_reward(&L->cfg->table, &L->cfg->reward, &shot);
-		pocket[i] = shot.pocket[1];
-		hit[i] = shot.hit;
+		*sum += pr_sim_reward(&L->cfg->table, &L->cfg->reward, &shot);
+		*in += shot.pocket[1] >= 0 && pr_exp3_is_target(&L->cfg->reward, shot.pocket[1]);
+		*hits += shot.hit;
 	}
 	pr_policy_work_free(ws);
 	free(s);

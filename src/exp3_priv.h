@@ -163,10 +163,11 @@ int pr_exp3_learner_set_control(pr_exp3_learner *L, int refit, int n_min, char *
 const pr_policy *pr_exp3_learner_policy(const pr_exp3_learner *L);
 
 /* The latest policy's mean action (scaled down to sim.max_speed, no
- * sampling) shot from n start states drawn from `states`: returns ret,
- * reward ball 1's pockets and hits (n each). */
-int pr_exp3_learner_mean_eval(pr_exp3_learner *L, int n, gsl_rng *states, double *ret,
-                              int *pocket, int *hit, char *err);
+ * sampling) shot from n start states drawn from `states`: the sum of the
+ * returns (in draw order), the shots that sink reward ball 1 in a target
+ * pocket and the hits, the summary Experiments 3 and 4 both report. */
+int pr_exp3_learner_mean_eval(pr_exp3_learner *L, int n, gsl_rng *states, double *sum,
+                              int *in, int *hits, char *err);
 
 /* The learning state: nx coordinates of the full state (indices xdim). */
 int pr_exp3_learner_state_dims(const pr_exp3_learner *L, const int **xdim);

@@ -393,23 +393,14 @@ static int mean_eval(const pr_config *cfg, const pr_exp4_opts *e4, pr_exp3_learn
 	const int n = e4->mean_eval;
 	const pr_forest *f = pr_policy_forest(pr_exp3_learner_policy(L));
 	gsl_rng *rng = pr_exp_rng(cfg->run.seed, PR_STREAM_EXP4_MEAN, (unsigned long)run->repetition);
-	double *ret = malloc((size_t)n * sizeof *ret);
-	int *pocket = malloc((size_t)n * sizeof *pocket), *hit = malloc((size_t)n * sizeof *hit);
-	int i, rc = rng && ret && pocket && hit ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
+	int rc = rng ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
 
 	if (rc == PR_OK)
-		rc = pr_exp3_learner_mean_eval(L, n, rng, ret, pocket, hit, err);
-	for (i = 0; rc == PR_OK && i < n; ++i) {
-		run->mean_sum += ret[i];
-		run->mean_pocket += pocket[i] >= 0 && pr_exp3_is_target(&cfg->reward, pocket[i]);
-		run->mean_hit += hit[i];
-	}
+		rc = pr_exp3_learner_mean_eval(L, n, rng, &run->mean_sum, &run->mean_pocket,
+		                               &run->mean_hit, err);
 	run->mean_n = n;
 	run->leaves = f ? pr_forest_nleaves(f) : 0;
 	run->n_min = forest_n_min(cfg, e4, &run->var, f != NULL);
-	free(ret);
-	free(pocket);
-	free(hit);
 	gsl_rng_free(rng);
 	return rc;
 }
