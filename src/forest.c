@@ -305,6 +305,26 @@ static unsigned long tree_seed(uint64_t seed, int t)
  * four scalar variables stays scalar (and longer structs spill). */
 typedef struct { double v[4]; } lanes4;
 
+/* The lanes' total, always grouped (0 + 1) + (2 + 3). */
+static inline double lanes_total(lanes4 a)
+{
+	return (a.v[0] + a.v[1]) + (a.v[2] + a.v[3]);
+}
+
+/* Four samples of the scans below, lane k taking sample k: a = [x < t] as
+ * 0 or 1 is counted into c and a * y summed into s, without a branch. */
+static inline void left4(const double *x, const double *y, double t, lanes4 *c, lanes4 *s)
+{
+	lanes4 a;
+
+	for (int k = 0; k < 4; k++)
+		a.v[k] = x[k] < t;
+	for (int k = 0; k < 4; k++)
+		c->v[k] += a.v[k];
+	for (int k = 0; k < 4; k++)
+		s->v[k] += a.v[k] * y[k];
+}
+
 /* The node's range of dimension d, computed once per node and dimension.
  * Eight independent min/max accumulators (min and max are exact, so the
  * grouping does not matter). */
@@ -390,34 +410,18 @@ static int scan_u1(const double *x, const double *y, int m, double t, double *sl
 	int j;
 
 	for (j = 0; j + 8 <= m; j += 8) {
-		lanes4 a0, a1;
-		for (int k = 0; k < 4; k++)
-			a0.v[k] = x[j + k] < t;
-		for (int k = 0; k < 4; k++)
-			a1.v[k] = x[j + k + 4] < t;
-		for (int k = 0; k < 4; k++)
-			c0.v[k] += a0.v[k];
-		for (int k = 0; k < 4; k++)
-			c1.v[k] += a1.v[k];
-		for (int k = 0; k < 4; k++)
-			s.v[k] += a0.v[k] * y[j + k];
-		for (int k = 0; k < 4; k++)
-			s.v[k] += a1.v[k] * y[j + k + 4];
+		left4(x + j, y + j, t, &c0, &s);
+		left4(x + j + 4, y + j + 4, t, &c1, &s);
 	}
 	for (; j + 4 <= m; j += 4)
-		for (int k = 0; k < 4; k++) {
-			double a = x[j + k] < t;
-			c0.v[k] += a;
-			s.v[k] += a * y[j + k];
-		}
+		left4(x + j, y + j, t, &c0, &s);
 	for (; j < m; j++) {
 		double a = x[j] < t;
 		c0.v[0] += a;
 		s.v[0] += a * y[j];
 	}
-	*sl = (s.v[0] + s.v[1]) + (s.v[2] + s.v[3]);
-	return (int)(((c0.v[0] + c0.v[1]) + (c0.v[2] + c0.v[3]))
-	             + ((c1.v[0] + c1.v[1]) + (c1.v[2] + c1.v[3])));
+	*sl = lanes_total(s);
+	return (int)(lanes_total(c0) + lanes_total(c1));
 }
 
 /* scan_u1 for two tests at once (one pass over y): the same sums in the same
@@ -430,19 +434,8 @@ static void scan_u1x2(const double *xa, double ta, const double *xb, double tb,
 	int j;
 
 	for (j = 0; j + 4 <= m; j += 4) {
-		lanes4 aa, ab;
-		for (int k = 0; k < 4; k++)
-			aa.v[k] = xa[j + k] < ta;
-		for (int k = 0; k < 4; k++)
-			ab.v[k] = xb[j + k] < tb;
-		for (int k = 0; k < 4; k++)
-			ca.v[k] += aa.v[k];
-		for (int k = 0; k < 4; k++)
-			cb.v[k] += ab.v[k];
-		for (int k = 0; k < 4; k++)
-			sa.v[k] += aa.v[k] * y[j + k];
-		for (int k = 0; k < 4; k++)
-			sb.v[k] += ab.v[k] * y[j + k];
+		left4(xa + j, y + j, ta, &ca, &sa);
+		left4(xb + j, y + j, tb, &cb, &sb);
 	}
 	for (; j < m; j++) {
 		double a = xa[j] < ta, c = xb[j] < tb;
@@ -451,10 +444,10 @@ static void scan_u1x2(const double *xa, double ta, const double *xb, double tb,
 		cb.v[0] += c;
 		sb.v[0] += c * y[j];
 	}
-	sl[0] = (sa.v[0] + sa.v[1]) + (sa.v[2] + sa.v[3]);
-	sl[1] = (sb.v[0] + sb.v[1]) + (sb.v[2] + sb.v[3]);
-	nl[0] = (int)((ca.v[0] + ca.v[1]) + (ca.v[2] + ca.v[3]));
-	nl[1] = (int)((cb.v[0] + cb.v[1]) + (cb.v[2] + cb.v[3]));
+	sl[0] = lanes_total(sa);
+	sl[1] = lanes_total(sb);
+	nl[0] = (int)lanes_total(ca);
+	nl[1] = (int)lanes_total(cb);
 }
 
 /* Whether y varies in the node: stops at the first differing value, so it
