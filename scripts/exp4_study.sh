@@ -51,8 +51,7 @@ mkdir -p "$out/runs"
 : > "$list"
 for a in $ARMS; do
 	# shellcheck disable=SC2046  # the arm's options are plain words
-	sh "$here/jobs.sh" "$here/../data/exp4_controls.ini" "$out/runs/$a" "$@" $(arm "$a") \
-		--set "experiment.repetitions=$reps" --set experiment.threads=1 >> "$list"
+	add_jobs "$out" "$reps" "$here/../data/exp4_controls.ini" "$a" "$@" $(arm "$a")
 done
 
 load0=$(load)
@@ -63,10 +62,7 @@ runs=$(since "$t0")
 times > "$out/runs/times1"
 load1=$(load)
 t1=$(now)
-for a in $ARMS; do
-	"$POOLREPS" collect -q "$out/runs/$a"
-	mv "$out/runs/$a/point-0/merged" "$out/$a"
-done
+for a in $ARMS; do merge_sweep "$out" "$a"; done
 times > "$out/runs/times2"
 c0=$(cpu "$out/runs/times0"); c1=$(cpu "$out/runs/times1"); c2=$(cpu "$out/runs/times2")
 {
@@ -75,8 +71,7 @@ c0=$(cpu "$out/runs/times0"); c1=$(cpu "$out/runs/times1"); c2=$(cpu "$out/runs/
 	echo "merge,$(since "$t1"),$(awk -v a="$c1" -v b="$c2" 'BEGIN { printf "%.1f", b - a }'),1,$(nproc),$load1,$(load)"
 } > "$out/timing.csv"
 
-readme=
-[ -d "$docs" ] && [ "$(cd "$docs" && pwd -P)" = "$(cd "$here/.." && pwd -P)/docs" ] && readme="$here/../README.md"
+readme=$(docs_readme "$docs")
 "$py" "$here/exp4_study.py" collect "$out" --arms "$ARMS" --out "$docs/exp4_study"
 "$py" "$here/exp4_study.py" plot "$docs/exp4_study" --out "$docs/figures"
 [ -z "$readme" ] || "$py" "$here/exp4_study.py" docs "$docs/exp4_study" --doc "$docs/exp4.md" --readme "$readme"

@@ -21,35 +21,16 @@ out=$1; reps=$2; docs=$3; py=$4; shift 4
 jobs=${POWER_JOBS:-2}
 export POOLREPS="${POOLREPS:-./poolreps}"
 here=$(dirname "$0")
-. "$here/study_lib.sh"   # ARMS, arm, now, since, load
-# merge_arm NAME: collect the sweep OUT/runs/NAME, its one grid point into OUT/NAME
-merge_arm() {
-	"$POOLREPS" collect -q "$out/runs/$1"
-	mv "$out/runs/$1/point-0/merged" "$out/$1"
-}
+. "$here/study_lib.sh"   # ARMS, arm, add_jobs, run_sweeps
 
 mkdir -p "$out"
 for a in $ARMS; do rm -rf "$out/runs/$a" "$out/$a"; done
-list="$out/runs/jobs.txt"
 mkdir -p "$out/runs"
-: > "$list"
+: > "$out/runs/jobs.txt"
 for a in $ARMS; do
 	# shellcheck disable=SC2046  # the arm's options are plain words
-	sh "$here/jobs.sh" "$here/../data/exp3.ini" "$out/runs/$a" "$@" $(arm "$a") \
-		--set "experiment.repetitions=$reps" --set experiment.threads=1 >> "$list"
+	add_jobs "$out" "$reps" "$here/../data/exp3.ini" "$a" "$@" $(arm "$a")
 done
-
-load0=$(load)
-t0=$(now)
-parallel -j "$jobs" --halt now,fail=1 --joblog "$out/runs/joblog.txt" < "$list"
-runs=$(since "$t0")
-load1=$(load)
-t1=$(now)
-for a in $ARMS; do merge_arm "$a"; done
-{
-	echo "phase,wall_seconds,jobs,cores,load_before,load_after"
-	echo "runs,$runs,$jobs,$(nproc),$load0,$load1"
-	echo "merge,$(since "$t1"),1,$(nproc),$load1,$(load)"
-} > "$out/timing.csv"
+run_sweeps "$out" "$jobs" "$ARMS"
 
 "$py" "$here/power_stats.py" "$out" --docs "$docs"

@@ -30,34 +30,16 @@ POINTS=${SENSITIVITY_POINTS:-$("$py" "$here/sensitivity_stats.py" --points)}
 . "$here/study_lib.sh"
 
 mkdir -p "$out/runs"
-list="$out/runs/jobs.txt"
-: > "$list"
+: > "$out/runs/jobs.txt"
 for p in $POINTS; do
 	rm -rf "${out:?}/runs/$p" "${out:?}/$p"
 	# shellcheck disable=SC2046  # the point's options are plain words
-	sh "$here/jobs.sh" "$here/../data/exp3.ini" "$out/runs/$p" "$@" \
-		$("$py" "$here/sensitivity_stats.py" --point-options "$p") \
-		--set "experiment.repetitions=$reps" --set experiment.threads=1 >> "$list"
+	add_jobs "$out" "$reps" "$here/../data/exp3.ini" "$p" "$@" \
+		$("$py" "$here/sensitivity_stats.py" --point-options "$p")
 done
+run_sweeps "$out" "$jobs" "$POINTS"
 
-load0=$(load)
-t0=$(now)
-parallel -j "$jobs" --halt now,fail=1 --joblog "$out/runs/joblog.txt" < "$list"
-runs=$(since "$t0")
-load1=$(load)
-t1=$(now)
-for p in $POINTS; do
-	"$POOLREPS" collect -q "$out/runs/$p"
-	mv "$out/runs/$p/point-0/merged" "$out/$p"
-done
-{
-	echo "phase,wall_seconds,jobs,cores,load_before,load_after"
-	echo "runs,$runs,$jobs,$(nproc),$load0,$load1"
-	echo "merge,$(since "$t1"),1,$(nproc),$load1,$(load)"
-} > "$out/timing.csv"
-
-readme=
-[ -d "$docs" ] && [ "$(cd "$docs" && pwd -P)" = "$(cd "$here/.." && pwd -P)/docs" ] && readme="$here/../README.md"
+readme=$(docs_readme "$docs")
 mkdir -p "$docs/data/sensitivity"
 "$py" "$here/sensitivity_stats.py" --study "$out" --csv "$docs/data/sensitivity"
 "$py" "$here/sensitivity_stats.py" --csv "$docs/data/sensitivity" --docs "$docs" ${readme:+--readme "$readme"}
