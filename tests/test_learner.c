@@ -63,15 +63,22 @@ static void step(pr_learner *L, gsl_rng *ctx, double *A)
 	assert_int_equal(pr_learner_tell(L, B, X, A, R, NULL, 0, err), PR_OK);
 }
 
+/* The defaults with the learner's value and policy kinds, which every test
+ * names. */
+static void opts_of(pr_learner_opts *o, int value, int policy)
+{
+	pr_learner_opts_init(o);
+	o->value = value;
+	o->policy_type = policy;
+}
+
 static pr_learner *small(int value, int policy, gsl_rng *r)
 {
 	pr_learner_opts o;
 	char err[PR_ERRLEN];
 	pr_learner *L;
 
-	pr_learner_opts_init(&o);
-	o.value = value;
-	o.policy_type = policy;
+	opts_of(&o, value, policy);
 	o.window = 45;
 	o.init_std = 1.0;
 	o.value_forest.n_min = 10;
@@ -241,9 +248,7 @@ static void test_first_refit_is_least_squares(void **state)
 	int i;
 
 	(void)state;
-	pr_learner_opts_init(&o);
-	o.policy_type = PR_LEARNER_POLICY_LINEAR;
-	o.value = PR_LEARNER_VALUE_LINEAR;
+	opts_of(&o, PR_LEARNER_VALUE_LINEAR, PR_LEARNER_POLICY_LINEAR);
 	o.refit = 1;
 	o.policy.lambda = 0;
 	L = pr_learner_new(&o, 1, 1, r, err);
@@ -326,9 +331,7 @@ static void test_window_zero_and_names(void **state)
 	int t;
 
 	(void)state;
-	pr_learner_opts_init(&o);
-	o.value = PR_LEARNER_VALUE_LINEAR;
-	o.policy_type = PR_LEARNER_POLICY_LINEAR;
+	opts_of(&o, PR_LEARNER_VALUE_LINEAR, PR_LEARNER_POLICY_LINEAR);
 	o.window = 1;
 	assert_null(pr_learner_new(&o, DX, DA, r, err));
 	assert_non_null(strstr(err, "learner.window"));
