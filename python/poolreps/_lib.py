@@ -240,6 +240,28 @@ def rng_from_state(state):
     return h
 
 
+# One pickle format for PocketEnv and PocketVectorEnv: a dict with the format,
+# the env's own fields, then gymnasium's np_random and its seed.
+def pickle_state(env, **fields):
+    """The dict an env's __getstate__ returns, its fields in the given order."""
+    return {"format": 1, **fields, "np_random": getattr(env, "_np_random", None),
+            "np_random_seed": getattr(env, "_np_random_seed", None)}
+
+
+def check_pickle(cls, st):
+    """ValueError unless st is a pickle_state of the format this version reads."""
+    if not isinstance(st, dict) or st.get("format") != 1:
+        v = st.get("format") if isinstance(st, dict) else None
+        raise ValueError(f"{cls}: pickle format version {v}, this poolreps reads version 1")
+
+
+def restore_np_random(env, st):
+    """gymnasium's generator and seed from a pickle_state, if it had one."""
+    if st["np_random"] is not None:
+        env._np_random = st["np_random"]
+        env._np_random_seed = st["np_random_seed"]
+
+
 # The library's flag its row loops poll (the CLI's signal handler sets it).
 _INTERRUPTED = c_int.in_dll(lib, "pr_interrupted")
 # the end (an Event) of each worker told to stop and still finishing its row

@@ -128,24 +128,17 @@ class PocketEnv(gymnasium.Env if gymnasium else object):
     def __getstate__(self) -> Dict[str, Any]:
         with self._lock:
             rng = None if self._rng is None else _lib.rng_state(self._rng)
-        return {"format": 1, "args": self._args, "rng": rng, "state": self._state,
-                "last": self._last, "params": self._params,
-                "np_random": getattr(self, "_np_random", None),
-                "np_random_seed": getattr(self, "_np_random_seed", None)}
+        return _lib.pickle_state(self, args=self._args, rng=rng, state=self._state,
+                                 last=self._last, params=self._params)
 
     def __setstate__(self, st: Dict[str, Any]) -> None:
-        if not isinstance(st, dict) or st.get("format") != 1:
-            v = st.get("format") if isinstance(st, dict) else None
-            raise ValueError(f"PocketEnv: pickle format version {v}, this poolreps reads "
-                             f"version 1")
+        _lib.check_pickle("PocketEnv", st)
         self.__init__(**st["args"])
         if st["rng"] is not None:
             self._rng = _lib.rng_from_state(st["rng"])
         self._state, self._last = st["state"], st["last"]
         self._params = st.get("params")
-        if st["np_random"] is not None:
-            self._np_random = st["np_random"]
-            self._np_random_seed = st["np_random_seed"]
+        _lib.restore_np_random(self, st)
 
     # ---- domain randomisation -------------------------------------------------
 

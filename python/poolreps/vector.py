@@ -71,25 +71,19 @@ class PocketVectorEnv(VectorEnv):  # type: ignore[misc]
     # ---- pickling: the keys, each sub-env's generator and the pending starts --
 
     def __getstate__(self) -> Dict[str, Any]:
-        return {"format": 1, "num_envs": self.num_envs, "threads": self.threads,
-                "args": self.env._args, "rngs": [_lib.rng_state(h) for h in self._rngs],
-                "states": self._states, "params": self._params,
-                "np_random": getattr(self, "_np_random", None),
-                "np_random_seed": getattr(self, "_np_random_seed", None)}
+        return _lib.pickle_state(self, num_envs=self.num_envs, threads=self.threads,
+                                 args=self.env._args,
+                                 rngs=[_lib.rng_state(h) for h in self._rngs],
+                                 states=self._states, params=self._params)
 
     def __setstate__(self, st: Dict[str, Any]) -> None:
-        if not isinstance(st, dict) or st.get("format") != 1:
-            v = st.get("format") if isinstance(st, dict) else None
-            raise ValueError(f"PocketVectorEnv: pickle format version {v}, this poolreps "
-                             f"reads version 1")
+        _lib.check_pickle("PocketVectorEnv", st)
         self.__init__(st["num_envs"], st["threads"], **st["args"])
         self._rngs = [_lib.rng_from_state(b) for b in st["rngs"]]
         for i, h in enumerate(self._rngs):
             self._ptrs[i] = h.ptr
         self._states, self._params = st["states"], st["params"]
-        if st["np_random"] is not None:
-            self._np_random = st["np_random"]
-            self._np_random_seed = st["np_random_seed"]
+        _lib.restore_np_random(self, st)
 
     def _seed(self, seeds: Sequence[int]) -> None:
         self._rngs = [_lib.rng_handle(lib.pr_bind_rng_new(_lib.env_seed(f"seed[{i}]", s)))
