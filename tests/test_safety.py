@@ -645,6 +645,25 @@ def test_full_tmpfs(what, tmp_path, runs):
         run_cmd(["umount", str(mnt)])
 
 
+def interrupted(argv, ready, sigs, settle, cwd=None):
+    """Start argv, wait until ready() (60 s at most) and settle seconds more,
+    then send each of sigs (50 ms apart): its exit status and stderr."""
+    p = subprocess.Popen(argv, cwd=cwd, env=env(), stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE)
+    try:
+        assert wait_for(ready, 60), "the run never got ready for the signal"
+        time.sleep(settle)
+        for i, sig in enumerate(sigs):
+            if i:
+                time.sleep(0.05)
+            p.send_signal(sig)
+        _, err = p.communicate(timeout=60)
+    finally:
+        p.kill()
+        p.wait()
+    return p.returncode, err
+
+
 def long_shoot(tmp_path):
     """A shoot that writes a long trace (several seconds)."""
     (tmp_path / "s.csv").write_bytes(b"x0,y0,x1,y1,vx,vy\n" + b"-0.25,0,0.1,0,0.615,0.03\n" * 20000)
@@ -660,17 +679,8 @@ def long_shoot(tmp_path):
 def test_signal_mid_shoot(sig, tmp_path):
     args = long_shoot(tmp_path)
     before = snapshot(tmp_path)
-    p = subprocess.Popen([binary()] + args, cwd=tmp_path, env=env(), stdout=subprocess.DEVNULL,
-                         stderr=subprocess.PIPE)
-    try:
-        assert wait_for(lambda: leftovers(tmp_path), 60), "no temporary file appeared"
-        time.sleep(0.2)
-        p.send_signal(sig)
-        _, err = p.communicate(timeout=60)
-    finally:
-        p.kill()
-        p.wait()
-    assert p.returncode == 128 + sig, err
+    rc, err = interrupted([binary()] + args, lambda: leftovers(tmp_path), [sig], 0.2, tmp_path)
+    assert rc == 128 + sig, err
     assert err.count(b"\n") == 1 and b"interrupted by SIG" in err, err
     assert snapshot(tmp_path) == before
 
@@ -713,17 +723,9 @@ def exp3_run(out):
 def test_signal_mid_run_removes_staging(sig, tmp_path, runs):
     shutil.copytree(runs / "full", tmp_path / "out")
     before = snapshot(tmp_path)
-    p = subprocess.Popen(exp3_run(tmp_path / "out"), env=env(), stdout=subprocess.DEVNULL,
-                         stderr=subprocess.PIPE)
-    try:
-        assert wait_for(lambda: any((tmp_path / "out").glob(".partial-*")), 60)
-        time.sleep(0.3)
-        p.send_signal(sig)
-        _, err = p.communicate(timeout=60)
-    finally:
-        p.kill()
-        p.wait()
-    assert p.returncode == 128 + sig, err
+    rc, err = interrupted(exp3_run(tmp_path / "out"),
+                          lambda: any((tmp_path / "out").glob(".partial-*")), [sig], 0.3)
+    assert rc == 128 + sig, err
     assert err.count(b"\n") == 1 and b"left as it was" in err, err
     assert snapshot(tmp_path) == before
 
@@ -731,19 +733,11 @@ def test_signal_mid_run_removes_staging(sig, tmp_path, runs):
 @pytest.mark.native
 def test_signal_mid_run_removes_the_folders_it_made(tmp_path):
     before = snapshot(tmp_path)
-    p = subprocess.Popen(exp3_run(tmp_path / "a" / "b" / "out"), env=env(), stdout=subprocess.DEVNULL,
-                         stderr=subprocess.PIPE)
-    try:
-        assert wait_for(lambda: any((tmp_path / "a" / "b" / "out").glob(".partial-*")), 60)
-        time.sleep(0.3)
-        p.send_signal(signal.SIGTERM)
-        time.sleep(0.05)
-        p.send_signal(signal.SIGTERM)   # a second signal: the handler cleans up at once
-        _, err = p.communicate(timeout=60)
-    finally:
-        p.kill()
-        p.wait()
-    assert p.returncode == 128 + signal.SIGTERM, err
+    out = tmp_path / "a" / "b" / "out"
+    # a second signal: the handler cleans up at once
+    rc, err = interrupted(exp3_run(out), lambda: any(out.glob(".partial-*")),
+                          [signal.SIGTERM, signal.SIGTERM], 0.3)
+    assert rc == 128 + signal.SIGTERM, err
     assert err.count(b"\n") == 1, err
     assert snapshot(tmp_path) == before
 
