@@ -17,6 +17,7 @@ scripts/valgrind.sh skips both.
 import configparser
 import csv
 import os
+import re
 import shlex
 import subprocess
 import time
@@ -146,6 +147,33 @@ def quick_sets(name):
     ini.read(ROOT / "data" / "quick" / f"{name}.ini")
     return [f"{section}.{key}={value}" for section in ini.sections()
             for key, value in ini[section].items()]
+
+
+def config_keys(text):
+    """`poolreps config`'s output: {section.key: default}, with the keys of the
+    friction laws not chosen (written as comments, listed in commented), and
+    the lines that are no key, section, comment or blank."""
+    keys, commented, other, section = {}, [], [], None
+    for line in text.splitlines():
+        if line.startswith("["):
+            section = line.strip("[]")
+        elif " = " in line:
+            k, v = line.removeprefix("; ").split(" = ", 1)
+            keys[f"{section}.{k}"] = v
+            if line.startswith("; "):
+                commented.append(f"{section}.{k}")
+        elif line and not line.startswith(";"):
+            other.append(line)
+    return keys, commented, other
+
+
+def keys_missing(keys, text):
+    """The keys of {key: default} that text in the --help-keys layout
+    ("  section.key = default ...") does not list with that default, and the
+    set of keys it lists."""
+    missing = [k for k, v in keys.items()
+               if not re.search(rf"^  {re.escape(k)} += {re.escape(v)}(?=[ :]|$)", text, re.M)]
+    return missing, set(re.findall(r"^  ([a-z0-9_]+\.[a-z0-9_]+) += ", text, re.M))
 
 
 def csv_rows(path):

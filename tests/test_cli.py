@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from conftest import ROOT, poolreps_path, run_cmd, timeout_scale
+from conftest import ROOT, config_keys, keys_missing, poolreps_path, run_cmd, timeout_scale
 
 COMMON_LONG = {"set", "seed", "help", "help-keys", "version", "progress"}
 CORE_COMMANDS = {"run", "shoot", "forest", "reps", "policy"}
@@ -104,23 +104,13 @@ def test_version(poolreps, args):
 def test_every_key_in_help_with_its_default(poolreps, keys_text):
     r = poolreps(["config"])
     assert r.returncode == 0, r.stderr
-    keys, section = {}, None
-    for line in r.stdout.decode().splitlines():
-        if line.startswith("["):
-            section = line.strip("[]")
-        elif " = " in line:
-            # the friction laws not chosen: their keys are written as comments
-            k, v = line.removeprefix("; ").split(" = ", 1)
-            assert not line.startswith("; ") or f"{section}.{k}" in (
-                "table.deceleration", "table.mu_slide", "table.mu_roll"), line
-            keys[f"{section}.{k}"] = v
-        else:
-            assert line == "" or line.startswith(";"), line
+    keys, commented, other = config_keys(r.stdout.decode())
+    # the friction laws not chosen: their keys are written as comments
+    assert set(commented) <= {"table.deceleration", "table.mu_slide", "table.mu_roll"}, commented
+    assert not other, other
     assert len(keys) > 50
-    for name, default in keys.items():
-        assert re.search(rf"^  {re.escape(name)} += {re.escape(default)}(?=[ :]|$)",
-                         keys_text, re.M), f"{name} = {default} not in --help-keys"
-    listed = set(re.findall(r"^  ([a-z0-9_]+\.[a-z0-9_]+) += ", keys_text, re.M))
+    missing, listed = keys_missing(keys, keys_text)
+    assert not missing, f"not in --help-keys with their defaults: {missing}"
     assert listed == set(keys)
 
 

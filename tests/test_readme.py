@@ -4,7 +4,7 @@ every picture it shows exists."""
 import re
 
 import pytest
-from conftest import ROOT, poolreps_path, run_cmd
+from conftest import ROOT, config_keys, keys_missing, poolreps_path, run_cmd
 
 README = (ROOT / "README.md").read_text(encoding="utf-8")
 PARAMETERS = (ROOT / "docs" / "parameters.md").read_text(encoding="utf-8")
@@ -36,19 +36,10 @@ def test_every_key_documented(poolreps):
     default it writes, and the page lists no other key."""
     r = poolreps(["config"])
     assert r.returncode == 0, r.stderr
-    keys, section = {}, None
-    for line in r.stdout.decode().splitlines():
-        if line.startswith("["):
-            section = line.strip("[]")
-        elif " = " in line:
-            # the friction law not chosen: its key is written as a comment
-            k, v = line.removeprefix("; ").split(" = ", 1)
-            keys[f"{section}.{k}"] = v
+    keys = config_keys(r.stdout.decode())[0]
     assert len(keys) > 50
-    missing = [k for k, v in keys.items()
-               if not re.search(rf"^  {re.escape(k)} += {re.escape(v)}(?=[ :]|$)", PARAMETERS, re.M)]
+    missing, listed = keys_missing(keys, PARAMETERS)
     assert not missing, f"keys missing from docs/parameters.md: {missing}"
-    listed = set(re.findall(r"^  ([a-z0-9_]+\.[a-z0-9_]+) += ", PARAMETERS, re.M))
     assert listed == set(keys)
 
 
