@@ -31,6 +31,24 @@ def read(path):
     return Path(path).read_bytes()
 
 
+def same_across_threads_and_merge(ini, sets, tmp_path, order, files, runs=("a",)):
+    """Each of runs on one thread, b on two, and the three repetitions run
+    apart (r0..r2) then merged in the given order (m): files byte-identical."""
+    for d in runs:
+        run(ini, tmp_path / d, sets + ["experiment.threads=1"])
+    run(ini, tmp_path / "b", sets + ["experiment.threads=2"])
+    for k in range(3):
+        run(ini, tmp_path / f"r{k}", sets + [f"experiment.repetition={k}"])
+    p = run_cmd([BIN, "merge", "-q", "-o", str(tmp_path / "m")] +
+                [str(tmp_path / f"r{k}") for k in order],
+                capture_output=True, text=True, env=ENV, timeout=60)
+    assert p.returncode == 0, p.stderr
+    for f in files:
+        a = read(tmp_path / runs[0] / f)
+        for d in runs[1:] + ("b", "m"):
+            assert a == read(tmp_path / d / f), (d, f)
+
+
 # ---- Experiment 1 ----
 
 def test_exp1_schema_and_ranges(tmp_path):
@@ -93,18 +111,8 @@ def test_exp1_single_leaf_forests_ignore_trees_and_cuts(tmp_path):
 
 def test_exp1_reproducible_threads_and_merge(tmp_path):
     sets = EXP1_TINY + ["experiment.repetitions=3", "exp1.train=150", "exp1.test=150"]
-    run("exp1.ini", tmp_path / "a", sets + ["experiment.threads=1"])
-    run("exp1.ini", tmp_path / "b", sets + ["experiment.threads=2"])
-    for k in range(3):
-        run("exp1.ini", tmp_path / f"r{k}", sets + [f"experiment.repetition={k}"])
-    p = run_cmd([BIN, "merge", "-q", "-o", str(tmp_path / "m"), str(tmp_path / "r2"),
-                        str(tmp_path / "r0"), str(tmp_path / "r1")],
-                       capture_output=True, text=True, env=ENV, timeout=60)
-    assert p.returncode == 0, p.stderr
-    for f in ("exp1_mse.csv", "exp1_map.csv", "exp1_summary.csv"):
-        a = read(tmp_path / "a" / f)
-        assert a == read(tmp_path / "b" / f), f
-        assert a == read(tmp_path / "m" / f), f
+    same_across_threads_and_merge("exp1.ini", sets, tmp_path, (2, 0, 1),
+                                  ("exp1_mse.csv", "exp1_map.csv", "exp1_summary.csv"))
     # a single repetition holds only its own rows
     _, r1 = rows(tmp_path / "r1" / "exp1_mse.csv")
     assert {r["repetition"] for r in r1} == {"1"}
@@ -179,20 +187,8 @@ def test_exp2_rows_do_not_depend_on_the_size_list(tmp_path):
 
 def test_exp2_reproducible_threads_and_merge(tmp_path):
     sets = EXP2_TINY + ["experiment.repetitions=3"]
-    run("exp2.ini", tmp_path / "a", sets + ["experiment.threads=1"])
-    run("exp2.ini", tmp_path / "a2", sets + ["experiment.threads=1"])
-    run("exp2.ini", tmp_path / "b", sets + ["experiment.threads=2"])
-    for k in range(3):
-        run("exp2.ini", tmp_path / f"r{k}", sets + [f"experiment.repetition={k}"])
-    p = run_cmd([BIN, "merge", "-q", "-o", str(tmp_path / "m"), str(tmp_path / "r1"),
-                        str(tmp_path / "r2"), str(tmp_path / "r0")],
-                       capture_output=True, text=True, env=ENV, timeout=60)
-    assert p.returncode == 0, p.stderr
-    for f in ("exp2_returns.csv", "exp2_summary.csv"):
-        a = read(tmp_path / "a" / f)
-        assert a == read(tmp_path / "a2" / f), f
-        assert a == read(tmp_path / "b" / f), f
-        assert a == read(tmp_path / "m" / f), f
+    same_across_threads_and_merge("exp2.ini", sets, tmp_path, (1, 2, 0),
+                                  ("exp2_returns.csv", "exp2_summary.csv"), runs=("a", "a2"))
 
 
 def test_exp2_bad_sizes_fail_cleanly(tmp_path):
