@@ -339,12 +339,10 @@ static int check_opts(const pr_config *cfg, char *err)
 
 static int write_mse(const char *dir, const job_ctx *c, int lo, int hi, char *err)
 {
-	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int k, s;
 
-	snprintf(path, sizeof path, "%s/exp1_mse.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp1_mse.csv", dir)))
 		return PR_EIO;
 	pr_csvw_header(w, "repetition,sweep,n_min,trees,cuts,mse");
 	for (k = lo; k < hi; ++k)
@@ -363,12 +361,10 @@ static int write_mse(const char *dir, const job_ctx *c, int lo, int hi, char *er
 
 static int write_map(const char *dir, const job_ctx *c, int lo, int hi, char *err)
 {
-	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int k, i;
 
-	snprintf(path, sizeof path, "%s/exp1_map.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp1_map.csv", dir)))
 		return PR_EIO;
 	pr_csvw_header(w, "repetition,x1,y1,reward,pred");
 	for (k = lo; k < hi; ++k)
@@ -535,8 +531,7 @@ int pr_exp1_summarize(const pr_config *cfg, const char *dir, char *err)
 	pr_exp_table_free(t);
 	if (rc)
 		return rc;
-	snprintf(path, sizeof path, "%s/exp1_summary.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp1_summary.csv", dir)))
 		return PR_EIO;
 	pr_csvw_header(w, "sweep,value,mean_mse,std_mse,forests");
 	for (i = 0; i < ng; ++i) {

@@ -333,13 +333,11 @@ static int write_returns(const char *dir, const job_ctx *c, int lo, int hi, char
 {
 	static const char *const cols[] = {"repetition", "size", "policy", "mode", "mean_return",
 	                                   "std_return", "n", "pocketed", "policy_flags"};
-	char path[PR_PATHLEN];
 	pr_csvw *w;
 	size_t i;
 	int k, j, pol, m;
 
-	snprintf(path, sizeof path, "%s/exp2_returns.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp2_returns.csv", dir)))
 		return PR_EIO;
 	for (i = 0; i < sizeof cols / sizeof cols[0]; ++i)
 		pr_csvw_str(w, cols[i]);
@@ -513,8 +511,7 @@ int pr_exp2_summarize(const pr_config *cfg, const char *dir, char *err)
 	if (rc == PR_OK)
 		rc = accumulate(t, 1, g, &ng, err);
 	pr_exp_table_free(t);
-	snprintf(path, sizeof path, "%s/exp2_summary.csv", dir);
-	if (rc || !(w = pr_csvw_open(path, err))) {
+	if (rc || !(w = pr_exp_csv_open(err, "%s/exp2_summary.csv", dir))) {
 		free(g);
 		return rc ? rc : PR_EIO;
 	}

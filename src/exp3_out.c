@@ -28,12 +28,10 @@
 static int write_episodes(const pr_config *cfg, const pr_exp3_job *runs, int nruns,
                           const char *dir, char *err)
 {
-	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int j, i, rc = PR_OK;
 
-	snprintf(path, sizeof path, "%s/exp3_episodes.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp3_episodes.csv", dir)))
 		return PR_EIO;
 	rc |= pr_exp3_write_episode_header(w, cfg->table.balls);
 	for (j = 0; rc == PR_OK && j < nruns; ++j) {
@@ -108,12 +106,10 @@ int pr_exp3_write_iter(pr_csvw *w, const pr_exp3_iter *r)
 
 static int write_reps(const pr_exp3_job *runs, int nruns, const char *dir, char *err)
 {
-	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int j, t, rc = PR_OK;
 
-	snprintf(path, sizeof path, "%s/exp3_reps.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp3_reps.csv", dir)))
 		return PR_EIO;
 	rc = pr_csvw_header(w, "repetition,policy,iteration," PR_EXP3_ITER_COLUMNS);
 	for (j = 0; rc == PR_OK && j < nruns; ++j)
@@ -131,12 +127,10 @@ static int write_reps(const pr_exp3_job *runs, int nruns, const char *dir, char 
 static int write_mean(const pr_exp3_opts *e, const pr_exp3_job *runs, int nruns,
                       const char *dir, char *err)
 {
-	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int j, i, rc;
 
-	snprintf(path, sizeof path, "%s/exp3_mean.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp3_mean.csv", dir)))
 		return PR_EIO;
 	rc = pr_csvw_header(w, "repetition,policy,episodes,states,mean_return,pocket_rate");
 	for (j = 0; rc == PR_OK && j < nruns; ++j)
@@ -329,7 +323,6 @@ static int write_curve(const pr_config *cfg, const episodes *E, const pr_exp3_la
 	size_t cells = (size_t)E->nv * E->nr * (E->T + 1);
 	double *sum = calloc(cells, sizeof *sum);
 	long *cnt = calloc(cells, sizeof *cnt), i;
-	char path[PR_PATHLEN];
 	pr_csvw *w = NULL;
 	int v, r, t, rc = PR_OK;
 
@@ -351,8 +344,7 @@ static int write_curve(const pr_config *cfg, const episodes *E, const pr_exp3_la
 					            "no episodes of iteration %d", dir, lb->prefix, lb->name[v], E->rep[r], t);
 					break;
 				}
-	snprintf(path, sizeof path, "%s/%s_curve.csv", dir, lb->prefix);
-	if (rc == PR_OK && !(w = pr_csvw_open(path, err)))
+	if (rc == PR_OK && !(w = pr_exp_csv_open(err, "%s/%s_curve.csv", dir, lb->prefix)))
 		rc = PR_EIO;
 	if (rc == PR_OK) {
 		pr_csvw_str(w, "policy");
@@ -419,12 +411,10 @@ static int mark_final(const episodes *E, long last, char *fin, char *err)
 static int write_final(const pr_config *cfg, const episodes *E, const pr_exp3_labels *lb, const char *fin,
                        const char *dir, char *err)
 {
-	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int v, r, rc = PR_OK;
 
-	snprintf(path, sizeof path, "%s/%s_final.csv", dir, lb->prefix);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/%s_final.csv", dir, lb->prefix)))
 		return PR_EIO;
 	rc = pr_csvw_header(w, "policy,repetition,episodes,mean_return,std_return,pocketed_target,"
 	                       "pocketed_other,mean_distance");
@@ -465,14 +455,12 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const pr_
 {
 	int nbins = (int)ceil(hypot(cfg->table.length, cfg->table.width) * DIST_BINS_PER_M);
 	long *hist = calloc((size_t)nbins + 1, sizeof *hist), pk[PR_SIM_POCKETS + 1], tot, i;
-	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int v, b, rc = PR_OK;
 
 	if (!hist)
 		return pr_err(err, PR_ENOMEM, "out of memory");
-	snprintf(path, sizeof path, "%s/%s_pockets.csv", dir, lb->prefix);
-	if (!(w = pr_csvw_open(path, err))) {
+	if (!(w = pr_exp_csv_open(err, "%s/%s_pockets.csv", dir, lb->prefix))) {
 		free(hist);
 		return PR_EIO;
 	}
@@ -498,8 +486,7 @@ static int write_pockets_dist(const pr_config *cfg, const episodes *E, const pr_
 		return rc;
 	}
 
-	snprintf(path, sizeof path, "%s/%s_dist.csv", dir, lb->prefix);
-	if (!(w = pr_csvw_open(path, err))) {
+	if (!(w = pr_exp_csv_open(err, "%s/%s_dist.csv", dir, lb->prefix))) {
 		free(hist);
 		return PR_EIO;
 	}
@@ -601,8 +588,7 @@ static int write_reps_summary(const pr_exp3_labels *lb, const char *dir, char *e
 		cnt[v][4] += nr;
 	}
 	pr_exp_table_free(t);
-	snprintf(path, sizeof path, "%s/%s_reps_summary.csv", dir, lb->prefix);
-	if (rc == PR_OK && !(w = pr_csvw_open(path, err)))
+	if (rc == PR_OK && !(w = pr_exp_csv_open(err, "%s/%s_reps_summary.csv", dir, lb->prefix)))
 		rc = PR_EIO;
 	if (rc == PR_OK) {
 		rc = pr_csvw_header(w, "policy,solves,bound_active,bound_inactive,mean_kl,max_residual,"

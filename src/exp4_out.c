@@ -34,12 +34,11 @@
 static int write_runs(const pr_config *cfg, const pr_exp4_job *runs, int nruns, const char *dir,
                       char *err)
 {
-	char path[PR_PATHLEN], label[64];
+	char label[64];
 	pr_csvw *w;
 	int j, i, t, rc = PR_OK;
 
-	snprintf(path, sizeof path, "%s/exp4_episodes.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp4_episodes.csv", dir)))
 		return PR_EIO;
 	rc |= pr_exp3_write_episode_header(w, cfg->table.balls);
 	for (j = 0; rc == PR_OK && j < nruns; ++j) {
@@ -53,8 +52,7 @@ static int write_runs(const pr_config *cfg, const pr_exp4_job *runs, int nruns, 
 	if ((rc = pr_csvw_finish(w, rc, err)))
 		return rc;
 
-	snprintf(path, sizeof path, "%s/exp4_reps.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp4_reps.csv", dir)))
 		return PR_EIO;
 	rc = pr_csvw_header(w, "repetition,policy,iteration," PR_EXP3_ITER_COLUMNS);
 	for (j = 0; rc == PR_OK && j < nruns; ++j) {
@@ -77,12 +75,10 @@ static int write_runs(const pr_config *cfg, const pr_exp4_job *runs, int nruns, 
 static int write_demo(const pr_config *cfg, const pr_exp4_job *runs, int nruns, const char *dir,
                       char *err)
 {
-	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int j, i, b, rc = PR_OK;
 
-	snprintf(path, sizeof path, "%s/exp4_demo.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp4_demo.csv", dir)))
 		return PR_EIO;
 	rc |= pr_csvw_str(w, "repetition");
 	rc |= pr_csvw_str(w, "demo");
@@ -114,12 +110,11 @@ static int write_demo(const pr_config *cfg, const pr_exp4_job *runs, int nruns, 
 static int write_fit(const pr_config *cfg, const pr_exp4_job *runs, int nruns, const char *dir,
                      char *err)
 {
-	char path[PR_PATHLEN], label[64];
+	char label[64];
 	pr_csvw *w;
 	int j, i, b, rc = PR_OK;
 
-	snprintf(path, sizeof path, "%s/exp4_fit.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp4_fit.csv", dir)))
 		return PR_EIO;
 	rc |= pr_csvw_str(w, "repetition");
 	rc |= pr_csvw_str(w, "policy");
@@ -150,12 +145,11 @@ static int write_fit(const pr_config *cfg, const pr_exp4_job *runs, int nruns, c
  * leaves (0 without a forest). */
 static int write_mean(const pr_exp4_job *runs, int nruns, const char *dir, char *err)
 {
-	char path[PR_PATHLEN], label[64];
+	char label[64];
 	pr_csvw *w;
 	int j, rc;
 
-	snprintf(path, sizeof path, "%s/exp4_mean.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/exp4_mean.csv", dir)))
 		return PR_EIO;
 	rc = pr_csvw_header(w, "repetition,policy,states,mean_return,pocket_rate,hit_rate,n_min,"
 	                       "leaves");
@@ -348,7 +342,6 @@ static double median_of(const finals *F, const double *x, int v, double *buf, si
 static int write_verdict(const pr_config *cfg, const pr_exp4_variant *var, const char (*name)[32],
                          int nv, const char *dir, char *err)
 {
-	char path[PR_PATHLEN];
 	finals F;
 	double m[PR_EXP4_REPS_MAX], d[PR_EXP4_REPS_MAX], *sp = NULL;
 	pr_csvw *w = NULL;
@@ -356,10 +349,9 @@ static int write_verdict(const pr_config *cfg, const pr_exp4_variant *var, const
 	size_t ns;
 	int v, s, r, q, nm, nd, rc = read_finals(cfg, name, nv, dir, &F, err);
 
-	snprintf(path, sizeof path, "%s/exp4_verdict.csv", dir);
 	if (rc == PR_OK && !(sp = malloc(((size_t)F.nrow + 1) * sizeof *sp)))
 		rc = pr_err(err, PR_ENOMEM, "out of memory");
-	if (rc == PR_OK && !(w = pr_csvw_open(path, err)))
+	if (rc == PR_OK && !(w = pr_exp_csv_open(err, "%s/exp4_verdict.csv", dir)))
 		rc = PR_EIO;
 	if (rc == PR_OK)
 		rc = pr_csvw_header(w, "variant,policy,init,cov,repetitions,episodes,mean_return,"

@@ -439,12 +439,10 @@ done:
 
 static int write_curve(const char *dir, const bench_ctx *c, int lo, int hi, char *err)
 {
-	char path[PR_PATHLEN];
 	pr_csvw *w;
 	int rep, it, j, rc = 0;
 
-	snprintf(path, sizeof path, "%s/bench_curve.csv", dir);
-	if (!(w = pr_csvw_open(path, err)))
+	if (!(w = pr_exp_csv_open(err, "%s/bench_curve.csv", dir)))
 		return PR_EIO;
 	rc = pr_csvw_str(w, "repetition");
 	if (!rc)
@@ -578,8 +576,7 @@ int pr_exp_benchmark_summarize(const pr_config *cfg, const char *dir, char *err)
 					                   (v - sum[it * NS + j] / cnt[it]);
 			}
 		}
-	snprintf(path, sizeof path, "%s/bench_summary.csv", dir);
-	if (!(w = pr_csvw_open(path, err))) {
+	if (!(w = pr_exp_csv_open(err, "%s/bench_summary.csv", dir))) {
 		rc = PR_EIO;
 		goto done;
 	}

@@ -13,6 +13,7 @@
 #include <pthread.h>
 
 #include "poolreps/config.h"
+#include "poolreps/csvio.h"
 #include "poolreps/exp.h"
 #include "common_priv.h"
 #include "config_priv.h"
@@ -102,6 +103,14 @@ void pr_exp_ticker_destroy(pr_exp_ticker *t);
  * lowest failing repetition, with its message in err. */
 int pr_exp_parallel(int lo, int hi, int threads, int (*job)(void *ctx, int k, char *err),
                     void *ctx, char *err);
+
+/* An experiment's output CSV at the path fmt formats (e.g. "%s/exp1_mse.csv"
+ * with the folder), opened for writing; NULL with err set if it cannot be. */
+pr_csvw *pr_exp_csv_open(char *err, const char *fmt, ...)
+#if defined(__GNUC__)
+	__attribute__((format(printf, 2, 3)))
+#endif
+	;
 
 /* ---- raw CSVs with text columns ---- */
 

@@ -8,6 +8,7 @@
  * which thread ran it or when, so the thread count cannot change a byte. */
 #include <errno.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -367,4 +368,15 @@ int pr_exp_expert_state(const pr_config *cfg, int nballs, gsl_rng *rng, double *
 	}
 	return pr_err(err, PR_EINVAL, "%s: no start state the ghost-ball expert can play in "
 	              "%d draws (last: %s)", cfg->run.name, cfg->start.max_tries, why);
+}
+
+pr_csvw *pr_exp_csv_open(char *err, const char *fmt, ...)
+{
+	char path[PR_PATHLEN];
+	va_list ap;
+
+	va_start(ap, fmt);
+	vsnprintf(path, sizeof path, fmt, ap);
+	va_end(ap);
+	return pr_csvw_open(path, err);
 }
