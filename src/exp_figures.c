@@ -28,6 +28,18 @@ static pr_csvw *open_csv(const char *dir, const char *name, const char *header, 
 	return w;
 }
 
+/* Finish the open CSV *w with status rc, then open dir/name with its
+ * header: a figure's files are written one after another. */
+static int next_csv(pr_csvw **w, int rc, const char *dir, const char *name, const char *header,
+                    char *err)
+{
+	rc = pr_csvw_finish(*w, rc, err);
+	*w = NULL;
+	if (rc)
+		return rc;
+	return (*w = open_csv(dir, name, header, err)) ? PR_OK : PR_EIO;
+}
+
 /* One row of n numbers. */
 static int put_row(pr_csvw *w, int n, const double *v)
 {
@@ -64,10 +76,8 @@ static int fig_table(const pr_config *cfg, const char *dir, gsl_rng *rng, double
 		double v[4] = {t->length, t->width, t->ball_radius, t->pocket_radius};
 		rc = put_row(w, 4, v);
 	}
-	if ((rc = pr_csvw_finish(w, rc, err)))
+	if ((rc = next_csv(&w, rc, dir, "fig7_1_pockets.csv", "pocket,x,y", err)))
 		return rc;
-	if (!(w = open_csv(dir, "fig7_1_pockets.csv", "pocket,x,y", err)))
-		return PR_EIO;
 	for (i = 0; i < PR_SIM_POCKETS && !rc; ++i) {
 		double v[3] = {i, 0, 0};
 		pr_sim_pocket_xy(t, i, v + 1);
@@ -141,14 +151,8 @@ static int fig_landscape(const pr_config *cfg, const char *dir, char *err)
 			v[4] = r.pocket[1];
 			rc = put_row(w, 5, v);
 		}
-	rc = pr_csvw_finish(w, rc, err);
-	w = NULL;
-	if (rc)
+	if ((rc = next_csv(&w, rc, dir, "fig7_3_shots.csv", "shot,pocket,vx,vy,reward", err)))
 		goto done;
-	if (!(w = open_csv(dir, "fig7_3_shots.csv", "shot,pocket,vx,vy,reward", err))) {
-		rc = PR_EIO;
-		goto done;
-	}
 	for (q = 0; q < 2 && !rc; ++q) {
 		int best = -1, bestnb = -1;
 		double bestv = HUGE_VAL, a[2];
@@ -182,14 +186,8 @@ static int fig_landscape(const pr_config *cfg, const char *dir, char *err)
 			rc = put_row(w, 5, v);
 		}
 	}
-	rc = pr_csvw_finish(w, rc, err);
-	w = NULL;
-	if (rc)
+	if ((rc = next_csv(&w, rc, dir, "fig7_3_trace.csv", "shot,t,ball,x,y,vx,vy", err)))
 		goto done;
-	if (!(w = open_csv(dir, "fig7_3_trace.csv", "shot,t,ball,x,y,vx,vy", err))) {
-		rc = PR_EIO;
-		goto done;
-	}
 	for (q = 0; q < 2 && !rc; ++q) {
 		pr_shot r;
 		if (!(rc = pr_sim_shoot(sim, state, 2, chosen[q], &r, tr, err)))
@@ -242,15 +240,10 @@ static int fig_ghost(const pr_config *cfg, const char *dir, gsl_rng *rng, double
 		                g.ghost[1], g.dir[0], g.dir[1], g.cut * 180 / acos(-1.0), g.v_contact,
 		                g.v0, a[0], a[1], r.pocket[1], pr_sim_reward(&t, &cfg->reward, &r),
 		                g.entry[0], g.entry[1]};
-		rc = pr_csvw_finish(w, put_row(w, 20, v), err);
-		w = NULL;
+		rc = put_row(w, 20, v);
 	}
-	if (rc)
+	if ((rc = next_csv(&w, rc, dir, "fig7_5_trace.csv", "t,ball,x,y,vx,vy", err)))
 		goto done;
-	if (!(w = open_csv(dir, "fig7_5_trace.csv", "t,ball,x,y,vx,vy", err))) {
-		rc = PR_EIO;
-		goto done;
-	}
 	rc = pr_csvw_finish(w, write_trace(w, 0, tr, 0), err);
 	w = NULL;
 done:
