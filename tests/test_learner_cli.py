@@ -230,3 +230,32 @@ def test_an_uncertified_solve_exits_3_and_changes_nothing(tmp_path):
     lines = r.stderr.decode().splitlines()
     assert len(lines) == 1 and "REPS answer not certified" in lines[0], lines
     assert snapshot(tmp_path) == before
+
+
+def test_two_tells_at_once_both_count(tmp_path):
+    """Two tells of one state started together (two jobs of an array): the
+    second waits for the first's rename and builds on its state, so the
+    result is the two tells one after the other, no episodes dropped.
+    Each reads its episodes from a pipe, fed only once both have started."""
+    import subprocess
+    import time
+    from conftest import poolreps_path
+    st = new(tmp_path)
+    rng = np.random.default_rng(5)
+    eps = [one_round(tmp_path, st, rng).read_bytes() for _ in range(2)]
+    ask_state = st.read_bytes()
+    procs = []
+    for k in range(2):
+        procs.append(subprocess.Popen([poolreps_path(), "learner", "tell", str(st), "--return", "ret"],
+                                      stdin=subprocess.PIPE, stderr=subprocess.PIPE,
+                                      env=dict(os.environ, LC_ALL="C")))
+        time.sleep(0.5)  # each has opened STATE (and, unlocked, read it)
+    for p, e in zip(procs, eps):
+        _, err = p.communicate(e, timeout=120)
+        assert p.returncode == 0, err
+    both = st.read_bytes()
+    st.write_bytes(ask_state)
+    for e in eps:
+        r = run_poolreps(["learner", "tell", st, "--return", "ret"], input=e)
+        assert r.returncode == 0, r.stderr
+    assert both == st.read_bytes()

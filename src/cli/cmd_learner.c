@@ -11,11 +11,18 @@
  * rewrite STATE together with their output, each under a temporary name
  * renamed only when everything succeeded, so a failed command leaves
  * STATE and every other path as they were. The random stream is
- * mt19937 seeded with experiment.seed, as poolreps.Learner's.
+ * mt19937 seeded with experiment.seed, as poolreps.Learner's. new, ask
+ * and tell hold a lock on STATE from reading it to renaming over it, so
+ * two of them on one state run one after the other.
  */
+#define _DEFAULT_SOURCE /* flock */
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 
 #include <gsl/gsl_rng.h>
 
@@ -40,6 +47,30 @@ static int verb_of(const learner_args *a)
 		if (!strcmp(a->ops[0], verb_name[v]))
 			return v;
 	return -1;
+}
+
+/* An exclusive lock on the file path names, waited for: two tells of one
+ * state that both read it before either renamed over it would keep only
+ * the later's episodes. A file renamed over path while we waited (by the
+ * holder) is locked anew. The descriptor to close, or -1 where nothing is
+ * locked: no file yet (new), not a regular file (load refuses it), or a
+ * file system without flock for files open for reading (NFS). */
+static int lock_state(const char *path)
+{
+	struct stat held, now;
+	int fd;
+
+	for (;;) {
+		if ((fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC)) < 0)
+			return -1;
+		if (fstat(fd, &held) || !S_ISREG(held.st_mode) || flock(fd, LOCK_EX)) {
+			close(fd);
+			return -1;
+		}
+		if (!stat(path, &now) && now.st_dev == held.st_dev && now.st_ino == held.st_ino)
+			return fd;
+		close(fd);
+	}
 }
 
 /* The learner saved in STATE, drawing from rng; NULL with *rc set. */
@@ -326,17 +357,20 @@ static int learner_main(const pr_config *cfg, const void *opts, char *err)
 	const int verb = verb_of(a);
 	gsl_rng *rng;
 	pr_learner *L = NULL;
-	int rc = check_verb(cfg, a, verb, err);
+	int rc = check_verb(cfg, a, verb, err), lock;
 
 	if (rc)
 		return rc;
 	if (!(rng = gsl_rng_alloc(gsl_rng_mt19937)))
 		return pr_err(err, PR_ENOMEM, "learner: out of memory");
+	lock = verb == MEAN ? -1 : lock_state(a->ops[1]);
 	gsl_rng_set(rng, cfg->run.seed);
 	if (verb == NEW)
 		rc = learner_new(cfg, a, rng, err);
 	else if ((L = load(a->ops[1], rng, &rc, err)))
 		rc = verb == TELL ? learner_tell(a, L, err) : learner_act(a, verb, L, err);
+	if (lock >= 0)
+		close(lock);
 	pr_learner_free(L);
 	gsl_rng_free(rng);
 	return rc;
