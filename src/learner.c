@@ -1204,7 +1204,9 @@ static int get_i(rbuf *r, int lo, int hi, const char *name)
 	return r->rc ? lo : (int)x;
 }
 
-/* n doubles into v (allocated by the caller), finite unless any is allowed. */
+/* n doubles into v (allocated by the caller): finite (any 0), finite or
+ * -inf (any 2: a log-density, zero where an action is beyond a policy's
+ * reach) or any value (1). */
 static void get_d(rbuf *r, double *v, size_t n, int any, const char *name)
 {
 	size_t i;
@@ -1216,8 +1218,8 @@ static void get_d(rbuf *r, double *v, size_t n, int any, const char *name)
 		return;
 	}
 	get(r, v, n * sizeof *v);
-	for (i = 0; !any && i < n; ++i)
-		if (!isfinite(v[i]) && r->rc == PR_OK)
+	for (i = 0; any != 1 && i < n; ++i)
+		if (!isfinite(v[i]) && !(any == 2 && v[i] == -HUGE_VAL) && r->rc == PR_OK)
 			bad(r, name);
 }
 
@@ -1243,7 +1245,7 @@ static void get_win(rbuf *r, pr_learner *L, win *w, int lc, int dy, int dg)
 	get_d(r, w->Y, w->Y ? (size_t)n * dy : 0, 0, "a target is not finite");
 	get_d(r, w->G, w->G ? (size_t)n * dg : 0, 0, "a feature is not finite");
 	get_d(r, w->mu, w->mu ? (size_t)n * L->da : 0, 0, "a mean is not finite");
-	get_d(r, w->lp, (size_t)n * lc, 1, "");
+	get_d(r, w->lp, (size_t)n * lc, 2, "a log-density is NaN or +inf");
 	for (i = 0; i < n && r->rc == PR_OK; ++i)
 		w->it[i] = get_i(r, L->pbase, L->niter, "drawing policy");
 }
