@@ -47,6 +47,7 @@ struct pr_learner {
 	win w, ask;              /* the window; the last ask (ask.lc policies from pbase) */
 	int ask_iter;            /* iteration of the last ask, -1: none */
 	int redraws, ask_flags;
+	int bad_row;             /* the row the last ask, mean or tell failed at, or -1 */
 	pr_learner_summary last;
 	char **names;            /* dx + da column names, or NULL */
 	double *m0, *c0, *m1, *c1; /* scratch mean (da) and covariance (da x da): two levels,
@@ -236,6 +237,7 @@ pr_learner *pr_learner_new(const pr_learner_opts *o, int dx, int da, gsl_rng *rn
 	L->npol = 1;
 	L->cpol = 4;
 	L->ask_iter = -1;
+	L->bad_row = -1;
 	L->last.status = PR_REPS_ACTIVE;
 	if (default_pi0(L, err) || pr_learner_set_names(L, NULL, err)) {
 		pr_learner_free(L);
@@ -458,6 +460,7 @@ int pr_learner_ask(pr_learner *L, int n, const double *contexts, double *actions
 	win w;
 	int i, rc, flags = 0;
 
+	L->bad_row = -1;
 	if ((rc = check_rows(n, contexts, actions, err)) ||
 	    (rc = finite_rows(contexts, n, L->dx, "contexts", err)))
 		return rc;
@@ -471,7 +474,8 @@ int pr_learner_ask(pr_learner *L, int n, const double *contexts, double *actions
 	L->redraws = 0;
 	for (i = 0; i < n && rc == PR_OK; ++i) {
 		w.it[i] = L->niter;
-		rc = ask_one(L, &w, i, &flags, err);
+		if ((rc = ask_one(L, &w, i, &flags, err)))
+			L->bad_row = i;
 	}
 	if (rc) {
 		gsl_rng_memcpy(L->rng, keep);
@@ -485,6 +489,11 @@ int pr_learner_ask(pr_learner *L, int n, const double *contexts, double *actions
 	}
 	gsl_rng_free(keep);
 	return rc;
+}
+
+int pr_learner_bad_row(const pr_learner *L)
+{
+	return L->bad_row;
 }
 
 void pr_learner_ask_info(const pr_learner *L, int *redraws, int *flags)
@@ -501,13 +510,16 @@ int pr_learner_mean(pr_learner *L, int n, const double *contexts, double *action
 	double *cov = L->c0;
 	int i, rc;
 
+	L->bad_row = -1;
 	if ((rc = check_rows(n, contexts, actions, err)) ||
 	    (rc = finite_rows(contexts, n, L->dx, "contexts", err)))
 		return rc;
 	for (i = 0; i < n; ++i)
 		if ((rc = pr_policy_eval(cur->p, contexts + (size_t)i * L->dx,
-		                         actions + (size_t)i * L->da, cov, NULL, cur->w, err)))
+		                         actions + (size_t)i * L->da, cov, NULL, cur->w, err))) {
+			L->bad_row = i;
 			return rc;
+		}
 	return PR_OK;
 }
 
@@ -645,8 +657,10 @@ static int next_window(pr_learner *L, stage *S, const told *b, char *err)
 		copy_row(w->Y, j, b->targets, i, S->dy);
 		copy_row(w->G, j, b->features, i, S->dg);
 		w->it[j] = L->niter;
-		if ((rc = told_densities(L, S, b, i, j, err)))
+		if ((rc = told_densities(L, S, b, i, j, err))) {
+			L->bad_row = i;
 			return rc;
+		}
 	}
 	return PR_OK;
 }
@@ -892,6 +906,7 @@ int pr_learner_tell_batch(pr_learner *L, const pr_learner_batch *b, char *err)
 	gsl_rng *keep;
 	int rc;
 
+	L->bad_row = -1;
 	if ((rc = check_told(L, b, err)))
 		return rc;
 	memset(&S, 0, sizeof S);

@@ -259,3 +259,26 @@ def test_two_tells_at_once_both_count(tmp_path):
         r = run_poolreps(["learner", "tell", st, "--return", "ret"], input=e)
         assert r.returncode == 0, r.stderr
     assert both == st.read_bytes()
+
+
+def test_a_row_the_policy_fails_at_is_named(tmp_path):
+    """A context far beyond the fitted ones (1e200) makes the tree policy's
+    covariance overflow: ask, mean and tell name the file, line and
+    context column (exit 3), as `poolreps policy` does, and change nothing."""
+    st = new(tmp_path)
+    e = one_round(tmp_path, st, np.random.default_rng(6))
+    assert run_poolreps(["learner", "tell", st, "--return", "ret", "-i", e]).returncode == 0
+    (tmp_path / "far.csv").write_text("x,y\n0.1,0.2\n0.5,-1e200\n")
+    rows = e.read_text().splitlines()
+    rows[2] = "0.5,-1e200," + rows[2].split(",", 2)[2]
+    e.write_text("\n".join(rows) + "\n")
+    want = ": context y = -9.9999999999999997e+199: policy: covariance eigen-decomposition failed"
+    for args, line in [(["ask", st, "-i", tmp_path / "far.csv", "-o", tmp_path / "o.csv"], "far.csv:3"),
+                       (["mean", st, "-i", tmp_path / "far.csv"], "far.csv:3"),
+                       (["tell", st, "--return", "ret", "-i", e], "e.csv:3")]:
+        before = snapshot(tmp_path)
+        r = run_poolreps(["learner"] + args)
+        lines = r.stderr.decode().splitlines()
+        assert r.returncode == 3 and len(lines) == 1, (args[0], lines)
+        assert lines[0].endswith(line + want), lines
+        assert snapshot(tmp_path) == before

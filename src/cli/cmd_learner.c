@@ -17,6 +17,7 @@
  */
 #define _DEFAULT_SOURCE /* flock */
 #include <fcntl.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -221,6 +222,27 @@ static int write_rows(pr_csvw *w, const char *const *names, const double *X, int
 	return pr_csvw_status(w);
 }
 
+/* After a call that ended with rc: a failure at a row of t (contexts X)
+ * names the file and line, and the row's context of largest magnitude (one
+ * far beyond the fitted ones makes the policy's weights or covariance
+ * overflow), before the message. */
+static int name_row(const pr_learner *L, const pr_csv *t, const double *X, int rc, char *err)
+{
+	const int i = pr_learner_bad_row(L), dx = pr_learner_context_dim(L);
+	char msg[PR_ERRLEN];
+	int big = 0, j;
+
+	if (rc == PR_OK || i < 0)
+		return rc;
+	const double *x = X + (size_t)i * dx;
+	for (j = 1; j < dx; ++j)
+		if (fabs(x[j]) > fabs(x[big]))
+			big = j;
+	snprintf(msg, sizeof msg, "%s", err);
+	return pr_err(err, rc, "%s:%ld: context %s = %.17g: %s", pr_csv_path(t), pr_csv_line(t, i),
+	              pr_learner_names(L)[big], x[big], msg);
+}
+
 /* ask or mean: actions for the contexts of -i into -o (ask: STATE too). */
 static int learner_act(const learner_args *a, int verb, pr_learner *L, char *err)
 {
@@ -241,8 +263,8 @@ static int learner_act(const learner_args *a, int verb, pr_learner *L, char *err
 			rc = pr_err(err, PR_ENOMEM, "learner: out of memory");
 	}
 	if (rc == PR_OK)
-		rc = verb == ASK ? pr_learner_ask(L, (int)n, X, A, err)
-		                 : pr_learner_mean(L, (int)n, X, A, err);
+		rc = name_row(L, t, X, verb == ASK ? pr_learner_ask(L, (int)n, X, A, err)
+		                                   : pr_learner_mean(L, (int)n, X, A, err), err);
 	if (rc == PR_OK && !(set = pr_outset_new(err)))
 		rc = PR_ENOMEM;
 	if (rc == PR_OK && !(rc = pr_outset_add(set, a->output, &w, err)))
@@ -306,7 +328,7 @@ static int learner_tell(const learner_args *a, pr_learner *L, char *err)
 		b.contexts = X;
 		b.actions = A;
 		b.returns = R;
-		rc = pr_learner_tell_batch(L, &b, err);
+		rc = name_row(L, t, X, pr_learner_tell_batch(L, &b, err), err);
 	}
 	rc = commit_state(a->ops[1], L, rc, err);
 	pr_csv_free(t);

@@ -280,6 +280,9 @@ int pr_learner_check_head(const unsigned char *buf, size_t len, const char *what
 /* What the last ask did: actions drawn again (or clipped) for exceeding
  * max_norm, and the PR_POLICY_* flags of its queries. */
 void pr_learner_ask_info(const pr_learner *L, int *redraws, int *flags);
+/* The row of the contexts (ask, mean) or episodes (tell) whose policy
+ * evaluation failed the last such call, or -1 (success, or not a row's). */
+int pr_learner_bad_row(const pr_learner *L);
 /* A tell's episodes in full: n rows of contexts (n x dx), actions (n x
  * da) and returns; features (n x d) for value given, else NULL; targets (n
  * x dy) for policy.target = reward_state (the tree policy's forest predicts
