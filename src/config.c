@@ -120,7 +120,7 @@ static const pr_config_key core_keys[] = {
 	 "learner: tree-LWR policy (policy.*) or linear-Gaussian on [1, s]"},
 	{"learner", "window", PR_KEY_INT, F(learner.window), 0, 10000000, 0, "",
 	 "learner: latest episodes REPS and the fit reuse (0: each tell's own, uniform base weights)"},
-	{"learner", "init_std", PR_KEY_DOUBLE, F(learner.init_std), 0, 1e6, PR_KEY_OPEN_LO, "",
+	{"learner", "init_std", PR_KEY_DOUBLE, F(learner.init_std), 1e-100, 1e6, 0, "",
 	 "learner: pi_0 = N(0, init_std^2 I)"},
 	{"learner", "max_norm", PR_KEY_DOUBLE, F(learner.max_norm), 0, 1e12, 0, "",
 	 "learner: actions kept within this Euclidean norm (0: no limit)"},

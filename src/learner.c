@@ -85,8 +85,10 @@ int pr_learner_opts_check(const pr_learner_opts *o, char *err)
 	if ((o->window < 2 && o->window != 0) || o->window > MAX_WINDOW)
 		return pr_err(err, PR_EINVAL, "learner.window: must be 0 or in 2 .. %d (got %d)",
 		              MAX_WINDOW, o->window);
-	if (!(o->init_std > 0) || !isfinite(o->init_std))
-		return pr_err(err, PR_EINVAL, "learner.init_std: must be > 0 (got %g)", o->init_std);
+	/* init_std^2 must stay a normal double: the covariance of pi_0 */
+	if (!(o->init_std >= 1e-100 && o->init_std <= 1e6))
+		return pr_err(err, PR_EINVAL, "learner.init_std: must be in 1e-100 .. 1e6 (got %g)",
+		              o->init_std);
 	if (!(o->max_norm >= 0) || !isfinite(o->max_norm))
 		return pr_err(err, PR_EINVAL, "learner.max_norm: must be >= 0 (got %g)", o->max_norm);
 	if (o->truncation < PR_LEARNER_REDRAW || o->truncation > PR_LEARNER_CORRECTED)

@@ -282,3 +282,15 @@ def test_a_row_the_policy_fails_at_is_named(tmp_path):
         assert r.returncode == 3 and len(lines) == 1, (args[0], lines)
         assert lines[0].endswith(line + want), lines
         assert snapshot(tmp_path) == before
+
+
+def test_an_init_std_whose_square_underflows_is_refused_by_name(tmp_path):
+    """learner.init_std = 1e-200 squares to 0: refused as out of range
+    (exit 1, naming the key), not 'covariance is not positive definite'."""
+    for v in ("1e-200", "5e-324"):
+        r = run_poolreps(["learner", "new", tmp_path / "st", "--context", "x", "--action", "a",
+                          "--set", f"learner.init_std={v}"])
+        lines = r.stderr.decode().splitlines()
+        assert r.returncode == 1 and len(lines) == 1, lines
+        assert f"learner.init_std: {v} out of range" in lines[0], lines
+    assert os.listdir(tmp_path) == []

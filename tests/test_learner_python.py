@@ -201,6 +201,13 @@ def test_bad_input_names_the_argument_and_changes_nothing():
         poolreps.Learner(1, 1, value="cubic")
     with pytest.raises(ValueError, match="learner.window"):
         poolreps.Learner(1, 1, set={"learner.window": 1})
+    # pi_0's covariance init_std^2 must not underflow to 0
+    with pytest.raises(ValueError, match="learner.init_std: 1e-200 out of range"):
+        poolreps.Learner(1, 1, set={"learner.init_std": 1e-200})
+    # a key the learner never reads would be ignored, as `learner new --set` refuses it
+    for key in ("exp3.iterations", "forest.trees", "sim.dt"):
+        with pytest.raises(ValueError, match=f"learner: --set {key} does not apply"):
+            poolreps.Learner(1, 1, set={key: 3})
     with pytest.raises(OSError, match="truncated"):
         poolreps.Learner.load(before[:100])
 

@@ -7,8 +7,9 @@ numpy arrays.
     L.tell(contexts, actions, returns)   # one iteration: REPS and a new policy
     L.mean(contexts), L.iteration, L.summary
 
-Keys are the CLI's ({'section.key': value}, checked as --set checks them);
-value and policy are learner.value and learner.policy, seed is
+Keys are the CLI's ({'section.key': value}, checked as --set checks them;
+those of learner., value., reps., policy. and experiment.seed: another
+would be ignored, so it is refused); value and policy are learner.value and learner.policy, seed is
 experiment.seed. The stream is a GSL mt19937 set to the seed, as `poolreps
 learner new --seed` sets it, so the same seed and keys give the same bits
 as the command line. A pickled or deep-copied learner goes on with the same
@@ -94,7 +95,7 @@ class Learner:
         keys = {"learner.value": value, "learner.policy": policy,
                 "experiment.seed": _lib.seed_value("seed", seed)}
         keys.update(set or {})
-        cfg = config(assignments(keys))
+        cfg = config(assignments(keys, "learner", "learner.,experiment.seed,value.,reps.,policy."))
         self._rng = rng_handle(lib.pr_bind_rng_new(int(float(cfg.number("experiment.seed")))))
         err = errbuf()
         ptr = lib.pr_bind_learner_new(cfg.ptr, dx, da, names, addr(mu), self._rng.ptr, err)
