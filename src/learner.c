@@ -415,6 +415,14 @@ static int draw(pr_learner *L, int i, const double *x, const double *mean, const
 }
 
 /* Episode i of an ask into w: its action and its densities under the live policies. */
+/* rc of a policy's failure at row i, which the caller may name
+ * (pr_learner_bad_row). */
+static int row_failed(pr_learner *L, int i, int rc)
+{
+	L->bad_row = i;
+	return rc;
+}
+
 static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 {
 	const lpol *cur = &L->pol[L->npol - 1];
@@ -425,21 +433,21 @@ static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 	int rc, k, f = 0;
 
 	if ((rc = pr_policy_eval(cur->p, x, m, c, &f, cur->w, err)))
-		return rc;
+		return row_failed(L, i, rc);
 	*flags |= f;
 	if (w->mu)
 		memcpy(w->mu + (size_t)i * L->da, m, (size_t)L->da * sizeof *m);
 	if ((rc = draw(L, i, x, m, c, a, err)))
-		return rc;
+		return rc; /* its message names the row */
 	/* the density of the decomposition the action was drawn with */
 	rc = L->o.draw == PR_LEARNER_DRAW_FIT ? pol_lp(L, cur, x, a, &lp[L->npol - 1], &f, err)
 	                                      : gauss_lp(L, m, c, a, &lp[L->npol - 1], err);
 	if (rc)
-		return rc;
+		return row_failed(L, i, rc);
 	for (k = 0; k < L->npol - 1; ++k) {
 		f = 0;
 		if ((rc = pol_lp(L, &L->pol[k], x, a, &lp[k], &f, err)))
-			return rc;
+			return row_failed(L, i, rc);
 		*flags |= f;
 	}
 	return PR_OK;
@@ -476,8 +484,7 @@ int pr_learner_ask(pr_learner *L, int n, const double *contexts, double *actions
 	L->redraws = 0;
 	for (i = 0; i < n && rc == PR_OK; ++i) {
 		w.it[i] = L->niter;
-		if ((rc = ask_one(L, &w, i, &flags, err)))
-			L->bad_row = i;
+		rc = ask_one(L, &w, i, &flags, err);
 	}
 	if (rc) {
 		gsl_rng_memcpy(L->rng, keep);
@@ -518,10 +525,8 @@ int pr_learner_mean(pr_learner *L, int n, const double *contexts, double *action
 		return rc;
 	for (i = 0; i < n; ++i)
 		if ((rc = pr_policy_eval(cur->p, contexts + (size_t)i * L->dx,
-		                         actions + (size_t)i * L->da, cov, NULL, cur->w, err))) {
-			L->bad_row = i;
-			return rc;
-		}
+		                         actions + (size_t)i * L->da, cov, NULL, cur->w, err)))
+			return row_failed(L, i, rc);
 	return PR_OK;
 }
 
@@ -659,10 +664,8 @@ static int next_window(pr_learner *L, stage *S, const told *b, char *err)
 		copy_row(w->Y, j, b->targets, i, S->dy);
 		copy_row(w->G, j, b->features, i, S->dg);
 		w->it[j] = L->niter;
-		if ((rc = told_densities(L, S, b, i, j, err))) {
-			L->bad_row = i;
-			return rc;
-		}
+		if ((rc = told_densities(L, S, b, i, j, err)))
+			return row_failed(L, i, rc);
 	}
 	return PR_OK;
 }
