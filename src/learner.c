@@ -955,6 +955,21 @@ static const char *name_kind(const pr_learner *L, int j, int *k)
 	return j < L->dx ? "context" : "action";
 }
 
+/* A name a CSV header holds as it is (the reader trims trailing blanks and
+ * refuses control characters), so that a CSV can name the column. */
+static int name_fits(const char *s)
+{
+	const size_t n = strlen(s);
+	size_t i;
+
+	if (n < 1 || n > NAME_MAX_LEN || s[n - 1] == ' ')
+		return 0;
+	for (i = 0; i < n; ++i)
+		if ((unsigned char)s[i] < 0x20 || s[i] == 0x7f)
+			return 0;
+	return 1;
+}
+
 int pr_learner_set_names(pr_learner *L, const char *const *names, char *err)
 {
 	const int n = L->dx + L->da;
@@ -967,9 +982,9 @@ int pr_learner_set_names(pr_learner *L, const char *const *names, char *err)
 		/* the defaults s0 .. and a0 .. (the thesis's s and a) */
 		snprintf(def, sizeof def, "%c%d", kind[0] == 'c' ? 's' : 'a', k);
 		nm = names && names[j] ? names[j] : def;
-		if (strlen(nm) < 1 || strlen(nm) > NAME_MAX_LEN || strpbrk(nm, "\n\r"))
+		if (!name_fits(nm))
 			rc = pr_err(err, PR_EINVAL, "learner: %s name %d must be 1 .. %d bytes without a "
-			            "line break", kind, k, NAME_MAX_LEN);
+			            "control character or a trailing blank", kind, k, NAME_MAX_LEN);
 		else if (!(c[j] = strdup(nm)))
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
 		for (i = 0; rc == PR_OK && i < j; ++i) {

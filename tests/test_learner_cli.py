@@ -294,3 +294,15 @@ def test_an_init_std_whose_square_underflows_is_refused_by_name(tmp_path):
         assert r.returncode == 1 and len(lines) == 1, lines
         assert f"learner.init_std: {v} out of range" in lines[0], lines
     assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("name", ["x ", "x\ty", "x\x01", "x\x7f"])
+def test_a_name_no_csv_header_can_hold_is_refused(tmp_path, name):
+    """The CSV reader trims a header name's trailing blanks and refuses
+    control characters, so no ask or tell could ever name such a column:
+    learner new refuses it (exit 1, one line) and writes nothing."""
+    r = run_poolreps(["learner", "new", tmp_path / "st", "--context", f"{name},z", "--action", "a"])
+    lines = r.stderr.decode().splitlines()
+    assert r.returncode == 1 and len(lines) == 1, lines
+    assert "context name 0 must be 1 .. 255 bytes without a control character" in lines[0], lines
+    assert os.listdir(tmp_path) == []

@@ -111,6 +111,8 @@ def test_column_names_are_checked():
         poolreps.Learner(2, 1, context_names=["x", "y"], action_names=["x"])
     with pytest.raises(ValueError, match="context name 1 must be"):
         poolreps.Learner(2, 1, context_names=["x", "y\n"])
+    with pytest.raises(ValueError, match="action name 0 must be"):  # a CSV header trims it
+        poolreps.Learner(2, 1, action_names=["a "])
     with pytest.raises(ValueError, match="action name 0 's1' is also context name 1"):
         poolreps.Learner(2, 1, action_names=["s1"])  # the default context names
 

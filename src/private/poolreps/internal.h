@@ -296,7 +296,8 @@ typedef struct {
 int pr_learner_tell_batch(pr_learner *L, const pr_learner_batch *b, char *err);
 /* Names of the dx context then da action columns, kept in the saved
  * state for the caller (the command line's CSV columns); each 1 .. 255
- * bytes without a NUL or line break, all distinct. A NULL name (or NULL
+ * bytes without a control character or a trailing blank (a CSV
+ * header could not hold it), all distinct. A NULL name (or NULL
  * names) is the default s0 .. s{dx-1}, a0 .. a{da-1}, which every new
  * learner (and one loaded from a state without names) has. */
 int pr_learner_set_names(pr_learner *L, const char *const *names, char *err);
