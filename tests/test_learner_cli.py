@@ -306,3 +306,19 @@ def test_a_name_no_csv_header_can_hold_is_refused(tmp_path, name):
     assert r.returncode == 1 and len(lines) == 1, lines
     assert "context name 0 must be 1 .. 255 bytes without a control character" in lines[0], lines
     assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("out", ["st", "./st", "link"])
+def test_mean_does_not_write_its_means_over_the_state(tmp_path, out):
+    """learner mean -o STATE (by another name or through a link) would
+    replace the learner by a CSV of its means: refused, exit 1, as ask
+    refuses its -o naming STATE."""
+    st = new(tmp_path)
+    (tmp_path / "link").symlink_to("st")
+    write_contexts(tmp_path / "c.csv", np.zeros((2, 2)))
+    before = snapshot(tmp_path)
+    r = run_poolreps(["learner", "mean", "st", "-i", "c.csv", "-o", out], cwd=tmp_path)
+    lines = r.stderr.decode().splitlines()
+    assert r.returncode == 1 and len(lines) == 1, lines
+    assert lines[0] == f"poolreps: learner mean: -o {out} is STATE: the means would replace the learner"
+    assert snapshot(tmp_path) == before and st.read_bytes()[:17] == b"poolreps-learner\n"

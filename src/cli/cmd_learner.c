@@ -74,6 +74,16 @@ static int lock_state(const char *path)
 	}
 }
 
+/* 1 if path and STATE name one file: mean's -o would replace the learner
+ * by its means (ask and tell rewrite STATE themselves: two outputs). */
+static int names_state(const char *path, const char *state)
+{
+	struct stat a, b;
+
+	return path && strcmp(path, "-") && !stat(path, &a) && !stat(state, &b) &&
+	       a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
 /* The learner saved in STATE, drawing from rng; NULL with *rc set. */
 static pr_learner *load(const char *path, gsl_rng *rng, int *rc, char *err)
 {
@@ -383,6 +393,9 @@ static int learner_main(const pr_config *cfg, const void *opts, char *err)
 
 	if (rc)
 		return rc;
+	if (verb == MEAN && names_state(a->output, a->ops[1]))
+		return pr_err(err, PR_EINVAL, "learner mean: -o %s is STATE: the means would replace "
+		              "the learner", a->output);
 	if (!(rng = gsl_rng_alloc(gsl_rng_mt19937)))
 		return pr_err(err, PR_ENOMEM, "learner: out of memory");
 	lock = verb == MEAN ? -1 : lock_state(a->ops[1]);
