@@ -1097,7 +1097,7 @@ static void put_d(wbuf *w, const double *v, size_t n)
 static void put_win(wbuf *b, const pr_learner *L, const win *w)
 {
 	put_i(b, w->n);
-	put_i(b, w->lc);
+	put_i(b, w->n ? w->lc : 0); /* an empty window's columns are its allocation's: not saved */
 	put_d(b, w->X, (size_t)w->n * L->dx);
 	put_d(b, w->A, (size_t)w->n * L->da);
 	put_d(b, w->R, (size_t)w->n);

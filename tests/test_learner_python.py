@@ -181,6 +181,32 @@ def test_a_copy_continues_with_the_same_draws(how):
     assert L.save() == M.save()
 
 
+@pytest.mark.parametrize("how", ["pickle", "deepcopy", "load"])
+def test_a_copy_saves_the_same_bytes(how):
+    """After a tell (no ask in flight) a copy's state is the original's,
+    byte for byte: an empty window is saved the same whether it was
+    emptied by a tell or read back empty."""
+    L, _ = trained(2)
+    M = {"pickle": lambda: pickle.loads(pickle.dumps(L)), "deepcopy": lambda: copy.deepcopy(L),
+         "load": lambda: poolreps.Learner.load(L.save())}[how]()
+    assert M.save() == L.save()
+
+
+def test_a_failed_restore_leaves_the_learner_working():
+    """__setstate__ on a live learner with a bad state raises and leaves
+    it as it was, its random stream included (it was freed under it)."""
+    L, rng = trained(2)
+    before = L.save()
+    for st, err in [({"format": 1, "state": b"junk"}, OSError),
+                    ({"format": 1, "state": before[:60]}, OSError),
+                    ({"format": 1}, ValueError), ({"format": 1, "state": "text"}, ValueError)]:
+        with pytest.raises(err):
+            L.__setstate__(st)
+        assert L.save() == before
+    X = rng.uniform(-1, 1, (5, 2))
+    assert np.array_equal(L.ask(X), poolreps.Learner.load(before).ask(X))
+
+
 def test_bad_input_names_the_argument_and_changes_nothing():
     L, rng = trained(2)
     X = rng.uniform(-1, 1, (6, 2))

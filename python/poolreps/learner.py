@@ -196,15 +196,17 @@ class Learner:
         return self
 
     def _restore(self, state, what):
-        self._rng = rng_handle(lib.pr_bind_rng_new(0))
+        # built aside: a failed load leaves a live learner and the stream it draws from as they were
+        rng = rng_handle(lib.pr_bind_rng_new(0))
         err = errbuf()
-        ptr = lib.pr_learner_load(state, len(state), what.encode(), self._rng.ptr, err)
+        ptr = lib.pr_learner_load(state, len(state), what.encode(), rng.ptr, err)
         if not ptr:
             msg = err.value.decode(errors="replace")
             # another format version is the caller's error; what may say "version" too
             raise ValueError(msg) if msg.startswith(f"{what}: learner format version ") \
                 else OSError(msg)
-        self._h = Handle(ptr, lib.pr_learner_free)
+        # the old learner goes before the stream it borrows
+        self._h, self._rng = Handle(ptr, lib.pr_learner_free), rng
         self._dx = lib.pr_learner_context_dim(ptr)
         self._da = lib.pr_learner_action_dim(ptr)
 
@@ -215,6 +217,8 @@ class Learner:
         if not isinstance(st, dict) or st.get("format") != PICKLE_FORMAT:
             raise ValueError(f"Learner: pickle format {st.get('format') if isinstance(st, dict) else st!r}, "
                              f"this package reads {PICKLE_FORMAT}")
+        if not isinstance(st.get("state"), bytes):
+            raise ValueError("Learner: a pickle without its state bytes")
         self._restore(st["state"], "pickle")
 
     def __repr__(self):
