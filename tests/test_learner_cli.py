@@ -85,7 +85,7 @@ def snapshot(folder):
 
 
 @pytest.mark.parametrize("case", ["missing_return", "bad_number", "missing_action", "no_rows",
-                                  "features_not_given"])
+                                  "features_not_given", "return_is_an_action"])
 def test_a_failed_tell_changes_nothing(tmp_path, case):
     st = new(tmp_path)
     rng = np.random.default_rng(2)
@@ -101,6 +101,9 @@ def test_a_failed_tell_changes_nothing(tmp_path, case):
     elif case == "missing_action":
         text = [",".join(c for i, c in enumerate(line.split(",")) if i != 3) for line in text]
         want = "e.csv:1: missing column 'b'"
+    elif case == "return_is_an_action":  # a slip: reps refuses a feature that is the return
+        args = ["--return", "b"]
+        want = "e.csv: column 'b' is both an action column of the learner and --return"
     elif case == "no_rows":
         text = text[:1]
         want = "e.csv"

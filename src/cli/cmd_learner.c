@@ -310,6 +310,21 @@ static int tell_extra(const learner_args *a, const pr_csv *t, pr_learner_batch *
 	return rc;
 }
 
+/* The column of --return, or a status: a column of its own, since a
+ * context or action column named by --return is a slip the numbers would
+ * not show (as reps refuses a feature that is the return). */
+static int return_column(const pr_csv *t, const char *ret, const char *const *names, int n,
+                         int dx, char *err)
+{
+	int j, c = pr_cmd_column(t, ret, "--return", err);
+
+	for (j = 0; c >= 0 && j < n; ++j)
+		if (pr_csv_find(t, names[j]) == c)
+			return pr_err(err, PR_EINVAL, "%s: column '%s' is both %s column of the learner "
+			              "and --return", pr_csv_path(t), names[j], j < dx ? "a context" : "an action");
+	return c;
+}
+
 static int learner_tell(const learner_args *a, pr_learner *L, char *err)
 {
 	const int dx = pr_learner_context_dim(L), da = pr_learner_action_dim(L);
@@ -326,7 +341,7 @@ static int learner_tell(const learner_args *a, pr_learner *L, char *err)
 		if (!(X = columns(t, names, dx, "a context column of the learner", err)) ||
 		    !(A = columns(t, names + dx, da, "an action column of the learner", err)))
 			rc = PR_EIO;
-		else if ((rcol = pr_cmd_column(t, a->ret, "--return", err)) < 0)
+		else if ((rcol = return_column(t, a->ret, names, dx + da, dx, err)) < 0)
 			rc = rcol;
 		else if (!(R = pr_cmd_matrix(t, &rcol, 1, err)))
 			rc = PR_ENOMEM;
