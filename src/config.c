@@ -43,7 +43,7 @@ static const pr_config_key core_keys[] = {
 
 	{"table", "length", PR_KEY_DOUBLE, F(table.length), 0, 100, PR_KEY_OPEN_LO, "m", "long side (x)"},
 	{"table", "width", PR_KEY_DOUBLE, F(table.width), 0, 100, PR_KEY_OPEN_LO, "m", "short side (y)"},
-	{"table", "ball_radius", PR_KEY_DOUBLE, F(table.ball_radius), 0, 1, PR_KEY_OPEN_LO, "m", "ball radius R"},
+	{"table", "ball_radius", PR_KEY_DOUBLE, F(table.ball_radius), 1e-100, 1, 0, "m", "ball radius R"},
 	{"table", "pocket_radius", PR_KEY_DOUBLE, F(table.pocket_radius), 0, 1, PR_KEY_OPEN_LO, "m", "pocket radius"},
 	{"table", "restitution", PR_KEY_DOUBLE, F(table.restitution), 0, 1, 0, "", "cushion restitution kappa (eq. 7.4)"},
 	{"table", "friction", PR_KEY_DOUBLE, F(table.friction), 0, 1000, PR_KEY_OPEN_LO, "1/s",
