@@ -994,14 +994,20 @@ int pr_config_validate(const pr_config *c, char *err)
 	static const char *const balls[] = {"table.reward_balls", "table.balls", NULL},
 	                         *radius[] = {"table.ball_radius", "table.width", "table.length", NULL},
 	                         *dt[] = {"sim.dt", "sim.max_time", "sim.mode", NULL},
-	                         *rep[] = {"experiment.repetition", "experiment.repetitions", NULL};
-	char at[PR_WHERE_LEN + NAMELEN];
+	                         *rep[] = {"experiment.repetition", "experiment.repetitions", NULL},
+	                         *mu[] = {"table.mu_roll", "table.mu_slide", NULL};
+	char at[PR_WHERE_LEN + NAMELEN], msg[PR_ERRLEN];
 	int rc, b;
 
 #define AT(key) pr_config_where(c, key, at, sizeof at)
 #define BLAME(keys) where_blamed(c, keys, at, sizeof at)
 	if ((rc = friction_keys(c, err)))
 		return rc;
+	/* the law's own check: the keys' ranges leave it mu_roll < mu_slide to refuse */
+	if ((rc = pr_sim_law_check_all(&c->table, &c->sim, err))) {
+		snprintf(msg, sizeof msg, "%s", err);
+		return pr_err(err, rc, "%s: %s", BLAME(mu), msg);
+	}
 	if (c->table.reward_balls > c->table.balls - 1)
 		return pr_err(err, PR_EINVAL, "%s: table.reward_balls: %d, but only %d balls besides the cue ball",
 		              BLAME(balls), c->table.reward_balls, c->table.balls - 1);
@@ -1031,7 +1037,7 @@ int pr_config_validate(const pr_config *c, char *err)
 		if (c->block[b]->check)
 			rc = c->block[b]->check(c->opts.bytes + c->block_off[b], err);
 	if (rc) {
-		char key[NAMELEN], msg[PR_ERRLEN];
+		char key[NAMELEN];
 		snprintf(key, sizeof key, "%.*s", (int)strcspn(err, ":"), err);
 		snprintf(msg, sizeof msg, "%s", err);
 		return pr_err(err, rc, "%s: %s", AT(key), msg);
