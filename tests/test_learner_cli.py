@@ -85,9 +85,10 @@ def snapshot(folder):
 
 
 @pytest.mark.parametrize("case", ["missing_return", "bad_number", "missing_action", "no_rows",
-                                  "features_not_given", "return_is_an_action"])
+                                  "features_not_given", "return_is_an_action",
+                                  "return_is_a_feature"])
 def test_a_failed_tell_changes_nothing(tmp_path, case):
-    st = new(tmp_path)
+    st = new(tmp_path, *(["--set", "learner.value=given"] if case == "return_is_a_feature" else []))
     rng = np.random.default_rng(2)
     e = one_round(tmp_path, st, rng)
     text = e.read_text().splitlines()
@@ -104,6 +105,9 @@ def test_a_failed_tell_changes_nothing(tmp_path, case):
     elif case == "return_is_an_action":  # a slip: reps refuses a feature that is the return
         args = ["--return", "b"]
         want = "e.csv: column 'b' is both an action column of the learner and --return"
+    elif case == "return_is_a_feature":  # REPS would be handed its answer; reps refuses it too
+        args += ["--features", "x,ret"]
+        want = "e.csv: column 'ret' is both a feature and the return"
     elif case == "no_rows":
         text = text[:1]
         want = "e.csv"

@@ -288,15 +288,19 @@ static int learner_act(const learner_args *a, int verb, pr_learner *L, char *err
 	return rc;
 }
 
-/* The optional columns of a tell: --features (value given), --target. */
-static int tell_extra(const learner_args *a, const pr_csv *t, pr_learner_batch *b, double **G,
-                      double **Y, char *err)
+/* The optional columns of a tell: --features (value given; the return
+ * column rcol among them would hand REPS its answer, as reps refuses),
+ * --target. */
+static int tell_extra(const learner_args *a, const pr_csv *t, int rcol, pr_learner_batch *b,
+                      double **G, double **Y, char *err)
 {
 	int *cols = NULL, rc = PR_OK;
 
 	if (a->features && (b->d = pr_cmd_columns(t, a->features, &cols, err)) < 0)
 		return b->d;
-	if (a->features && !(*G = pr_cmd_matrix(t, cols, b->d, err)))
+	if (a->features &&
+	    !(rc = pr_cmd_disjoint(t, cols, b->d, "a feature", &rcol, 1, "the return", err)) &&
+	    !(*G = pr_cmd_matrix(t, cols, b->d, err)))
 		rc = PR_ENOMEM;
 	free(cols);
 	cols = NULL;
@@ -346,7 +350,7 @@ static int learner_tell(const learner_args *a, pr_learner *L, char *err)
 		else if (!(R = pr_cmd_matrix(t, &rcol, 1, err)))
 			rc = PR_ENOMEM;
 		else
-			rc = tell_extra(a, t, &b, &G, &Y, err);
+			rc = tell_extra(a, t, rcol, &b, &G, &Y, err);
 	}
 	if (rc == PR_OK) {
 		b.n = (int)pr_csv_nrows(t);
