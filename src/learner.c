@@ -558,7 +558,27 @@ static void stage_free(stage *S)
 
 typedef pr_learner_batch told;
 
-static int check_told(const pr_learner *L, const told *b, char *err)
+/* Quadratic value features s_j s_k of each told context, finite: a context
+ * beyond about 1e154 squares to infinity, which REPS would refuse as a
+ * bad feature of no row of the caller's. */
+static int quadratic_finite(pr_learner *L, const told *b, char *err)
+{
+	const int d = pr_policy_features_count(PR_FEATURES_QUADRATIC, L->dx);
+	double *phi = malloc((size_t)d * sizeof *phi);
+	int i, j, rc = phi ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
+
+	for (i = 0; rc == PR_OK && i < b->n; ++i) {
+		pr_policy_features(PR_FEATURES_QUADRATIC, b->contexts + (size_t)i * L->dx, L->dx, phi);
+		for (j = 0; rc == PR_OK && j < d; ++j)
+			if (!isfinite(phi[j]))
+				rc = row_failed(L, i, pr_err(err, PR_EINVAL, "contexts: row %d: learner.value = "
+				                             "quadratic: feature %d overflows", i, j));
+	}
+	free(phi);
+	return rc;
+}
+
+static int check_told(pr_learner *L, const told *b, char *err)
 {
 	int rc;
 
@@ -588,6 +608,8 @@ static int check_told(const pr_learner *L, const told *b, char *err)
 		return rc;
 	if (b->logq && (rc = finite_rows(b->logq, b->n, 1, "logq", err)))
 		return rc;
+	if (L->o.value == PR_LEARNER_VALUE_QUADRATIC)
+		return quadratic_finite(L, b, err);
 	return PR_OK;
 }
 

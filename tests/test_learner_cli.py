@@ -329,3 +329,21 @@ def test_mean_does_not_write_its_means_over_the_state(tmp_path, out):
     assert r.returncode == 1 and len(lines) == 1, lines
     assert lines[0] == f"poolreps: learner mean: -o {out} is STATE: the means would replace the learner"
     assert snapshot(tmp_path) == before and st.read_bytes()[:17] == b"poolreps-learner\n"
+
+
+def test_a_context_whose_square_overflows_is_named(tmp_path):
+    """learner.value = quadratic: a context of 1e200 squares to infinity.
+    The tell names the file, line and context (exit 1), not a REPS feature
+    of a sample the caller never numbered."""
+    st = new(tmp_path, "--set", "learner.value=quadratic")
+    e = one_round(tmp_path, st, np.random.default_rng(7))
+    rows = e.read_text().splitlines()
+    rows[3] = "0.5,-1e200," + rows[3].split(",", 2)[2]
+    e.write_text("\n".join(rows) + "\n")
+    before = snapshot(tmp_path)
+    r = run_poolreps(["learner", "tell", st, "--return", "ret", "-i", e])
+    lines = r.stderr.decode().splitlines()
+    assert r.returncode == 1 and len(lines) == 1, lines
+    assert lines[0].endswith("e.csv:4: context y = -9.9999999999999997e+199: contexts: row 2: "
+                             "learner.value = quadratic: feature 5 overflows"), lines
+    assert snapshot(tmp_path) == before
