@@ -395,7 +395,7 @@ static int draw(pr_learner *L, int i, const double *x, const double *mean, const
 
 	do {
 		if (tries++ == MAX_REDRAW)
-			return pr_err(err, PR_ENUM, "context row %d: %d actions drawn, all beyond "
+			return pr_err(err, PR_ENUM, "contexts: row %d: %d actions drawn, all beyond "
 			              "learner.max_norm = %g", i, MAX_REDRAW, vmax);
 		rc = L->o.draw == PR_LEARNER_DRAW_FIT
 		     ? pr_policy_sample(cur->p, x, 1, L->rng, a, NULL, cur->w, err)
@@ -415,12 +415,15 @@ static int draw(pr_learner *L, int i, const double *x, const double *mean, const
 }
 
 /* Episode i of an ask into w: its action and its densities under the live policies. */
-/* rc of a policy's failure at row i, which the caller may name
- * (pr_learner_bad_row). */
-static int row_failed(pr_learner *L, int i, int rc)
+/* rc of a failure at row i: the message names the row, and the caller
+ * may too (pr_learner_bad_row: a file's line). */
+static int row_failed(pr_learner *L, int i, int rc, char *err)
 {
+	char msg[PR_ERRLEN];
+
+	snprintf(msg, sizeof msg, "%s", err);
 	L->bad_row = i;
-	return rc;
+	return pr_err(err, rc, "contexts: row %d: %s", i, msg);
 }
 
 static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
@@ -433,7 +436,7 @@ static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 	int rc, k, f = 0;
 
 	if ((rc = pr_policy_eval(cur->p, x, m, c, &f, cur->w, err)))
-		return row_failed(L, i, rc);
+		return row_failed(L, i, rc, err);
 	*flags |= f;
 	if (w->mu)
 		memcpy(w->mu + (size_t)i * L->da, m, (size_t)L->da * sizeof *m);
@@ -443,11 +446,11 @@ static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 	rc = L->o.draw == PR_LEARNER_DRAW_FIT ? pol_lp(L, cur, x, a, &lp[L->npol - 1], &f, err)
 	                                      : gauss_lp(L, m, c, a, &lp[L->npol - 1], err);
 	if (rc)
-		return row_failed(L, i, rc);
+		return row_failed(L, i, rc, err);
 	for (k = 0; k < L->npol - 1; ++k) {
 		f = 0;
 		if ((rc = pol_lp(L, &L->pol[k], x, a, &lp[k], &f, err)))
-			return row_failed(L, i, rc);
+			return row_failed(L, i, rc, err);
 		*flags |= f;
 	}
 	return PR_OK;
@@ -526,7 +529,7 @@ int pr_learner_mean(pr_learner *L, int n, const double *contexts, double *action
 	for (i = 0; i < n; ++i)
 		if ((rc = pr_policy_eval(cur->p, contexts + (size_t)i * L->dx,
 		                         actions + (size_t)i * L->da, cov, NULL, cur->w, err)))
-			return row_failed(L, i, rc);
+			return row_failed(L, i, rc, err);
 	return PR_OK;
 }
 
@@ -571,8 +574,8 @@ static int quadratic_finite(pr_learner *L, const told *b, char *err)
 		pr_policy_features(PR_FEATURES_QUADRATIC, b->contexts + (size_t)i * L->dx, L->dx, phi);
 		for (j = 0; rc == PR_OK && j < d; ++j)
 			if (!isfinite(phi[j]))
-				rc = row_failed(L, i, pr_err(err, PR_EINVAL, "contexts: row %d: learner.value = "
-				                             "quadratic: feature %d overflows", i, j));
+				rc = row_failed(L, i, pr_err(err, PR_EINVAL, "learner.value = quadratic: "
+				                             "feature %d overflows", j), err);
 	}
 	free(phi);
 	return rc;
@@ -687,7 +690,7 @@ static int next_window(pr_learner *L, stage *S, const told *b, char *err)
 		copy_row(w->G, j, b->features, i, S->dg);
 		w->it[j] = L->niter;
 		if ((rc = told_densities(L, S, b, i, j, err)))
-			return row_failed(L, i, rc);
+			return row_failed(L, i, rc, err);
 	}
 	return PR_OK;
 }

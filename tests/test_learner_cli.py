@@ -279,7 +279,8 @@ def test_a_row_the_policy_fails_at_is_named(tmp_path):
     rows = e.read_text().splitlines()
     rows[2] = "0.5,-1e200," + rows[2].split(",", 2)[2]
     e.write_text("\n".join(rows) + "\n")
-    want = ": context y = -9.9999999999999997e+199: policy: covariance eigen-decomposition failed"
+    want = (": context y = -9.9999999999999997e+199: contexts: row 1: policy: covariance "
+            "eigen-decomposition failed")
     for args, line in [(["ask", st, "-i", tmp_path / "far.csv", "-o", tmp_path / "o.csv"], "far.csv:3"),
                        (["mean", st, "-i", tmp_path / "far.csv"], "far.csv:3"),
                        (["tell", st, "--return", "ret", "-i", e], "e.csv:3")]:

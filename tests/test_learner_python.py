@@ -207,6 +207,18 @@ def test_a_failed_restore_leaves_the_learner_working():
     assert np.array_equal(L.ask(X), poolreps.Learner.load(before).ask(X))
 
 
+def test_a_row_the_policy_fails_at_is_named():
+    """A context far beyond the fitted ones overflows the tree policy's
+    covariance: NumericalError naming the row, the learner unchanged."""
+    L, rng = trained(2)
+    before = L.save()
+    X = np.r_[rng.uniform(-1, 1, (3, 2)), [[0.5, -1e200]]]
+    for call in (L.ask, L.mean):
+        with pytest.raises(poolreps.NumericalError, match=r"^contexts: row 3: policy: covariance"):
+            call(X)
+        assert L.save() == before
+
+
 def test_bad_input_names_the_argument_and_changes_nothing():
     L, rng = trained(2)
     X = rng.uniform(-1, 1, (6, 2))
