@@ -414,7 +414,6 @@ static int draw(pr_learner *L, int i, const double *x, const double *mean, const
 	return PR_OK;
 }
 
-/* Episode i of an ask into w: its action and its densities under the live policies. */
 /* rc of a failure at row i: the message names the row, and the caller
  * may too (pr_learner_bad_row: a file's line). */
 static int row_failed(pr_learner *L, int i, int rc, char *err)
@@ -426,6 +425,7 @@ static int row_failed(pr_learner *L, int i, int rc, char *err)
 	return pr_err(err, rc, "contexts: row %d: %s", i, msg);
 }
 
+/* Episode i of an ask into w: its action and its densities under the live policies. */
 static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 {
 	const lpol *cur = &L->pol[L->npol - 1];

@@ -9,8 +9,8 @@ numpy arrays.
 
 Keys are the CLI's ({'section.key': value}, checked as --set checks them;
 those of learner., value., reps., policy. and experiment.seed: another
-would be ignored, so it is refused); value and policy are learner.value and learner.policy, seed is
-experiment.seed. The stream is a GSL mt19937 set to the seed, as `poolreps
+would be ignored, so it is refused); value and policy are learner.value
+and learner.policy, seed is experiment.seed. The stream is a GSL mt19937 set to the seed, as `poolreps
 learner new --seed` sets it, so the same seed and keys give the same bits
 as the command line. A pickled or deep-copied learner goes on with the same
 draws (its state is the library's saved state, random stream included).
@@ -196,7 +196,7 @@ class Learner:
         return self
 
     def _restore(self, state, what):
-        # built aside: a failed load leaves a live learner and the stream it draws from as they were
+        # built aside: a failed load leaves a live learner and its stream as they were
         rng = rng_handle(lib.pr_bind_rng_new(0))
         err = errbuf()
         ptr = lib.pr_learner_load(state, len(state), what.encode(), rng.ptr, err)
