@@ -21,6 +21,7 @@ read its context and action columns by the names given here (default s0 ..,
 a0 ..), and Learner.load reads what they wrote.
 """
 import ctypes
+import threading
 from ctypes import POINTER, c_char_p, c_double, c_int, c_size_t, c_void_p
 from typing import Any, Dict, List, Optional, Sequence
 
@@ -88,6 +89,7 @@ class Learner:
                  policy: str = "tree", seed: int = 0, set: Optional[Dict[str, Any]] = None,
                  context_names: Optional[Sequence[str]] = None,
                  action_names: Optional[Sequence[str]] = None, init_mean: Any = None):
+        self._lock = threading.Lock()
         dx, da = _dim("context_dim", context_dim, 100000), _dim("action_dim", action_dim, 64)
         cn, an = _names("context_names", context_names, dx), _names("action_names", action_names, da)
         names = (c_char_p * (dx + da))(*(cn or [None] * dx), *(an or [None] * da))
@@ -106,6 +108,12 @@ class Learner:
 
     # ---- the loop ----
 
+    def _call(self, fn, *args):
+        """fn(learner, *args) with the learner locked: the library releases the
+        GIL, and two threads in one learner at once would corrupt it."""
+        with self._lock:
+            return fn(self._h.ptr, *args)
+
     def _contexts(self, contexts):
         return array("contexts", contexts, 2, cols=self._dx)
 
@@ -114,8 +122,8 @@ class Learner:
         X = self._contexts(contexts)
         A = np.empty((X.shape[0], self._da))
         err = errbuf()
-        check(lib.pr_learner_ask(self._h.ptr, _lib.count("contexts", X.shape[0]), addr(X), addr(A),
-                                 err), err)
+        check(self._call(lib.pr_learner_ask, _lib.count("contexts", X.shape[0]), addr(X), addr(A),
+                         err), err)
         return A
 
     def mean(self, contexts) -> np.ndarray:
@@ -123,8 +131,8 @@ class Learner:
         X = self._contexts(contexts)
         A = np.empty((X.shape[0], self._da))
         err = errbuf()
-        check(lib.pr_learner_mean(self._h.ptr, _lib.count("contexts", X.shape[0]), addr(X),
-                                  addr(A), err), err)
+        check(self._call(lib.pr_learner_mean, _lib.count("contexts", X.shape[0]), addr(X),
+                         addr(A), err), err)
         return A
 
     def tell(self, contexts, actions, returns, features=None, targets=None) -> None:
@@ -139,21 +147,21 @@ class Learner:
         G = None if features is None else array("features", features, 2, rows=n)
         Y = None if targets is None else array("targets", targets, 2, rows=n)
         err = errbuf()
-        check(lib.pr_bind_learner_tell(self._h.ptr, _lib.count("contexts", n), addr(X), addr(A),
-                                       addr(R), addr(G), 0 if G is None else G.shape[1], addr(Y),
-                                       0 if Y is None else Y.shape[1], err), err)
+        check(self._call(lib.pr_bind_learner_tell, _lib.count("contexts", n), addr(X), addr(A),
+                         addr(R), addr(G), 0 if G is None else G.shape[1], addr(Y),
+                         0 if Y is None else Y.shape[1], err), err)
 
     @property
     def iteration(self) -> int:
         """Tells so far."""
-        return lib.pr_learner_iteration(self._h.ptr)
+        return self._call(lib.pr_learner_iteration)
 
     @property
     def summary(self) -> Dict[str, Any]:
         """The last tell's REPS certificate and fit."""
         d = (c_double * 7)()
         i = (c_int * 7)()
-        reason = lib.pr_bind_learner_summary(self._h.ptr, d, i, None).decode(errors="replace")
+        reason = self._call(lib.pr_bind_learner_summary, d, i, None).decode(errors="replace")
         out = dict(zip(("eta", "kl", "ess", "q_ess", "residual", "kl_gap", "residual_rel"),
                        (float(v) for v in d)))
         out.update(zip(("iteration", "n", "bound", "features", "dual_evals"), (int(v) for v in i[:5])))
@@ -164,8 +172,9 @@ class Learner:
 
     def _names(self):
         names = (c_char_p * (self._dx + self._da))()
-        lib.pr_bind_learner_summary(self._h.ptr, (c_double * 7)(), (c_int * 7)(), names)
-        return [v.decode(errors="surrogateescape") for v in names]
+        with self._lock:  # the names point into the learner
+            lib.pr_bind_learner_summary(self._h.ptr, (c_double * 7)(), (c_int * 7)(), names)
+            return [v.decode(errors="surrogateescape") for v in names]
 
     @property
     def context_names(self) -> List[str]:
@@ -182,7 +191,7 @@ class Learner:
     def save(self) -> bytes:
         """The library's state bytes (what `poolreps learner` keeps in STATE)."""
         buf, n, err = _P(), c_size_t(), errbuf()
-        check(lib.pr_learner_save(self._h.ptr, ctypes.byref(buf), ctypes.byref(n), err), err)
+        check(self._call(lib.pr_learner_save, ctypes.byref(buf), ctypes.byref(n), err), err)
         try:
             return ctypes.string_at(buf, n.value)
         finally:
@@ -205,8 +214,10 @@ class Learner:
             # another format version is the caller's error; what may say "version" too
             raise ValueError(msg) if msg.startswith(f"{what}: learner format version ") \
                 else OSError(msg)
-        # the old learner goes before the stream it borrows
-        self._h, self._rng = Handle(ptr, lib.pr_learner_free), rng
+        if not hasattr(self, "_lock"):  # load and unpickling: no __init__
+            self._lock = threading.Lock()
+        with self._lock:  # the old learner goes before the stream it borrows
+            self._h, self._rng = Handle(ptr, lib.pr_learner_free), rng
         self._dx = lib.pr_learner_context_dim(ptr)
         self._da = lib.pr_learner_action_dim(ptr)
 
