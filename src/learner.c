@@ -503,6 +503,15 @@ int pr_learner_ask(pr_learner *L, int n, const double *contexts, double *actions
 	return rc;
 }
 
+int pr_learner_check_targets(const pr_learner *L, int given, char *err)
+{
+	if (given && !(L->o.policy_type == PR_LEARNER_POLICY_TREE &&
+	               L->o.policy.target == PR_TARGET_REWARD_STATE))
+		return pr_err(err, PR_EINVAL, "targets: given, but only the tree policy with "
+		              "policy.target = reward_state reads them");
+	return PR_OK;
+}
+
 int pr_learner_bad_row(const pr_learner *L)
 {
 	return L->bad_row;

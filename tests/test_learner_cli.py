@@ -86,7 +86,7 @@ def snapshot(folder):
 
 @pytest.mark.parametrize("case", ["missing_return", "bad_number", "missing_action", "no_rows",
                                   "features_not_given", "return_is_an_action",
-                                  "return_is_a_feature"])
+                                  "return_is_a_feature", "targets_not_read"])
 def test_a_failed_tell_changes_nothing(tmp_path, case):
     st = new(tmp_path, *(["--set", "learner.value=given"] if case == "return_is_a_feature" else []))
     rng = np.random.default_rng(2)
@@ -108,6 +108,9 @@ def test_a_failed_tell_changes_nothing(tmp_path, case):
     elif case == "return_is_a_feature":  # REPS would be handed its answer; reps refuses it too
         args += ["--features", "x,ret"]
         want = "e.csv: column 'ret' is both a feature and the return"
+    elif case == "targets_not_read":  # policy.target = action: kept, then ignored
+        args += ["--target", "x,y"]
+        want = "targets: given, but only the tree policy with policy.target = reward_state reads them"
     elif case == "no_rows":
         text = text[:1]
         want = "e.csv"

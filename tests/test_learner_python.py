@@ -258,7 +258,8 @@ def test_bad_input_names_the_argument_and_changes_nothing():
              ((X, A[:, :1], R), "actions"),
              ((X, A, R[:4]), "returns"),
              ((X[:0], A[:0], R[:0]), "contexts"),
-             ((X, A, R, np.zeros((6, 1))), "features")]
+             ((X, A, R, np.zeros((6, 1))), "features"),
+             ((X, A, R, None, np.zeros((6, 2))), "targets: given, but only the tree policy")]
     for args, want in cases:
         with pytest.raises(ValueError, match=want.replace("[", r"\[")):
             L.tell(*args)

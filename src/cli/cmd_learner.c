@@ -341,6 +341,8 @@ static int learner_tell(const learner_args *a, pr_learner *L, char *err)
 	memset(&b, 0, sizeof b);
 	if (!a->ret)
 		return pr_err(err, PR_EINVAL, "learner tell: --return COL is required");
+	if ((rc = pr_learner_check_targets(L, a->target != NULL, err)))
+		return rc;
 	if (!(rc = pr_csv_read(a->input, &t, err)) && !(rc = pr_cmd_check_rows(t, err))) {
 		if (!(X = columns(t, names, dx, "a context column of the learner", err)) ||
 		    !(A = columns(t, names + dx, da, "an action column of the learner", err)))

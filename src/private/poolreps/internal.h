@@ -280,6 +280,10 @@ int pr_learner_check_head(const unsigned char *buf, size_t len, const char *what
 /* What the last ask did: actions drawn again (or clipped) for exceeding
  * max_norm, and the PR_POLICY_* flags of its queries. */
 void pr_learner_ask_info(const pr_learner *L, int *redraws, int *flags);
+/* PR_OK unless targets are given (given != 0) to a learner whose policy
+ * would keep and ignore them; for callers that take them from a user
+ * (an experiment passes them whatever the policy). */
+int pr_learner_check_targets(const pr_learner *L, int given, char *err);
 /* The row of the contexts (ask, mean) or episodes (tell) whose policy
  * evaluation failed the last such call, or -1 (success, or not a row's). */
 int pr_learner_bad_row(const pr_learner *L);
