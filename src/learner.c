@@ -596,6 +596,10 @@ static int check_told(pr_learner *L, const told *b, char *err)
 
 	if ((rc = check_rows(b->n, b->contexts, b->actions, err)))
 		return rc;
+	/* REPS weighs at least two episodes (a window > 0 keeps at least two) */
+	if ((L->o.window ? L->w.n + b->n : b->n) < 2)
+		return pr_err(err, PR_EINVAL, "learner: 1 episode to weigh (%s): REPS needs at least 2",
+		              L->o.window ? "the first tell" : "learner.window = 0");
 	if (!b->returns)
 		return pr_err(err, PR_EINVAL, "learner: returns are required");
 	if ((rc = finite_rows(b->contexts, b->n, L->dx, "contexts", err)) ||

@@ -264,6 +264,8 @@ def test_bad_input_names_the_argument_and_changes_nothing():
         with pytest.raises(ValueError, match=want.replace("[", r"\[")):
             L.tell(*args)
         assert L.save() == before
+    with pytest.raises(ValueError, match=r"^learner: 1 episode to weigh \(the first tell\)"):
+        poolreps.Learner(1, 1).tell([[0.0]], [[0.0]], [0.0])  # not 'reps: ... samples'
     with pytest.raises(ValueError, match="context_dim"):
         poolreps.Learner(0, 2)
     with pytest.raises(ValueError, match="learner.value"):
