@@ -4,6 +4,7 @@ temporary file; bad input gets one line naming file, line and column; a
 truncated, foreign or other-version state is refused."""
 import csv
 import os
+import subprocess
 
 import numpy as np
 import pytest
@@ -245,30 +246,38 @@ def test_an_uncertified_solve_exits_3_and_changes_nothing(tmp_path):
 def test_two_tells_at_once_both_count(tmp_path):
     """Two tells of one state started together (two jobs of an array): the
     second waits for the first's rename and builds on its state, so the
-    result is the two tells one after the other, no episodes dropped.
-    Each reads its episodes from a pipe, fed only once both have started."""
-    import subprocess
+    result is the two tells one after the other, in either order, no
+    episodes dropped. The test holds STATE's lock while both start, so
+    that both are under way at once."""
+    import fcntl
     import time
     from conftest import poolreps_path
-    st = new(tmp_path)
+    st = tmp_path / "st"  # default forests on 1000 episodes: tells long enough to overlap
+    assert run_poolreps(["learner", "new", st, "--context", "x,y", "--action", "a,b", "--set",
+                         "learner.window=4000"]).returncode == 0
     rng = np.random.default_rng(5)
-    eps = [one_round(tmp_path, st, rng).read_bytes() for _ in range(2)]
-    ask_state = st.read_bytes()
-    procs = []
-    for k in range(2):
-        procs.append(subprocess.Popen([poolreps_path(), "learner", "tell", str(st), "--return", "ret"],
-                                      stdin=subprocess.PIPE, stderr=subprocess.PIPE,
-                                      env=dict(os.environ, LC_ALL="C")))
-        time.sleep(0.5)  # each has opened STATE (and, unlocked, read it)
-    for p, e in zip(procs, eps):
-        _, err = p.communicate(e, timeout=120)
+    eps = [one_round(tmp_path, st, rng, n=1000).read_bytes() for _ in range(2)]
+    for k, e in enumerate(eps):
+        (tmp_path / f"e{k}.csv").write_bytes(e)
+    start = st.read_bytes()
+    with open(st, "rb") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        procs = [subprocess.Popen([poolreps_path(), "learner", "tell", str(st), "--return", "ret",
+                                   "-i", str(tmp_path / f"e{k}.csv")], stderr=subprocess.PIPE,
+                                  env=dict(os.environ, LC_ALL="C")) for k in range(2)]
+        time.sleep(0.5)  # both have read their episodes (and, unlocked, STATE)
+    for p in procs:
+        _, err = p.communicate(timeout=120)
         assert p.returncode == 0, err
     both = st.read_bytes()
-    st.write_bytes(ask_state)
-    for e in eps:
-        r = run_poolreps(["learner", "tell", st, "--return", "ret"], input=e)
-        assert r.returncode == 0, r.stderr
-    assert both == st.read_bytes()
+    orders = []
+    for order in ((0, 1), (1, 0)):
+        st.write_bytes(start)
+        for k in order:
+            r = run_poolreps(["learner", "tell", st, "--return", "ret", "-i", tmp_path / f"e{k}.csv"])
+            assert r.returncode == 0, r.stderr
+        orders.append(st.read_bytes())
+    assert both in orders
 
 
 def test_a_row_the_policy_fails_at_is_named(tmp_path):
@@ -351,3 +360,30 @@ def test_a_context_whose_square_overflows_is_named(tmp_path):
     assert lines[0].endswith("e.csv:4: context y = -9.9999999999999997e+199: contexts: row 2: "
                              "learner.value = quadratic: feature 5 overflows"), lines
     assert snapshot(tmp_path) == before
+
+
+def test_ask_piped_into_tell_runs_one_after_the_other(tmp_path):
+    """`learner ask S | play | learner tell S`: the tell reads its episodes
+    whole before it takes STATE, so it waits for the ask to finish and
+    reads the state the ask left: the same state as the steps through
+    files. (With STATE locked first the two deadlocked; read first without
+    a lock, the tell read the state before the ask's, dropped the ask's
+    draws and drew them again.) 50,000 contexts keep the ask busy."""
+    from conftest import poolreps_path
+    keys = ["--set", "learner.policy=linear", "--set", "learner.value=linear"]
+    piped, files = new(tmp_path, *keys), tmp_path / "files"
+    files.write_bytes(piped.read_bytes())
+    write_contexts(tmp_path / "c.csv", np.random.default_rng(3).uniform(-1, 1, (50000, 2)))
+    play = "awk -F, 'NR == 1 {print $0 \",ret\"} NR > 1 {print $0 \",\" (-$3 * $3)}'"
+    bin_ = poolreps_path()
+    for _ in range(2):
+        r = subprocess.run(f"'{bin_}' learner ask st -i c.csv | {play} | '{bin_}' learner tell st "
+                           "--return ret", shell=True, cwd=tmp_path, capture_output=True,
+                           timeout=120, env=dict(os.environ, LC_ALL="C"))
+        assert r.returncode == 0 and r.stderr == b"", r.stderr
+        assert run_poolreps(["learner", "ask", files, "-i", tmp_path / "c.csv", "-o",
+                             tmp_path / "a.csv"]).returncode == 0
+        subprocess.run(f"{play} a.csv > e.csv", shell=True, cwd=tmp_path, timeout=60, check=True)
+        assert run_poolreps(["learner", "tell", files, "--return", "ret", "-i",
+                             tmp_path / "e.csv"]).returncode == 0
+    assert piped.read_bytes() == files.read_bytes()

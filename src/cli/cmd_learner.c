@@ -254,24 +254,21 @@ static int name_row(const pr_learner *L, const pr_csv *t, const double *X, int r
 }
 
 /* ask or mean: actions for the contexts of -i into -o (ask: STATE too). */
-static int learner_act(const learner_args *a, int verb, pr_learner *L, char *err)
+static int learner_act(const learner_args *a, const pr_csv *t, int verb, pr_learner *L,
+                       char *err)
 {
 	const int dx = pr_learner_context_dim(L), da = pr_learner_action_dim(L);
 	const char *const *names = pr_learner_names(L);
-	pr_csv *t = NULL;
 	pr_outset *set = NULL;
 	pr_csvw *w = NULL;
 	double *X = NULL, *A = NULL;
-	long n = 0;
-	int rc;
+	const long n = pr_csv_nrows(t);
+	int rc = PR_OK;
 
-	if (!(rc = pr_csv_read(a->input, &t, err)) && !(rc = pr_cmd_check_rows(t, err))) {
-		n = pr_csv_nrows(t);
-		if (!(X = columns(t, names, dx, "a context column of the learner", err)))
-			rc = PR_EIO;
-		else if (!(A = malloc((size_t)n * da * sizeof *A)))
-			rc = pr_err(err, PR_ENOMEM, "learner: out of memory");
-	}
+	if (!(X = columns(t, names, dx, "a context column of the learner", err)))
+		rc = PR_EIO;
+	else if (!(A = malloc((size_t)n * da * sizeof *A)))
+		rc = pr_err(err, PR_ENOMEM, "learner: out of memory");
 	if (rc == PR_OK)
 		rc = name_row(L, t, X, verb == ASK ? pr_learner_ask(L, (int)n, X, A, err)
 		                                   : pr_learner_mean(L, (int)n, X, A, err), err);
@@ -282,7 +279,6 @@ static int learner_act(const learner_args *a, int verb, pr_learner *L, char *err
 	if (rc == PR_OK && verb == ASK)
 		rc = add_state(set, a->ops[1], L, err);
 	rc = pr_outset_commit(set, rc, err);
-	pr_csv_free(t);
 	free(X);
 	free(A);
 	return rc;
@@ -329,31 +325,26 @@ static int return_column(const pr_csv *t, const char *ret, const char *const *na
 	return c;
 }
 
-static int learner_tell(const learner_args *a, pr_learner *L, char *err)
+static int learner_tell(const learner_args *a, const pr_csv *t, pr_learner *L, char *err)
 {
 	const int dx = pr_learner_context_dim(L), da = pr_learner_action_dim(L);
 	const char *const *names = pr_learner_names(L);
 	pr_learner_batch b;
-	pr_csv *t = NULL;
 	double *X = NULL, *A = NULL, *R = NULL, *G = NULL, *Y = NULL;
 	int rc, rcol = -1;
 
 	memset(&b, 0, sizeof b);
-	if (!a->ret)
-		return pr_err(err, PR_EINVAL, "learner tell: --return COL is required");
 	if ((rc = pr_learner_check_targets(L, a->target != NULL, err)))
 		return rc;
-	if (!(rc = pr_csv_read(a->input, &t, err)) && !(rc = pr_cmd_check_rows(t, err))) {
-		if (!(X = columns(t, names, dx, "a context column of the learner", err)) ||
-		    !(A = columns(t, names + dx, da, "an action column of the learner", err)))
-			rc = PR_EIO;
-		else if ((rcol = return_column(t, a->ret, names, dx + da, dx, err)) < 0)
-			rc = rcol;
-		else if (!(R = pr_cmd_matrix(t, &rcol, 1, err)))
-			rc = PR_ENOMEM;
-		else
-			rc = tell_extra(a, t, rcol, &b, &G, &Y, err);
-	}
+	if (!(X = columns(t, names, dx, "a context column of the learner", err)) ||
+	    !(A = columns(t, names + dx, da, "an action column of the learner", err)))
+		rc = PR_EIO;
+	else if ((rcol = return_column(t, a->ret, names, dx + da, dx, err)) < 0)
+		rc = rcol;
+	else if (!(R = pr_cmd_matrix(t, &rcol, 1, err)))
+		rc = PR_ENOMEM;
+	else
+		rc = tell_extra(a, t, rcol, &b, &G, &Y, err);
 	if (rc == PR_OK) {
 		b.n = (int)pr_csv_nrows(t);
 		b.contexts = X;
@@ -362,7 +353,6 @@ static int learner_tell(const learner_args *a, pr_learner *L, char *err)
 		rc = name_row(L, t, X, pr_learner_tell_batch(L, &b, err), err);
 	}
 	rc = commit_state(a->ops[1], L, rc, err);
-	pr_csv_free(t);
 	free(X);
 	free(A);
 	free(R);
@@ -401,6 +391,8 @@ static int check_verb(const pr_config *cfg, const learner_args *a, int verb, cha
 		              "learner tell", verb_name[verb]);
 	if (verb == TELL && a->output)
 		return pr_err(err, PR_EINVAL, "learner tell: writes only STATE (no -o)");
+	if (verb == TELL && !a->ret)
+		return pr_err(err, PR_EINVAL, "learner tell: --return COL is required");
 	return PR_OK;
 }
 
@@ -410,6 +402,7 @@ static int learner_main(const pr_config *cfg, const void *opts, char *err)
 	const int verb = verb_of(a);
 	gsl_rng *rng;
 	pr_learner *L = NULL;
+	pr_csv *t = NULL;
 	int rc = check_verb(cfg, a, verb, err), lock;
 
 	if (rc)
@@ -419,15 +412,21 @@ static int learner_main(const pr_config *cfg, const void *opts, char *err)
 		              "the learner", a->output);
 	if (!(rng = gsl_rng_alloc(gsl_rng_mt19937)))
 		return pr_err(err, PR_ENOMEM, "learner: out of memory");
-	lock = verb == MEAN ? -1 : lock_state(a->ops[1]);
 	gsl_rng_set(rng, cfg->run.seed);
-	if (verb == NEW)
+	/* -i is read whole before STATE is locked: in `learner ask S | play |
+	 * learner tell S` the tell waits for the ask's end, not the ask for the
+	 * tell's lock, and then reads the state the ask left */
+	if (verb != NEW && !(rc = pr_csv_read(a->input, &t, err)))
+		rc = pr_cmd_check_rows(t, err);
+	lock = rc || verb == MEAN ? -1 : lock_state(a->ops[1]);
+	if (rc == PR_OK && verb == NEW)
 		rc = learner_new(cfg, a, rng, err);
-	else if ((L = load(a->ops[1], rng, &rc, err)))
-		rc = verb == TELL ? learner_tell(a, L, err) : learner_act(a, verb, L, err);
+	else if (rc == PR_OK && (L = load(a->ops[1], rng, &rc, err)))
+		rc = verb == TELL ? learner_tell(a, t, L, err) : learner_act(a, t, verb, L, err);
 	if (lock >= 0)
 		close(lock);
 	pr_learner_free(L);
+	pr_csv_free(t);
 	gsl_rng_free(rng);
 	return rc;
 }
