@@ -252,11 +252,11 @@ def test_two_tells_at_once_both_count(tmp_path):
     import fcntl
     import time
     from conftest import poolreps_path
-    st = tmp_path / "st"  # default forests on 1000 episodes: tells long enough to overlap
+    st = tmp_path / "st"  # default forests on 500 episodes: tells long enough to overlap
     assert run_poolreps(["learner", "new", st, "--context", "x,y", "--action", "a,b", "--set",
                          "learner.window=4000"]).returncode == 0
     rng = np.random.default_rng(5)
-    eps = [one_round(tmp_path, st, rng, n=1000).read_bytes() for _ in range(2)]
+    eps = [one_round(tmp_path, st, rng, n=500).read_bytes() for _ in range(2)]
     for k, e in enumerate(eps):
         (tmp_path / f"e{k}.csv").write_bytes(e)
     start = st.read_bytes()
