@@ -368,12 +368,12 @@ def test_ask_piped_into_tell_runs_one_after_the_other(tmp_path):
     reads the state the ask left: the same state as the steps through
     files. (With STATE locked first the two deadlocked; read first without
     a lock, the tell read the state before the ask's, dropped the ask's
-    draws and drew them again.) 50,000 contexts keep the ask busy."""
+    draws and drew them again.) 20,000 contexts keep the ask busy."""
     from conftest import poolreps_path
     keys = ["--set", "learner.policy=linear", "--set", "learner.value=linear"]
     piped, files = new(tmp_path, *keys), tmp_path / "files"
     files.write_bytes(piped.read_bytes())
-    write_contexts(tmp_path / "c.csv", np.random.default_rng(3).uniform(-1, 1, (50000, 2)))
+    write_contexts(tmp_path / "c.csv", np.random.default_rng(3).uniform(-1, 1, (20000, 2)))
     play = "awk -F, 'NR == 1 {print $0 \",ret\"} NR > 1 {print $0 \",\" (-$3 * $3)}'"
     bin_ = poolreps_path()
     for _ in range(2):
