@@ -680,8 +680,9 @@ int pr_bind_learner_tell(pr_learner *L, int n, const double *X, const double *A,
                          const double *G, int d, const double *Y, int dy, char *err)
 {
 	const pr_learner_batch b = {n, G ? d : 0, Y ? dy : 0, X, A, R, G, Y, NULL};
+	const int rc = pr_learner_check_targets(L, Y != NULL, err);
 
-	return pr_learner_tell_batch(L, &b, err);
+	return rc ? rc : pr_learner_tell_batch(L, &b, err);
 }
 
 const char *pr_bind_learner_summary(const pr_learner *L, double *d, int *i, const char **names)

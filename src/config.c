@@ -44,7 +44,7 @@ static const pr_config_key core_keys[] = {
 
 	{"table", "length", PR_KEY_DOUBLE, F(table.length), 0, 100, PR_KEY_OPEN_LO, "m", "long side (x)"},
 	{"table", "width", PR_KEY_DOUBLE, F(table.width), 0, 100, PR_KEY_OPEN_LO, "m", "short side (y)"},
-	{"table", "ball_radius", PR_KEY_DOUBLE, F(table.ball_radius), 0, 1, PR_KEY_OPEN_LO, "m", "ball radius R"},
+	{"table", "ball_radius", PR_KEY_DOUBLE, F(table.ball_radius), 1e-100, 1, 0, "m", "ball radius R"},
 	{"table", "pocket_radius", PR_KEY_DOUBLE, F(table.pocket_radius), 0, 1, PR_KEY_OPEN_LO, "m", "pocket radius"},
 	{"table", "restitution", PR_KEY_DOUBLE, F(table.restitution), 0, 1, 0, "", "cushion restitution kappa (eq. 7.4)"},
 	{"table", "friction", PR_KEY_DOUBLE, F(table.friction), 0, 1000, PR_KEY_OPEN_LO, "1/s",
@@ -121,7 +121,7 @@ static const pr_config_key core_keys[] = {
 	 "learner: tree-LWR policy (policy.*) or linear-Gaussian on [1, s]"},
 	{"learner", "window", PR_KEY_INT, F(learner.window), 0, 10000000, 0, "",
 	 "learner: latest episodes REPS and the fit reuse (0: each tell's own, uniform base weights)"},
-	{"learner", "init_std", PR_KEY_DOUBLE, F(learner.init_std), 0, 1e6, PR_KEY_OPEN_LO, "",
+	{"learner", "init_std", PR_KEY_DOUBLE, F(learner.init_std), 1e-100, 1e6, 0, "",
 	 "learner: pi_0 = N(0, init_std^2 I)"},
 	{"learner", "max_norm", PR_KEY_DOUBLE, F(learner.max_norm), 0, 1e12, 0, "",
 	 "learner: actions kept within this Euclidean norm (0: no limit)"},
@@ -1007,14 +1007,20 @@ int pr_config_validate(const pr_config *c, char *err)
 	static const char *const balls[] = {"table.reward_balls", "table.balls", NULL},
 	                         *radius[] = {"table.ball_radius", "table.width", "table.length", NULL},
 	                         *dt[] = {"sim.dt", "sim.max_time", "sim.mode", NULL},
-	                         *rep[] = {"experiment.repetition", "experiment.repetitions", NULL};
-	char at[PR_WHERE_LEN + NAMELEN];
+	                         *rep[] = {"experiment.repetition", "experiment.repetitions", NULL},
+	                         *mu[] = {"table.mu_roll", "table.mu_slide", NULL};
+	char at[PR_WHERE_LEN + NAMELEN], msg[PR_ERRLEN];
 	int rc, b;
 
 #define AT(key) pr_config_where(c, key, at, sizeof at)
 #define BLAME(keys) where_blamed(c, keys, at, sizeof at)
 	if ((rc = friction_keys(c, err)))
 		return rc;
+	/* the law's own check: the keys' ranges leave it mu_roll < mu_slide to refuse */
+	if ((rc = pr_sim_law_check_all(&c->table, &c->sim, err))) {
+		snprintf(msg, sizeof msg, "%s", err);
+		return pr_err(err, rc, "%s: %s", BLAME(mu), msg);
+	}
 	if (c->table.reward_balls > c->table.balls - 1)
 		return pr_err(err, PR_EINVAL, "%s: table.reward_balls: %d, but only %d balls besides the cue ball",
 		              BLAME(balls), c->table.reward_balls, c->table.balls - 1);
@@ -1044,7 +1050,7 @@ int pr_config_validate(const pr_config *c, char *err)
 		if (c->block[b]->check)
 			rc = c->block[b]->check(c->opts.bytes + c->block_off[b], err);
 	if (rc) {
-		char key[NAMELEN], msg[PR_ERRLEN];
+		char key[NAMELEN];
 		snprintf(key, sizeof key, "%.*s", (int)strcspn(err, ":"), err);
 		snprintf(msg, sizeof msg, "%s", err);
 		return pr_err(err, rc, "%s: %s", AT(key), msg);

@@ -47,6 +47,7 @@ struct pr_learner {
 	win w, ask;              /* the window; the last ask (ask.lc policies from pbase) */
 	int ask_iter;            /* iteration of the last ask, -1: none */
 	int redraws, ask_flags;
+	int bad_row;             /* the row the last ask, mean or tell failed at, or -1 */
 	pr_learner_summary last;
 	char **names;            /* dx + da column names, or NULL */
 	double *m0, *c0, *m1, *c1; /* scratch mean (da) and covariance (da x da): two levels,
@@ -84,8 +85,10 @@ int pr_learner_opts_check(const pr_learner_opts *o, char *err)
 	if ((o->window < 2 && o->window != 0) || o->window > MAX_WINDOW)
 		return pr_err(err, PR_EINVAL, "learner.window: must be 0 or in 2 .. %d (got %d)",
 		              MAX_WINDOW, o->window);
-	if (!(o->init_std > 0) || !isfinite(o->init_std))
-		return pr_err(err, PR_EINVAL, "learner.init_std: must be > 0 (got %g)", o->init_std);
+	/* init_std^2 must stay a normal double: the covariance of pi_0 */
+	if (!(o->init_std >= 1e-100 && o->init_std <= 1e6))
+		return pr_err(err, PR_EINVAL, "learner.init_std: must be in 1e-100 .. 1e6 (got %g)",
+		              o->init_std);
 	if (!(o->max_norm >= 0) || !isfinite(o->max_norm))
 		return pr_err(err, PR_EINVAL, "learner.max_norm: must be >= 0 (got %g)", o->max_norm);
 	if (o->truncation < PR_LEARNER_REDRAW || o->truncation > PR_LEARNER_CORRECTED)
@@ -236,6 +239,7 @@ pr_learner *pr_learner_new(const pr_learner_opts *o, int dx, int da, gsl_rng *rn
 	L->npol = 1;
 	L->cpol = 4;
 	L->ask_iter = -1;
+	L->bad_row = -1;
 	L->last.status = PR_REPS_ACTIVE;
 	if (default_pi0(L, err) || pr_learner_set_names(L, NULL, err)) {
 		pr_learner_free(L);
@@ -391,7 +395,7 @@ static int draw(pr_learner *L, int i, const double *x, const double *mean, const
 
 	do {
 		if (tries++ == MAX_REDRAW)
-			return pr_err(err, PR_ENUM, "context row %d: %d actions drawn, all beyond "
+			return pr_err(err, PR_ENUM, "contexts: row %d: %d actions drawn, all beyond "
 			              "learner.max_norm = %g", i, MAX_REDRAW, vmax);
 		rc = L->o.draw == PR_LEARNER_DRAW_FIT
 		     ? pr_policy_sample(cur->p, x, 1, L->rng, a, NULL, cur->w, err)
@@ -410,6 +414,17 @@ static int draw(pr_learner *L, int i, const double *x, const double *mean, const
 	return PR_OK;
 }
 
+/* rc of a failure at row i: the message names the row, and the caller
+ * may too (pr_learner_bad_row: a file's line). */
+static int row_failed(pr_learner *L, int i, int rc, char *err)
+{
+	char msg[PR_ERRLEN];
+
+	snprintf(msg, sizeof msg, "%s", err);
+	L->bad_row = i;
+	return pr_err(err, rc, "contexts: row %d: %s", i, msg);
+}
+
 /* Episode i of an ask into w: its action and its densities under the live policies. */
 static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 {
@@ -421,21 +436,21 @@ static int ask_one(pr_learner *L, win *w, int i, int *flags, char *err)
 	int rc, k, f = 0;
 
 	if ((rc = pr_policy_eval(cur->p, x, m, c, &f, cur->w, err)))
-		return rc;
+		return row_failed(L, i, rc, err);
 	*flags |= f;
 	if (w->mu)
 		memcpy(w->mu + (size_t)i * L->da, m, (size_t)L->da * sizeof *m);
 	if ((rc = draw(L, i, x, m, c, a, err)))
-		return rc;
+		return rc; /* its message names the row */
 	/* the density of the decomposition the action was drawn with */
 	rc = L->o.draw == PR_LEARNER_DRAW_FIT ? pol_lp(L, cur, x, a, &lp[L->npol - 1], &f, err)
 	                                      : gauss_lp(L, m, c, a, &lp[L->npol - 1], err);
 	if (rc)
-		return rc;
+		return row_failed(L, i, rc, err);
 	for (k = 0; k < L->npol - 1; ++k) {
 		f = 0;
 		if ((rc = pol_lp(L, &L->pol[k], x, a, &lp[k], &f, err)))
-			return rc;
+			return row_failed(L, i, rc, err);
 		*flags |= f;
 	}
 	return PR_OK;
@@ -458,6 +473,7 @@ int pr_learner_ask(pr_learner *L, int n, const double *contexts, double *actions
 	win w;
 	int i, rc, flags = 0;
 
+	L->bad_row = -1;
 	if ((rc = check_rows(n, contexts, actions, err)) ||
 	    (rc = finite_rows(contexts, n, L->dx, "contexts", err)))
 		return rc;
@@ -487,6 +503,20 @@ int pr_learner_ask(pr_learner *L, int n, const double *contexts, double *actions
 	return rc;
 }
 
+int pr_learner_check_targets(const pr_learner *L, int given, char *err)
+{
+	if (given && !(L->o.policy_type == PR_LEARNER_POLICY_TREE &&
+	               L->o.policy.target == PR_TARGET_REWARD_STATE))
+		return pr_err(err, PR_EINVAL, "targets: given, but only the tree policy with "
+		              "policy.target = reward_state reads them");
+	return PR_OK;
+}
+
+int pr_learner_bad_row(const pr_learner *L)
+{
+	return L->bad_row;
+}
+
 void pr_learner_ask_info(const pr_learner *L, int *redraws, int *flags)
 {
 	if (redraws)
@@ -501,13 +531,14 @@ int pr_learner_mean(pr_learner *L, int n, const double *contexts, double *action
 	double *cov = L->c0;
 	int i, rc;
 
+	L->bad_row = -1;
 	if ((rc = check_rows(n, contexts, actions, err)) ||
 	    (rc = finite_rows(contexts, n, L->dx, "contexts", err)))
 		return rc;
 	for (i = 0; i < n; ++i)
 		if ((rc = pr_policy_eval(cur->p, contexts + (size_t)i * L->dx,
 		                         actions + (size_t)i * L->da, cov, NULL, cur->w, err)))
-			return rc;
+			return row_failed(L, i, rc, err);
 	return PR_OK;
 }
 
@@ -539,12 +570,36 @@ static void stage_free(stage *S)
 
 typedef pr_learner_batch told;
 
-static int check_told(const pr_learner *L, const told *b, char *err)
+/* Quadratic value features s_j s_k of each told context, finite: a context
+ * beyond about 1e154 squares to infinity, which REPS would refuse as a
+ * bad feature of no row of the caller's. */
+static int quadratic_finite(pr_learner *L, const told *b, char *err)
+{
+	const int d = pr_policy_features_count(PR_FEATURES_QUADRATIC, L->dx);
+	double *phi = malloc((size_t)d * sizeof *phi);
+	int i, j, rc = phi ? PR_OK : pr_err(err, PR_ENOMEM, "out of memory");
+
+	for (i = 0; rc == PR_OK && i < b->n; ++i) {
+		pr_policy_features(PR_FEATURES_QUADRATIC, b->contexts + (size_t)i * L->dx, L->dx, phi);
+		for (j = 0; rc == PR_OK && j < d; ++j)
+			if (!isfinite(phi[j]))
+				rc = row_failed(L, i, pr_err(err, PR_EINVAL, "learner.value = quadratic: "
+				                             "feature %d overflows", j), err);
+	}
+	free(phi);
+	return rc;
+}
+
+static int check_told(pr_learner *L, const told *b, char *err)
 {
 	int rc;
 
 	if ((rc = check_rows(b->n, b->contexts, b->actions, err)))
 		return rc;
+	/* REPS weighs at least two episodes (a window > 0 keeps at least two) */
+	if ((L->o.window ? L->w.n + b->n : b->n) < 2)
+		return pr_err(err, PR_EINVAL, "learner: 1 episode to weigh (%s): REPS needs at least 2",
+		              L->o.window ? "the first tell" : "learner.window = 0");
 	if (!b->returns)
 		return pr_err(err, PR_EINVAL, "learner: returns are required");
 	if ((rc = finite_rows(b->contexts, b->n, L->dx, "contexts", err)) ||
@@ -569,6 +624,8 @@ static int check_told(const pr_learner *L, const told *b, char *err)
 		return rc;
 	if (b->logq && (rc = finite_rows(b->logq, b->n, 1, "logq", err)))
 		return rc;
+	if (L->o.value == PR_LEARNER_VALUE_QUADRATIC)
+		return quadratic_finite(L, b, err);
 	return PR_OK;
 }
 
@@ -646,7 +703,7 @@ static int next_window(pr_learner *L, stage *S, const told *b, char *err)
 		copy_row(w->G, j, b->features, i, S->dg);
 		w->it[j] = L->niter;
 		if ((rc = told_densities(L, S, b, i, j, err)))
-			return rc;
+			return row_failed(L, i, rc, err);
 	}
 	return PR_OK;
 }
@@ -892,6 +949,7 @@ int pr_learner_tell_batch(pr_learner *L, const pr_learner_batch *b, char *err)
 	gsl_rng *keep;
 	int rc;
 
+	L->bad_row = -1;
 	if ((rc = check_told(L, b, err)))
 		return rc;
 	memset(&S, 0, sizeof S);
@@ -935,6 +993,21 @@ static const char *name_kind(const pr_learner *L, int j, int *k)
 	return j < L->dx ? "context" : "action";
 }
 
+/* A name a CSV header holds as it is (the reader trims trailing blanks and
+ * refuses control characters), so that a CSV can name the column. */
+static int name_fits(const char *s)
+{
+	const size_t n = strlen(s);
+	size_t i;
+
+	if (n < 1 || n > NAME_MAX_LEN || s[n - 1] == ' ')
+		return 0;
+	for (i = 0; i < n; ++i)
+		if ((unsigned char)s[i] < 0x20 || s[i] == 0x7f)
+			return 0;
+	return 1;
+}
+
 int pr_learner_set_names(pr_learner *L, const char *const *names, char *err)
 {
 	const int n = L->dx + L->da;
@@ -947,9 +1020,9 @@ int pr_learner_set_names(pr_learner *L, const char *const *names, char *err)
 		/* the defaults s0 .. and a0 .. (the thesis's s and a) */
 		snprintf(def, sizeof def, "%c%d", kind[0] == 'c' ? 's' : 'a', k);
 		nm = names && names[j] ? names[j] : def;
-		if (strlen(nm) < 1 || strlen(nm) > NAME_MAX_LEN || strpbrk(nm, "\n\r"))
+		if (!name_fits(nm))
 			rc = pr_err(err, PR_EINVAL, "learner: %s name %d must be 1 .. %d bytes without a "
-			            "line break", kind, k, NAME_MAX_LEN);
+			            "control character or a trailing blank", kind, k, NAME_MAX_LEN);
 		else if (!(c[j] = strdup(nm)))
 			rc = pr_err(err, PR_ENOMEM, "out of memory");
 		for (i = 0; rc == PR_OK && i < j; ++i) {
@@ -1062,7 +1135,7 @@ static void put_d(wbuf *w, const double *v, size_t n)
 static void put_win(wbuf *b, const pr_learner *L, const win *w)
 {
 	put_i(b, w->n);
-	put_i(b, w->lc);
+	put_i(b, w->n ? w->lc : 0); /* an empty window's columns are its allocation's: not saved */
 	put_d(b, w->X, (size_t)w->n * L->dx);
 	put_d(b, w->A, (size_t)w->n * L->da);
 	put_d(b, w->R, (size_t)w->n);
@@ -1204,7 +1277,9 @@ static int get_i(rbuf *r, int lo, int hi, const char *name)
 	return r->rc ? lo : (int)x;
 }
 
-/* n doubles into v (allocated by the caller), finite unless any is allowed. */
+/* n doubles into v (allocated by the caller): finite (any 0), finite or
+ * -inf (any 2: a log-density, zero where an action is beyond a policy's
+ * reach) or any value (1). */
 static void get_d(rbuf *r, double *v, size_t n, int any, const char *name)
 {
 	size_t i;
@@ -1216,8 +1291,8 @@ static void get_d(rbuf *r, double *v, size_t n, int any, const char *name)
 		return;
 	}
 	get(r, v, n * sizeof *v);
-	for (i = 0; !any && i < n; ++i)
-		if (!isfinite(v[i]) && r->rc == PR_OK)
+	for (i = 0; any != 1 && i < n; ++i)
+		if (!isfinite(v[i]) && !(any == 2 && v[i] == -HUGE_VAL) && r->rc == PR_OK)
 			bad(r, name);
 }
 
@@ -1243,7 +1318,7 @@ static void get_win(rbuf *r, pr_learner *L, win *w, int lc, int dy, int dg)
 	get_d(r, w->Y, w->Y ? (size_t)n * dy : 0, 0, "a target is not finite");
 	get_d(r, w->G, w->G ? (size_t)n * dg : 0, 0, "a feature is not finite");
 	get_d(r, w->mu, w->mu ? (size_t)n * L->da : 0, 0, "a mean is not finite");
-	get_d(r, w->lp, (size_t)n * lc, 1, "");
+	get_d(r, w->lp, (size_t)n * lc, 2, "a log-density is NaN or +inf");
 	for (i = 0; i < n && r->rc == PR_OK; ++i)
 		w->it[i] = get_i(r, L->pbase, L->niter, "drawing policy");
 }

@@ -3324,9 +3324,12 @@ static int solve(const pr_reps_opts *o, const pr_reps_problem *pb, pr_reps_resul
 	}
 	if (!isfinite(r->dual) || !isfinite(r->eta))
 		st = pr_err(err, PR_ENUM, "reps: returns too far apart: eta or the dual overflows");
+	/* theta_j is in return units per feature unit: far returns or a feature
+	 * of tiny spread (a subnormal one) overflow it */
 	for (j = 0; st == PR_OK && j < pb->d; j++)
 		if (!isfinite(r->theta[j]))
-			st = pr_err(err, PR_ENUM, "reps: returns too far apart: theta overflows");
+			st = pr_err(err, PR_ENUM, "reps: feature %d: theta overflows: returns spread %.3g "
+			            "per feature spread %.3g is beyond a double", j, c.scale, fs[j]);
 	if (st == PR_OK) {
 		*out = r;
 		r = NULL;

@@ -71,6 +71,9 @@ static int check_table(const pr_table *t, const pr_sim_opts *o, char *err)
 
 	if (!(t->length > 0) || !(t->width > 0) || !(t->ball_radius > 0) || !(t->pocket_radius > 0))
 		return pr_err(err, PR_EINVAL, "table: length, width and radii must be > 0");
+	/* contact times solve |d|^2 = (2R)^2: a smaller R squares to 0 and balls pass through */
+	if (!(t->ball_radius >= 1e-100))
+		return pr_err(err, PR_EINVAL, "table.ball_radius: must be >= 1e-100 (got %g)", t->ball_radius);
 	if (!(2 * t->ball_radius < t->width) || !(2 * t->ball_radius < t->length))
 		return pr_err(err, PR_EINVAL, "table.ball_radius: the ball does not fit on the table");
 	if (!(t->restitution >= 0 && t->restitution <= 1))

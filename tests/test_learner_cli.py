@@ -4,6 +4,7 @@ temporary file; bad input gets one line naming file, line and column; a
 truncated, foreign or other-version state is refused."""
 import csv
 import os
+import subprocess
 
 import numpy as np
 import pytest
@@ -85,9 +86,10 @@ def snapshot(folder):
 
 
 @pytest.mark.parametrize("case", ["missing_return", "bad_number", "missing_action", "no_rows",
-                                  "features_not_given"])
+                                  "features_not_given", "return_is_an_action",
+                                  "return_is_a_feature", "targets_not_read"])
 def test_a_failed_tell_changes_nothing(tmp_path, case):
-    st = new(tmp_path)
+    st = new(tmp_path, *(["--set", "learner.value=given"] if case == "return_is_a_feature" else []))
     rng = np.random.default_rng(2)
     e = one_round(tmp_path, st, rng)
     text = e.read_text().splitlines()
@@ -101,6 +103,15 @@ def test_a_failed_tell_changes_nothing(tmp_path, case):
     elif case == "missing_action":
         text = [",".join(c for i, c in enumerate(line.split(",")) if i != 3) for line in text]
         want = "e.csv:1: missing column 'b'"
+    elif case == "return_is_an_action":  # a slip: reps refuses a feature that is the return
+        args = ["--return", "b"]
+        want = "e.csv: column 'b' is both an action column of the learner and --return"
+    elif case == "return_is_a_feature":  # REPS would be handed its answer; reps refuses it too
+        args += ["--features", "x,ret"]
+        want = "e.csv: column 'ret' is both a feature and the return"
+    elif case == "targets_not_read":  # policy.target = action: kept, then ignored
+        args += ["--target", "x,y"]
+        want = "targets: given, but only the tree policy with policy.target = reward_state reads them"
     elif case == "no_rows":
         text = text[:1]
         want = "e.csv"
@@ -230,3 +241,149 @@ def test_an_uncertified_solve_exits_3_and_changes_nothing(tmp_path):
     lines = r.stderr.decode().splitlines()
     assert len(lines) == 1 and "REPS answer not certified" in lines[0], lines
     assert snapshot(tmp_path) == before
+
+
+def test_two_tells_at_once_both_count(tmp_path):
+    """Two tells of one state started together (two jobs of an array): the
+    second waits for the first's rename and builds on its state, so the
+    result is the two tells one after the other, in either order, no
+    episodes dropped. The test holds STATE's lock while both start, so
+    that both are under way at once."""
+    import fcntl
+    import time
+    from conftest import poolreps_path
+    st = tmp_path / "st"  # default forests on 500 episodes: tells long enough to overlap
+    assert run_poolreps(["learner", "new", st, "--context", "x,y", "--action", "a,b", "--set",
+                         "learner.window=4000"]).returncode == 0
+    rng = np.random.default_rng(5)
+    eps = [one_round(tmp_path, st, rng, n=500).read_bytes() for _ in range(2)]
+    for k, e in enumerate(eps):
+        (tmp_path / f"e{k}.csv").write_bytes(e)
+    start = st.read_bytes()
+    with open(st, "rb") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        procs = [subprocess.Popen([poolreps_path(), "learner", "tell", str(st), "--return", "ret",
+                                   "-i", str(tmp_path / f"e{k}.csv")], stderr=subprocess.PIPE,
+                                  env=dict(os.environ, LC_ALL="C")) for k in range(2)]
+        time.sleep(0.5)  # both have read their episodes (and, unlocked, STATE)
+    for p in procs:
+        _, err = p.communicate(timeout=120)
+        assert p.returncode == 0, err
+    both = st.read_bytes()
+    orders = []
+    for order in ((0, 1), (1, 0)):
+        st.write_bytes(start)
+        for k in order:
+            r = run_poolreps(["learner", "tell", st, "--return", "ret", "-i", tmp_path / f"e{k}.csv"])
+            assert r.returncode == 0, r.stderr
+        orders.append(st.read_bytes())
+    assert both in orders
+
+
+def test_a_row_the_policy_fails_at_is_named(tmp_path):
+    """A context far beyond the fitted ones (1e200) makes the tree policy's
+    covariance overflow: ask, mean and tell name the file, line and
+    context column (exit 3), as `poolreps policy` does, and change nothing."""
+    st = new(tmp_path)
+    e = one_round(tmp_path, st, np.random.default_rng(6))
+    assert run_poolreps(["learner", "tell", st, "--return", "ret", "-i", e]).returncode == 0
+    (tmp_path / "far.csv").write_text("x,y\n0.1,0.2\n0.5,-1e200\n")
+    rows = e.read_text().splitlines()
+    rows[2] = "0.5,-1e200," + rows[2].split(",", 2)[2]
+    e.write_text("\n".join(rows) + "\n")
+    want = (": context y = -9.9999999999999997e+199: contexts: row 1: policy: covariance "
+            "eigen-decomposition failed")
+    for args, line in [(["ask", st, "-i", tmp_path / "far.csv", "-o", tmp_path / "o.csv"], "far.csv:3"),
+                       (["mean", st, "-i", tmp_path / "far.csv"], "far.csv:3"),
+                       (["tell", st, "--return", "ret", "-i", e], "e.csv:3")]:
+        before = snapshot(tmp_path)
+        r = run_poolreps(["learner"] + args)
+        lines = r.stderr.decode().splitlines()
+        assert r.returncode == 3 and len(lines) == 1, (args[0], lines)
+        assert lines[0].endswith(line + want), lines
+        assert snapshot(tmp_path) == before
+
+
+def test_an_init_std_whose_square_underflows_is_refused_by_name(tmp_path):
+    """learner.init_std = 1e-200 squares to 0: refused as out of range
+    (exit 1, naming the key), not 'covariance is not positive definite'."""
+    for v in ("1e-200", "5e-324"):
+        r = run_poolreps(["learner", "new", tmp_path / "st", "--context", "x", "--action", "a",
+                          "--set", f"learner.init_std={v}"])
+        lines = r.stderr.decode().splitlines()
+        assert r.returncode == 1 and len(lines) == 1, lines
+        assert f"learner.init_std: {v} out of range" in lines[0], lines
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("name", ["x ", "x\ty", "x\x01", "x\x7f"])
+def test_a_name_no_csv_header_can_hold_is_refused(tmp_path, name):
+    """The CSV reader trims a header name's trailing blanks and refuses
+    control characters, so no ask or tell could ever name such a column:
+    learner new refuses it (exit 1, one line) and writes nothing."""
+    r = run_poolreps(["learner", "new", tmp_path / "st", "--context", f"{name},z", "--action", "a"])
+    lines = r.stderr.decode().splitlines()
+    assert r.returncode == 1 and len(lines) == 1, lines
+    assert "context name 0 must be 1 .. 255 bytes without a control character" in lines[0], lines
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("out", ["st", "./st", "link"])
+def test_mean_does_not_write_its_means_over_the_state(tmp_path, out):
+    """learner mean -o STATE (by another name or through a link) would
+    replace the learner by a CSV of its means: refused, exit 1, as ask
+    refuses its -o naming STATE."""
+    st = new(tmp_path)
+    (tmp_path / "link").symlink_to("st")
+    write_contexts(tmp_path / "c.csv", np.zeros((2, 2)))
+    before = snapshot(tmp_path)
+    r = run_poolreps(["learner", "mean", "st", "-i", "c.csv", "-o", out], cwd=tmp_path)
+    lines = r.stderr.decode().splitlines()
+    assert r.returncode == 1 and len(lines) == 1, lines
+    assert lines[0] == f"poolreps: learner mean: -o {out} is STATE: the means would replace the learner"
+    assert snapshot(tmp_path) == before and st.read_bytes()[:17] == b"poolreps-learner\n"
+
+
+def test_a_context_whose_square_overflows_is_named(tmp_path):
+    """learner.value = quadratic: a context of 1e200 squares to infinity.
+    The tell names the file, line and context (exit 1), not a REPS feature
+    of a sample the caller never numbered."""
+    st = new(tmp_path, "--set", "learner.value=quadratic")
+    e = one_round(tmp_path, st, np.random.default_rng(7))
+    rows = e.read_text().splitlines()
+    rows[3] = "0.5,-1e200," + rows[3].split(",", 2)[2]
+    e.write_text("\n".join(rows) + "\n")
+    before = snapshot(tmp_path)
+    r = run_poolreps(["learner", "tell", st, "--return", "ret", "-i", e])
+    lines = r.stderr.decode().splitlines()
+    assert r.returncode == 1 and len(lines) == 1, lines
+    assert lines[0].endswith("e.csv:4: context y = -9.9999999999999997e+199: contexts: row 2: "
+                             "learner.value = quadratic: feature 5 overflows"), lines
+    assert snapshot(tmp_path) == before
+
+
+def test_ask_piped_into_tell_runs_one_after_the_other(tmp_path):
+    """`learner ask S | play | learner tell S`: the tell reads its episodes
+    whole before it takes STATE, so it waits for the ask to finish and
+    reads the state the ask left: the same state as the steps through
+    files. (With STATE locked first the two deadlocked; read first without
+    a lock, the tell read the state before the ask's, dropped the ask's
+    draws and drew them again.) 20,000 contexts keep the ask busy."""
+    from conftest import poolreps_path
+    keys = ["--set", "learner.policy=linear", "--set", "learner.value=linear"]
+    piped, files = new(tmp_path, *keys), tmp_path / "files"
+    files.write_bytes(piped.read_bytes())
+    write_contexts(tmp_path / "c.csv", np.random.default_rng(3).uniform(-1, 1, (20000, 2)))
+    play = "awk -F, 'NR == 1 {print $0 \",ret\"} NR > 1 {print $0 \",\" (-$3 * $3)}'"
+    bin_ = poolreps_path()
+    for _ in range(2):
+        r = subprocess.run(f"'{bin_}' learner ask st -i c.csv | {play} | '{bin_}' learner tell st "
+                           "--return ret", shell=True, cwd=tmp_path, capture_output=True,
+                           timeout=120, env=dict(os.environ, LC_ALL="C"))
+        assert r.returncode == 0 and r.stderr == b"", r.stderr
+        assert run_poolreps(["learner", "ask", files, "-i", tmp_path / "c.csv", "-o",
+                             tmp_path / "a.csv"]).returncode == 0
+        subprocess.run(f"{play} a.csv > e.csv", shell=True, cwd=tmp_path, timeout=60, check=True)
+        assert run_poolreps(["learner", "tell", files, "--return", "ret", "-i",
+                             tmp_path / "e.csv"]).returncode == 0
+    assert piped.read_bytes() == files.read_bytes()

@@ -111,6 +111,8 @@ def test_column_names_are_checked():
         poolreps.Learner(2, 1, context_names=["x", "y"], action_names=["x"])
     with pytest.raises(ValueError, match="context name 1 must be"):
         poolreps.Learner(2, 1, context_names=["x", "y\n"])
+    with pytest.raises(ValueError, match="action name 0 must be"):  # a CSV header trims it
+        poolreps.Learner(2, 1, action_names=["a "])
     with pytest.raises(ValueError, match="action name 0 's1' is also context name 1"):
         poolreps.Learner(2, 1, action_names=["s1"])  # the default context names
 
@@ -179,6 +181,72 @@ def test_a_copy_continues_with_the_same_draws(how):
     assert L.save() == M.save()
 
 
+@pytest.mark.parametrize("how", ["pickle", "deepcopy", "load"])
+def test_a_copy_saves_the_same_bytes(how):
+    """After a tell (no ask in flight) a copy's state is the original's,
+    byte for byte: an empty window is saved the same whether it was
+    emptied by a tell or read back empty."""
+    L, _ = trained(2)
+    M = {"pickle": lambda: pickle.loads(pickle.dumps(L)), "deepcopy": lambda: copy.deepcopy(L),
+         "load": lambda: poolreps.Learner.load(L.save())}[how]()
+    assert M.save() == L.save()
+
+
+def test_a_failed_restore_leaves_the_learner_working():
+    """__setstate__ on a live learner with a bad state raises and leaves
+    it as it was, its random stream included (it was freed under it)."""
+    L, rng = trained(2)
+    before = L.save()
+    for st, err in [({"format": 1, "state": b"junk"}, OSError),
+                    ({"format": 1, "state": before[:60]}, OSError),
+                    ({"format": 1}, ValueError), ({"format": 1, "state": "text"}, ValueError)]:
+        with pytest.raises(err):
+            L.__setstate__(st)
+        assert L.save() == before
+    X = rng.uniform(-1, 1, (5, 2))
+    assert np.array_equal(L.ask(X), poolreps.Learner.load(before).ask(X))
+
+
+def test_a_row_the_policy_fails_at_is_named():
+    """A context far beyond the fitted ones overflows the tree policy's
+    covariance: NumericalError naming the row, the learner unchanged."""
+    L, rng = trained(2)
+    before = L.save()
+    X = np.r_[rng.uniform(-1, 1, (3, 2)), [[0.5, -1e200]]]
+    for call in (L.ask, L.mean):
+        with pytest.raises(poolreps.NumericalError, match=r"^contexts: row 3: policy: covariance"):
+            call(X)
+        assert L.save() == before
+
+
+def test_threads_sharing_a_learner_take_turns():
+    """ask, tell, mean and save from four threads on one learner: the
+    library runs without the GIL, and two calls at once corrupted the
+    learner (the interpreter died of a segmentation fault). Each call now
+    holds the learner's lock: every tell counts, nothing fails."""
+    import threading
+    L = poolreps.Learner(2, 2, value="linear", policy="linear", seed=1, set={"learner.window": 200})
+    errors = []
+
+    def work(k):
+        rng = np.random.default_rng(k)
+        try:
+            for _ in range(200):
+                X = rng.uniform(-1, 1, (50, 2))
+                A = L.ask(X)
+                L.tell(X, A, returns(X, A))
+                L.mean(X), L.save(), L.summary, L.context_names
+        except Exception as e:  # noqa: BLE001 (any failure is the test's)
+            errors.append(e)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == [] and L.iteration == 800
+
+
 def test_bad_input_names_the_argument_and_changes_nothing():
     L, rng = trained(2)
     X = rng.uniform(-1, 1, (6, 2))
@@ -190,17 +258,27 @@ def test_bad_input_names_the_argument_and_changes_nothing():
              ((X, A[:, :1], R), "actions"),
              ((X, A, R[:4]), "returns"),
              ((X[:0], A[:0], R[:0]), "contexts"),
-             ((X, A, R, np.zeros((6, 1))), "features")]
+             ((X, A, R, np.zeros((6, 1))), "features"),
+             ((X, A, R, None, np.zeros((6, 2))), "targets: given, but only the tree policy")]
     for args, want in cases:
         with pytest.raises(ValueError, match=want.replace("[", r"\[")):
             L.tell(*args)
         assert L.save() == before
+    with pytest.raises(ValueError, match=r"^learner: 1 episode to weigh \(the first tell\)"):
+        poolreps.Learner(1, 1).tell([[0.0]], [[0.0]], [0.0])  # not 'reps: ... samples'
     with pytest.raises(ValueError, match="context_dim"):
         poolreps.Learner(0, 2)
     with pytest.raises(ValueError, match="learner.value"):
         poolreps.Learner(1, 1, value="cubic")
     with pytest.raises(ValueError, match="learner.window"):
         poolreps.Learner(1, 1, set={"learner.window": 1})
+    # pi_0's covariance init_std^2 must not underflow to 0
+    with pytest.raises(ValueError, match="learner.init_std: 1e-200 out of range"):
+        poolreps.Learner(1, 1, set={"learner.init_std": 1e-200})
+    # a key the learner never reads would be ignored, as `learner new --set` refuses it
+    for key in ("exp3.iterations", "forest.trees", "sim.dt"):
+        with pytest.raises(ValueError, match=f"learner: --set {key} does not apply"):
+            poolreps.Learner(1, 1, set={key: 3})
     with pytest.raises(OSError, match="truncated"):
         poolreps.Learner.load(before[:100])
 

@@ -71,3 +71,31 @@ def test_another_file_is_not_read_whole(tmp_path):
     assert err.decode() == "poolreps: big.csv: not a poolreps learner state\n", err
     assert peak < 100 * 1024, f"peak {peak} KiB"
     assert not (tmp_path / "o.csv").exists()
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf")])
+def test_a_log_density_that_no_policy_gives_is_refused(value, tmp_path):
+    """A stored log pi_m(a|s) is finite or -inf (zero density); NaN or +inf
+    (a forged or damaged state) is refused when the state is read, naming
+    it, not by a later tell as a bad parameter (exit 1) without the file."""
+    state(tmp_path)
+    np.savetxt(tmp_path / "c.csv", np.linspace(-1, 1, 40).reshape(20, 2), delimiter=",",
+               header="x,y", comments="")
+    assert run(["learner", "ask", "st", "-i", "c.csv", "-o", "a.csv"], tmp_path).returncode == 0
+    a = np.loadtxt(tmp_path / "a.csv", delimiter=",", skiprows=1)
+    ret = -np.arange(20) / 7.0
+    np.savetxt(tmp_path / "e.csv", np.c_[a, ret], delimiter=",", header="x,y,a,b,ret",
+               comments="", fmt="%.17g")
+    assert run(["learner", "tell", "st", "--return", "ret", "-i", "e.csv"], tmp_path).returncode == 0
+    good = (tmp_path / "st").read_bytes()
+    # the window: contexts, actions, returns, then each episode's log-densities
+    at = good.index(struct.pack("<20d", *ret)) + 20 * 8
+    bad = bytearray(good)
+    struct.pack_into("<d", bad, at, value)
+    (tmp_path / "bad").write_bytes(bytes(bad))
+    for verb in (["mean", "bad", "-i", "c.csv"], ["tell", "bad", "--return", "ret", "-i", "e.csv"]):
+        before = snapshot(tmp_path)
+        r = run(["learner"] + verb, tmp_path)
+        assert r.returncode == IO, r.stderr
+        assert one_line(r) == "poolreps: bad: not a valid learner state: a log-density is NaN or +inf\n"
+        assert changed(before, snapshot(tmp_path)) == set()

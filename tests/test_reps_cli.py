@@ -7,6 +7,7 @@ import csv
 import math
 import os
 import random
+import re
 from pathlib import Path
 
 import numpy as np
@@ -371,3 +372,17 @@ def test_policy_bad_input(tmp_path):
     (tmp_path / "nan.csv").write_text("\n".join(text) + "\n")
     fails(run(POLICY + ["--train", "nan.csv", "-i", q, "-o", "o.csv"], tmp_path), "nan.csv:4")
     no_files(tmp_path, "o.csv")
+
+
+def test_a_subnormal_feature_is_named_not_blamed_on_the_returns(tmp_path):
+    """Features scaled by 1e-310 (subnormal) make theta, in return units per
+    feature unit, overflow: exit 3 with one line naming the feature and
+    both spreads, not 'returns too far apart' for returns a unit apart."""
+    rnd = np.random.default_rng(0)
+    R, f = rnd.normal(size=30), rnd.normal(size=30) * 1e-310
+    write_rows(tmp_path / "in.csv", ["R", "f"], zip(R, f))
+    r = run(["reps", "--return", "R", "--features", "f", "-i", "in.csv", "-o", "p.csv"], tmp_path)
+    assert r.returncode == 3 and r.stderr.count("\n") == 1, r.stderr
+    assert r.stderr.startswith("poolreps: reps: feature 0: theta overflows: returns spread "), r.stderr
+    assert re.search(r"per feature spread [0-9.]+e-310 is beyond a double\n$", r.stderr), r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.csv"]

@@ -124,3 +124,22 @@ def test_event_limit_fails_cleanly(tmp_path):
     assert r.returncode == 3
     assert "in.csv:3:" in r.stderr and "max_events" in r.stderr
     assert not out.exists()
+
+
+def test_a_ball_radius_that_squares_to_zero_is_refused(tmp_path):
+    """Contact times solve |d|^2 = (2R)^2: at R = 1e-200, (2R)^2 is 0 and a
+    head-on shot passed through the object ball (hit 0), exit 0. The
+    smallest radius is 1e-100 (which still hits), whether set by --set or
+    per row; below it one line names the key (and the row), exit 1."""
+    head = "x0,y0,x1,y1,vx,vy\n-0.25,0,0.1,0,0.615,0\n"
+    rows, _ = shoot(tmp_path, head, "--set", "table.ball_radius=1e-100")
+    assert rows[0]["hit"] == "1"
+    for args, text, want in [
+            (["--set", "table.ball_radius=1e-200"], head,
+             "poolreps: --set: table.ball_radius: 1e-200 out of range: must be >= 1e-100 and <= 1\n"),
+            ([], "x0,y0,x1,y1,vx,vy,table.ball_radius\n-0.25,0,0.1,0,0.615,0,1e-200\n",
+             "poolreps: in.csv:2: table.ball_radius: 1e-200 out of range: must be >= 1e-100 and <= 1\n")]:
+        write(tmp_path, text)
+        r = run(["shoot", "-i", "in.csv", "-o", "no.csv", *args], tmp_path)
+        assert r.returncode == 1 and r.stderr == want, r.stderr
+        assert not (tmp_path / "no.csv").exists()

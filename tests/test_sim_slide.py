@@ -189,3 +189,21 @@ def test_pooltool_block_is_generated(tmp_path):
     p = run_cmd([sys.executable, script, "--check", "--csv", str(bad)],
                 capture_output=True, text=True)
     assert p.returncode == 1 and "pooltool_slide_roll block differs" in p.stderr, p.stderr
+
+
+def test_config_refuses_the_mu_a_shot_refuses(tmp_path):
+    """`config` refuses what a run would (docs/hardening.md, 10), blaming
+    the key the user set: mu_slide below the default mu_roll, by --set or
+    in a file, was written out as a valid configuration (exit 0)."""
+    ini = tmp_path / "p.ini"
+    ini.write_text("[table]\nfriction_law = slide_roll\nmu_slide = 0.005\n")
+    why = "table.mu_roll: must be below table.mu_slide (got 0.01 >= 0.005)"
+    for args, where in [(["-c", str(ini)], f"{ini}:3"),
+                        (["--set", "table.friction_law=slide_roll", "--set", "table.mu_slide=0.005"],
+                         "--set")]:
+        for cmd in (["config", "-o", str(tmp_path / "out.ini")], ["shoot"]):
+            r = run_cmd([BIN] + cmd + args, input="x0,y0,x1,y1,vx,vy\n-0.25,0,0.1,0,0.5,0\n",
+                        capture_output=True, text=True, cwd=tmp_path)
+            assert r.returncode == 1, (cmd, r.stderr)
+            assert r.stderr == f"poolreps: {where}: table.mu_slide: {why}\n", (cmd, r.stderr)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.ini"]

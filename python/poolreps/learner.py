@@ -7,9 +7,10 @@ numpy arrays.
     L.tell(contexts, actions, returns)   # one iteration: REPS and a new policy
     L.mean(contexts), L.iteration, L.summary
 
-Keys are the CLI's ({'section.key': value}, checked as --set checks them);
-value and policy are learner.value and learner.policy, seed is
-experiment.seed. The stream is a GSL mt19937 set to the seed, as `poolreps
+Keys are the CLI's ({'section.key': value}, checked as --set checks them;
+those of learner., value., reps., policy. and experiment.seed: another
+would be ignored, so it is refused); value and policy are learner.value
+and learner.policy, seed is experiment.seed. The stream is a GSL mt19937 set to the seed, as `poolreps
 learner new --seed` sets it, so the same seed and keys give the same bits
 as the command line. A pickled or deep-copied learner goes on with the same
 draws (its state is the library's saved state, random stream included).
@@ -20,6 +21,7 @@ read its context and action columns by the names given here (default s0 ..,
 a0 ..), and Learner.load reads what they wrote.
 """
 import ctypes
+import threading
 from ctypes import POINTER, c_char_p, c_double, c_int, c_size_t, c_void_p
 from typing import Any, Dict, List, Optional, Sequence
 
@@ -87,6 +89,7 @@ class Learner:
                  policy: str = "tree", seed: int = 0, set: Optional[Dict[str, Any]] = None,
                  context_names: Optional[Sequence[str]] = None,
                  action_names: Optional[Sequence[str]] = None, init_mean: Any = None):
+        self._lock = threading.Lock()
         dx, da = _dim("context_dim", context_dim, 100000), _dim("action_dim", action_dim, 64)
         cn, an = _names("context_names", context_names, dx), _names("action_names", action_names, da)
         names = (c_char_p * (dx + da))(*(cn or [None] * dx), *(an or [None] * da))
@@ -94,7 +97,7 @@ class Learner:
         keys = {"learner.value": value, "learner.policy": policy,
                 "experiment.seed": _lib.seed_value("seed", seed)}
         keys.update(set or {})
-        cfg = config(assignments(keys))
+        cfg = config(assignments(keys, "learner", "learner.,experiment.seed,value.,reps.,policy."))
         self._rng = rng_handle(lib.pr_bind_rng_new(int(float(cfg.number("experiment.seed")))))
         err = errbuf()
         ptr = lib.pr_bind_learner_new(cfg.ptr, dx, da, names, addr(mu), self._rng.ptr, err)
@@ -105,6 +108,12 @@ class Learner:
 
     # ---- the loop ----
 
+    def _call(self, fn, *args):
+        """fn(learner, *args) with the learner locked: the library releases the
+        GIL, and two threads in one learner at once would corrupt it."""
+        with self._lock:
+            return fn(self._h.ptr, *args)
+
     def _contexts(self, contexts):
         return array("contexts", contexts, 2, cols=self._dx)
 
@@ -113,8 +122,8 @@ class Learner:
         X = self._contexts(contexts)
         A = np.empty((X.shape[0], self._da))
         err = errbuf()
-        check(lib.pr_learner_ask(self._h.ptr, _lib.count("contexts", X.shape[0]), addr(X), addr(A),
-                                 err), err)
+        check(self._call(lib.pr_learner_ask, _lib.count("contexts", X.shape[0]), addr(X), addr(A),
+                         err), err)
         return A
 
     def mean(self, contexts) -> np.ndarray:
@@ -122,8 +131,8 @@ class Learner:
         X = self._contexts(contexts)
         A = np.empty((X.shape[0], self._da))
         err = errbuf()
-        check(lib.pr_learner_mean(self._h.ptr, _lib.count("contexts", X.shape[0]), addr(X),
-                                  addr(A), err), err)
+        check(self._call(lib.pr_learner_mean, _lib.count("contexts", X.shape[0]), addr(X),
+                         addr(A), err), err)
         return A
 
     def tell(self, contexts, actions, returns, features=None, targets=None) -> None:
@@ -138,21 +147,21 @@ class Learner:
         G = None if features is None else array("features", features, 2, rows=n)
         Y = None if targets is None else array("targets", targets, 2, rows=n)
         err = errbuf()
-        check(lib.pr_bind_learner_tell(self._h.ptr, _lib.count("contexts", n), addr(X), addr(A),
-                                       addr(R), addr(G), 0 if G is None else G.shape[1], addr(Y),
-                                       0 if Y is None else Y.shape[1], err), err)
+        check(self._call(lib.pr_bind_learner_tell, _lib.count("contexts", n), addr(X), addr(A),
+                         addr(R), addr(G), 0 if G is None else G.shape[1], addr(Y),
+                         0 if Y is None else Y.shape[1], err), err)
 
     @property
     def iteration(self) -> int:
         """Tells so far."""
-        return lib.pr_learner_iteration(self._h.ptr)
+        return self._call(lib.pr_learner_iteration)
 
     @property
     def summary(self) -> Dict[str, Any]:
         """The last tell's REPS certificate and fit."""
         d = (c_double * 7)()
         i = (c_int * 7)()
-        reason = lib.pr_bind_learner_summary(self._h.ptr, d, i, None).decode(errors="replace")
+        reason = self._call(lib.pr_bind_learner_summary, d, i, None).decode(errors="replace")
         out = dict(zip(("eta", "kl", "ess", "q_ess", "residual", "kl_gap", "residual_rel"),
                        (float(v) for v in d)))
         out.update(zip(("iteration", "n", "bound", "features", "dual_evals"), (int(v) for v in i[:5])))
@@ -163,8 +172,9 @@ class Learner:
 
     def _names(self):
         names = (c_char_p * (self._dx + self._da))()
-        lib.pr_bind_learner_summary(self._h.ptr, (c_double * 7)(), (c_int * 7)(), names)
-        return [v.decode(errors="surrogateescape") for v in names]
+        with self._lock:  # the names point into the learner
+            lib.pr_bind_learner_summary(self._h.ptr, (c_double * 7)(), (c_int * 7)(), names)
+            return [v.decode(errors="surrogateescape") for v in names]
 
     @property
     def context_names(self) -> List[str]:
@@ -181,7 +191,7 @@ class Learner:
     def save(self) -> bytes:
         """The library's state bytes (what `poolreps learner` keeps in STATE)."""
         buf, n, err = _P(), c_size_t(), errbuf()
-        check(lib.pr_learner_save(self._h.ptr, ctypes.byref(buf), ctypes.byref(n), err), err)
+        check(self._call(lib.pr_learner_save, ctypes.byref(buf), ctypes.byref(n), err), err)
         try:
             return ctypes.string_at(buf, n.value)
         finally:
@@ -195,15 +205,19 @@ class Learner:
         return self
 
     def _restore(self, state, what):
-        self._rng = rng_handle(lib.pr_bind_rng_new(0))
+        # built aside: a failed load leaves a live learner and its stream as they were
+        rng = rng_handle(lib.pr_bind_rng_new(0))
         err = errbuf()
-        ptr = lib.pr_learner_load(state, len(state), what.encode(), self._rng.ptr, err)
+        ptr = lib.pr_learner_load(state, len(state), what.encode(), rng.ptr, err)
         if not ptr:
             msg = err.value.decode(errors="replace")
             # another format version is the caller's error; what may say "version" too
             raise ValueError(msg) if msg.startswith(f"{what}: learner format version ") \
                 else OSError(msg)
-        self._h = Handle(ptr, lib.pr_learner_free)
+        if not hasattr(self, "_lock"):  # load and unpickling: no __init__
+            self._lock = threading.Lock()
+        with self._lock:  # the old learner goes before the stream it borrows
+            self._h, self._rng = Handle(ptr, lib.pr_learner_free), rng
         self._dx = lib.pr_learner_context_dim(ptr)
         self._da = lib.pr_learner_action_dim(ptr)
 
@@ -214,6 +228,8 @@ class Learner:
         if not isinstance(st, dict) or st.get("format") != PICKLE_FORMAT:
             raise ValueError(f"Learner: pickle format {st.get('format') if isinstance(st, dict) else st!r}, "
                              f"this package reads {PICKLE_FORMAT}")
+        if not isinstance(st.get("state"), bytes):
+            raise ValueError("Learner: a pickle without its state bytes")
         self._restore(st["state"], "pickle")
 
     def __repr__(self):

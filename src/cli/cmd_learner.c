@@ -11,11 +11,19 @@
  * rewrite STATE together with their output, each under a temporary name
  * renamed only when everything succeeded, so a failed command leaves
  * STATE and every other path as they were. The random stream is
- * mt19937 seeded with experiment.seed, as poolreps.Learner's.
+ * mt19937 seeded with experiment.seed, as poolreps.Learner's. new, ask
+ * and tell hold a lock on STATE from reading it to renaming over it, so
+ * two of them on one state run one after the other.
  */
+#define _DEFAULT_SOURCE /* flock */
+#include <fcntl.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 
 #include <gsl/gsl_rng.h>
 
@@ -40,6 +48,40 @@ static int verb_of(const learner_args *a)
 		if (!strcmp(a->ops[0], verb_name[v]))
 			return v;
 	return -1;
+}
+
+/* An exclusive lock on the file path names, waited for: two tells of one
+ * state that both read it before either renamed over it would keep only
+ * the later's episodes. A file renamed over path while we waited (by the
+ * holder) is locked anew. The descriptor to close, or -1 where nothing is
+ * locked: no file yet (new), not a regular file (load refuses it), or a
+ * file system without flock for files open for reading (NFS). */
+static int lock_state(const char *path)
+{
+	struct stat held, now;
+	int fd;
+
+	for (;;) {
+		if ((fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC)) < 0)
+			return -1;
+		if (fstat(fd, &held) || !S_ISREG(held.st_mode) || flock(fd, LOCK_EX)) {
+			close(fd);
+			return -1;
+		}
+		if (!stat(path, &now) && now.st_dev == held.st_dev && now.st_ino == held.st_ino)
+			return fd;
+		close(fd);
+	}
+}
+
+/* 1 if path and STATE name one file: mean's -o would replace the learner
+ * by its means (ask and tell rewrite STATE themselves: two outputs). */
+static int names_state(const char *path, const char *state)
+{
+	struct stat a, b;
+
+	return path && strcmp(path, "-") && !stat(path, &a) && !stat(state, &b) &&
+	       a.st_dev == b.st_dev && a.st_ino == b.st_ino;
 }
 
 /* The learner saved in STATE, drawing from rng; NULL with *rc set. */
@@ -190,28 +232,46 @@ static int write_rows(pr_csvw *w, const char *const *names, const double *X, int
 	return pr_csvw_status(w);
 }
 
+/* After a call that ended with rc: a failure at a row of t (contexts X)
+ * names the file and line, and the row's context of largest magnitude (one
+ * far beyond the fitted ones makes the policy's weights or covariance
+ * overflow), before the message. */
+static int name_row(const pr_learner *L, const pr_csv *t, const double *X, int rc, char *err)
+{
+	const int i = pr_learner_bad_row(L), dx = pr_learner_context_dim(L);
+	char msg[PR_ERRLEN];
+	int big = 0, j;
+
+	if (rc == PR_OK || i < 0)
+		return rc;
+	const double *x = X + (size_t)i * dx;
+	for (j = 1; j < dx; ++j)
+		if (fabs(x[j]) > fabs(x[big]))
+			big = j;
+	snprintf(msg, sizeof msg, "%s", err);
+	return pr_err(err, rc, "%s:%ld: context %s = %.17g: %s", pr_csv_path(t), pr_csv_line(t, i),
+	              pr_learner_names(L)[big], x[big], msg);
+}
+
 /* ask or mean: actions for the contexts of -i into -o (ask: STATE too). */
-static int learner_act(const learner_args *a, int verb, pr_learner *L, char *err)
+static int learner_act(const learner_args *a, const pr_csv *t, int verb, pr_learner *L,
+                       char *err)
 {
 	const int dx = pr_learner_context_dim(L), da = pr_learner_action_dim(L);
 	const char *const *names = pr_learner_names(L);
-	pr_csv *t = NULL;
 	pr_outset *set = NULL;
 	pr_csvw *w = NULL;
 	double *X = NULL, *A = NULL;
-	long n = 0;
-	int rc;
+	const long n = pr_csv_nrows(t);
+	int rc = PR_OK;
 
-	if (!(rc = pr_csv_read(a->input, &t, err)) && !(rc = pr_cmd_check_rows(t, err))) {
-		n = pr_csv_nrows(t);
-		if (!(X = columns(t, names, dx, "a context column of the learner", err)))
-			rc = PR_EIO;
-		else if (!(A = malloc((size_t)n * da * sizeof *A)))
-			rc = pr_err(err, PR_ENOMEM, "learner: out of memory");
-	}
+	if (!(X = columns(t, names, dx, "a context column of the learner", err)))
+		rc = PR_EIO;
+	else if (!(A = malloc((size_t)n * da * sizeof *A)))
+		rc = pr_err(err, PR_ENOMEM, "learner: out of memory");
 	if (rc == PR_OK)
-		rc = verb == ASK ? pr_learner_ask(L, (int)n, X, A, err)
-		                 : pr_learner_mean(L, (int)n, X, A, err);
+		rc = name_row(L, t, X, verb == ASK ? pr_learner_ask(L, (int)n, X, A, err)
+		                                   : pr_learner_mean(L, (int)n, X, A, err), err);
 	if (rc == PR_OK && !(set = pr_outset_new(err)))
 		rc = PR_ENOMEM;
 	if (rc == PR_OK && !(rc = pr_outset_add(set, a->output, &w, err)))
@@ -219,21 +279,24 @@ static int learner_act(const learner_args *a, int verb, pr_learner *L, char *err
 	if (rc == PR_OK && verb == ASK)
 		rc = add_state(set, a->ops[1], L, err);
 	rc = pr_outset_commit(set, rc, err);
-	pr_csv_free(t);
 	free(X);
 	free(A);
 	return rc;
 }
 
-/* The optional columns of a tell: --features (value given), --target. */
-static int tell_extra(const learner_args *a, const pr_csv *t, pr_learner_batch *b, double **G,
-                      double **Y, char *err)
+/* The optional columns of a tell: --features (value given; the return
+ * column rcol among them would hand REPS its answer, as reps refuses),
+ * --target. */
+static int tell_extra(const learner_args *a, const pr_csv *t, int rcol, pr_learner_batch *b,
+                      double **G, double **Y, char *err)
 {
 	int *cols = NULL, rc = PR_OK;
 
 	if (a->features && (b->d = pr_cmd_columns(t, a->features, &cols, err)) < 0)
 		return b->d;
-	if (a->features && !(*G = pr_cmd_matrix(t, cols, b->d, err)))
+	if (a->features &&
+	    !(rc = pr_cmd_disjoint(t, cols, b->d, "a feature", &rcol, 1, "the return", err)) &&
+	    !(*G = pr_cmd_matrix(t, cols, b->d, err)))
 		rc = PR_ENOMEM;
 	free(cols);
 	cols = NULL;
@@ -247,38 +310,49 @@ static int tell_extra(const learner_args *a, const pr_csv *t, pr_learner_batch *
 	return rc;
 }
 
-static int learner_tell(const learner_args *a, pr_learner *L, char *err)
+/* The column of --return, or a status: a column of its own, since a
+ * context or action column named by --return is a slip the numbers would
+ * not show (as reps refuses a feature that is the return). */
+static int return_column(const pr_csv *t, const char *ret, const char *const *names, int n,
+                         int dx, char *err)
+{
+	int j, c = pr_cmd_column(t, ret, "--return", err);
+
+	for (j = 0; c >= 0 && j < n; ++j)
+		if (pr_csv_find(t, names[j]) == c)
+			return pr_err(err, PR_EINVAL, "%s: column '%s' is both %s column of the learner "
+			              "and --return", pr_csv_path(t), names[j], j < dx ? "a context" : "an action");
+	return c;
+}
+
+static int learner_tell(const learner_args *a, const pr_csv *t, pr_learner *L, char *err)
 {
 	const int dx = pr_learner_context_dim(L), da = pr_learner_action_dim(L);
 	const char *const *names = pr_learner_names(L);
 	pr_learner_batch b;
-	pr_csv *t = NULL;
 	double *X = NULL, *A = NULL, *R = NULL, *G = NULL, *Y = NULL;
 	int rc, rcol = -1;
 
 	memset(&b, 0, sizeof b);
-	if (!a->ret)
-		return pr_err(err, PR_EINVAL, "learner tell: --return COL is required");
-	if (!(rc = pr_csv_read(a->input, &t, err)) && !(rc = pr_cmd_check_rows(t, err))) {
-		if (!(X = columns(t, names, dx, "a context column of the learner", err)) ||
-		    !(A = columns(t, names + dx, da, "an action column of the learner", err)))
-			rc = PR_EIO;
-		else if ((rcol = pr_cmd_column(t, a->ret, "--return", err)) < 0)
-			rc = rcol;
-		else if (!(R = pr_cmd_matrix(t, &rcol, 1, err)))
-			rc = PR_ENOMEM;
-		else
-			rc = tell_extra(a, t, &b, &G, &Y, err);
-	}
+	if ((rc = pr_learner_check_targets(L, a->target != NULL, err)))
+		return rc;
+	if (!(X = columns(t, names, dx, "a context column of the learner", err)) ||
+	    !(A = columns(t, names + dx, da, "an action column of the learner", err)))
+		rc = PR_EIO;
+	else if ((rcol = return_column(t, a->ret, names, dx + da, dx, err)) < 0)
+		rc = rcol;
+	else if (!(R = pr_cmd_matrix(t, &rcol, 1, err)))
+		rc = PR_ENOMEM;
+	else
+		rc = tell_extra(a, t, rcol, &b, &G, &Y, err);
 	if (rc == PR_OK) {
 		b.n = (int)pr_csv_nrows(t);
 		b.contexts = X;
 		b.actions = A;
 		b.returns = R;
-		rc = pr_learner_tell_batch(L, &b, err);
+		rc = name_row(L, t, X, pr_learner_tell_batch(L, &b, err), err);
 	}
 	rc = commit_state(a->ops[1], L, rc, err);
-	pr_csv_free(t);
 	free(X);
 	free(A);
 	free(R);
@@ -317,6 +391,8 @@ static int check_verb(const pr_config *cfg, const learner_args *a, int verb, cha
 		              "learner tell", verb_name[verb]);
 	if (verb == TELL && a->output)
 		return pr_err(err, PR_EINVAL, "learner tell: writes only STATE (no -o)");
+	if (verb == TELL && !a->ret)
+		return pr_err(err, PR_EINVAL, "learner tell: --return COL is required");
 	return PR_OK;
 }
 
@@ -326,18 +402,31 @@ static int learner_main(const pr_config *cfg, const void *opts, char *err)
 	const int verb = verb_of(a);
 	gsl_rng *rng;
 	pr_learner *L = NULL;
-	int rc = check_verb(cfg, a, verb, err);
+	pr_csv *t = NULL;
+	int rc = check_verb(cfg, a, verb, err), lock;
 
 	if (rc)
 		return rc;
+	if (verb == MEAN && names_state(a->output, a->ops[1]))
+		return pr_err(err, PR_EINVAL, "learner mean: -o %s is STATE: the means would replace "
+		              "the learner", a->output);
 	if (!(rng = gsl_rng_alloc(gsl_rng_mt19937)))
 		return pr_err(err, PR_ENOMEM, "learner: out of memory");
 	gsl_rng_set(rng, cfg->run.seed);
-	if (verb == NEW)
+	/* -i is read whole before STATE is locked: in `learner ask S | play |
+	 * learner tell S` the tell waits for the ask's end, not the ask for the
+	 * tell's lock, and then reads the state the ask left */
+	if (verb != NEW && !(rc = pr_csv_read(a->input, &t, err)))
+		rc = pr_cmd_check_rows(t, err);
+	lock = rc || verb == MEAN ? -1 : lock_state(a->ops[1]);
+	if (rc == PR_OK && verb == NEW)
 		rc = learner_new(cfg, a, rng, err);
-	else if ((L = load(a->ops[1], rng, &rc, err)))
-		rc = verb == TELL ? learner_tell(a, L, err) : learner_act(a, verb, L, err);
+	else if (rc == PR_OK && (L = load(a->ops[1], rng, &rc, err)))
+		rc = verb == TELL ? learner_tell(a, t, L, err) : learner_act(a, t, verb, L, err);
+	if (lock >= 0)
+		close(lock);
 	pr_learner_free(L);
+	pr_csv_free(t);
 	gsl_rng_free(rng);
 	return rc;
 }

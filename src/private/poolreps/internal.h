@@ -280,6 +280,13 @@ int pr_learner_check_head(const unsigned char *buf, size_t len, const char *what
 /* What the last ask did: actions drawn again (or clipped) for exceeding
  * max_norm, and the PR_POLICY_* flags of its queries. */
 void pr_learner_ask_info(const pr_learner *L, int *redraws, int *flags);
+/* PR_OK unless targets are given (given != 0) to a learner whose policy
+ * would keep and ignore them; for callers that take them from a user
+ * (an experiment passes them whatever the policy). */
+int pr_learner_check_targets(const pr_learner *L, int given, char *err);
+/* The row of the contexts (ask, mean) or episodes (tell) whose policy
+ * evaluation failed the last such call, or -1 (success, or not a row's). */
+int pr_learner_bad_row(const pr_learner *L);
 /* A tell's episodes in full: n rows of contexts (n x dx), actions (n x
  * da) and returns; features (n x d) for value given, else NULL; targets (n
  * x dy) for policy.target = reward_state (the tree policy's forest predicts
@@ -293,7 +300,8 @@ typedef struct {
 int pr_learner_tell_batch(pr_learner *L, const pr_learner_batch *b, char *err);
 /* Names of the dx context then da action columns, kept in the saved
  * state for the caller (the command line's CSV columns); each 1 .. 255
- * bytes without a NUL or line break, all distinct. A NULL name (or NULL
+ * bytes without a control character or a trailing blank (a CSV
+ * header could not hold it), all distinct. A NULL name (or NULL
  * names) is the default s0 .. s{dx-1}, a0 .. a{da-1}, which every new
  * learner (and one loaded from a state without names) has. */
 int pr_learner_set_names(pr_learner *L, const char *const *names, char *err);
