@@ -576,7 +576,12 @@ def page(runs, timing, clipped, budgets, tables):
          "(make baselines). Do not edit. -->", "", setup_text(setup()), "",
          "| learner | what |", "|---|---|"]
     L += [f"| {LEARNERS[k][0]} | {LEARNERS[k][1]} |" for k in LEARNERS]
-    L += ["", TEXT_STATS + " " + t_changes(tables, budgets) + " " + fewer_seeds(runs, budgets), ""]
+    most = max((r["pairs"] for t in tables.values() for r in t), default=0)
+    enum = "all 2^n sign vectors" if most <= vs.SIGNFLIP_EXACT_MAX else (
+        f"all 2^n sign vectors up to {vs.SIGNFLIP_EXACT_MAX} pairs, "
+        f"{vs.SIGNFLIP_DRAWS:,} seeded random ones beyond")
+    L += ["", TEXT_STATS.format(enum=enum) + " " + t_changes(tables, budgets) + " " +
+          fewer_seeds(runs, budgets), ""]
     for b in budgets:
         L += [f"**{b:,} episodes**", "",
               f"| learner | seeds | IQM, last {LAST} [95 % CI] | IQM, mean action [95 % CI] | "
@@ -662,8 +667,8 @@ stratified-bootstrap interval ({BOOT} resamples), and the probability of improve
 P(X > Y) + P(X = Y)/2 of a seed of the learner over one of REPS + hand-crafted features
 (Agarwal et al., NeurIPS 2021; `rliable`'s estimators in scripts/verdict_stats.py). The
 verdict: the exact two-sided paired sign-flip test of the mean difference of the
-last-{LAST} means from REPS + hand-crafted features over the seeds both ran (all 2^n
-sign vectors; sums within {vs.SIGNFLIP_RTOL:g} × Σ|d| of the observed one are ties),
+last-{LAST} means from REPS + hand-crafted features over the seeds both ran ({{enum}};
+sums within {vs.SIGNFLIP_RTOL:g} × Σ|d| of the observed one are ties),
 Holm-adjusted over one budget's learners, 5 %; the mean difference has its t interval.
 This test replaced the paired t test after the data were seen: a reviewer found the
 reference's seeds bimodal, and it assumes no normality."""
