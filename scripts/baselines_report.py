@@ -466,13 +466,15 @@ def clipped_rows(runs, clipped, budgets):
                 cells.append(f"{pct} % ({len(c)})")
             else:
                 cells.append("not recorded" if ran else "—")
-            if ran - {r["seed"] for r in c}:
-                gone.append(b)
+            lost = len(ran - {r["seed"] for r in c})
+            if lost:
+                gone.append(f"{b:,}" + ("" if lost == len(ran) else f" ({lost} of {len(ran)} seeds)"))
         if gone:
-            at = [f"{b:,}" for b in gone]
-            missing.append(f"{LEARNERS[k][0]} at " + (" and ".join(at) if len(at) < 3 else
-                                                      ", ".join(at[:-1]) + " and " + at[-1]))
-            seeds = {r["seed"] for r in runs if r["learner"] == k and int(r["budget"]) in gone}
+            counted = {(r["seed"], r["budget"]) for r in clipped if r["learner"] == k}
+            seeds = {r["seed"] for r in runs if r["learner"] == k and
+                     (r["seed"], r["budget"]) not in counted}
+            missing.append(f"{LEARNERS[k][0]} at " + (" and ".join(gone) if len(gone) < 3 else
+                                                      ", ".join(gone[:-1]) + " and " + gone[-1]))
             cost += sum(max((float(r["cpu_s"]) for r in runs if r["learner"] == k and
                              r["seed"] == s and r["cpu_s"]), default=0.0) for s in seeds)
         rows.append(f"| {LEARNERS[k][0]} | " + " | ".join(cells) + " |")

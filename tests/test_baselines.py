@@ -326,6 +326,11 @@ def test_clipped_table_and_what_is_not_recorded():
     assert note == ("Not recorded: SAC (SB3 defaults) at 600 episodes (the runs before the "
                     "count; rerunning them costs about 12 CPU seconds).")
     assert br.clipped_rows(runs[-1:], clipped[-1:], [300])[1] == ""
+    # one seed of two counted at 300: named with the share of seeds
+    rows, note = br.clipped_rows(runs, clipped[1:], [300, 600])
+    assert "| SAC (SB3 defaults) | 20.0 % (1) | not recorded |" in rows
+    assert note.startswith("Not recorded: SAC (SB3 defaults) at 300 (1 of 2 seeds) and 600 "
+                           "episodes")
 
 
 def test_the_setup_prints_one_value_or_both_and_the_differences():
