@@ -6,7 +6,8 @@
 
 One run = one learner and seed, trained for the largest budget; at every
 budget it records the mean return of the last 500 training episodes (as
-Experiment 3 evaluates) and the mean return of the learner's deterministic
+Experiment 3 evaluates), how many training actions were clipped onto
+sim.max_speed so far (PocketEnv's info['clipped']) and the mean return of the learner's deterministic
 action (SB3's deterministic=True, the CMA-ES mean) on 2000 fresh start
 states, the same 2000 for every learner of a seed. Every --curve-every
 episodes it also records the mean of the last 500 episodes (the
@@ -38,6 +39,13 @@ import poolreps  # noqa: E402
 LAST = 500          # Experiment 3's evaluation: the last 500 episodes
 EVAL_STARTS = 2000  # deterministic evaluation on this many fresh start states
 EVAL_SEED = 1000000  # + seed: the evaluation starts, apart from every training stream
+# data/exp3.ini's values, which the poolreps learners read (docs/baselines.md
+# prints both sides): experiment.seed of the training start states, the reward
+# ball's start box (start.reward_box; the features' scale) and exp3.init_std
+# (pycma's sigma0: the initial policy's std on the constant feature, m/s)
+EXP3_SEED = 1
+REWARD_BOX = (0.05, 0.15, -0.1, 0.1)
+SIGMA0 = 0.1
 
 LEARNERS = ["sac", "ppo", "cma_linear"]
 
@@ -55,20 +63,22 @@ class Recorder:
         self.budgets, self.curve_every = sorted(budgets), curve_every
         self.evaluate = evaluate
         self.returns = []
+        self.clipped = 0    # training actions clipped onto sim.max_speed so far
         self.rows = []
         self.t0, self.c0 = time.time(), cpu_seconds()
 
-    def add(self, rewards, policy):
-        for r in np.atleast_1d(rewards):
+    def add(self, rewards, policy, clipped):
+        for r, c in zip(np.atleast_1d(rewards), np.atleast_1d(clipped)):
             self.returns.append(float(r))
+            self.clipped += bool(c)
             n = len(self.returns)
             last = float(np.mean(self.returns[-LAST:]))
             if n % self.curve_every == 0:
-                self.rows.append(["curve", n, last, "", "", ""])
+                self.rows.append(["curve", n, last, "", "", "", ""])
             if n in self.budgets:
                 self.rows.append(["budget", n, last, self.evaluate(policy),
                                   round(time.time() - self.t0, 3),
-                                  round(cpu_seconds() - self.c0, 3)])
+                                  round(cpu_seconds() - self.c0, 3), self.clipped])
 
     @property
     def done(self):
@@ -79,7 +89,7 @@ class Recorder:
         with open(tmp, "w", newline="") as f:
             w = csv.writer(f)
             w.writerow(["learner", "seed", "kind", "episodes", "last500_mean", "deterministic_mean",
-                        "wall_s", "cpu_s"])
+                        "wall_s", "cpu_s", "clipped"])
             for r in self.rows:
                 w.writerow([self.learner, self.seed, *r])
         os.replace(tmp, path)
@@ -97,7 +107,7 @@ class Exp3Env(poolreps.PocketEnv):
     def reset(self, *, seed=None, options=None):
         if not self._started:
             self._started = True
-            return super().reset(seed=1, options={"repetition": self._rep})
+            return super().reset(seed=EXP3_SEED, options={"repetition": self._rep})
         return super().reset(options=options)
 
 
@@ -125,7 +135,8 @@ def run_sb3(learner, seed, rec):
 
     class Cb(BaseCallback):
         def _on_step(self):
-            rec.add(self.locals["rewards"], self.model)
+            rec.add(self.locals["rewards"], self.model,
+                    [i["clipped"] for i in self.locals["infos"]])
             return not rec.done
 
     model = algo("MlpPolicy", env, seed=seed, device="cpu", verbose=0)
@@ -135,7 +146,7 @@ def run_sb3(learner, seed, rec):
 def linear_features(cfg_env, S):
     """The hand-crafted features of Experiment 3: 1, u, v, u^2, uv, v^2 of
     the reward ball's position scaled to [-1, 1]^2 on its start box."""
-    lo, hi = np.array([0.05, -0.1]), np.array([0.15, 0.1])
+    lo, hi = np.array(REWARD_BOX[::2]), np.array(REWARD_BOX[1::2])
     uv = 2 * (S[:, 2:4] - lo) / (hi - lo) - 1
     u, v = uv[:, 0], uv[:, 1]
     return np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v])
@@ -145,7 +156,7 @@ def run_cma(seed, rec):
     import cma
 
     env = poolreps.PocketEnv()
-    starts = env.reset_batch(rec.budgets[-1], seed=1, repetition=seed)[0]
+    starts = env.reset_batch(rec.budgets[-1], seed=EXP3_SEED, repetition=seed)[0]
     ev_env, ev_states = eval_states(seed)
     phi_ev = linear_features(ev_env, ev_states)
 
@@ -153,8 +164,7 @@ def run_cma(seed, rec):
         return phi @ np.asarray(theta).reshape(6, 2)
 
     rec.evaluate = lambda theta: float(ev_env.step_batch(ev_states, act(theta, phi_ev))[1].mean())
-    # sigma0 = Experiment 3's initial policy std (0.1 m/s) on the constant feature
-    es = cma.CMAEvolutionStrategy(np.zeros(12), 0.1,
+    es = cma.CMAEvolutionStrategy(np.zeros(12), SIGMA0,
                                   {"seed": seed + 1, "verbose": -9, "maxfevals": 10**9})
     i = 0
     while not rec.done:
@@ -163,9 +173,9 @@ def run_cma(seed, rec):
         S = starts[i:i + n]
         phi = linear_features(env, S)
         a = np.array([act(x, p[None, :])[0] for x, p in zip(X[:n], phi)])
-        r = env.step_batch(S, a)[1]
+        _, r, _, _, info = env.step_batch(S, a)
         for k in range(n):
-            rec.add(r[k], es.mean)
+            rec.add(r[k], es.mean, info["clipped"][k])
         i += n
         if n == len(X):
             es.tell(X, list(-r))

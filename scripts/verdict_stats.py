@@ -22,6 +22,9 @@ Tests (each returns a p-value; small p supports the alternative named):
     p_tost(e, low, high)       # H1: low < mean < high (two one-sided tests: the larger p)
     p_outside(e, low, high)    # H1: mean < low or mean > high (2 x the smaller one-sided p)
 
+    p_signflip(d)              # H1: mean of d != 0, the paired sign-flip
+                               # (randomization) test: no normality assumed
+
 Counts (k of n units with a property; exact binomial, Clopper-Pearson):
 
     p_binom_greater(k, n, c)   # H1: share > c  (P(X >= k) when the share is c)
@@ -180,6 +183,57 @@ def p_outside(e, low, high):
     ps = [p_less(e, low) if math.isfinite(low) else 1.0,
           p_greater(e, high) if math.isfinite(high) else 1.0]
     return min(1.0, 2 * min(ps)) if all(map(math.isfinite, (low, high))) else min(ps)
+
+
+# p_signflip: exact up to this many differences (2^20 sums per half), then
+# SIGNFLIP_DRAWS seeded random sign vectors; |sums| within SIGNFLIP_RTOL of
+# sum |d| of the observed one count as ties (rounding of theoretically equal
+# sums; scipy's permutation_test uses 1e-14 of the observed statistic)
+SIGNFLIP_EXACT_MAX = 40
+SIGNFLIP_DRAWS = 100000
+SIGNFLIP_RTOL = 1e-12
+
+
+def _flip_sums(x):
+    """sum(s_i x_i) for all 2^len(x) sign vectors s; the first is the all-plus
+    sum and the last its exact negative (each step forms a + v and -a - v,
+    which round alike)."""
+    s = np.zeros(1)
+    for v in x:
+        s = np.concatenate([s + v, s - v])
+    return s
+
+
+def p_signflip(d, seed=0, exact_max=SIGNFLIP_EXACT_MAX, draws=SIGNFLIP_DRAWS):
+    """Two-sided p of the paired sign-flip (randomization) test of H0: the
+    differences d are symmetric about 0, with the statistic |sum(d)|: the
+    share of the 2^n sign vectors s with |sum(s_i d_i)| >= |sum(d)|. Exact
+    for n <= exact_max (meet in the middle: each half's 2^(n/2) sums, one
+    half sorted, counted by bisection); beyond, (1 + hits) / (1 + draws) over
+    draws random sign vectors of a numpy Generator seeded with seed."""
+    v = _values(d, "p_signflip")
+    n = len(v)
+    gamma = SIGNFLIP_RTOL * float(np.abs(v).sum())
+    if n <= exact_max:
+        left, right = _flip_sums(v[:n // 2]), _flip_sums(v[n // 2:])
+        t = abs(left[0] + right[0]) - gamma
+        if t <= 0:
+            return 1.0
+        right.sort()
+        hits = (len(right) - np.searchsorted(right, t - left, "left")).sum() + \
+            np.searchsorted(right, -t - left, "right").sum()
+        return float(hits) / 2.0 ** n
+    t = abs(float(v.sum())) - gamma
+    if t <= 0:
+        return 1.0
+    rng = np.random.default_rng(seed)
+    hits, left = 0, draws
+    while left > 0:
+        k = min(left, max(1, 2 ** 22 // n))
+        signs = rng.integers(0, 2, (k, n)) * 2.0 - 1.0
+        hits += int((np.abs(signs @ v) >= t).sum())
+        left -= k
+    return (1 + hits) / (1 + draws)
 
 
 def holm(ps):

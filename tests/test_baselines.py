@@ -97,10 +97,15 @@ def test_the_tables_pair_by_seed_and_adjust_within_a_budget(tmp_path):
     diff = np.array(d) - base
     assert math.isclose(t["sac"]["diff"][0], diff.mean(), rel_tol=1e-12)
     assert t["sac"]["verdict"] == "below" and t["sac"]["pairs"] == 10
-    p_sac = stats.ttest_1samp(diff, 0).pvalue
-    p_ppo = stats.ttest_1samp(np.array([r[3] for r in rows if r[0] == "ppo"]) - base, 0).pvalue
-    want = br.holm([p_sac, p_ppo])
+    d_ppo = np.array([r[3] for r in rows if r[0] == "ppo"]) - base
+
+    def flip(d):   # scipy's exact sign-flip test (the oracle of verdict_stats too)
+        return stats.permutation_test((d,), np.mean, permutation_type="samples",
+                                      n_resamples=np.inf).pvalue
+    want = br.holm([flip(diff), flip(d_ppo)])
     assert math.isclose(t["sac"]["p"], want[0]) and math.isclose(t["ppo"]["p"], want[1])
+    want = br.holm([stats.ttest_1samp(diff, 0).pvalue, stats.ttest_1samp(d_ppo, 0).pvalue])
+    assert math.isclose(t["sac"]["p_t"], want[0]) and math.isclose(t["ppo"]["p_t"], want[1])
     assert t["reps_handcrafted"]["verdict"] == "reference"
 
 
@@ -134,6 +139,9 @@ def test_smoke_run_writes_the_csvs_and_the_report(tmp_path):
     assert "**600 episodes**" in text and "SAC (SB3 defaults)" in text
     # every learner has its mean-action evaluation, the poolreps ones too
     assert all(r["deterministic_mean"] for r in runs), [r for r in runs if not r["deterministic_mean"]]
+    # every run's clipped actions are counted, at every budget it reached
+    clipped = {(r["learner"], r["seed"], r["budget"]) for r in br.read(data / "clipped.csv")}
+    assert clipped == {(r["learner"], r["seed"], r["budget"]) for r in runs}
     print(f"smoke run: {secs:.1f} s")
 
 
@@ -165,15 +173,17 @@ def test_docs_baselines_md_is_what_the_committed_csvs_give(tmp_path):
 
 
 def fake_run(out, learner, seed, budgets, shift):
-    """One run file as scripts/baselines.py writes it, with made-up returns."""
+    """One run file as scripts/baselines.py writes it, with made-up returns
+    and clipped counts."""
     rows = []
     for b in budgets:
-        rows.append([learner, seed, "curve", b, -1 + shift + 0.001 * seed, "", "", ""])
-        rows.append([learner, seed, "budget", b, -1 + shift + 0.001 * seed, -0.9, 2.5 * b, 2.0 * b])
+        rows.append([learner, seed, "curve", b, -1 + shift + 0.001 * seed, "", "", "", ""])
+        rows.append([learner, seed, "budget", b, -1 + shift + 0.001 * seed, -0.9, 2.5 * b,
+                     2.0 * b, b // 3 + seed])
     (out / "runs").mkdir(parents=True, exist_ok=True)
     write_rows(out / "runs" / f"{learner}_s{seed}_b{'_'.join(map(str, budgets))}.csv",
                ["learner", "seed", "kind", "episodes", "last500_mean", "deterministic_mean",
-                "wall_s", "cpu_s"], rows)
+                "wall_s", "cpu_s", "clipped"], rows)
     (out / "budgets.txt").write_text("300,600\n")
 
 
@@ -192,7 +202,7 @@ def test_merge_replaces_one_learner_as_a_full_collect_would(tmp_path):
     br.collect(full, tmp_path / "want")
     br.collect(old, tmp_path / "got")
     br.merge(apart, tmp_path / "got")
-    for f in ("runs.csv", "curve.csv", "timing.csv", "budgets.txt"):
+    for f in ("runs.csv", "curve.csv", "timing.csv", "clipped.csv", "budgets.txt"):
         assert (tmp_path / "got" / f).read_bytes() == (tmp_path / "want" / f).read_bytes(), f
     (apart / "budgets.txt").write_text("300\n")
     before = {p.name: p.read_bytes() for p in (tmp_path / "got").iterdir()}
@@ -269,3 +279,96 @@ def test_report_check_fails_on_a_changed_page_and_writes_nothing(tmp_path):
     assert p.returncode == 1 and len(p.stderr.strip().splitlines()) == 1, p.stderr
     assert "baselines.md" in p.stderr
     assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+
+
+def test_clipped_actions_of_a_poolreps_run_are_its_fast_draws(tmp_path):
+    """With sim.max_speed low enough that pi_0 draws beyond it, the count per
+    episode (a speed at the limit) adds up, iteration by iteration, to the
+    redraws column poolreps counts under exp3.truncation = clip; iteration 0,
+    which that column leaves out, is counted too; a column that disagrees is
+    refused in one line."""
+    from conftest import run_poolreps
+    out = tmp_path / "r"
+    p = run_poolreps([ROOT / "data/exp3.ini", "-q", "-o", out, "--set", "exp3.iterations=4",
+                      "--set", "experiment.repetitions=2", "--set", "exp3.policies=handcrafted",
+                      "--set", "exp3.truncation=clip", "--set", "sim.max_speed=0.15"])
+    assert p.returncode == 0, p.stderr
+    episodes = br.read(out / "exp3_episodes.csv")
+    flags = br.clipped_flags(out, episodes)
+    reps = br.read(out / "exp3_reps.csv")
+    for k in (0, 1):
+        it = np.array([int(r["iteration"]) for r in episodes if r["repetition"] == str(k)])
+        assert len(flags[k]) == len(it) == 280
+        assert 0 < flags[k][it == 0].sum() < 200   # pi_0 = N(0, 0.1^2 I): some beyond 0.15
+        for r in reps:
+            if r["repetition"] == str(k):
+                assert flags[k][it == int(r["iteration"])].sum() == int(r["redraws"])
+    assert sum(int(r["redraws"]) for r in reps) > 0
+    rows = [r for r in reps]
+    rows[3]["redraws"] = str(int(rows[3]["redraws"]) + 1)
+    write_rows(out / "exp3_reps.csv", list(rows[0]), [list(r.values()) for r in rows])
+    with pytest.raises(SystemExit, match="exp3_reps.csv: repetition .* redraws"):
+        br.clipped_flags(out, episodes)
+
+
+def test_clipped_table_and_what_is_not_recorded():
+    runs = [{"learner": "sac", "seed": str(s), "budget": str(b), "cpu_s": str(b / 100)}
+            for s in range(2) for b in (300, 600)]
+    runs += [{"learner": "ppo", "seed": "0", "budget": "300", "cpu_s": "1"}]
+    clipped = [{"learner": "sac", "seed": str(s), "budget": "300", "episodes": "300",
+                "clipped": str(30 * (s + 1))} for s in range(2)]
+    clipped += [{"learner": "ppo", "seed": "0", "budget": "300", "episodes": "300",
+                 "clipped": "0"}]
+    rows, note = br.clipped_rows(runs, clipped, [300, 600])
+    assert "| SAC (SB3 defaults) | 15.0 % (2) | not recorded |" in rows
+    assert "| PPO (SB3 defaults) | 0 % (1) | — |" in rows
+    # the two SAC seeds rerun to 600 episodes: 6 + 6 CPU seconds
+    assert note == ("Not recorded: SAC (SB3 defaults) at 600 episodes (the runs before the "
+                    "count; rerunning them costs about 12 CPU seconds).")
+    assert br.clipped_rows(runs[-1:], clipped[-1:], [300])[1] == ""
+    # one seed of two counted at 300: named with the share of seeds
+    rows, note = br.clipped_rows(runs, clipped[1:], [300, 600])
+    assert "| SAC (SB3 defaults) | 20.0 % (1) | not recorded |" in rows
+    assert note.startswith("Not recorded: SAC (SB3 defaults) at 300 (1 of 2 seeds) and 600 "
+                           "episodes")
+
+
+def test_the_setup_prints_one_value_or_both_and_the_differences():
+    values = br.setup()
+    text = br.setup_text(values)
+    assert "σ₀ = 0.1 m/s" in text and "Differences" not in text
+    assert "on 2,000 fresh start states (seed 1,000,000 + k)" in text
+    assert "the cue ball\nat (−0.25, 0)" in text
+    values["sigma"] = (0.2, 0.1)
+    values["eval_seed"] = (5, 1000000)
+    text = br.setup_text(values)
+    assert "σ₀ = 0.2 (Python learners; poolreps learners 0.1) m/s" in text
+    assert text.endswith("- **Differences** between the Python and the poolreps learners' "
+                         "settings: sigma, eval_seed.")
+
+
+def test_the_python_learners_play_exp3_ini_start_boxes():
+    """PocketEnv's start boxes (its defaults) are data/exp3.ini's, which the
+    page prints for every learner."""
+    if os.environ.get("SAN") == "1":
+        pytest.skip("under SAN=1 the binding would load the sanitized library without the "
+                    "sanitizer runtime preloaded")
+    sys.path.insert(0, str(ROOT / "python"))
+    import poolreps
+    cfg = poolreps.PocketEnv()._cfg
+    want = br.setup()
+    for key, item in (("start.cue_box", "cue"), ("start.reward_box", "box")):
+        assert tuple(float(v) for v in cfg.text(key).split(",")) == want[item][1]
+
+
+def test_t_changes_names_every_verdict_the_t_test_would_change():
+    t = {300: [{"learner": "sac", "verdict": "below", "verdict_t": "below", "p_t": 0.01},
+               {"learner": "ppo", "verdict": "no difference shown", "verdict_t": "below",
+                "p_t": 0.03}],
+         600: [{"learner": "sac", "verdict": "no difference shown", "verdict_t": "above",
+                "p_t": 0.04}]}
+    assert br.t_changes(t, [300, 600]) == (
+        "Under the paired t test 2 verdicts differ: PPO (SB3 defaults) at 300 episodes "
+        "would be *below* (Holm p 0.030); SAC (SB3 defaults) at 600 episodes would be "
+        "*above* (Holm p 0.040).")
+    assert br.t_changes({300: t[300][:1]}, [300]) == "Under the paired t test no verdict differs."

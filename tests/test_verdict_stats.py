@@ -320,3 +320,87 @@ def test_stratified_bootstrap_is_the_percentile_of_resampled_statistics():
     assert (lo, hi) == pytest.approx(tuple(np.percentile(reps, [2.5, 97.5])), rel=1e-12)
     assert vs.bootstrap_ci(lambda x, y: vs.iqm(x) - vs.iqm(y), [a, b], 400, 7) == (lo, hi)
     assert lo <= vs.iqm(a) - vs.iqm(b) <= hi
+
+
+# ------------------------------------------------ the paired sign-flip test
+
+def signflip_problem(seed):
+    """Seeded differences of every kind the test must handle: continuous,
+    integer ties, zeros, all equal, decimal ties, Cauchy tails, huge offsets
+    and scales."""
+    rng = np.random.default_rng(700 + seed)
+    n = int(rng.integers(2, 13))
+    kind = seed % 8
+    if kind == 0:
+        d = rng.normal(rng.normal(0, 1), rng.uniform(0.1, 2), n)
+    elif kind == 1:                       # integer ties and zeros
+        d = rng.integers(-3, 4, n).astype(float)
+    elif kind == 2:                       # all equal
+        d = np.full(n, rng.normal(0, 5))
+    elif kind == 3:                       # ties of decimals (0.1 + 0.2 != 0.3)
+        d = rng.integers(-4, 5, n) / 10
+    elif kind == 4:                       # heavy tails
+        d = rng.standard_cauchy(n)
+    elif kind == 5:                       # pairs at a huge offset: cancellation
+        a = 1e9 + rng.normal(0, 1, n)
+        d = a - (1e9 + rng.normal(0.3, 1, n))
+    elif kind == 6:                       # a huge or tiny scale
+        d = rng.normal(0.4, 1, n) * 10.0 ** rng.choice([-6, 12])
+    else:                                 # a few zeros among continuous values
+        d = rng.normal(0.5, 1, n) * (rng.uniform(size=n) > 0.3)
+    return d
+
+
+@pytest.mark.parametrize("seed", range(64))
+def test_signflip_is_scipys_exact_permutation_test(seed):
+    """The exact p against scipy's permutation_test over all 2^n sign
+    vectors of the sample (permutation_type 'samples'), two-sided."""
+    d = signflip_problem(seed)
+    ref = stats.permutation_test((d,), np.mean, permutation_type="samples",
+                                 n_resamples=np.inf, alternative="two-sided").pvalue
+    assert vs.p_signflip(d) == pytest.approx(min(1.0, ref), rel=1e-12, abs=1e-15)
+
+
+@pytest.mark.parametrize("seed", range(64))
+def test_signflip_invariances(seed):
+    """The same p for d scaled by c > 0, for -d, and in any order."""
+    d = signflip_problem(seed)
+    rng = np.random.default_rng(seed)
+    p = vs.p_signflip(d)
+    for c in (3.7, 1e-150, 1e150, 2.0 ** -40):
+        assert vs.p_signflip(c * d) == p
+    assert vs.p_signflip(-d) == p
+    for _ in range(3):
+        assert vs.p_signflip(rng.permutation(d)) == p
+
+
+@pytest.mark.parametrize("n", [13, 17, 24, 31, 40])
+def test_signflip_on_signed_ranks_is_the_exact_wilcoxon_test(n):
+    """Beyond scipy's reach: on signed ranks the sign-flip sum is 2 W - n(n+1)/2
+    of the signed-rank statistic W, so the p is scipy's exact Wilcoxon p."""
+    rng = np.random.default_rng(n)
+    d = rng.permutation(np.arange(1, n + 1)) * np.where(rng.uniform(size=n) < 0.3, -1.0, 1.0)
+    ref = stats.wilcoxon(d, method="exact").pvalue
+    assert vs.p_signflip(d) == pytest.approx(ref, rel=1e-9)
+
+
+def test_signflip_degenerate_and_monte_carlo():
+    """Known answers, and the seeded Monte Carlo beyond the exact range within
+    its sampling error of the exact p."""
+    assert vs.p_signflip([0.0, 0.0, 0.0]) == 1.0
+    assert vs.p_signflip([2.5] * 10) == 2 / 2 ** 10
+    assert vs.p_signflip([1.0, -1.0]) == 1.0
+    assert vs.p_signflip([1.0, 1.0 + 1e-15, -2.0]) == 1.0       # a tie of 0 with 0
+    with pytest.raises(ValueError):
+        vs.p_signflip([1.0])
+    with pytest.raises(ValueError):
+        vs.p_signflip([1.0, math.nan])
+    rng = np.random.default_rng(3)
+    d = rng.normal(0.35, 1, 22)
+    exact = vs.p_signflip(d)
+    mc = vs.p_signflip(d, seed=5, exact_max=10, draws=40000)
+    assert abs(mc - exact) < 4 * math.sqrt(exact * (1 - exact) / 40000)
+    assert vs.p_signflip(d, seed=5, exact_max=10, draws=40000) == mc   # seeded
+    big = rng.normal(0.2, 1, 300)
+    p = vs.p_signflip(big, draws=20000)
+    assert abs(p - stats.ttest_1samp(big, 0).pvalue) < 0.02     # large n: the t test's
