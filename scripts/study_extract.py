@@ -221,7 +221,11 @@ def extend(out, data):
     configuration), one job folder each (OUT/ARM/point-0/runs/rep-K), added to
     DATA's exp3_runs.csv and exp3_curves.csv. A repetition DATA already has
     must come out identical (the check that the binary still gives the
-    study's runs); the repetitions must end up 0..N-1 in every arm."""
+    study's runs); the repetitions must end up 0..N-1 in every arm. A key
+    added to poolreps after the study ran (none of its runs has it) is taken
+    at the one value every new run of the arm has, when repetition 0 of
+    every policy comes out identical (so the key changed nothing), and is
+    recorded in the manifest."""
     p = lambda name: os.path.join(data, name)  # noqa: E731
     runs = read_rows(p("exp3_runs.csv"), ("arm", "policy", "repetition"))
     curves = read_rows(p("exp3_curves.csv"), ("arm", "policy", "repetition"))
@@ -229,13 +233,18 @@ def extend(out, data):
     unit = {(r["unit"], r["key"]): r["value"] for r in manifest if r["experiment"] == "exp3"}
     have = {(r["arm"], r["policy"], r["repetition"]): [r[c] for c in r] for r in runs}
     new_runs, new_curves, cpu_s, versions = [], [], 0.0, set()
+    added, checked = {}, set()
     for name in ARMS:
         folders = sorted(glob.glob(os.path.join(out, name, "point-0", "runs", "rep-*")))
         if not folders:
             fail(f"{os.path.join(out, name)}: no job folders point-0/runs/rep-K")
         for f in folders:
             for k, v in config_items(f):
-                if k not in SAME_BUT and unit.get((name, k)) != v:
+                if (name, k) not in unit and k not in SAME_BUT:
+                    if added.setdefault((name, k), v) != v:
+                        fail(f"{f}/config.ini: {k} = {v}, other new runs have "
+                             f"{added[(name, k)]}")
+                elif k not in SAME_BUT and unit.get((name, k)) != v:
                     fail(f"{f}/config.ini: {k} = {v}, the study has {unit.get((name, k))}")
                 if k == "version":
                     versions.add(v)
@@ -251,10 +260,14 @@ def extend(out, data):
                 if key in have:
                     if [g(v) for v in r] != have[key]:
                         fail(f"{f}: repetition {r[2]} of {r[1]} differs from the study's")
+                    checked.add(key)
                     continue
                 new_runs.append(r)
                 new_curves.append(c)
     reps = {(r["arm"], r["policy"]) for r in runs}
+    if added and not {(a, q, "0") for a, q in reps} <= checked:
+        fail(f"{out}: keys the study lacks ({', '.join(sorted({k for _, k in added}))}) "
+             "need repetition 0 of every policy rerun, to show they change nothing")
     count = {k: sum(1 for r in runs if (r["arm"], r["policy"]) == k) for k in reps}
     for r in new_runs:
         count[(r[0], r[1])] += 1
@@ -272,6 +285,9 @@ def extend(out, data):
                str(n) if r["experiment"] == "exp3" and r["key"] == "experiment.repetitions"
                else version if r["experiment"] == "exp3" and r["key"] == "version"
                else r["value"]] for r in manifest]
+    for (u, k), v in sorted(added.items(), reverse=True):  # after the unit's last key
+        at = max(i for i, r in enumerate(rows_m) if r[:2] == ["exp3", u])
+        rows_m.insert(at + 1, ["exp3", u, k, v])
     wall = {r["phase"]: r for r in read_rows(os.path.join(out, "timing.csv"),
                                              ("phase", "wall_seconds"))}
     timing = [[r["phase"], r["wall_seconds"], r["cpu_seconds"], r["jobs"]]

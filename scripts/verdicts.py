@@ -1184,7 +1184,7 @@ def time_md(d):
             f"Version of the runs: `{d['version']}`" + (
                 " (Experiment 3 ran in batches: its first repetitions before the rules were "
                 "revised, the later ones, added by `scripts/study_extend.sh`, after the rules "
-                "were committed; the later batch reran repetition 0 of every mode and got the "
+                "were committed; each later batch reran repetition 0 of every mode and got the "
                 "study's runs)" if ";" in d["version"] else "") +
             f". To rerun: `make study POWER_REPS={d['reps']} STUDY_SEEDS={len(d['seeds'])}` "
             "(then `make verdicts`); to add repetitions FROM..TO−1 to the committed study: "

@@ -649,6 +649,27 @@ def test_tiny_study_end_to_end(tmp_path):
     p = generate(data, docs, readme)
     assert p.returncode == 0, p.stderr
     assert "5 repetitions per mode" in (docs / "verdicts.md").read_text(encoding="utf-8")
+    # a key poolreps gained after the study ran (here: one dropped from the
+    # manifest) is taken at the new runs' value once repetition 0 comes out
+    # the same, and recorded; without repetition 0 it is refused, nothing changed
+    lines = (data / "manifest.csv").read_text().splitlines(keepends=True)
+    gone = [ln for ln in lines if ln.startswith("exp3,") and ",exp3.mean_eval_seed," in ln]
+    assert len(gone) == 3
+    (data / "manifest.csv").write_text("".join(ln for ln in lines if ln not in gone))
+    ext = [PY, str(ROOT / "scripts" / "study_extract.py"), "--extend",
+           str(tmp_path / "ext"), str(data)]
+    shutil.rmtree(tmp_path / "ext" / "event" / "point-0" / "runs" / "rep-0")
+    before = snapshot(data)
+    p = subprocess.run(ext, capture_output=True, text=True, cwd=tmp_path)
+    assert p.returncode == 2 and "exp3.mean_eval_seed" in p.stderr and "repetition 0" in p.stderr
+    assert p.stderr.count("\n") == 1 and snapshot(data) == before
+    p = subprocess.run(["sh", ROOT / "scripts" / "study_extend.sh", tmp_path / "ext", "5", "6",
+                        data, PY, *env["STUDY_EXP3"].split()], capture_output=True, text=True,
+                       env=env, cwd=tmp_path, timeout=600)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert sorted(ln for ln in (data / "manifest.csv").read_text().splitlines(keepends=True)
+                  if ln.startswith("exp3,") and ",exp3.mean_eval_seed," in ln) == sorted(gone)
+    assert manifest_of(data)[("exp3", "event")]["experiment.repetitions"] == "6"
     # the repository's rules do not fit 6 iterations: refused, nothing written
     (data / "rules.ini").write_text(rules_text)
     before = snapshot(docs) | {str(readme): readme.read_text()}
