@@ -383,10 +383,10 @@ def closing(ver, runs, m):
         f"{parts[0]}, refitting at π₀'s resolution without REPS accounts for "
         f"{parts[1]} and REPS's reweighting for {parts[2]}**")
     return head, [
-        head + f" ({nrep} paired repetitions; mean changes over the {len(tot)} cells with "
-        f"95 % t intervals over the repetitions; each difference tested for worse than "
-        f"−{m:g} m, better than +{m:g} m and within ±{m:g} m, Holm over all {ntest} tests "
-        f"of its measure, 3 for each of its {ntest // 3} comparisons; "
+        head + f" ({nrep} paired repetitions; mean changes over the {len(tot)} cells, 95 % t "
+        f"intervals; each difference tested for worse than −{m:g} m, better than +{m:g} m "
+        f"and within ±{m:g} m, Holm over the {ntest} tests of its measure (3 × {ntest // 3} "
+        f"comparisons); "
         f"counts for the sampled actions, [mean actions]). By mean actions the change is "
         f"{parts_m[0]}: refitting {parts_m[1]}, reweighting {parts_m[2]}. "
         f"At π₀'s resolution: {split_effect(ver, *MATCHED)}. "

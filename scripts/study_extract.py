@@ -214,6 +214,7 @@ def holdout(out, data):
 
 
 SAME_BUT = ("experiment.repetitions", "experiment.repetition", "version")
+EXT_COLS = ("from", "to", "version", "cpu_seconds")
 
 
 def extend(out, data):
@@ -296,12 +297,20 @@ def extend(out, data):
         if t[0] == "exp3":
             t[1] = float(t[1]) + float(wall["exp3"]["wall_seconds"])
             t[2] = float(t[2]) + cpu_s
+    # the record of each extension: verdicts.py judges the last one's repetitions
+    # alone, a sample whose size, not whose data, the earlier look chose
+    ext = [[r["from"], r["to"], r["version"], r["cpu_seconds"]]
+           for r in (read_rows(p("extensions.csv"), EXT_COLS)
+                     if os.path.exists(p("extensions.csv")) else [])]
+    ext.append([1 + max(int(r["repetition"]) for r in runs), n, "; ".join(sorted(versions)),
+                cpu_s])
     staged = [
         write(p("exp3_runs.csv"), list(runs[0]), [list(r.values()) for r in runs] + new_runs),
         write(p("exp3_curves.csv"), list(curves[0]),
               [list(r.values()) for r in curves] + new_curves),
         write(p("manifest.csv"), ["experiment", "unit", "key", "value"], rows_m),
-        write(p("timing.csv"), ["phase", "wall_seconds", "cpu_seconds", "jobs"], timing)]
+        write(p("timing.csv"), ["phase", "wall_seconds", "cpu_seconds", "jobs"], timing),
+        write(p("extensions.csv"), EXT_COLS, ext)]
     for tmp, path in staged:
         os.replace(tmp, path)
     return 0

@@ -874,6 +874,8 @@ def render_md(d, parts, per, comb, sens):
     out.append("\n" + "\n\n".join(x for x in not_reproduced(d, per, comb)
                                      if x.startswith("**Ranking")))
     out.append(holdout_md(d))
+    if d.get("added"):
+        out.append(added_md(d))
     out.append(f"\n![seed spread](figures/{exp_data.STUDY_SEEDS_STEM}.png)\n\n*Figure: the seed spread "
                "behind the Experiment 1 and 2 verdicts (event mode). Top: the test MSE of each "
                "setting relative to its reference, one grey dot per seed (the mean of its run's "
@@ -885,9 +887,8 @@ def render_md(d, parts, per, comb, sens):
                "thesis's Fig. 7.6 shows one run over the training-set sizes.*")
     out.append("\n## The claims one by one\n\nEach claim's test, and the thesis's words it "
                "judges, are in `data/study/rules.ini`. Every part of every claim and mode is a "
-               f"row of [`{PARTS_CSV}`]({PARTS_CSV[5:]}): its H1, estimate, the support's and "
-               "the refutation's intervals at their Holm levels with their raw and adjusted "
-               f"p-values, its verdict and the units it needs at {power_text(rules)}.")
+               f"row of [`{PARTS_CSV}`]({PARTS_CSV[5:]}): H1, estimate, both tests' intervals "
+               f"and p-values, verdict, units needed at {power_text(rules)}.")
     for cid in CLAIM_IDS:
         out.append(claim_section(cid, rules, per, comb, d))
     out.append(sens_md(sens, rules))
@@ -971,10 +972,9 @@ def power_md(d, rows):
         f"policy's mean return, balls in the targets, SD of returns and cue speed: "
         f"[`{POWER_CSV}`]({POWER_CSV[5:]}).", "",
         md_table(head, body), "",
-        f"**Runs and time.** `make study POWER_REPS={d['reps']}` reruns the study whole (it "
-        "ran in batches: `scripts/study_extend.sh` added the later repetitions, rerunning "
-        "repetition 0 of every mode as a check), `make holdout` the holdout, both on the sweep "
-        f"and collect machinery ([cluster.md](cluster.md)). Experiment 3 took "
+        f"**Runs and time.** `make study POWER_REPS={d['reps']}` reruns the study whole, "
+        "`make holdout` the holdout (batches and commands: "
+        "[verdicts.md](verdicts.md#data-and-time)). Experiment 3 took "
         f"{float(t['cpu_seconds']):.0f} s CPU in the study's timing.csv"
         + (f", {float(h[0]['timing']['exp3']['cpu_seconds']):.0f} s in the holdout's" if h
            else "") + " (shared machine). `make power` runs a standalone study of its own size "
@@ -984,6 +984,46 @@ def power_md(d, rows):
 
 PARTS_CSV = "docs/data/verdicts/parts.csv"
 HOLDOUT_CSV = "docs/data/verdicts/holdout_parts.csv"
+
+
+def judge_added(d, rules, path):
+    """The last extension of the study (extensions.csv: from, to, version,
+    cpu_seconds; absent: None) judged on its repetitions alone: (from, to,
+    parts, per-mode verdicts, combined verdicts). Its size was chosen after
+    a look at the repetitions before it, its data were not: a test on them
+    alone is not a second look."""
+    if not os.path.exists(path):
+        return None
+    rows = read_csv(path, ("from", "to", "version", "cpu_seconds"))
+    if not rows:
+        raise Fail(f"{path}: no extension", 3)
+    lo = number(path, len(rows) + 1, rows[-1], "from", int)
+    hi = number(path, len(rows) + 1, rows[-1], "to", int)
+    if not 0 <= lo < hi == d["reps"]:
+        raise Fail(f"{path}:{len(rows) + 1}: repetitions {lo}..{hi - 1} are not the last of the "
+                   f"study's {d['reps']}", 3)
+    if hi - lo < 2:  # one repetition allows no paired test
+        return None
+    da = dict(d, reps=hi - lo, exp3={(a, q, r - lo): v for (a, q, r), v in d["exp3"].items()
+                                     if r >= lo})
+    parts = compute(da, rules, rules["margins"], ("exp3",))
+    per, comb = verdict_table(parts, rules)
+    return lo, hi, parts, per, comb
+
+
+def added_md(d):
+    """The last extension's repetitions alone, beside the study's verdicts."""
+    lo, hi, _, per, comb = d["added"]
+    rules = d["rules"]
+    rows = [[f"`{c}`"] + [per[c][m] for m in MODES] + [f"**{comb[c]}** ({d['comb'][c]})"]
+            for c in EXP3_CLAIMS]
+    return ("\n## The added repetitions alone\n\nRepetitions "
+            f"{lo}–{hi - 1} were added after the first {lo} had been judged, their number "
+            "chosen from those results (`data/study/extensions.csv`). Judged alone (same parts, "
+            "margins, families, tests), they are a sample whose size, not whose data, that "
+            "look chose:\n\n" +
+            md_table(["claim", f"repetitions {lo}–{hi - 1}: " + MODE_LABEL["event"]] +
+                     [MODE_LABEL[m] for m in MODES[1:]] + ["verdict (all repetitions)"], rows))
 
 
 def holdout_md(d):
@@ -1000,13 +1040,11 @@ def holdout_md(d):
                      [hper[cid][m] for m in MODES] +
                      [f"**{hcomb[cid]}**", need_cell(dh["need"][cid], cid, hcomb[cid])])
     return ("\n## Holdout: the rules stated in advance\n\nThe rules above were revised after "
-            "the study's results had been seen, so the study's verdicts are not judged by rules "
-            "stated in advance. `data/study/rules.ini` was then committed, and only after that "
-            f"was the holdout run: Experiment 3 at {dh['reps']} repetitions per mode with seed "
-            f"{dh['seed']}, which no study had used (the study's seed is {d['seed']}). Its "
-            "verdicts below are the only ones judged by rules fixed before their data; every "
-            f"part is a row of [`{HOLDOUT_CSV}`]({HOLDOUT_CSV[5:]}). Same parts, margins, "
-            "families and tests as the study.\n\n" +
+            "the study's results had been seen. `data/study/rules.ini` was then committed, and "
+            f"only then was the holdout run: Experiment 3 at {dh['reps']} repetitions per mode "
+            f"with seed {dh['seed']}, unused by any study (the study's is {d['seed']}). Its "
+            "verdicts are the only ones judged by rules fixed before their data (same parts, "
+            f"margins, families and tests; every part: [`{HOLDOUT_CSV}`]({HOLDOUT_CSV[5:]})).\n\n" +
             md_table(["claim", "study", "holdout: " + MODE_LABEL["event"]] +
                      [MODE_LABEL[m] for m in MODES[1:]] +
                      ["holdout verdict", f"holdout: to decide ({power_text(rules)})"], rows))
@@ -1040,7 +1078,7 @@ the holdout (below) is the only data judged by rules committed before the data e
   run: each run's least-squares change after iteration {k0}, squared, less its noise
   variance, averaged over the runs, below `flat`² by a one-sided t test (the root mean
   square of the runs' true changes below `flat`). Every margin is a constant of the rules,
-  none is computed from the data. SD always means standard deviation.
+  none is computed from the data. SD: standard deviation.
 - **Multiplicity.** Holm's step-down adjustment over one family per experiment and mode:
   every support and every refutation p-value of the parts of that experiment's claims
   (Experiment 1: {f1} tests, Experiment 2: {f2}, Experiment 3: {f3} tests per mode; a part
@@ -1093,7 +1131,7 @@ def claim_section(cid, rules, per, comb, d):
     modes and, undecided, the units to decide it."""
     c = rules["claims"][cid]
     return (f"\n**{c['section']} {c['short']} (`{cid}`)**: {c['reading']} "
-            f"Verdict over the modes: **{comb[cid]}**. "
+            f"Verdict: **{comb[cid]}**. "
             f"{need_sentence(d['need'][cid], cid, comb[cid], rules)}" +
             (f"\n\n{control_text(d, rules)}" if cid == "converged" else ""))
 
@@ -1177,15 +1215,14 @@ def time_md(d):
     return ("\n## Data and time\n\n`make study` (not part of `make reproduce`) runs the study "
             "and writes its compact results to `data/study/` (`exp3_*`, `exp1_*`, `exp2_returns`, "
             "`sphere_curves`, `manifest`: every unit's configuration, mixed ones refused). "
-            "Measured on this machine, shared with other "
-            f"jobs: Experiment 3 ({d['reps']} repetitions × 6 variants × 3 modes) {f('exp3')}; "
-            f"Experiments 1 and 2 ({len(d['seeds'])} seeds each in each of the three modes) "
+            "Measured on this shared machine: "
+            f"Experiment 3 ({d['reps']} repetitions × 6 variants × 3 modes) {f('exp3')}; "
+            f"Experiments 1 and 2 ({len(d['seeds'])} seeds in each mode) "
             f"{f('exp12')}; the sphere benchmark (3 methods) {f('sphere')}. "
             f"Version of the runs: `{d['version']}`" + (
-                " (Experiment 3 ran in batches: its first repetitions before the rules were "
-                "revised, the later ones, added by `scripts/study_extend.sh`, after the rules "
-                "were committed; each later batch reran repetition 0 of every mode and got the "
-                "study's runs)" if ";" in d["version"] else "") +
+                " (Experiment 3 ran in batches, the first before the rules were revised, the "
+                "later ones after; each later batch reran repetition 0 of every mode and "
+                "matched)" if ";" in d["version"] else "") +
             f". To rerun: `make study POWER_REPS={d['reps']} STUDY_SEEDS={len(d['seeds'])}` "
             "(then `make verdicts`); to add repetitions FROM..TO−1 to the committed study: "
             "`sh scripts/study_extend.sh OUT FROM TO data/study python3`." + holdout_time(d))
@@ -1359,6 +1396,7 @@ def outputs(data, docs, readme, figures=True):
             dh["need"] = needed(hparts, hper, hcomb, rules)
             d["holdout"] = (dh, hparts, hper, hcomb)
             d["rep_cpu"] = float(dh["timing"]["exp3"]["cpu_seconds"]) / (dh["reps"] * len(MODES))
+        d["added"] = judge_added(d, rules, os.path.join(data, "extensions.csv"))
     except ValueError as e:
         raise Fail(f"{data}: the results allow no test: {e}", 3) from e
     figs = {}

@@ -646,9 +646,19 @@ def test_tiny_study_end_to_end(tmp_path):
     assert {r["repetition"] for r in ext} == {"0", "1", "2", "3", "4"}
     assert manifest_of(data)[("exp3", "event")]["experiment.repetitions"] == "5"
     assert "nan" not in (data / "timing.csv").read_text()
+    assert (data / "extensions.csv").read_text().splitlines()[1].startswith("3,5,")
     p = generate(data, docs, readme)
     assert p.returncode == 0, p.stderr
-    assert "5 repetitions per mode" in (docs / "verdicts.md").read_text(encoding="utf-8")
+    md = (docs / "verdicts.md").read_text(encoding="utf-8")
+    assert "5 repetitions per mode" in md and "| repetitions 3–4: event |" in md
+    # the added repetitions must be the study's last: refused, nothing written
+    good = (data / "extensions.csv").read_text()
+    (data / "extensions.csv").write_text(good.replace("3,5,", "2,4,"))
+    before = snapshot(docs) | {str(readme): readme.read_text()}
+    p = generate(data, docs, readme)
+    assert p.returncode == 3 and "extensions.csv:2" in p.stderr and p.stderr.count("\n") == 1
+    assert snapshot(docs) | {str(readme): readme.read_text()} == before
+    (data / "extensions.csv").write_text(good)
     # a key poolreps gained after the study ran (here: one dropped from the
     # manifest) is taken at the new runs' value once repetition 0 comes out
     # the same, and recorded; without repetition 0 it is refused, nothing changed
@@ -670,6 +680,7 @@ def test_tiny_study_end_to_end(tmp_path):
     assert sorted(ln for ln in (data / "manifest.csv").read_text().splitlines(keepends=True)
                   if ln.startswith("exp3,") and ",exp3.mean_eval_seed," in ln) == sorted(gone)
     assert manifest_of(data)[("exp3", "event")]["experiment.repetitions"] == "6"
+    assert (data / "extensions.csv").read_text().splitlines()[2].startswith("5,6,")
     # the repository's rules do not fit 6 iterations: refused, nothing written
     (data / "rules.ini").write_text(rules_text)
     before = snapshot(docs) | {str(readme): readme.read_text()}
