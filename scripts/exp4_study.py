@@ -349,6 +349,17 @@ def mean_diff_ci(runs, names, col="final_return"):
     return vs.t_interval(per_rep)
 
 
+def own_family(runs, names, col, m):
+    """(degrades, improves) of the comparisons in names over the tree cells,
+    their margin tests Holm-adjusted among themselves alone."""
+    idx = {(r["arm"], r["variant"], int(r["repetition"])): float(r[col]) for r in runs}
+    reps = sorted({k for (_, _, k) in idx})
+    fam = [{"x": [idx[(aa, va, k)] for k in reps], "y": [idx[(ab, vb, k)] for k in reps]}
+           for aa, va, ab, vb, name, p, _ in comparisons(runs) if name in names and p in TREES]
+    margin_verdicts(fam, m)
+    return tuple(sum(r["margin_verdict"] == w for r in fam) for w in ("degrades", "improves"))
+
+
 def fmt_ci(m, lo, hi):
     return f"{m:+.3f} m [{lo:+.3f}, {hi:+.3f}]"
 
@@ -365,6 +376,7 @@ def closing(ver, runs, m):
     cnt = lambda rows, w: sum(r["margin_verdict"] == w for r in rows)  # noqa: E731
     parts = [fmt_ci(*mean_diff_ci(runs, names)) for names in MATCHED]
     parts_m = [fmt_ci(*mean_diff_ci(runs, names, "mean_action_return")) for names in MATCHED]
+    own = [own_family(runs, MATCHED[0], c, m) for c in ("final_return", "mean_action_return")]
     ntest = 3 * sum(r["measure"] == "sampled" for r in ver)
     fl = ["floor3", "floor10"]
     eps = ["0.25", "0.1"]
@@ -379,12 +391,13 @@ def closing(ver, runs, m):
         f"**Against Experiment 3's {m:g} m margin, REPS at π₀'s resolution (ε 0.5, 1 mm/s "
         f"floor) degrades {cnt(tot, 'degrades')} and improves {cnt(tot, 'improves')} of the "
         f"{len(tot)} imitated tree policy × covariance cells ({cnt(tot_m, 'degrades')} and "
-        f"{cnt(tot_m, 'improves')} by their mean actions); of its mean change, "
-        f"{parts[0]}, refitting at π₀'s resolution without REPS accounts for "
-        f"{parts[1]} and REPS's reweighting for {parts[2]}**")
+        f"{cnt(tot_m, 'improves')} by their mean actions; {own[0][0]} and {own[0][1]} "
+        f"[{own[1][0]} and {own[1][1]}] Holm over these {len(tot)} cells alone); "
+        f"of its mean change, {parts[0]}, refitting at π₀'s resolution without REPS accounts "
+        f"for {parts[1]} and REPS's reweighting for {parts[2]}, along the refit-only path**")
     return head, [
         head + f" ({nrep} paired repetitions; mean changes over the {len(tot)} cells, 95 % t "
-        f"intervals; each difference tested for worse than −{m:g} m, better than +{m:g} m "
+        f"intervals; each difference tested for < −{m:g} m, > +{m:g} m "
         f"and within ±{m:g} m, Holm over the {ntest} tests of its measure (3 × {ntest // 3} "
         f"comparisons); "
         f"counts for the sampled actions, [mean actions]). By mean actions the change is "

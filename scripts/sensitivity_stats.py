@@ -337,11 +337,15 @@ def render(res):
 def sentence(res):
     keep, moved = res.robust()
     alts = len(res.points) - 1
+    # a verdict undecided at every point never changes because it is never decided
+    never = [c for c in keep if all(res.verdict[(p, c)] == "undecided" for p in res.points)]
+    keep = [c for c in keep if c not in never]
     s = (f"against {alts} alternatives to the open choices ([docs/sensitivity.md]"
          f"(docs/sensitivity.md), {res.runs['default']['repetitions']} repetitions each, event "
          f"mode), {len(keep)} of the {len(CLAIMS)} Experiment 3 verdicts never "
          f"{'changes' if len(keep) == 1 else 'change'}")
     s += (" (" + ", ".join(f"`{c}`" for c in keep) + ")") if keep else ""
+    s += ("; undecided at every point: " + ", ".join(f"`{c}`" for c in never)) if never else ""
     if moved:
         s += "; " + "; ".join(f"`{c}` changes under {', '.join(by)}" for c, by in moved.items())
     rev = res.reversals()

@@ -1019,9 +1019,10 @@ def added_md(d):
             for c in EXP3_CLAIMS]
     return ("\n## The added repetitions alone\n\nRepetitions "
             f"{lo}–{hi - 1} were added after the first {lo} had been judged, their number "
-            "chosen from those results (`data/study/extensions.csv`). Judged alone (same parts, "
-            "margins, families, tests), they are a sample whose size, not whose data, that "
-            "look chose:\n\n" +
+            "chosen from those results (`data/study/extensions.csv`). The whole study's "
+            "verdicts had two chances (error up to about 2α). Judged alone (same rules), "
+            "the added ones are a sample whose size, not whose data, that look chose, run after "
+            "the rules were committed:\n\n" +
             md_table(["claim", f"repetitions {lo}–{hi - 1}: " + MODE_LABEL["event"]] +
                      [MODE_LABEL[m] for m in MODES[1:]] + ["verdict (all repetitions)"], rows))
 
@@ -1061,7 +1062,8 @@ results of one study: {units}. The rules are in `data/study/rules.ini`, apart fr
 numbers; `make verdicts` applies them, `make verdicts CHECK=1` (part of `make check`) fails
 when this page, its CSVs, the README's table or the report page's claims section differ
 from what the results give. The rules were revised after the study's results had been seen;
-the holdout (below) is the only data judged by rules committed before the data existed.
+the holdout and the added repetitions judged alone (below) are the data judged by rules
+committed before the data existed.
 
 ## How a claim is judged
 
@@ -1212,9 +1214,9 @@ def time_md(d):
     t = d["timing"]
     f = lambda ph: (f"{float(t[ph]['wall_seconds']):.0f} s wall, "  # noqa: E731
                     f"{float(t[ph]['cpu_seconds']):.0f} s CPU")
-    return ("\n## Data and time\n\n`make study` (not part of `make reproduce`) runs the study "
-            "and writes its compact results to `data/study/` (`exp3_*`, `exp1_*`, `exp2_returns`, "
-            "`sphere_curves`, `manifest`: every unit's configuration, mixed ones refused). "
+    return ("\n## Data and time\n\n`make study` (not in `make reproduce`) writes the study's "
+            "compact results to `data/study/` (its manifest: every unit's configuration, mixed "
+            "ones refused). "
             "Measured on this shared machine: "
             f"Experiment 3 ({d['reps']} repetitions × 6 variants × 3 modes) {f('exp3')}; "
             f"Experiments 1 and 2 ({len(d['seeds'])} seeds in each mode) "
@@ -1233,8 +1235,7 @@ def holdout_time(d):
     if h is None:
         return ""
     t = h[0]["timing"]["exp3"]
-    return (f" The holdout (`data/study/holdout/`: `manifest.csv`, `exp3_runs.csv`, "
-            f"`exp3_curves.csv`, `timing.csv`): Experiment 3, {h[0]['reps']} repetitions × 6 "
+    return (f" The holdout (`data/study/holdout/`): Experiment 3, {h[0]['reps']} repetitions × 6 "
             f"variants × 3 modes, {float(t['wall_seconds']):.0f} s wall, "
             f"{float(t['cpu_seconds']):.0f} s CPU, run niced beside other jobs; to rerun: "
             f"`make holdout HOLDOUT_REPS={h[0]['reps']} HOLDOUT_SEED={h[0]['seed']}`.")
@@ -1260,7 +1261,10 @@ def readme_block(d, parts, per, comb):
               f"named. To decide: for an undecided claim, the units needed at "
               f"{power_text(rules)} were the estimates true. Holdout: the verdict on fresh "
               "seeds, judged by the rules committed before they were run (the study's rules "
-              "were revised after its results had been seen).")
+              "were revised after its results had been seen)." + (
+                  f" Repetitions {d['added'][0]}–{d['added'][1] - 1}, run after a look at the "
+                  "first ones, judged alone: [docs/verdicts.md](docs/verdicts.md"
+                  "#the-added-repetitions-alone)." if d.get("added") else ""))
     return "\n".join([BEGIN, legend, "", md_table(
         ["thesis claim", f"event, {d['reps']} reps", f"stepped (dt 1 ms), {d['reps']} reps",
          "verdict", f"to decide ({power_text(rules)})", holdout_head(d)], rows), "",
