@@ -158,8 +158,8 @@ fuzz-bin: $(FUZZ_BIN)
 $(FUZZ_BIN): $(BUILD)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(TOOL_LIB) $(LIB)
 	$(CC) $(ALL_CFLAGS) -Isrc/tool $(LDFLAGS) -fsanitize=fuzzer $< $(filter %.o,$^) $(TOOL_LIB) $(LIB) $(LIBS) -o $@
 
-valgrind: $(BUILD)/poolreps
-	sh scripts/valgrind.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"
+valgrind: $(BUILD)/poolreps $(SOLIB)
+	POOLREPS_LIB=$(abspath $(SOLIB)) sh scripts/valgrind.sh $(abspath $(BUILD)/poolreps) "$(PYTHON)"
 
 # docs/poolreps.1 and docs/parameters.md from --help and --help-keys;
 # tests/test_cli.py and tests/test_readme.py fail until this is rerun after a
