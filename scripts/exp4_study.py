@@ -337,25 +337,27 @@ def split_effect(ver, total, control, reweight):
     return "; ".join(out)
 
 
-def mean_diff_ci(runs, names, col="final_return"):
-    """The mean over the tree policy x covariance cells of the comparisons in
-    names, with its 95 % t interval over the repetitions: per repetition the
-    cells' differences are averaged, so the interval keeps their pairing."""
+def cell_pairs(runs, names, col):
+    """(x, y) over the repetitions of each tree policy x covariance cell of
+    the comparisons in names."""
     idx = {(r["arm"], r["variant"], int(r["repetition"])): float(r[col]) for r in runs}
-    cells = [c for c in comparisons(runs) if c[4] in names and c[5] in TREES]
     reps = sorted({k for (_, _, k) in idx})
-    per_rep = [np.mean([idx[(aa, va, k)] - idx[(ab, vb, k)] for aa, va, ab, vb, *_ in cells])
-               for k in reps]
-    return vs.t_interval(per_rep)
+    return [([idx[(aa, va, k)] for k in reps], [idx[(ab, vb, k)] for k in reps])
+            for aa, va, ab, vb, name, p, _ in comparisons(runs) if name in names and p in TREES]
+
+
+def mean_diff_ci(runs, names, col="final_return"):
+    """The mean over the cells of the comparisons in names, with its 95 % t
+    interval over the repetitions: per repetition the cells' differences are
+    averaged, so the interval keeps their pairing."""
+    d = [np.subtract(x, y) for x, y in cell_pairs(runs, names, col)]
+    return vs.t_interval([np.mean([c[k] for c in d]) for k in range(len(d[0]))])
 
 
 def own_family(runs, names, col, m):
     """(degrades, improves) of the comparisons in names over the tree cells,
     their margin tests Holm-adjusted among themselves alone."""
-    idx = {(r["arm"], r["variant"], int(r["repetition"])): float(r[col]) for r in runs}
-    reps = sorted({k for (_, _, k) in idx})
-    fam = [{"x": [idx[(aa, va, k)] for k in reps], "y": [idx[(ab, vb, k)] for k in reps]}
-           for aa, va, ab, vb, name, p, _ in comparisons(runs) if name in names and p in TREES]
+    fam = [{"x": x, "y": y} for x, y in cell_pairs(runs, names, col)]
     margin_verdicts(fam, m)
     return tuple(sum(r["margin_verdict"] == w for r in fam) for w in ("degrades", "improves"))
 
